@@ -1,0 +1,53 @@
+//! OctoMap's `.bt` (binary, max-likelihood) and `.ot` (full tree) formats, byte-identical to
+//! OctoMap 1.9.7, as free functions over `std::io::Read` / `Write`.
+//!
+//! Readers track the byte offset and return [`OctreeError`](crate::OctreeError) naming it; they
+//! never allocate more than the data they actually read, and reject trees deeper than 16 levels.
+//! Writing to a temporary file and renaming it is the caller's job (the `octoquant` crate does).
+
+mod bt;
+mod header;
+mod ot;
+mod stream;
+
+pub use bt::{read_bt, write_bt, write_bt_const};
+pub use header::format_resolution;
+pub use ot::{read_ot, write_ot};
+
+/// Which of the two OctoMap tree formats a file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TreeFormat {
+    /// `.bt`: 2 bits per child, max-likelihood occupancy only.
+    Bt,
+    /// `.ot`: the full tree with every node's log-odds.
+    Ot,
+}
+
+impl TreeFormat {
+    /// The format a file name's extension stands for (`.bt` or `.ot`, any case).
+    pub fn from_path(path: &std::path::Path) -> Option<TreeFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "bt" => Some(TreeFormat::Bt),
+            "ot" => Some(TreeFormat::Ot),
+            _ => None,
+        }
+    }
+}
+
+/// Read a tree in either format, telling them apart by the first header line.
+pub fn read_tree<R: std::io::Read>(reader: R) -> Result<crate::OcTree, crate::OctreeError> {
+    let mut s = stream::Stream::new(reader);
+    let first = s.line("tree")?;
+    if first.starts_with(bt::BT_HEADER) {
+        bt::read_bt_after_first_line(&mut s)
+    } else if first.starts_with(ot::OT_HEADER) {
+        ot::read_ot_after_first_line(&mut s)
+    } else {
+        Err(s.format_err(
+            "tree",
+            0,
+            "first line is neither an OctoMap .bt nor .ot header".into(),
+        ))
+    }
+}

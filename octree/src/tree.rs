@@ -1,0 +1,407 @@
+//! The occupancy octree: node updates with OctoMap's exact semantics, search and summaries.
+
+use crate::error::OctreeError;
+use crate::key::{Key, KeyConverter, TREE_DEPTH};
+use crate::node::{present, NodeRef, NodeStore, NO_BLOCK};
+use crate::params::OccupancyParams;
+use nalgebra::Point3;
+
+/// One occupancy observation of a voxel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Update {
+    /// Add the sensor model's hit log-odds.
+    Hit,
+    /// Add the sensor model's miss log-odds.
+    Miss,
+    /// Add an arbitrary log-odds delta.
+    LogOdds(f32),
+}
+
+/// A node found by [`OcTree::search`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeInfo {
+    /// The node's log-odds.
+    pub value: f32,
+    /// Its depth (16 = voxel, less for a pruned node covering many voxels).
+    pub depth: u8,
+    /// Whether it has children (an inner node) or not (a leaf).
+    pub has_children: bool,
+}
+
+/// Node and leaf counts of a tree (see [`OcTree::counts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Counts {
+    /// All nodes, inner and leaves (OctoMap's `size()`).
+    pub nodes: usize,
+    /// Nodes with children.
+    pub inner: usize,
+    /// Nodes without children.
+    pub leaves: usize,
+    /// Leaves whose log-odds is at or above the occupancy threshold.
+    pub occupied_leaves: usize,
+    /// Leaves below the threshold.
+    pub free_leaves: usize,
+    /// Nodes (inner too) sitting at either clamp (OctoMap's "thresholded" count).
+    pub at_threshold: usize,
+}
+
+/// OctoMap's `OcTree`: a probabilistic occupancy octree of depth 16 with log-odds nodes.
+///
+/// Storage is an arena of 8-child blocks (see the crate docs). All update, prune and
+/// max-likelihood operations reproduce OctoMap 1.9.7 bit for bit, so the `.bt`/`.ot` files
+/// written from the same updates are byte-identical.
+#[derive(Clone)]
+pub struct OcTree {
+    conv: KeyConverter,
+    params: OccupancyParams,
+    pub(crate) store: NodeStore,
+    size: usize,
+}
+
+impl std::fmt::Debug for OcTree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OcTree")
+            .field("resolution", &self.conv.resolution())
+            .field("size", &self.size)
+            .field("params", &self.params)
+            .finish()
+    }
+}
+
+impl OcTree {
+    /// An empty tree with leaf size `resolution` and OctoMap's default sensor model.
+    pub fn new(resolution: f64) -> Result<Self, OctreeError> {
+        Self::with_params(resolution, OccupancyParams::default())
+    }
+
+    /// An empty tree with the given sensor model.
+    pub fn with_params(resolution: f64, params: OccupancyParams) -> Result<Self, OctreeError> {
+        Ok(OcTree {
+            conv: KeyConverter::new(resolution)?,
+            params,
+            store: NodeStore::new(),
+            size: 0,
+        })
+    }
+
+    /// Leaf edge length in metres.
+    pub fn resolution(&self) -> f64 {
+        self.conv.resolution()
+    }
+
+    /// The coordinate <-> key converter for this tree's resolution.
+    pub fn converter(&self) -> &KeyConverter {
+        &self.conv
+    }
+
+    /// The sensor model.
+    pub fn params(&self) -> &OccupancyParams {
+        &self.params
+    }
+
+    /// Replace the sensor model; existing node values are kept as they are.
+    pub fn set_params(&mut self, params: OccupancyParams) {
+        self.params = params;
+    }
+
+    /// Number of nodes, inner and leaves (OctoMap's `size()`); 0 for an empty tree.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// `true` when the tree has no root.
+    pub fn is_empty(&self) -> bool {
+        self.store.root_val.is_none()
+    }
+
+    /// Remove every node (the resolution and sensor model stay).
+    pub fn clear(&mut self) {
+        self.store.clear();
+        self.size = 0;
+    }
+
+    pub(crate) fn add_size(&mut self, n: usize) {
+        self.size += n;
+    }
+
+    pub(crate) fn sub_size(&mut self, n: usize) {
+        self.size -= n;
+    }
+
+    /// The log-odds delta an [`Update`] stands for under this tree's sensor model.
+    #[inline]
+    pub fn delta(&self, update: Update) -> f32 {
+        match update {
+            Update::Hit => self.params.hit,
+            Update::Miss => self.params.miss,
+            Update::LogOdds(d) => d,
+        }
+    }
+
+    /// Integrate one observation of voxel `key` (OctoMap's `updateNode(key, delta, lazy)`).
+    ///
+    /// Adds the delta then clamps; returns at once when the voxel (or the pruned node holding
+    /// it) already sits at the clamp the update pushes towards. Pruned nodes on the path are
+    /// expanded. Unless `lazy`, every ancestor is then pruned or set to the max of its
+    /// children; with `lazy`, call [`OcTree::update_inner_occupancy`] afterwards.
+    /// Returns the voxel's new log-odds. A NaN delta is ignored (the tree is unchanged).
+    pub fn update_node(&mut self, key: Key, update: Update, lazy: bool) -> f32 {
+        let delta = self.delta(update);
+        if let Some(n) = self.search_ref(key, TREE_DEPTH) {
+            let v = self.store.value(n);
+            if (delta >= 0.0 && v >= self.params.clamp_max)
+                || (delta <= 0.0 && v <= self.params.clamp_min)
+            {
+                return v;
+            }
+        }
+        if delta.is_nan() {
+            return self.search(key, TREE_DEPTH).map_or(0.0, |n| n.value);
+        }
+        let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
+        self.descend_and_apply(key, lazy, |v| {
+            let v = v + delta;
+            if v < cmin {
+                cmin
+            } else if v > cmax {
+                cmax
+            } else {
+                v
+            }
+        })
+    }
+
+    /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
+    /// `setNodeValue`; no early exit). Errors on NaN.
+    pub fn set_node_value(&mut self, key: Key, value: f32, lazy: bool) -> Result<f32, OctreeError> {
+        if value.is_nan() {
+            return Err(OctreeError::NanValue);
+        }
+        let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
+        Ok(self.descend_and_apply(key, lazy, |_| v))
+    }
+
+    /// Integrate an observation of the voxel containing `point`; errors outside the map.
+    pub fn update_point(
+        &mut self,
+        point: &Point3<f64>,
+        update: Update,
+        lazy: bool,
+    ) -> Result<f32, OctreeError> {
+        let key = self.conv.point_to_key_checked(point)?;
+        Ok(self.update_node(key, update, lazy))
+    }
+
+    /// The shared descent of `updateNodeRecurs` / `setNodeValueRecurs`: create or expand the
+    /// path to `key`, apply `f` to the voxel, then (unless lazy) prune or refresh every
+    /// ancestor bottom-up, root included.
+    fn descend_and_apply(&mut self, key: Key, lazy: bool, f: impl FnOnce(f32) -> f32) -> f32 {
+        let mut just_created = false;
+        if self.store.root_val.is_none() {
+            self.store.root_val = Some(0.0);
+            self.size += 1;
+            just_created = true;
+        }
+        let mut path = [NodeRef::ROOT; TREE_DEPTH as usize];
+        let mut cur = NodeRef::ROOT;
+        for depth in 0..TREE_DEPTH {
+            path[depth as usize] = cur;
+            let pos = key.child_index(depth);
+            let b = self.store.kids(cur);
+            let exists = b != NO_BLOCK && present(self.store.child_vals(depth + 1, b)[pos]);
+            let created;
+            if exists {
+                created = false;
+            } else if b == NO_BLOCK && !just_created {
+                // a pruned leaf: give it all eight children before descending
+                self.store.expand_node(cur);
+                self.size += 8;
+                created = false;
+            } else {
+                self.store.create_child(cur, pos, 0.0);
+                self.size += 1;
+                created = true;
+            }
+            cur = NodeRef {
+                depth: depth + 1,
+                slot: pos as u8,
+                block: self.store.kids(cur),
+            };
+            just_created = created;
+        }
+        let v = f(self.store.value(cur));
+        self.store.set_value(cur, v);
+        if !lazy {
+            for n in path.iter().rev() {
+                if self.store.prune_node(*n) {
+                    self.size -= 8;
+                } else {
+                    let m = self.store.max_child(*n);
+                    self.store.set_value(*n, m);
+                }
+            }
+        }
+        v
+    }
+
+    /// The deepest existing node on the way to `key` at `depth` (OctoMap's `search`): the node
+    /// itself, or a pruned leaf covering it; `None` in unknown space.
+    pub(crate) fn search_ref(&self, key: Key, depth: u8) -> Option<NodeRef> {
+        self.store.root_val?;
+        let key = if depth < TREE_DEPTH {
+            key.at_depth(depth)
+        } else {
+            key
+        };
+        let mut cur = NodeRef::ROOT;
+        for d in 0..depth {
+            let b = self.store.kids(cur);
+            if b == NO_BLOCK {
+                return Some(cur);
+            }
+            let pos = key.child_index(d);
+            if !present(self.store.child_vals(d + 1, b)[pos]) {
+                return None;
+            }
+            cur = NodeRef {
+                depth: d + 1,
+                slot: pos as u8,
+                block: b,
+            };
+        }
+        Some(cur)
+    }
+
+    /// Look up the node holding `key`, descending at most to `depth` (16 = voxel level).
+    ///
+    /// Returns the node at that depth, or the pruned leaf above it that covers it, or `None`
+    /// when the space is unknown. Depths above 16 are treated as 16.
+    pub fn search(&self, key: Key, depth: u8) -> Option<NodeInfo> {
+        let depth = depth.min(TREE_DEPTH);
+        let depth = if depth == 0 { TREE_DEPTH } else { depth };
+        self.search_ref(key, depth).map(|n| NodeInfo {
+            value: self.store.value(n),
+            depth: n.depth,
+            has_children: self.store.has_children(n),
+        })
+    }
+
+    /// Look up the node holding `point` at voxel level; `None` in unknown space or outside.
+    pub fn search_point(&self, point: &Point3<f64>) -> Option<NodeInfo> {
+        self.search(self.conv.point_to_key(point)?, TREE_DEPTH)
+    }
+
+    /// `Some(true)` if the voxel is known occupied, `Some(false)` if known free, `None` if
+    /// unknown.
+    pub fn is_occupied(&self, key: Key) -> Option<bool> {
+        self.search(key, TREE_DEPTH)
+            .map(|n| self.params.is_occupied(n.value))
+    }
+
+    /// Log-odds of the root, `None` for an empty tree.
+    pub fn root_value(&self) -> Option<f32> {
+        self.store.root_val
+    }
+
+    /// Node, leaf, occupied/free and at-clamp counts, in one walk.
+    pub fn counts(&self) -> Counts {
+        let mut c = Counts::default();
+        if self.is_empty() {
+            return c;
+        }
+        let mut stack = vec![NodeRef::ROOT];
+        while let Some(n) = stack.pop() {
+            c.nodes += 1;
+            let v = self.store.value(n);
+            if self.params.is_at_threshold(v) {
+                c.at_threshold += 1;
+            }
+            if self.store.has_children(n) {
+                c.inner += 1;
+                for i in 0..8 {
+                    if let Some(ch) = self.store.child(n, i) {
+                        stack.push(ch);
+                    }
+                }
+            } else {
+                c.leaves += 1;
+                if self.params.is_occupied(v) {
+                    c.occupied_leaves += 1;
+                } else {
+                    c.free_leaves += 1;
+                }
+            }
+        }
+        c
+    }
+
+    /// Number of leaves (OctoMap's `getNumLeafNodes`).
+    pub fn num_leaves(&self) -> usize {
+        self.counts().leaves
+    }
+
+    /// Bytes held by the node storage (blocks in use and awaiting reuse).
+    ///
+    /// The figure to compare with OctoMap's `memoryUsage()`, which counts 16 bytes per node
+    /// plus 64 per inner node plus the tree object.
+    pub fn memory_usage(&self) -> usize {
+        self.store.bytes() + std::mem::size_of::<Self>()
+    }
+
+    /// OctoMap's `memoryUsage()` formula for the same tree on amd64:
+    /// `320 + 16·nodes + 64·inner`.
+    pub fn octomap_memory_usage(&self) -> usize {
+        let c = self.counts();
+        320 + 16 * c.nodes + 64 * c.inner
+    }
+
+    /// Release capacity the arenas hold beyond what they use.
+    pub fn shrink_to_fit(&mut self) {
+        self.store.inner.shrink_to_fit();
+        self.store.leaf.shrink_to_fit();
+    }
+
+    /// Blocks in use: (inner blocks of 64 bytes, leaf blocks of 32 bytes).
+    pub fn live_blocks(&self) -> (usize, usize) {
+        (self.store.inner.live(), self.store.leaf.live())
+    }
+
+    /// Axis-aligned bounds of all leaves, free and occupied (OctoMap's `getMetricMin/Max`);
+    /// `None` for an empty tree.
+    pub fn metric_bounds(&self) -> Option<(Point3<f64>, Point3<f64>)> {
+        if self.is_empty() {
+            return None;
+        }
+        let mut lo = [f64::MAX; 3];
+        let mut hi = [-f64::MAX; 3];
+        for leaf in self.leaves() {
+            let size = self.conv.node_size(leaf.depth);
+            let half = size / 2.0;
+            for a in 0..3 {
+                let c = self.conv.key_to_coord_at_depth(leaf.key[a], leaf.depth) - half;
+                if c < lo[a] {
+                    lo[a] = c;
+                }
+                let c2 = c + size;
+                if c2 > hi[a] {
+                    hi[a] = c2;
+                }
+            }
+        }
+        Some((Point3::from(lo), Point3::from(hi)))
+    }
+
+    /// Edge lengths of [`OcTree::metric_bounds`] (zeros for an empty tree).
+    pub fn metric_size(&self) -> [f64; 3] {
+        match self.metric_bounds() {
+            Some((lo, hi)) => [hi.x - lo.x, hi.y - lo.y, hi.z - lo.z],
+            None => [0.0; 3],
+        }
+    }
+
+    /// Volume of the bounding box of all leaves (OctoMap's `volume()`).
+    pub fn volume(&self) -> f64 {
+        let s = self.metric_size();
+        s[0] * s[1] * s[2]
+    }
+}

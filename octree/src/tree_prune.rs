@@ -1,0 +1,107 @@
+//! Whole-tree passes: prune, expand, max-likelihood conversion and inner-node refresh.
+
+use crate::key::TREE_DEPTH;
+use crate::node::{present, NodeRef};
+use crate::tree::OcTree;
+
+impl OcTree {
+    /// Collapse every node whose eight children are equal leaves, level by level from depth 15
+    /// up to depth 1 (OctoMap's `prune()`).
+    ///
+    /// Like OctoMap it stops at the first level that prunes nothing and never prunes the root;
+    /// both quirks change `.bt` bytes, so they are kept.
+    pub fn prune(&mut self) {
+        if self.is_empty() {
+            return;
+        }
+        for depth in (1..TREE_DEPTH).rev() {
+            let pruned = self.prune_level(NodeRef::ROOT, depth);
+            if pruned == 0 {
+                break;
+            }
+            self.sub_size(8 * pruned);
+        }
+    }
+
+    fn prune_level(&mut self, n: NodeRef, target: u8) -> usize {
+        if n.depth == target {
+            return usize::from(self.store.prune_node(n));
+        }
+        let mut count = 0;
+        for i in 0..8 {
+            if let Some(c) = self.store.child(n, i) {
+                count += self.prune_level(c, target);
+            }
+        }
+        count
+    }
+
+    /// Give every leaf above depth 16 its eight children, recursively, so every known voxel
+    /// is a depth-16 node (OctoMap's `expand()`). Memory grows by up to 8^(16-depth) per leaf.
+    pub fn expand(&mut self) {
+        if !self.is_empty() {
+            self.expand_recurs(NodeRef::ROOT);
+        }
+    }
+
+    fn expand_recurs(&mut self, n: NodeRef) {
+        if n.depth >= TREE_DEPTH {
+            return;
+        }
+        if !self.store.has_children(n) {
+            self.store.expand_node(n);
+            self.add_size(8);
+        }
+        for i in 0..8 {
+            if let Some(c) = self.store.child(n, i) {
+                self.expand_recurs(c);
+            }
+        }
+    }
+
+    /// Set every node, inner ones included, to the upper clamp if occupied and to the lower
+    /// clamp otherwise (OctoMap's `toMaxLikelihood()`). Does not prune.
+    pub fn to_max_likelihood(&mut self) {
+        let p = *self.params();
+        let ml = |v: &mut f32| {
+            if present(*v) {
+                *v = if p.is_occupied(*v) {
+                    p.clamp_max
+                } else {
+                    p.clamp_min
+                };
+            }
+        };
+        // Freed blocks hold only absent slots, so every arena slot can be converted directly.
+        for b in &mut self.store.inner.blocks {
+            b.vals.iter_mut().for_each(ml);
+        }
+        for b in &mut self.store.leaf.blocks {
+            b.vals.iter_mut().for_each(ml);
+        }
+        if let Some(v) = self.store.root_val.as_mut() {
+            ml(v);
+        }
+    }
+
+    /// Set every inner node to the maximum of its children, bottom-up; needed after lazy
+    /// updates (OctoMap's `updateInnerOccupancy()`). Does not prune.
+    pub fn update_inner_occupancy(&mut self) {
+        if !self.is_empty() {
+            self.update_inner_recurs(NodeRef::ROOT);
+        }
+    }
+
+    fn update_inner_recurs(&mut self, n: NodeRef) {
+        if !self.store.has_children(n) {
+            return;
+        }
+        for i in 0..8 {
+            if let Some(c) = self.store.child(n, i) {
+                self.update_inner_recurs(c);
+            }
+        }
+        let m = self.store.max_child(n);
+        self.store.set_value(n, m);
+    }
+}

@@ -1,0 +1,73 @@
+//! Structural checks for tests: the invariants every tree must keep.
+
+use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::tree::OcTree;
+
+/// Check the tree's invariants, returning a description of the first violation:
+/// the node count matches `size()`, every child block holds at least one child, no value is
+/// NaN, and (unless `lazy`) every inner node equals the max of its children and no node is
+/// collapsible.
+pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
+    if tree.is_empty() {
+        return if tree.size() == 0 {
+            Ok(())
+        } else {
+            Err(format!("empty tree with size {}", tree.size()))
+        };
+    }
+    let store = &tree.store;
+    let mut count = 0usize;
+    let mut stack = vec![NodeRef::ROOT];
+    while let Some(n) = stack.pop() {
+        count += 1;
+        let v = store.value(n);
+        if !present(v) || v.is_nan() {
+            return Err(format!("node {n:?} has a NaN value"));
+        }
+        let b = store.kids(n);
+        if b == NO_BLOCK {
+            continue;
+        }
+        if n.depth >= 16 {
+            return Err(format!("depth-16 node {n:?} has children"));
+        }
+        let mut any = false;
+        let mut all_equal_leaves = true;
+        let first = store.child(n, 0).map(|c| store.value(c));
+        for i in 0..8 {
+            match store.child(n, i) {
+                Some(c) => {
+                    any = true;
+                    stack.push(c);
+                    if store.has_children(c) || Some(store.value(c)) != first {
+                        all_equal_leaves = false;
+                    }
+                }
+                None => all_equal_leaves = false,
+            }
+        }
+        if !any {
+            return Err(format!("node {n:?} has an empty child block"));
+        }
+        if !lazy {
+            let m = store.max_child(n);
+            if m.to_bits() != v.to_bits() && m != v {
+                return Err(format!("inner node {n:?} value {v} != max child {m}"));
+            }
+            if all_equal_leaves && n.depth > 0 {
+                return Err(format!("node {n:?} is collapsible but not pruned"));
+            }
+        }
+    }
+    if count != tree.size() {
+        return Err(format!("walked {count} nodes but size() is {}", tree.size()));
+    }
+    Ok(())
+}
+
+/// Panic with the violation if [`check_well_formed`] fails.
+pub fn assert_well_formed(tree: &OcTree, lazy: bool) {
+    if let Err(e) = check_well_formed(tree, lazy) {
+        panic!("octree not well formed: {e}");
+    }
+}

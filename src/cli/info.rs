@@ -1,0 +1,67 @@
+//! `octoquant info FILE [--json]`.
+
+use anyhow::Result;
+use octoquant::treefile::read_tree_file;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The .bt or .ot file.
+    file: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    let mut tree = read_tree_file(&a.file)?;
+    tree.shrink_to_fit();
+    let c = tree.counts();
+    let bounds = tree.metric_bounds();
+    let mem = tree.memory_usage();
+    let bpn = if c.nodes > 0 { mem as f64 / c.nodes as f64 } else { 0.0 };
+    let octomap_mem = tree.octomap_memory_usage();
+    let octomap_bpn = if c.nodes > 0 { octomap_mem as f64 / c.nodes as f64 } else { 0.0 };
+    if a.json {
+        let b = match bounds {
+            Some((lo, hi)) => format!(
+                "{{\"min\":[{},{},{}],\"max\":[{},{},{}]}}",
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            ),
+            None => "null".into(),
+        };
+        println!(
+            "{{\"file\":{:?},\"resolution\":{},\"nodes\":{},\"inner\":{},\"leaves\":{},\"occupied_leaves\":{},\"free_leaves\":{},\"bounds\":{},\"memory_bytes\":{},\"bytes_per_node\":{:.3},\"octomap_memory_bytes\":{},\"octomap_bytes_per_node\":{:.3}}}",
+            a.file.display().to_string(),
+            tree.resolution(),
+            c.nodes,
+            c.inner,
+            c.leaves,
+            c.occupied_leaves,
+            c.free_leaves,
+            b,
+            mem,
+            bpn,
+            octomap_mem,
+            octomap_bpn
+        );
+    } else {
+        println!("file:            {}", a.file.display());
+        println!("resolution:      {} m", tree.resolution());
+        println!("nodes:           {} ({} inner)", c.nodes, c.inner);
+        println!(
+            "leaves:          {} ({} occupied, {} free)",
+            c.leaves, c.occupied_leaves, c.free_leaves
+        );
+        match bounds {
+            Some((lo, hi)) => println!(
+                "bounds:          ({:.3}, {:.3}, {:.3}) .. ({:.3}, {:.3}, {:.3}) m",
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            ),
+            None => println!("bounds:          (empty tree)"),
+        }
+        println!("memory:          {mem} bytes, {bpn:.2} bytes/node");
+        println!("OctoMap formula: {octomap_mem} bytes, {octomap_bpn:.2} bytes/node");
+    }
+    Ok(())
+}

@@ -1,0 +1,12 @@
+//! octoquant: OctoMap-compatible occupancy mapping, fast.
+//!
+//! This crate wires the workspace together: it re-exports the octree crate, and adds safe
+//! file output (temporary file, then rename), tree file reading with errors that name the
+//! file, and the `octoquant` command-line tool.
+#![deny(missing_docs)]
+
+pub mod output;
+pub mod treefile;
+
+pub use octoquant_octree as octree;
+pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};
