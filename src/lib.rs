@@ -5,8 +5,10 @@
 //! file, and the `octoquant` command-line tool.
 #![deny(missing_docs)]
 
+pub mod frame;
 pub mod output;
 pub mod treefile;
 
+pub use frame::Frame;
 pub use octoquant_octree as octree;
 pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};

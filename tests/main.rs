@@ -1,1 +1,3 @@
-fn main(){}
+//! Integration tests: one binary (see Cargo.toml `autotests = false`).
+
+mod common;

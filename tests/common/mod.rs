@@ -1,0 +1,100 @@
+//! Shared helpers for the integration tests: locating real data and the C++ reference program.
+//!
+//! Under CI (`CI` set) a missing data set or reference program is a test failure with a clear
+//! message; elsewhere the test prints that it was skipped and returns.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// `true` when running under CI, where nothing may be skipped.
+pub fn in_ci() -> bool {
+    std::env::var_os("CI").is_some_and(|v| !v.is_empty() && v != "0" && v != "false")
+}
+
+/// Report a missing prerequisite: panic under CI, print "skipped" otherwise.
+/// Returns `None` so callers can write `let Some(x) = skip(..) else { return };`.
+pub fn skip<T>(what: &str) -> Option<T> {
+    if in_ci() {
+        panic!("required under CI but missing: {what}");
+    }
+    eprintln!("SKIPPED (outside CI): {what}");
+    None
+}
+
+/// The shared data directory from `OCTOQUANT_DATA`, or `../shared/data` beside the checkout.
+pub fn data_dir() -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os("OCTOQUANT_DATA") {
+        let d = PathBuf::from(d);
+        let d = if d.is_relative() {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(d)
+        } else {
+            d
+        };
+        if d.is_dir() {
+            return Some(d);
+        }
+        return skip(&format!("OCTOQUANT_DATA={} is not a directory", d.display()));
+    }
+    let fallback = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if fallback.is_dir() {
+        return Some(fallback);
+    }
+    skip("OCTOQUANT_DATA is not set and ../shared/data does not exist")
+}
+
+/// A file under the data directory, or `None` (skip / CI failure) when it is missing.
+pub fn data_file(rel: &str) -> Option<PathBuf> {
+    let d = data_dir()?;
+    let p = d.join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        skip(&format!("data file {}", p.display()))
+    }
+}
+
+/// The project's own C++ reference program (tools/octoquant-ref), built once per test run
+/// into target/octoquant-ref unless `OCTOQUANT_REF` names an existing binary.
+pub fn reference_program() -> Option<PathBuf> {
+    static REF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let r = REF.get_or_init(|| {
+        if let Some(p) = std::env::var_os("OCTOQUANT_REF") {
+            let p = PathBuf::from(p);
+            return if p.is_file() {
+                Ok(p)
+            } else {
+                Err(format!("OCTOQUANT_REF={} does not exist", p.display()))
+            };
+        }
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let out = root.join("target/octoquant-ref");
+        let bin = out.join("octoquant-ref");
+        let status = std::process::Command::new("sh")
+            .arg(root.join("tools/octoquant-ref/build.sh"))
+            .arg(&out)
+            .status();
+        match status {
+            Ok(s) if s.success() && bin.is_file() => Ok(bin),
+            Ok(s) => Err(format!(
+                "building tools/octoquant-ref failed ({s}); install liboctomap-dev g++ pkg-config"
+            )),
+            Err(e) => Err(format!("cannot run tools/octoquant-ref/build.sh: {e}")),
+        }
+    });
+    match r {
+        Ok(p) => Some(p.clone()),
+        Err(e) => skip(&format!("the C++ reference program: {e}")),
+    }
+}
+
+/// A fresh scratch directory under the target dir, unique per test name.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("target/test-scratch")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create scratch dir");
+    d
+}
