@@ -60,7 +60,8 @@ impl Key {
     /// The key of the node at `depth` that contains this key, in OctoMap's convention: the
     /// smallest key of the coarse cell plus half the cell width (`adjustKeyAtDepth`).
     ///
-    /// At depth 16 the key is unchanged; at depth 0 every axis becomes 32768.
+    /// At depth 16 the key is unchanged. Depth 0 wraps to 0 on every axis, exactly as OctoMap's
+    /// arithmetic does (the root has no meaningful key there).
     #[inline]
     pub fn at_depth(&self, depth: u8) -> Key {
         debug_assert!(depth <= TREE_DEPTH);
@@ -316,7 +317,8 @@ mod tests {
                 assert_eq!(Key([k, k, k]).at_depth(d).0[0], kd, "x={x} d={d}");
             }
         }
-        assert_eq!(Key([1, 2, 3]).at_depth(0), Key([32768; 3]));
+        assert_eq!(Key([1, 2, 3]).at_depth(0), Key([0; 3]));
+        assert_eq!(Key([1, 2, 3]).at_depth(1), Key([16384; 3]));
     }
 
     #[test]

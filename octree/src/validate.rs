@@ -6,7 +6,8 @@ use crate::tree::OcTree;
 /// Check the tree's invariants, returning a description of the first violation:
 /// the node count matches `size()`, every child block holds at least one child, no value is
 /// NaN, and (unless `lazy`) every inner node equals the max of its children and no node is
-/// collapsible.
+/// collapsible. Pass `lazy = true` for trees after lazy updates, `prune()` (which may stop
+/// early) or reading a `.bt` (whose root keeps the upper clamp).
 pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
     if tree.is_empty() {
         return if tree.size() == 0 {

@@ -1,0 +1,150 @@
+//! Property tests of the octree against naive definitions.
+
+use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
+use octoquant_octree::validate::assert_well_formed;
+use octoquant_octree::{Key, KeyConverter, OcTree, Update, TREE_DEPTH};
+use proptest::prelude::*;
+use std::collections::HashMap;
+
+fn keys() -> impl Strategy<Value = Key> {
+    prop_oneof![
+        (0u16..6, 0u16..6, 0u16..6).prop_map(|(x, y, z)| Key::new(32766 + x, 32766 + y, 32766 + z)),
+        any::<[u16; 3]>().prop_map(Key),
+    ]
+}
+
+/// The value a single voxel has after a sequence of updates, by OctoMap's definition:
+/// unknown voxels start at 0, an update at the clamp it pushes towards is ignored,
+/// otherwise add then clamp.
+fn naive_apply(model: &mut HashMap<Key, f32>, tree: &OcTree, key: Key, hit: bool) {
+    let p = tree.params();
+    let d = if hit { p.hit } else { p.miss };
+    let v = model.entry(key).or_insert(0.0);
+    if (d >= 0.0 && *v >= p.clamp_max) || (d <= 0.0 && *v <= p.clamp_min) {
+        return;
+    }
+    *v = (*v + d).clamp(p.clamp_min, p.clamp_max);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// Every voxel reads back the value a per-voxel map computes, whatever pruning did; the
+    /// tree stays well formed; inner nodes hold the max of their children.
+    #[test]
+    fn voxel_values_match_a_flat_map(ups in prop::collection::vec((keys(), any::<bool>(), 1usize..10), 1..200)) {
+        let mut tree = OcTree::new(0.1).unwrap();
+        let mut model = HashMap::new();
+        for (k, hit, n) in ups {
+            for _ in 0..n {
+                naive_apply(&mut model, &tree, k, hit);
+                tree.update_node(k, if hit { Update::Hit } else { Update::Miss }, false);
+            }
+        }
+        assert_well_formed(&tree, false);
+        for (k, v) in &model {
+            let n = tree.search(*k, TREE_DEPTH).expect("updated voxel is known");
+            prop_assert_eq!(n.value.to_bits(), v.to_bits());
+        }
+        // leaves cover exactly the updated voxels
+        let covered: u64 = tree.leaves().map(|l| (l.width() as u64).pow(3)).sum();
+        prop_assert_eq!(covered, model.len() as u64);
+    }
+
+    /// Lazy updates followed by `update_inner_occupancy` give the same voxel values.
+    #[test]
+    fn lazy_then_inner_gives_same_voxels(ups in prop::collection::vec((keys(), any::<bool>()), 1..150)) {
+        let mut eager = OcTree::new(0.05).unwrap();
+        let mut lazy = OcTree::new(0.05).unwrap();
+        for (k, hit) in &ups {
+            let u = if *hit { Update::Hit } else { Update::Miss };
+            eager.update_node(*k, u, false);
+            lazy.update_node(*k, u, true);
+        }
+        lazy.update_inner_occupancy();
+        assert_well_formed(&lazy, true);
+        for (k, _) in &ups {
+            prop_assert_eq!(eager.search(*k, 16).unwrap().value, lazy.search(*k, 16).unwrap().value);
+        }
+        prop_assert_eq!(eager.root_value(), lazy.root_value());
+    }
+
+    /// `.ot` round-trips the whole tree; `.bt` round-trips the max-likelihood pruned tree.
+    #[test]
+    fn files_round_trip(ups in prop::collection::vec((keys(), any::<bool>()), 0..120)) {
+        let mut tree = OcTree::new(0.2).unwrap();
+        for (k, hit) in &ups {
+            tree.update_node(*k, if *hit { Update::Hit } else { Update::Miss }, false);
+        }
+        let mut ot = Vec::new();
+        write_ot(&tree, &mut ot).unwrap();
+        let back = read_ot(&ot[..]).unwrap();
+        let mut ot2 = Vec::new();
+        write_ot(&back, &mut ot2).unwrap();
+        prop_assert_eq!(&ot, &ot2);
+        let mut bt = Vec::new();
+        write_bt(&mut tree, &mut bt).unwrap();
+        let mut back = read_bt(&bt[..]).unwrap();
+        assert_well_formed(&back, true);
+        let mut bt2 = Vec::new();
+        write_bt(&mut back, &mut bt2).unwrap();
+        prop_assert_eq!(bt, bt2);
+    }
+
+    /// Leaves inside a key box are exactly the leaves whose cube overlaps it.
+    #[test]
+    fn bbx_iteration_matches_filter(ups in prop::collection::vec(keys(), 1..80),
+                                    lo in (32760u16..32772, 32760u16..32772, 32760u16..32772),
+                                    ext in (0u16..8, 0u16..8, 0u16..8)) {
+        let mut tree = OcTree::new(0.1).unwrap();
+        for k in &ups {
+            for _ in 0..6 { tree.update_node(*k, Update::Hit, false); }
+        }
+        let min = Key::new(lo.0, lo.1, lo.2);
+        let max = Key::new(lo.0 + ext.0, lo.1 + ext.1, lo.2 + ext.2);
+        let got: Vec<_> = tree.leaves_in_bbx(min, max).map(|l| (l.key, l.depth)).collect();
+        let want: Vec<_> = tree.leaves().filter(|l| {
+            let m = l.min_key();
+            (0..3).all(|a| (m[a] as u32) <= max[a] as u32 && (m[a] as u32 + l.width() - 1) >= min[a] as u32)
+        }).map(|l| (l.key, l.depth)).collect();
+        prop_assert_eq!(got, want);
+    }
+
+    /// Coarse keys from coordinates agree with adjusting the fine key, and centres lie inside
+    /// the voxel they name.
+    #[test]
+    fn key_maths_is_consistent(c in -3000.0f64..3000.0, res in prop_oneof![Just(0.1), Just(0.05), Just(0.37)], d in 1u8..=16) {
+        let conv = KeyConverter::new(res).unwrap();
+        if let Some(k) = conv.coord_to_key_checked(c) {
+            prop_assert_eq!(Key::new(k, k, k).at_depth(d).x(), conv.coord_to_key_at_depth(c, d));
+            let centre = conv.key_to_coord(k);
+            prop_assert_eq!(conv.coord_to_key_checked(centre), Some(k));
+        }
+    }
+}
+
+#[test]
+fn pruning_sizes_like_octomaps_test_pruning() {
+    // octomap/src/testing/test_pruning.cpp, res 0.01f: single node 17, diagonal sibling 18,
+    // full octant collapses back to 16, and expand/prune restore sizes.
+    let mut tree = OcTree::new(0.01f32 as f64).unwrap();
+    let conv = tree.converter().clone();
+    let k = |x: f64, y: f64, z: f64| conv.point_to_key(&nalgebra::Point3::new(x, y, z)).unwrap();
+    tree.update_node(k(0.0, 0.0, 0.0), Update::Hit, false);
+    assert_eq!(tree.size(), 17);
+    tree.update_node(k(0.01, 0.01, 0.01), Update::Hit, false);
+    assert_eq!(tree.size(), 18);
+    for (x, y, z) in [(0.01, 0.0, 0.0), (0.0, 0.01, 0.0), (0.0, 0.0, 0.01), (0.01, 0.01, 0.0), (0.0, 0.01, 0.01)] {
+        tree.update_node(k(x, y, z), Update::Hit, false);
+    }
+    assert_eq!(tree.size(), 23);
+    tree.update_node(k(0.01, 0.0, 0.01), Update::Hit, false);
+    assert_eq!(tree.size(), 16, "the eighth equal sibling prunes the octant");
+    tree.expand();
+    assert_eq!(tree.size(), 24);
+    tree.prune();
+    assert_eq!(tree.size(), 16);
+    tree.clear();
+    assert_eq!(tree.size(), 0);
+    assert!(tree.is_empty());
+}

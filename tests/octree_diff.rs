@@ -1,0 +1,401 @@
+//! The octree against the real OctoMap: random update sequences applied to both must give
+//! byte-identical `.ot` and `.bt` files, and OctoMap's own files must read and rewrite
+//! identically.
+
+use crate::common;
+use octoquant::octree::io::{read_bt, read_ot, read_tree, write_bt, write_bt_const, write_ot};
+use octoquant::octree::{Key, OcTree, OccupancyParams, Update};
+use proptest::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// One operation applied to both trees.
+#[derive(Debug, Clone)]
+enum Op {
+    Update { key: Key, hit: bool, repeat: u8, lazy: bool },
+    Delta { key: Key, bits: u32, lazy: bool },
+    Set { key: Key, bits: u32, lazy: bool },
+    Prune,
+    Expand,
+    MaxLikelihood,
+    Inner,
+}
+
+#[derive(Debug, Clone)]
+struct Case {
+    res: f64,
+    params: Option<[f64; 5]>,
+    ops: Vec<Op>,
+}
+
+fn key_strategy(base: Key) -> impl Strategy<Value = Key> {
+    prop_oneof![
+        // clustered: a 4x4x4 neighbourhood, so octants fill up and prune
+        (0u16..4, 0u16..4, 0u16..4).prop_map(move |(x, y, z)| Key::new(
+            base.x().wrapping_add(x),
+            base.y().wrapping_add(y),
+            base.z().wrapping_add(z)
+        )),
+        // a little wider: 16^3 around the base
+        (0u16..16, 0u16..16, 0u16..16).prop_map(move |(x, y, z)| Key::new(
+            base.x().wrapping_add(x),
+            base.y().wrapping_add(y),
+            base.z().wrapping_add(z)
+        )),
+        // spread over the whole key space, including the extremes
+        any::<[u16; 3]>().prop_map(Key),
+    ]
+}
+
+fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
+    let k = || key_strategy(base);
+    prop_oneof![
+        30 => (k(), any::<bool>(), 1u8..14, prop::bool::weighted(0.2))
+            .prop_map(|(key, hit, repeat, lazy)| Op::Update { key, hit, repeat, lazy }),
+        4 => (k(), -3.0f32..3.0, prop::bool::weighted(0.2))
+            .prop_map(|(key, d, lazy)| Op::Delta { key, bits: d.to_bits(), lazy }),
+        3 => (k(), -4.0f32..4.0, prop::bool::weighted(0.2))
+            .prop_map(|(key, v, lazy)| Op::Set { key, bits: v.to_bits(), lazy }),
+        1 => Just(Op::Prune),
+        1 => Just(Op::Expand),
+        1 => Just(Op::MaxLikelihood),
+        1 => Just(Op::Inner),
+    ]
+}
+
+fn case_strategy() -> impl Strategy<Value = Case> {
+    let res = prop_oneof![
+        Just(0.1),
+        Just(0.05),
+        Just(0.2),
+        Just(0.01f32 as f64),
+        Just(0.123456789),
+        Just(1e-5),
+        Just(2.5),
+    ];
+    let params = prop::option::weighted(
+        0.3,
+        (0.51f64..0.95, 0.05f64..0.49, 0.01f64..0.4, 0.6f64..0.99, 0.3f64..0.7),
+    )
+    .prop_map(|p| p.map(|(h, m, lo, hi, t)| [h, m, lo, hi, t]));
+    let base = prop_oneof![
+        Just(Key::new(32768, 32768, 32768)),
+        Just(Key::new(32766, 32765, 32767)),
+        any::<[u16; 3]>().prop_map(Key),
+    ];
+    (res, params, base).prop_flat_map(|(res, params, base)| {
+        prop::collection::vec(op_strategy(base), 1..160).prop_map(move |ops| Case {
+            res,
+            params,
+            ops,
+        })
+    })
+}
+
+/// Apply `case` to a Rust tree and write the three files; returns their bytes.
+fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    let mut tree = OcTree::new(case.res).unwrap();
+    if let Some([h, m, lo, hi, t]) = case.params {
+        tree.set_params(OccupancyParams::from_probabilities(h, m, lo, hi, t).unwrap());
+    }
+    for op in &case.ops {
+        match *op {
+            Op::Update { key, hit, repeat, lazy } => {
+                let u = if hit { Update::Hit } else { Update::Miss };
+                for _ in 0..repeat {
+                    tree.update_node(key, u, lazy);
+                }
+            }
+            Op::Delta { key, bits, lazy } => {
+                tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
+            }
+            Op::Set { key, bits, lazy } => {
+                tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
+            }
+            Op::Prune => tree.prune(),
+            Op::Expand => tree.expand(),
+            Op::MaxLikelihood => tree.to_max_likelihood(),
+            Op::Inner => tree.update_inner_occupancy(),
+        }
+    }
+    let mut ot = Vec::new();
+    write_ot(&tree, &mut ot).unwrap();
+    let mut btc = Vec::new();
+    write_bt_const(&tree, &mut btc).unwrap();
+    let mut bt = Vec::new();
+    write_bt(&mut tree, &mut bt).unwrap();
+    (ot, btc, bt)
+}
+
+fn script_for(case: &Case, dir: &Path) -> String {
+    let mut s = String::new();
+    writeln!(s, "tree {:.17e}", case.res).unwrap();
+    if let Some([h, m, lo, hi, t]) = case.params {
+        writeln!(s, "params {h:.17e} {m:.17e} {lo:.17e} {hi:.17e} {t:.17e}").unwrap();
+    }
+    for op in &case.ops {
+        match *op {
+            Op::Update { key, hit, repeat, lazy } => {
+                for _ in 0..repeat {
+                    let c = if hit { "hit" } else { "miss" };
+                    writeln!(s, "{c} {} {} {} {}", key.x(), key.y(), key.z(), lazy as u8).unwrap();
+                }
+            }
+            Op::Delta { key, bits, lazy } => writeln!(
+                s,
+                "update {} {} {} {bits:08x} {}",
+                key.x(),
+                key.y(),
+                key.z(),
+                lazy as u8
+            )
+            .unwrap(),
+            Op::Set { key, bits, lazy } => writeln!(
+                s,
+                "set {} {} {} {bits:08x} {}",
+                key.x(),
+                key.y(),
+                key.z(),
+                lazy as u8
+            )
+            .unwrap(),
+            Op::Prune => s.push_str("prune\n"),
+            Op::Expand => s.push_str("expand\n"),
+            Op::MaxLikelihood => s.push_str("ml\n"),
+            Op::Inner => s.push_str("inner\n"),
+        }
+    }
+    let p = |n: &str| dir.join(n).display().to_string();
+    writeln!(s, "write_ot {}", p("ref.ot")).unwrap();
+    writeln!(s, "write_bt_const {}", p("ref_const.bt")).unwrap();
+    writeln!(s, "write_bt {}", p("ref.bt")).unwrap();
+    s
+}
+
+fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    let sp = dir.join("ops.txt");
+    std::fs::write(&sp, script).unwrap();
+    let out = Command::new(refprog)
+        .arg("script")
+        .arg(&sp)
+        .output()
+        .expect("run reference program");
+    assert!(
+        out.status.success(),
+        "reference program failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rd = |n: &str| std::fs::read(dir.join(n)).unwrap();
+    (rd("ref.ot"), rd("ref_const.bt"), rd("ref.bt"))
+}
+
+fn first_diff(a: &[u8], b: &[u8]) -> String {
+    let i = a.iter().zip(b).position(|(x, y)| x != y).unwrap_or(a.len().min(b.len()));
+    format!("lengths {} vs {}, first difference at byte {i}", a.len(), b.len())
+}
+
+#[test]
+fn random_update_sequences_match_octomap() {
+    let Some(refprog) = common::reference_program() else { return };
+    let dir = common::scratch("octree_diff_random");
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 160,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
+    runner
+        .run(&case_strategy(), |case| {
+            let (ot, btc, bt) = run_rust(&case);
+            let (rot, rbtc, rbt) = run_reference(&refprog, &script_for(&case, &dir), &dir);
+            prop_assert!(ot == rot, ".ot differs: {}", first_diff(&ot, &rot));
+            prop_assert!(btc == rbtc, "const .bt differs: {}", first_diff(&btc, &rbtc));
+            prop_assert!(bt == rbt, ".bt differs: {}", first_diff(&bt, &rbt));
+            Ok(())
+        })
+        .unwrap();
+}
+
+/// A long deterministic sequence that saturates both clamps over a dense block, so pruning
+/// happens at several depths, with lazy phases and the standalone passes in between.
+#[test]
+fn dense_saturating_block_matches_octomap() {
+    let Some(refprog) = common::reference_program() else { return };
+    let dir = common::scratch("octree_diff_dense");
+    let mut ops = Vec::new();
+    let base = 32760u16;
+    for round in 0..8u16 {
+        for x in 0..16u16 {
+            for y in 0..16u16 {
+                for z in 0..4u16 {
+                    let key = Key::new(base + x, base + y, base + z + 4 * (round % 2));
+                    let hit = (x / 4 + y / 4 + round) % 3 != 0;
+                    ops.push(Op::Update { key, hit, repeat: 1, lazy: round == 3 });
+                }
+            }
+        }
+        match round {
+            3 => ops.push(Op::Inner),
+            5 => ops.push(Op::Prune),
+            6 => ops.push(Op::Expand),
+            _ => {}
+        }
+    }
+    let case = Case { res: 0.1, params: None, ops };
+    let (ot, btc, bt) = run_rust(&case);
+    let (rot, rbtc, rbt) = run_reference(&refprog, &script_for(&case, &dir), &dir);
+    assert!(ot == rot, ".ot differs: {}", first_diff(&ot, &rot));
+    assert!(btc == rbtc, "const .bt differs: {}", first_diff(&btc, &rbtc));
+    assert!(bt == rbt, ".bt differs: {}", first_diff(&bt, &rbt));
+    assert!(ot.len() > 2_000, "the case should build a sizeable tree, got {} bytes", ot.len());
+}
+
+fn geb079_paths() -> Vec<PathBuf> {
+    let mut v = Vec::new();
+    if let Some(p) = common::data_file("octomap_reference/geb079.bt") {
+        v.push(p);
+    }
+    let debian = PathBuf::from("/usr/share/doc/liboctomap-dev/examples/data/geb079.bt");
+    if debian.is_file() {
+        v.push(debian);
+    }
+    v
+}
+
+#[test]
+fn geb079_reads_and_rewrites_identically() {
+    let paths = geb079_paths();
+    if paths.is_empty() {
+        return;
+    }
+    for p in paths {
+        let bytes = std::fs::read(&p).unwrap();
+        let mut tree = read_bt(&bytes[..]).unwrap();
+        let c = tree.counts();
+        // figures from OctoMap's own reading of the file (shared/data PROVENANCE)
+        assert_eq!(c.nodes, 532_566);
+        assert_eq!(c.inner, 104_422);
+        assert_eq!(c.occupied_leaves, 143_729);
+        assert_eq!(c.free_leaves, 284_415);
+        assert_eq!(tree.resolution(), 0.08);
+        assert_eq!(tree.root_value(), Some(tree.params().clamp_max));
+        octoquant::octree::validate::assert_well_formed(&tree, true);
+        let mut out = Vec::new();
+        write_bt(&mut tree, &mut out).unwrap();
+        assert!(out == bytes, "{}: {}", p.display(), first_diff(&out, &bytes));
+        let per_node = tree.memory_usage() as f64 / tree.size() as f64;
+        assert!(per_node <= 10.0, "{per_node} bytes per node on geb079");
+    }
+}
+
+#[test]
+fn geb079_ot_matches_octomap_conversion() {
+    let Some(refprog) = common::reference_program() else { return };
+    let Some(p) = geb079_paths().into_iter().next() else { return };
+    let dir = common::scratch("octree_diff_geb_ot");
+    let script = format!(
+        "read_bt {}\nwrite_ot {}\n",
+        p.display(),
+        dir.join("ref.ot").display()
+    );
+    let sp = dir.join("s.txt");
+    std::fs::write(&sp, script).unwrap();
+    let st = Command::new(&refprog).arg("script").arg(&sp).output().unwrap();
+    assert!(st.status.success());
+    let reference = std::fs::read(dir.join("ref.ot")).unwrap();
+    let tree = read_bt(&std::fs::read(&p).unwrap()[..]).unwrap();
+    let mut ot = Vec::new();
+    write_ot(&tree, &mut ot).unwrap();
+    assert!(ot == reference, "{}", first_diff(&ot, &reference));
+    // and the .ot reads back to the same tree
+    let back = read_ot(&ot[..]).unwrap();
+    let mut again = Vec::new();
+    write_ot(&back, &mut again).unwrap();
+    assert!(again == ot);
+}
+
+#[test]
+fn expected_reference_files_rewrite_identically() {
+    let Some(dir) = common::data_file("octomap_reference/expected") else { return };
+    let mut seen = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if ext != "bt" && ext != "ot" {
+            continue;
+        }
+        let bytes = std::fs::read(&p).unwrap();
+        let mut tree = read_tree(&bytes[..]).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        let mut out = Vec::new();
+        if ext == "bt" {
+            write_bt(&mut tree, &mut out).unwrap();
+        } else {
+            write_ot(&tree, &mut out).unwrap();
+        }
+        assert!(out == bytes, "{}: {}", p.display(), first_diff(&out, &bytes));
+        seen += 1;
+    }
+    assert!(seen >= 18, "expected at least 18 .bt/.ot files, found {seen}");
+}
+
+#[test]
+fn keys_match_octomap_on_boundaries_and_random_coordinates() {
+    let Some(refprog) = common::reference_program() else { return };
+    let dir = common::scratch("octree_diff_keys");
+    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng
+    };
+    for res in [0.1, 0.05, 0.2, 0.01f32 as f64, 0.08, 0.3333] {
+        let mut coords = Vec::new();
+        for k in -40000i64..40000 {
+            let c = k as f64 * res;
+            coords.push(c);
+            coords.push((k as f32 * res as f32) as f64);
+            coords.push(c + 1e-12);
+            coords.push(c - 1e-12);
+        }
+        for _ in 0..200_000 {
+            let r = next();
+            let mag = [1.0, 10.0, 1000.0, 5000.0][(r % 4) as usize];
+            let c = ((r >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * mag;
+            coords.push(c);
+            coords.push(c as f32 as f64);
+        }
+        coords.extend([f64::NAN, f64::INFINITY, -f64::INFINITY, 1e300, -1e300, -0.0]);
+        let mut input = (coords.len() as u32).to_le_bytes().to_vec();
+        for c in &coords {
+            input.extend_from_slice(&c.to_le_bytes());
+        }
+        let inp = dir.join("in.bin");
+        let outp = dir.join("out.bin");
+        std::fs::write(&inp, &input).unwrap();
+        let st = Command::new(&refprog)
+            .args(["keys", &format!("{res:.17e}")])
+            .arg(&inp)
+            .arg(&outp)
+            .output()
+            .unwrap();
+        assert!(st.status.success());
+        let out = std::fs::read(&outp).unwrap();
+        assert_eq!(out.len(), coords.len() * 13);
+        let conv = octoquant::KeyConverter::new(res).unwrap();
+        for (i, c) in coords.iter().enumerate() {
+            let r = &out[i * 13..(i + 1) * 13];
+            let ok = r[0] == 1;
+            let checked = u16::from_le_bytes([r[1], r[2]]);
+            let unchecked = u16::from_le_bytes([r[3], r[4]]);
+            let centre = f64::from_le_bytes(r[5..13].try_into().unwrap());
+            assert_eq!(
+                conv.coord_to_key_checked(*c),
+                ok.then_some(checked),
+                "checked key of {c:e} at res {res}"
+            );
+            assert_eq!(conv.coord_to_key_unchecked(*c), unchecked, "unchecked key of {c:e}");
+            assert_eq!(conv.key_to_coord(unchecked).to_bits(), centre.to_bits());
+        }
+    }
+}

@@ -1,0 +1,331 @@
+// octoquant-ref: the project's own reference program around Debian's liboctomap (1.9.7).
+//
+// It executes the same operations as the Rust implementation so the tests can compare the
+// resulting bytes. Every mode reads and writes plain files; see README.md beside this file.
+//
+//   octoquant-ref script FILE|-          run a command script (one command per line)
+//   octoquant-ref rays RES IN OUT        computeRayKeys for a batch of rays
+//   octoquant-ref castray TREE IN OUT    castRay on a .bt/.ot tree for a batch of rays
+//   octoquant-ref keys RES IN OUT        coordToKeyChecked / coordToKey / keyToCoord
+//   octoquant-ref graph2frames IN OUT    ScanGraph -> world-coordinate frames (graph2tree's transform)
+//
+// Script commands:
+//   tree RES                          new empty OcTree
+//   params PHIT PMISS PMIN PMAX PTHR  sensor model as probabilities
+//   hit|miss KX KY KZ LAZY            updateNode(key, bool, lazy)
+//   update KX KY KZ HEXBITS LAZY      updateNode(key, float log-odds delta given as f32 bits)
+//   set KX KY KZ HEXBITS LAZY         setNodeValue(key, float, lazy)
+//   prune | expand | ml | inner       prune(), expand(), toMaxLikelihood(), updateInnerOccupancy()
+//   write_ot PATH                     tree.write(PATH)
+//   write_bt PATH                     tree.writeBinary(PATH)  (ML + prune, mutates)
+//   write_bt_const PATH               tree.writeBinaryConst(PATH)
+//   read_bt PATH | read_ot PATH       replace the tree by the file's
+//   insert FRAMES [maxrange M] [discretize] [lazy] [simple] [inner]
+//                                     insertPointCloud per frame (or insertPointCloudRays with
+//                                     simple); "inner" calls updateInnerOccupancy at the end;
+//                                     prints "frame I POINTS SECONDS" per frame
+//   print_size                        prints "size N"
+//
+// Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
+// f32 origin[3], u32 n, n x f32[3].
+
+#include <octomap/octomap.h>
+#include <octomap/OcTree.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace octomap;
+
+[[noreturn]] static void die(const std::string& msg) {
+  std::cerr << "octoquant-ref: " << msg << std::endl;
+  std::exit(2);
+}
+
+template <typename T>
+static T get(std::istream& in, const char* what) {
+  T v;
+  in.read(reinterpret_cast<char*>(&v), sizeof(T));
+  if (!in) die(std::string("truncated input reading ") + what);
+  return v;
+}
+
+template <typename T>
+static void put(std::ostream& out, T v) {
+  out.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+static float bits_to_float(const std::string& hex) {
+  uint32_t b = static_cast<uint32_t>(std::stoul(hex, nullptr, 16));
+  float f;
+  std::memcpy(&f, &b, 4);
+  return f;
+}
+
+struct Frame {
+  point3d origin;
+  Pointcloud cloud;
+};
+
+static std::vector<Frame> read_frames(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) die("cannot open " + path);
+  char magic[8];
+  in.read(magic, 8);
+  if (!in || std::memcmp(magic, "OCTFRAME", 8) != 0) die(path + ": not a frames file");
+  uint32_t version = get<uint32_t>(in, "version");
+  if (version != 1) die(path + ": unsupported frames version");
+  uint32_t count = get<uint32_t>(in, "frame count");
+  std::vector<Frame> frames;
+  for (uint32_t f = 0; f < count; ++f) {
+    Frame fr;
+    float o[3];
+    for (float& v : o) v = get<float>(in, "origin");
+    fr.origin = point3d(o[0], o[1], o[2]);
+    uint32_t n = get<uint32_t>(in, "point count");
+    fr.cloud.reserve(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      float p[3];
+      for (float& v : p) v = get<float>(in, "point");
+      fr.cloud.push_back(p[0], p[1], p[2]);
+    }
+    frames.push_back(std::move(fr));
+  }
+  return frames;
+}
+
+static OcTreeKey key_from(std::istringstream& ls) {
+  unsigned kx, ky, kz;
+  if (!(ls >> kx >> ky >> kz)) die("expected a key KX KY KZ");
+  return OcTreeKey(kx, ky, kz);
+}
+
+static bool lazy_from(std::istringstream& ls) {
+  int lazy = 0;
+  ls >> lazy;
+  return lazy != 0;
+}
+
+static int run_script(std::istream& in) {
+  std::unique_ptr<OcTree> tree(new OcTree(0.1));
+  std::string line;
+  size_t lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::istringstream ls(line);
+    std::string cmd;
+    if (!(ls >> cmd) || cmd[0] == '#') continue;
+    if (cmd == "tree") {
+      std::string res;
+      ls >> res;
+      tree.reset(new OcTree(std::strtod(res.c_str(), nullptr)));
+    } else if (cmd == "params") {
+      double hit, miss, cmin, cmax, thr;
+      if (!(ls >> hit >> miss >> cmin >> cmax >> thr)) die("params needs 5 probabilities");
+      tree->setProbHit(hit);
+      tree->setProbMiss(miss);
+      tree->setClampingThresMin(cmin);
+      tree->setClampingThresMax(cmax);
+      tree->setOccupancyThres(thr);
+    } else if (cmd == "hit" || cmd == "miss") {
+      OcTreeKey k = key_from(ls);
+      tree->updateNode(k, cmd == "hit", lazy_from(ls));
+    } else if (cmd == "update" || cmd == "set") {
+      OcTreeKey k = key_from(ls);
+      std::string hex;
+      ls >> hex;
+      float v = bits_to_float(hex);
+      bool lazy = lazy_from(ls);
+      if (cmd == "update")
+        tree->updateNode(k, v, lazy);
+      else
+        tree->setNodeValue(k, v, lazy);
+    } else if (cmd == "prune") {
+      tree->prune();
+    } else if (cmd == "expand") {
+      tree->expand();
+    } else if (cmd == "ml") {
+      tree->toMaxLikelihood();
+    } else if (cmd == "inner") {
+      tree->updateInnerOccupancy();
+    } else if (cmd == "write_ot") {
+      std::string p;
+      ls >> p;
+      if (!tree->write(p)) die("write_ot failed: " + p);
+    } else if (cmd == "write_bt") {
+      std::string p;
+      ls >> p;
+      if (!tree->writeBinary(p)) die("write_bt failed: " + p);
+    } else if (cmd == "write_bt_const") {
+      std::string p;
+      ls >> p;
+      if (!tree->writeBinaryConst(p)) die("write_bt_const failed: " + p);
+    } else if (cmd == "read_bt") {
+      std::string p;
+      ls >> p;
+      tree.reset(new OcTree(0.1));
+      if (!tree->readBinary(p)) die("read_bt failed: " + p);
+    } else if (cmd == "read_ot") {
+      std::string p;
+      ls >> p;
+      AbstractOcTree* t = AbstractOcTree::read(p);
+      OcTree* ot = dynamic_cast<OcTree*>(t);
+      if (!ot) die("read_ot failed: " + p);
+      tree.reset(ot);
+    } else if (cmd == "insert") {
+      std::string p, opt;
+      ls >> p;
+      double maxrange = -1.0;
+      bool discretize = false, lazy = false, simple = false, inner = false;
+      while (ls >> opt) {
+        if (opt == "maxrange") ls >> maxrange;
+        else if (opt == "discretize") discretize = true;
+        else if (opt == "lazy") lazy = true;
+        else if (opt == "simple") simple = true;
+        else if (opt == "inner") inner = true;
+        else die("unknown insert option " + opt);
+      }
+      std::vector<Frame> frames = read_frames(p);
+      for (size_t i = 0; i < frames.size(); ++i) {
+        auto t0 = std::chrono::steady_clock::now();
+        if (simple)
+          tree->insertPointCloudRays(frames[i].cloud, frames[i].origin, maxrange, lazy);
+        else
+          tree->insertPointCloud(frames[i].cloud, frames[i].origin, maxrange, lazy, discretize);
+        auto t1 = std::chrono::steady_clock::now();
+        std::printf("frame %zu %zu %.9f\n", i, frames[i].cloud.size(),
+                    std::chrono::duration<double>(t1 - t0).count());
+      }
+      if (inner) {
+        auto t0 = std::chrono::steady_clock::now();
+        tree->updateInnerOccupancy();
+        auto t1 = std::chrono::steady_clock::now();
+        std::printf("inner %.9f\n", std::chrono::duration<double>(t1 - t0).count());
+      }
+    } else if (cmd == "print_size") {
+      std::printf("size %zu\n", tree->size());
+    } else {
+      die("line " + std::to_string(lineno) + ": unknown command " + cmd);
+    }
+  }
+  std::fflush(stdout);
+  return 0;
+}
+
+// rays: IN = u32 n, n x f32[6] (origin, end). OUT per ray: u8 ok, u32 count, count x u16[3].
+static int run_rays(double res, const std::string& inpath, const std::string& outpath) {
+  OcTree tree(res);
+  std::ifstream in(inpath, std::ios::binary);
+  if (!in) die("cannot open " + inpath);
+  std::ofstream out(outpath, std::ios::binary);
+  uint32_t n = get<uint32_t>(in, "ray count");
+  KeyRay ray;
+  for (uint32_t i = 0; i < n; ++i) {
+    float v[6];
+    for (float& x : v) x = get<float>(in, "ray");
+    bool ok = tree.computeRayKeys(point3d(v[0], v[1], v[2]), point3d(v[3], v[4], v[5]), ray);
+    put<uint8_t>(out, ok ? 1 : 0);
+    put<uint32_t>(out, ok ? static_cast<uint32_t>(ray.size()) : 0);
+    if (ok)
+      for (const OcTreeKey& k : ray)
+        for (int a = 0; a < 3; ++a) put<uint16_t>(out, k[a]);
+  }
+  return out ? 0 : 2;
+}
+
+// castray: IN = u32 n, per ray f32[3] origin, f32[3] direction, u8 ignore_unknown, f64 max_range.
+// OUT per ray: u8 result, f32[3] end.
+static int run_castray(const std::string& treepath, const std::string& inpath,
+                       const std::string& outpath) {
+  std::unique_ptr<OcTree> tree;
+  if (treepath.size() > 3 && treepath.substr(treepath.size() - 3) == ".ot") {
+    tree.reset(dynamic_cast<OcTree*>(AbstractOcTree::read(treepath)));
+  } else {
+    tree.reset(new OcTree(0.1));
+    if (!tree->readBinary(treepath)) tree.reset();
+  }
+  if (!tree) die("cannot read tree " + treepath);
+  std::ifstream in(inpath, std::ios::binary);
+  if (!in) die("cannot open " + inpath);
+  std::ofstream out(outpath, std::ios::binary);
+  uint32_t n = get<uint32_t>(in, "ray count");
+  for (uint32_t i = 0; i < n; ++i) {
+    float o[3], d[3];
+    for (float& x : o) x = get<float>(in, "origin");
+    for (float& x : d) x = get<float>(in, "direction");
+    uint8_t ignore = get<uint8_t>(in, "ignore_unknown");
+    double maxr = get<double>(in, "max_range");
+    point3d end;
+    bool hit = tree->castRay(point3d(o[0], o[1], o[2]), point3d(d[0], d[1], d[2]), end,
+                             ignore != 0, maxr);
+    put<uint8_t>(out, hit ? 1 : 0);
+    for (int a = 0; a < 3; ++a) put<float>(out, end(a));
+  }
+  return out ? 0 : 2;
+}
+
+// keys: IN = u32 n, n x f64. OUT per value: u8 checked_ok, u16 checked, u16 unchecked, f64 centre.
+static int run_keys(double res, const std::string& inpath, const std::string& outpath) {
+  OcTree tree(res);
+  std::ifstream in(inpath, std::ios::binary);
+  if (!in) die("cannot open " + inpath);
+  std::ofstream out(outpath, std::ios::binary);
+  uint32_t n = get<uint32_t>(in, "count");
+  for (uint32_t i = 0; i < n; ++i) {
+    double c = get<double>(in, "coordinate");
+    key_type k = 0;
+    bool ok = tree.coordToKeyChecked(c, k);
+    key_type u = tree.coordToKey(c);
+    put<uint8_t>(out, ok ? 1 : 0);
+    put<uint16_t>(out, ok ? k : 0);
+    put<uint16_t>(out, u);
+    put<double>(out, tree.keyToCoord(u));
+  }
+  return out ? 0 : 2;
+}
+
+// graph2frames: a ScanGraph transformed to world coordinates exactly as graph2tree does.
+static int run_graph2frames(const std::string& inpath, const std::string& outpath) {
+  ScanGraph graph;
+  if (!graph.readBinary(inpath)) die("cannot read graph " + inpath);
+  std::ofstream out(outpath, std::ios::binary);
+  out.write("OCTFRAME", 8);
+  put<uint32_t>(out, 1);
+  put<uint32_t>(out, static_cast<uint32_t>(graph.size()));
+  for (ScanGraph::iterator it = graph.begin(); it != graph.end(); ++it) {
+    (*it)->scan->transform((*it)->pose);
+    point3d o = (*it)->pose.trans();
+    for (int a = 0; a < 3; ++a) put<float>(out, o(a));
+    put<uint32_t>(out, static_cast<uint32_t>((*it)->scan->size()));
+    for (size_t i = 0; i < (*it)->scan->size(); ++i) {
+      const point3d& p = (*(*it)->scan)[i];
+      for (int a = 0; a < 3; ++a) put<float>(out, p(a));
+    }
+  }
+  return out ? 0 : 2;
+}
+
+int main(int argc, char** argv) {
+  if (argc < 2) die("usage: octoquant-ref script|rays|castray|keys|graph2frames ...");
+  std::string mode = argv[1];
+  if (mode == "script" && argc == 3) {
+    if (std::string(argv[2]) == "-") return run_script(std::cin);
+    std::ifstream in(argv[2]);
+    if (!in) die(std::string("cannot open ") + argv[2]);
+    return run_script(in);
+  }
+  if (mode == "rays" && argc == 5) return run_rays(std::strtod(argv[2], nullptr), argv[3], argv[4]);
+  if (mode == "castray" && argc == 5) return run_castray(argv[2], argv[3], argv[4]);
+  if (mode == "keys" && argc == 5) return run_keys(std::strtod(argv[2], nullptr), argv[3], argv[4]);
+  if (mode == "graph2frames" && argc == 4) return run_graph2frames(argv[2], argv[3]);
+  die("bad arguments; see the comment at the top of octoquant_ref.cpp");
+}
