@@ -31,6 +31,7 @@ mod key;
 mod node;
 mod params;
 mod tree;
+mod tree_batch;
 mod tree_prune;
 pub mod validate;
 

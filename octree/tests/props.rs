@@ -148,3 +148,37 @@ fn pruning_sizes_like_octomaps_test_pruning() {
     assert_eq!(tree.size(), 0);
     assert!(tree.is_empty());
 }
+
+fn batch_ops() -> impl Strategy<Value = Vec<(Vec<Key>, bool, bool)>> {
+    prop::collection::vec(
+        (prop::collection::vec(keys(), 0..120), any::<bool>(), prop::bool::weighted(0.2)),
+        1..8,
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// `update_keys` leaves the tree byte-identical (full `.ot`) to one `update_node` per key,
+    /// in any key order, sorted or not, lazy or not, with duplicates.
+    #[test]
+    fn batch_update_equals_single_updates(batches in batch_ops(), sort in any::<bool>()) {
+        let mut single = OcTree::new(0.1).unwrap();
+        let mut batch = OcTree::new(0.1).unwrap();
+        for (mut ks, hit, lazy) in batches {
+            if sort {
+                ks.sort_by_key(|k| k.morton());
+            }
+            let u = if hit { Update::Hit } else { Update::Miss };
+            for k in &ks {
+                single.update_node(*k, u, lazy);
+            }
+            batch.update_keys(&ks, u, lazy);
+            prop_assert_eq!(single.size(), batch.size());
+        }
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        write_ot(&single, &mut a).unwrap();
+        write_ot(&batch, &mut b).unwrap();
+        prop_assert!(a == b, "trees differ");
+    }
+}

@@ -1,0 +1,158 @@
+//! Batched updates: many keys in one walk, same result as one `update_node` call per key.
+//!
+//! Consecutive keys share their path from the root down to their deepest common ancestor, so
+//! the walk only re-descends below it. Ancestors are pruned or refreshed (max of children)
+//! once, when the walk leaves them, instead of after every key. That is equivalent to
+//! OctoMap's per-key ascent: pruning never changes a voxel's value, a pruned node that is
+//! expanded again gets back the same eight equal leaves, and every ancestor is still
+//! processed after the last update below it. Keys sorted by [`Key::morton`] give the shortest
+//! walks; any order gives the same tree.
+
+use crate::key::{Key, TREE_DEPTH};
+use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::tree::{OcTree, Update};
+
+impl OcTree {
+    /// Apply `update` to every key in `keys`, in order; the tree ends exactly as after calling
+    /// [`OcTree::update_node`] for each key in turn (same values, same structure, same size).
+    ///
+    /// Much faster than single updates when keys are sorted by [`Key::morton`]. A NaN delta
+    /// changes nothing.
+    pub fn update_keys(&mut self, keys: &[Key], update: Update, lazy: bool) {
+        let delta = self.delta(update);
+        if delta.is_nan() || keys.is_empty() {
+            return;
+        }
+        let (cmin, cmax) = (self.params().clamp_min, self.params().clamp_max);
+        let mut path = [NodeRef::ROOT; TREE_DEPTH as usize + 1];
+        // `valid` = number of leading path entries (depth 0..valid) known to match the previous
+        // key's path and still exist; ancestors below that have been processed.
+        let mut valid = 0usize;
+        let mut prev: Option<Key> = None;
+        for &key in keys {
+            let common = match prev {
+                Some(p) => common_depth(p, key).min(valid.saturating_sub(1)),
+                None => 0,
+            };
+            // leave the previous key's nodes below the common ancestor
+            if !lazy {
+                for d in (common + 1..valid).rev() {
+                    self.refresh(path[d]);
+                }
+            }
+            if self.store.root_val.is_none() {
+                self.store.root_val = Some(0.0);
+                self.add_size(1);
+                valid = self.apply_from(key, &mut path, 0, true, delta, cmin, cmax);
+            } else {
+                valid = self.apply_from(key, &mut path, common, false, delta, cmin, cmax);
+            }
+            prev = Some(key);
+        }
+        if !lazy {
+            for d in (0..valid).rev() {
+                self.refresh(path[d]);
+            }
+        }
+    }
+
+    /// Prune `n` or set it to the max of its children (the per-ancestor step of
+    /// `updateNodeRecurs`). Leaves are left alone.
+    #[inline]
+    fn refresh(&mut self, n: NodeRef) {
+        if !self.store.has_children(n) {
+            return;
+        }
+        if self.store.prune_node(n) {
+            self.sub_size(8);
+        } else {
+            let m = self.store.max_child(n);
+            self.store.set_value(n, m);
+        }
+    }
+
+    /// Walk from `path[start]` to `key`'s voxel, creating or expanding nodes, and apply the
+    /// delta; returns how many path entries (from the root) are valid afterwards. Returns
+    /// early, creating nothing, when OctoMap's clamp early-exit applies.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn apply_from(
+        &mut self,
+        key: Key,
+        path: &mut [NodeRef; TREE_DEPTH as usize + 1],
+        start: usize,
+        root_just_created: bool,
+        delta: f32,
+        cmin: f32,
+        cmax: f32,
+    ) -> usize {
+        // read-only descent to the deepest existing node (OctoMap's `search`)
+        let mut d = start;
+        let mut cur = path[d];
+        let mut missing_child = false;
+        while d < TREE_DEPTH as usize {
+            let b = self.store.kids(cur);
+            if b == NO_BLOCK {
+                break;
+            }
+            let pos = key.child_index(d as u8);
+            if !present(self.store.child_vals(d as u8 + 1, b)[pos]) {
+                missing_child = true;
+                break;
+            }
+            cur = NodeRef {
+                depth: d as u8 + 1,
+                slot: pos as u8,
+                block: b,
+            };
+            d += 1;
+            path[d] = cur;
+        }
+        if !missing_child && !root_just_created {
+            let v = self.store.value(cur);
+            if (delta >= 0.0 && v >= cmax) || (delta <= 0.0 && v <= cmin) {
+                return d + 1;
+            }
+        }
+        // create or expand the rest of the path
+        let mut just_created = root_just_created;
+        while d < TREE_DEPTH as usize {
+            let pos = key.child_index(d as u8);
+            let created;
+            if self.store.kids(cur) == NO_BLOCK && !just_created {
+                self.store.expand_node(cur);
+                self.add_size(8);
+                created = false;
+            } else {
+                self.store.create_child(cur, pos, 0.0);
+                self.add_size(1);
+                created = true;
+            }
+            cur = NodeRef {
+                depth: d as u8 + 1,
+                slot: pos as u8,
+                block: self.store.kids(cur),
+            };
+            d += 1;
+            path[d] = cur;
+            just_created = created;
+        }
+        let v = self.store.value(cur) + delta;
+        let v = if v < cmin {
+            cmin
+        } else if v > cmax {
+            cmax
+        } else {
+            v
+        };
+        self.store.set_value(cur, v);
+        TREE_DEPTH as usize + 1
+    }
+}
+
+/// Depth of the deepest node containing both keys (16 when equal, 0 when only the root does).
+#[inline]
+fn common_depth(a: Key, b: Key) -> usize {
+    let diff = (a.x() ^ b.x()) | (a.y() ^ b.y()) | (a.z() ^ b.z());
+    diff.leading_zeros() as usize
+}
