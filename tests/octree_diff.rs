@@ -399,3 +399,72 @@ fn keys_match_octomap_on_boundaries_and_random_coordinates() {
         }
     }
 }
+
+/// Change detection records the same keys as OctoMap's `changed_keys` after random updates.
+#[test]
+fn change_detection_matches_octomap() {
+    let Some(refprog) = common::reference_program() else { return };
+    let dir = common::scratch("octree_diff_changes");
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 60,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
+    runner
+        .run(&case_strategy(), |case| {
+            let mut tree = OcTree::new(case.res).unwrap();
+            if let Some([h, m, lo, hi, t]) = case.params {
+                tree.set_params(OccupancyParams::from_probabilities(h, m, lo, hi, t).unwrap());
+            }
+            tree.enable_change_detection(true);
+            let mut script = String::from("changes_on\n");
+            // the same operations as `script_for`, without the trailing writes
+            let full = script_for(&case, &dir);
+            let ops_part: Vec<&str> = full
+                .lines()
+                .filter(|l| !l.starts_with("write_"))
+                .collect();
+            // `tree`/`params` must come first: insert changes_on after them
+            let (head, tail): (Vec<&str>, Vec<&str>) = ops_part
+                .iter()
+                .partition(|l| l.starts_with("tree ") || l.starts_with("params "));
+            let mut s = head.join("\n");
+            s.push('\n');
+            s.push_str(&script);
+            s.push_str(&tail.join("\n"));
+            s.push_str("\nprint_changes\n");
+            script = s;
+            for op in &case.ops {
+                match *op {
+                    Op::Update { key, hit, repeat, lazy } => {
+                        for _ in 0..repeat {
+                            tree.update_node(key, if hit { Update::Hit } else { Update::Miss }, lazy);
+                        }
+                    }
+                    Op::Delta { key, bits, lazy } => {
+                        tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
+                    }
+                    Op::Set { key, bits, lazy } => {
+                        tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
+                    }
+                    Op::Prune => tree.prune(),
+                    Op::Expand => tree.expand(),
+                    Op::MaxLikelihood => tree.to_max_likelihood(),
+                    Op::Inner => tree.update_inner_occupancy(),
+                }
+            }
+            let mine: String = tree
+                .changed_keys()
+                .map(|(k, new)| format!("change {} {} {} {}\n", k.x(), k.y(), k.z(), new as u8))
+                .collect();
+            let sp = dir.join("changes.txt");
+            std::fs::write(&sp, &script).unwrap();
+            let out = Command::new(&refprog).arg("script").arg(&sp).output().unwrap();
+            prop_assert!(out.status.success());
+            let theirs = String::from_utf8(out.stdout).unwrap();
+            prop_assert_eq!(tree.num_changes_detected(), theirs.lines().count());
+            prop_assert_eq!(mine, theirs);
+            Ok(())
+        })
+        .unwrap();
+}

@@ -56,6 +56,8 @@ pub struct OcTree {
     params: OccupancyParams,
     pub(crate) store: NodeStore,
     size: usize,
+    /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new".
+    changes: Option<std::collections::BTreeMap<Key, bool>>,
 }
 
 impl std::fmt::Debug for OcTree {
@@ -81,6 +83,7 @@ impl OcTree {
             params,
             store: NodeStore::new(),
             size: 0,
+            changes: None,
         })
     }
 
@@ -229,8 +232,10 @@ impl OcTree {
             };
             just_created = created;
         }
-        let v = f(self.store.value(cur));
+        let old = self.store.value(cur);
+        let v = f(old);
         self.store.set_value(cur, v);
+        self.record_change(key, old, v, just_created);
         if !lazy {
             for n in path.iter().rev() {
                 if self.store.prune_node(*n) {
@@ -242,6 +247,63 @@ impl OcTree {
             }
         }
         v
+    }
+
+    /// Enable or disable change detection (OctoMap's `enableChangeDetection`). While enabled,
+    /// every voxel that is created or whose occupancy flips is recorded; disabling keeps the
+    /// record until [`OcTree::reset_change_detection`].
+    pub fn enable_change_detection(&mut self, enable: bool) {
+        if enable && self.changes.is_none() {
+            self.changes = Some(Default::default());
+        } else if !enable {
+            self.changes = None;
+        }
+    }
+
+    /// Whether change detection is on.
+    pub fn is_change_detection_enabled(&self) -> bool {
+        self.changes.is_some()
+    }
+
+    /// Forget the changes recorded so far (OctoMap's `resetChangeDetection`).
+    pub fn reset_change_detection(&mut self) {
+        if let Some(c) = self.changes.as_mut() {
+            c.clear();
+        }
+    }
+
+    /// Voxels changed since the last reset, in key order: `(key, true)` for a voxel that did
+    /// not exist before, `(key, false)` for one whose occupancy flipped. A voxel that flipped
+    /// back is dropped again, as in OctoMap.
+    pub fn changed_keys(&self) -> impl Iterator<Item = (Key, bool)> + '_ {
+        self.changes.iter().flat_map(|c| c.iter().map(|(k, v)| (*k, *v)))
+    }
+
+    /// Number of recorded changes (OctoMap's `numChangesDetected`).
+    pub fn num_changes_detected(&self) -> usize {
+        self.changes.as_ref().map_or(0, |c| c.len())
+    }
+
+    /// Record a voxel update for change detection, as `updateNodeRecurs` does at the leaf.
+    #[inline]
+    pub(crate) fn record_change(&mut self, key: Key, old: f32, new: f32, created: bool) {
+        let Some(changes) = self.changes.as_mut() else {
+            return;
+        };
+        let p = &self.params;
+        if created {
+            changes.insert(key, true);
+        } else if p.is_occupied(old) != p.is_occupied(new) {
+            match changes.get(&key) {
+                None => {
+                    changes.insert(key, false);
+                }
+                Some(false) => {
+                    changes.remove(&key);
+                }
+                Some(true) => {}
+            }
+        }
     }
 
     /// The deepest existing node on the way to `key` at `depth` (OctoMap's `search`): the node

@@ -137,7 +137,8 @@ impl OcTree {
             path[d] = cur;
             just_created = created;
         }
-        let v = self.store.value(cur) + delta;
+        let old = self.store.value(cur);
+        let v = old + delta;
         let v = if v < cmin {
             cmin
         } else if v > cmax {
@@ -146,6 +147,7 @@ impl OcTree {
             v
         };
         self.store.set_value(cur, v);
+        self.record_change(key, old, v, just_created);
         TREE_DEPTH as usize + 1
     }
 }

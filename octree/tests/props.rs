@@ -165,6 +165,8 @@ proptest! {
     fn batch_update_equals_single_updates(batches in batch_ops(), sort in any::<bool>()) {
         let mut single = OcTree::new(0.1).unwrap();
         let mut batch = OcTree::new(0.1).unwrap();
+        single.enable_change_detection(true);
+        batch.enable_change_detection(true);
         for (mut ks, hit, lazy) in batches {
             if sort {
                 ks.sort_by_key(|k| k.morton());
@@ -180,5 +182,8 @@ proptest! {
         write_ot(&single, &mut a).unwrap();
         write_ot(&batch, &mut b).unwrap();
         prop_assert!(a == b, "trees differ");
+        let ca: Vec<_> = single.changed_keys().collect();
+        let cb: Vec<_> = batch.changed_keys().collect();
+        prop_assert_eq!(ca, cb);
     }
 }

@@ -25,12 +25,17 @@
 //                                     simple); "inner" calls updateInnerOccupancy at the end;
 //                                     prints "frame I POINTS SECONDS" per frame
 //   print_size                        prints "size N"
+//   changes_on | changes_reset        enableChangeDetection(true) / resetChangeDetection()
+//   print_changes                     prints "change KX KY KZ NEW" per changed key, sorted
 //
 // Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
 // f32 origin[3], u32 n, n x f32[3].
 
 #include <octomap/octomap.h>
 #include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <tuple>
 
 #include <chrono>
 #include <cstdint>
@@ -211,6 +216,17 @@ static int run_script(std::istream& in) {
         auto t1 = std::chrono::steady_clock::now();
         std::printf("inner %.9f\n", std::chrono::duration<double>(t1 - t0).count());
       }
+    } else if (cmd == "changes_on") {
+      tree->enableChangeDetection(true);
+    } else if (cmd == "changes_reset") {
+      tree->resetChangeDetection();
+    } else if (cmd == "print_changes") {
+      std::vector<std::tuple<unsigned, unsigned, unsigned, int>> v;
+      for (KeyBoolMap::const_iterator it = tree->changedKeysBegin(); it != tree->changedKeysEnd(); ++it)
+        v.emplace_back(it->first[0], it->first[1], it->first[2], it->second ? 1 : 0);
+      std::sort(v.begin(), v.end());
+      for (auto& t : v)
+        std::printf("change %u %u %u %d\n", std::get<0>(t), std::get<1>(t), std::get<2>(t), std::get<3>(t));
     } else if (cmd == "print_size") {
       std::printf("size %zu\n", tree->size());
     } else {
