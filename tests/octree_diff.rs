@@ -16,6 +16,7 @@ enum Op {
     Update { key: Key, hit: bool, repeat: u8, lazy: bool },
     Delta { key: Key, bits: u32, lazy: bool },
     Set { key: Key, bits: u32, lazy: bool },
+    Delete { key: Key },
     Prune,
     Expand,
     MaxLikelihood,
@@ -57,6 +58,7 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
             .prop_map(|(key, d, lazy)| Op::Delta { key, bits: d.to_bits(), lazy }),
         3 => (k(), -4.0f32..4.0, prop::bool::weighted(0.2))
             .prop_map(|(key, v, lazy)| Op::Set { key, bits: v.to_bits(), lazy }),
+        2 => k().prop_map(|key| Op::Delete { key }),
         1 => Just(Op::Prune),
         1 => Just(Op::Expand),
         1 => Just(Op::MaxLikelihood),
@@ -85,10 +87,14 @@ fn case_strategy() -> impl Strategy<Value = Case> {
         any::<[u16; 3]>().prop_map(Key),
     ];
     (res, params, base).prop_flat_map(|(res, params, base)| {
-        prop::collection::vec(op_strategy(base), 1..160).prop_map(move |ops| Case {
-            res,
-            params,
-            ops,
+        prop::collection::vec(op_strategy(base), 1..160).prop_map(move |mut ops| {
+            // Deleting a tree's last voxel leaves a childless root; the next update then
+            // expands it into coarse leaves (OctoMap does the same), which a later `expand()`
+            // would blow up into billions of nodes. Keep the two apart.
+            if ops.iter().any(|o| matches!(o, Op::Delete { .. })) {
+                ops.retain(|o| !matches!(o, Op::Expand));
+            }
+            Case { res, params, ops }
         })
     })
 }
@@ -112,6 +118,9 @@ fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
             }
             Op::Set { key, bits, lazy } => {
                 tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
+            }
+            Op::Delete { key } => {
+                tree.delete_node(key, 16);
             }
             Op::Prune => tree.prune(),
             Op::Expand => tree.expand(),
@@ -160,6 +169,9 @@ fn script_for(case: &Case, dir: &Path) -> String {
                 lazy as u8
             )
             .unwrap(),
+            Op::Delete { key } => {
+                writeln!(s, "delete {} {} {} 16", key.x(), key.y(), key.z()).unwrap()
+            }
             Op::Prune => s.push_str("prune\n"),
             Op::Expand => s.push_str("expand\n"),
             Op::MaxLikelihood => s.push_str("ml\n"),
@@ -173,7 +185,16 @@ fn script_for(case: &Case, dir: &Path) -> String {
     s
 }
 
-fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+/// OctoMap 1.9.7 aborts on this assertion when a node emptied by `deleteNode` is later
+/// destroyed (its empty child array is never freed); such cases have no reference answer.
+const OCTOMAP_DELETE_ABORT: &str = "Assertion `children == NULL' failed";
+
+/// Run a script with the reference program; `None` when OctoMap hit its known delete abort.
+fn try_reference(
+    refprog: &Path,
+    script: &str,
+    dir: &Path,
+) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
     let sp = dir.join("ops.txt");
     std::fs::write(&sp, script).unwrap();
     let out = Command::new(refprog)
@@ -181,13 +202,21 @@ fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>,
         .arg(&sp)
         .output()
         .expect("run reference program");
+    if !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(OCTOMAP_DELETE_ABORT)
+    {
+        return None;
+    }
     assert!(
         out.status.success(),
         "reference program failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     let rd = |n: &str| std::fs::read(dir.join(n)).unwrap();
-    (rd("ref.ot"), rd("ref_const.bt"), rd("ref.bt"))
+    Some((rd("ref.ot"), rd("ref_const.bt"), rd("ref.bt")))
+}
+
+fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    try_reference(refprog, script, dir).expect("the reference program aborted")
 }
 
 fn first_diff(a: &[u8], b: &[u8]) -> String {
@@ -199,6 +228,8 @@ fn first_diff(a: &[u8], b: &[u8]) -> String {
 fn random_update_sequences_match_octomap() {
     let Some(refprog) = common::reference_program() else { return };
     let dir = common::scratch("octree_diff_random");
+    let compared = std::cell::Cell::new(0usize);
+    let aborted = std::cell::Cell::new(0usize);
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
         cases: 160,
         failure_persistence: None,
@@ -207,13 +238,25 @@ fn random_update_sequences_match_octomap() {
     runner
         .run(&case_strategy(), |case| {
             let (ot, btc, bt) = run_rust(&case);
-            let (rot, rbtc, rbt) = run_reference(&refprog, &script_for(&case, &dir), &dir);
+            let reference = try_reference(&refprog, &script_for(&case, &dir), &dir);
+            let Some((rot, rbtc, rbt)) = reference else {
+                aborted.set(aborted.get() + 1);
+                return Ok(());
+            };
+            compared.set(compared.get() + 1);
             prop_assert!(ot == rot, ".ot differs: {}", first_diff(&ot, &rot));
             prop_assert!(btc == rbtc, "const .bt differs: {}", first_diff(&btc, &rbtc));
             prop_assert!(bt == rbt, ".bt differs: {}", first_diff(&bt, &rbt));
             Ok(())
         })
         .unwrap();
+    // OctoMap's delete abort must stay rare, or this test would compare too little
+    assert!(
+        compared.get() >= 4 * aborted.get() && compared.get() >= 100,
+        "compared {} cases, reference aborted on {}",
+        compared.get(),
+        aborted.get()
+    );
 }
 
 /// A long deterministic sequence that saturates both clamps over a dense block, so pruning
@@ -447,6 +490,9 @@ fn change_detection_matches_octomap() {
                     Op::Set { key, bits, lazy } => {
                         tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
                     }
+                    Op::Delete { key } => {
+                        tree.delete_node(key, 16);
+                    }
                     Op::Prune => tree.prune(),
                     Op::Expand => tree.expand(),
                     Op::MaxLikelihood => tree.to_max_likelihood(),
@@ -460,6 +506,11 @@ fn change_detection_matches_octomap() {
             let sp = dir.join("changes.txt");
             std::fs::write(&sp, &script).unwrap();
             let out = Command::new(&refprog).arg("script").arg(&sp).output().unwrap();
+            if !out.status.success()
+                && String::from_utf8_lossy(&out.stderr).contains(OCTOMAP_DELETE_ABORT)
+            {
+                return Ok(()); // no reference answer (see OCTOMAP_DELETE_ABORT)
+            }
             prop_assert!(out.status.success());
             let theirs = String::from_utf8(out.stdout).unwrap();
             prop_assert_eq!(tree.num_changes_detected(), theirs.lines().count());

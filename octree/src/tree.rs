@@ -249,6 +249,53 @@ impl OcTree {
         v
     }
 
+    /// Delete the node at `depth` (16 = voxel) holding `key`, with its subtree (OctoMap's
+    /// `deleteNode`): pruned nodes on the way are expanded first, parents left without
+    /// children are deleted too (never the root), and the others get the max of their
+    /// remaining children. Returns whether anything was deleted.
+    ///
+    /// Unlike OctoMap 1.9.7, `size()` also drops by the deleted subtree's nodes (OctoMap only
+    /// counts one node per deleted child, so its size goes stale).
+    pub fn delete_node(&mut self, key: Key, depth: u8) -> bool {
+        let depth = if depth == 0 || depth > TREE_DEPTH { TREE_DEPTH } else { depth };
+        if self.is_empty() {
+            return false;
+        }
+        let key = if depth < TREE_DEPTH { key.at_depth(depth) } else { key };
+        let mut path = [NodeRef::ROOT; TREE_DEPTH as usize];
+        let mut cur = NodeRef::ROOT;
+        for d in 0..depth {
+            path[d as usize] = cur;
+            let pos = key.child_index(d);
+            if self.store.child(cur, pos).is_none() {
+                if !self.store.has_children(cur) && d > 0 {
+                    self.store.expand_node(cur);
+                    self.size += 8;
+                } else {
+                    return false;
+                }
+            }
+            cur = self.store.child(cur, pos).expect("child exists after expansion");
+        }
+        // delete upwards while parents become childless
+        let mut d = depth as usize;
+        loop {
+            let parent = path[d - 1];
+            let pos = key.child_index(d as u8 - 1);
+            self.size -= self.store.delete_child(parent, pos);
+            if self.store.has_children(parent) {
+                let m = self.store.max_child(parent);
+                self.store.set_value(parent, m);
+                break;
+            }
+            if d == 1 {
+                break; // the root stays, childless
+            }
+            d -= 1;
+        }
+        true
+    }
+
     /// Enable or disable change detection (OctoMap's `enableChangeDetection`). While enabled,
     /// every voxel that is created or whose occupancy flips is recorded; disabling keeps the
     /// record until [`OcTree::reset_change_detection`].

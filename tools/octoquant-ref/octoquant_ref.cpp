@@ -15,6 +15,7 @@
 //   hit|miss KX KY KZ LAZY            updateNode(key, bool, lazy)
 //   update KX KY KZ HEXBITS LAZY      updateNode(key, float log-odds delta given as f32 bits)
 //   set KX KY KZ HEXBITS LAZY         setNodeValue(key, float, lazy)
+//   delete KX KY KZ DEPTH             deleteNode(key, depth)
 //   prune | expand | ml | inner       prune(), expand(), toMaxLikelihood(), updateInnerOccupancy()
 //   write_ot PATH                     tree.write(PATH)
 //   write_bt PATH                     tree.writeBinary(PATH)  (ML + prune, mutates)
@@ -154,6 +155,11 @@ static int run_script(std::istream& in) {
         tree->updateNode(k, v, lazy);
       else
         tree->setNodeValue(k, v, lazy);
+    } else if (cmd == "delete") {
+      OcTreeKey k = key_from(ls);
+      unsigned depth = 0;
+      ls >> depth;
+      tree->deleteNode(k, depth);
     } else if (cmd == "prune") {
       tree->prune();
     } else if (cmd == "expand") {

@@ -133,16 +133,5 @@ impl<R: Read> Stream<R> {
         let buf = self.inner.fill_buf().map_err(|e| OctreeError::Io { offset, source: e })?;
         Ok(buf[..buf.len().min(n)].to_vec())
     }
-
-    /// `true` when no byte remains.
-    pub fn at_end(&mut self) -> Result<bool, OctreeError> {
-        let offset = self.offset;
-        let buf = self
-            .inner
-            .fill_buf()
-            .map_err(|e| OctreeError::Io { offset, source: e })?;
-        Ok(buf.is_empty())
-    }
 }
-
 use std::io::BufRead;
