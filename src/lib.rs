@@ -5,10 +5,17 @@
 //! file, and the `octoquant` command-line tool.
 #![deny(missing_docs)]
 
+pub mod export;
+pub mod formats;
 pub mod frame;
 pub mod output;
+pub mod pipeline;
+pub mod query;
+pub mod render;
+pub mod scene;
 pub mod treefile;
 
 pub use frame::Frame;
 pub use octoquant_octree as octree;
 pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};
+pub use parry3d;

@@ -1,5 +1,14 @@
 //! Integration tests: one binary (see Cargo.toml `autotests = false`).
 
 mod common;
+mod formats;
+mod map_diff;
+mod mcap;
 mod octree_diff;
+mod query;
+mod raycast_diff;
+mod reduce;
+mod render;
+mod scene;
+mod segment;
 mod tree_files;

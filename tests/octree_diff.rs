@@ -13,10 +13,25 @@ use std::process::Command;
 /// One operation applied to both trees.
 #[derive(Debug, Clone)]
 enum Op {
-    Update { key: Key, hit: bool, repeat: u8, lazy: bool },
-    Delta { key: Key, bits: u32, lazy: bool },
-    Set { key: Key, bits: u32, lazy: bool },
-    Delete { key: Key },
+    Update {
+        key: Key,
+        hit: bool,
+        repeat: u8,
+        lazy: bool,
+    },
+    Delta {
+        key: Key,
+        bits: u32,
+        lazy: bool,
+    },
+    Set {
+        key: Key,
+        bits: u32,
+        lazy: bool,
+    },
+    Delete {
+        key: Key,
+    },
     Prune,
     Expand,
     MaxLikelihood,
@@ -78,7 +93,13 @@ fn case_strategy() -> impl Strategy<Value = Case> {
     ];
     let params = prop::option::weighted(
         0.3,
-        (0.51f64..0.95, 0.05f64..0.49, 0.01f64..0.4, 0.6f64..0.99, 0.3f64..0.7),
+        (
+            0.51f64..0.95,
+            0.05f64..0.49,
+            0.01f64..0.4,
+            0.6f64..0.99,
+            0.3f64..0.7,
+        ),
     )
     .prop_map(|p| p.map(|(h, m, lo, hi, t)| [h, m, lo, hi, t]));
     let base = prop_oneof![
@@ -107,7 +128,12 @@ fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
     }
     for op in &case.ops {
         match *op {
-            Op::Update { key, hit, repeat, lazy } => {
+            Op::Update {
+                key,
+                hit,
+                repeat,
+                lazy,
+            } => {
                 let u = if hit { Update::Hit } else { Update::Miss };
                 for _ in 0..repeat {
                     tree.update_node(key, u, lazy);
@@ -117,7 +143,8 @@ fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
                 tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
             }
             Op::Set { key, bits, lazy } => {
-                tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
+                tree.set_node_value(key, f32::from_bits(bits), lazy)
+                    .unwrap();
             }
             Op::Delete { key } => {
                 tree.delete_node(key, 16);
@@ -145,7 +172,12 @@ fn script_for(case: &Case, dir: &Path) -> String {
     }
     for op in &case.ops {
         match *op {
-            Op::Update { key, hit, repeat, lazy } => {
+            Op::Update {
+                key,
+                hit,
+                repeat,
+                lazy,
+            } => {
                 for _ in 0..repeat {
                     let c = if hit { "hit" } else { "miss" };
                     writeln!(s, "{c} {} {} {} {}", key.x(), key.y(), key.z(), lazy as u8).unwrap();
@@ -190,11 +222,7 @@ fn script_for(case: &Case, dir: &Path) -> String {
 const OCTOMAP_DELETE_ABORT: &str = "Assertion `children == NULL' failed";
 
 /// Run a script with the reference program; `None` when OctoMap hit its known delete abort.
-fn try_reference(
-    refprog: &Path,
-    script: &str,
-    dir: &Path,
-) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
+fn try_reference(refprog: &Path, script: &str, dir: &Path) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
     let sp = dir.join("ops.txt");
     std::fs::write(&sp, script).unwrap();
     let out = Command::new(refprog)
@@ -220,13 +248,23 @@ fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>,
 }
 
 fn first_diff(a: &[u8], b: &[u8]) -> String {
-    let i = a.iter().zip(b).position(|(x, y)| x != y).unwrap_or(a.len().min(b.len()));
-    format!("lengths {} vs {}, first difference at byte {i}", a.len(), b.len())
+    let i = a
+        .iter()
+        .zip(b)
+        .position(|(x, y)| x != y)
+        .unwrap_or(a.len().min(b.len()));
+    format!(
+        "lengths {} vs {}, first difference at byte {i}",
+        a.len(),
+        b.len()
+    )
 }
 
 #[test]
 fn random_update_sequences_match_octomap() {
-    let Some(refprog) = common::reference_program() else { return };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
     let dir = common::scratch("octree_diff_random");
     let compared = std::cell::Cell::new(0usize);
     let aborted = std::cell::Cell::new(0usize);
@@ -245,7 +283,11 @@ fn random_update_sequences_match_octomap() {
             };
             compared.set(compared.get() + 1);
             prop_assert!(ot == rot, ".ot differs: {}", first_diff(&ot, &rot));
-            prop_assert!(btc == rbtc, "const .bt differs: {}", first_diff(&btc, &rbtc));
+            prop_assert!(
+                btc == rbtc,
+                "const .bt differs: {}",
+                first_diff(&btc, &rbtc)
+            );
             prop_assert!(bt == rbt, ".bt differs: {}", first_diff(&bt, &rbt));
             Ok(())
         })
@@ -263,7 +305,9 @@ fn random_update_sequences_match_octomap() {
 /// happens at several depths, with lazy phases and the standalone passes in between.
 #[test]
 fn dense_saturating_block_matches_octomap() {
-    let Some(refprog) = common::reference_program() else { return };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
     let dir = common::scratch("octree_diff_dense");
     let mut ops = Vec::new();
     let base = 32760u16;
@@ -273,7 +317,12 @@ fn dense_saturating_block_matches_octomap() {
                 for z in 0..4u16 {
                     let key = Key::new(base + x, base + y, base + z + 4 * (round % 2));
                     let hit = (x / 4 + y / 4 + round) % 3 != 0;
-                    ops.push(Op::Update { key, hit, repeat: 1, lazy: round == 3 });
+                    ops.push(Op::Update {
+                        key,
+                        hit,
+                        repeat: 1,
+                        lazy: round == 3,
+                    });
                 }
             }
         }
@@ -284,13 +333,25 @@ fn dense_saturating_block_matches_octomap() {
             _ => {}
         }
     }
-    let case = Case { res: 0.1, params: None, ops };
+    let case = Case {
+        res: 0.1,
+        params: None,
+        ops,
+    };
     let (ot, btc, bt) = run_rust(&case);
     let (rot, rbtc, rbt) = run_reference(&refprog, &script_for(&case, &dir), &dir);
     assert!(ot == rot, ".ot differs: {}", first_diff(&ot, &rot));
-    assert!(btc == rbtc, "const .bt differs: {}", first_diff(&btc, &rbtc));
+    assert!(
+        btc == rbtc,
+        "const .bt differs: {}",
+        first_diff(&btc, &rbtc)
+    );
     assert!(bt == rbt, ".bt differs: {}", first_diff(&bt, &rbt));
-    assert!(ot.len() > 2_000, "the case should build a sizeable tree, got {} bytes", ot.len());
+    assert!(
+        ot.len() > 2_000,
+        "the case should build a sizeable tree, got {} bytes",
+        ot.len()
+    );
 }
 
 fn geb079_paths() -> Vec<PathBuf> {
@@ -325,7 +386,12 @@ fn geb079_reads_and_rewrites_identically() {
         octoquant::octree::validate::assert_well_formed(&tree, true);
         let mut out = Vec::new();
         write_bt(&mut tree, &mut out).unwrap();
-        assert!(out == bytes, "{}: {}", p.display(), first_diff(&out, &bytes));
+        assert!(
+            out == bytes,
+            "{}: {}",
+            p.display(),
+            first_diff(&out, &bytes)
+        );
         let per_node = tree.memory_usage() as f64 / tree.size() as f64;
         assert!(per_node <= 10.0, "{per_node} bytes per node on geb079");
     }
@@ -333,8 +399,12 @@ fn geb079_reads_and_rewrites_identically() {
 
 #[test]
 fn geb079_ot_matches_octomap_conversion() {
-    let Some(refprog) = common::reference_program() else { return };
-    let Some(p) = geb079_paths().into_iter().next() else { return };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let Some(p) = geb079_paths().into_iter().next() else {
+        return;
+    };
     let dir = common::scratch("octree_diff_geb_ot");
     let script = format!(
         "read_bt {}\nwrite_ot {}\n",
@@ -343,7 +413,11 @@ fn geb079_ot_matches_octomap_conversion() {
     );
     let sp = dir.join("s.txt");
     std::fs::write(&sp, script).unwrap();
-    let st = Command::new(&refprog).arg("script").arg(&sp).output().unwrap();
+    let st = Command::new(&refprog)
+        .arg("script")
+        .arg(&sp)
+        .output()
+        .unwrap();
     assert!(st.status.success());
     let reference = std::fs::read(dir.join("ref.ot")).unwrap();
     let tree = read_bt(&std::fs::read(&p).unwrap()[..]).unwrap();
@@ -359,7 +433,9 @@ fn geb079_ot_matches_octomap_conversion() {
 
 #[test]
 fn expected_reference_files_rewrite_identically() {
-    let Some(dir) = common::data_file("octomap_reference/expected") else { return };
+    let Some(dir) = common::data_file("octomap_reference/expected") else {
+        return;
+    };
     let mut seen = 0;
     for e in std::fs::read_dir(&dir).unwrap() {
         let p = e.unwrap().path();
@@ -375,15 +451,25 @@ fn expected_reference_files_rewrite_identically() {
         } else {
             write_ot(&tree, &mut out).unwrap();
         }
-        assert!(out == bytes, "{}: {}", p.display(), first_diff(&out, &bytes));
+        assert!(
+            out == bytes,
+            "{}: {}",
+            p.display(),
+            first_diff(&out, &bytes)
+        );
         seen += 1;
     }
-    assert!(seen >= 18, "expected at least 18 .bt/.ot files, found {seen}");
+    assert!(
+        seen >= 18,
+        "expected at least 18 .bt/.ot files, found {seen}"
+    );
 }
 
 #[test]
 fn keys_match_octomap_on_boundaries_and_random_coordinates() {
-    let Some(refprog) = common::reference_program() else { return };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
     let dir = common::scratch("octree_diff_keys");
     let mut rng = 0x9e37_79b9_7f4a_7c15u64;
     let mut next = || {
@@ -437,7 +523,11 @@ fn keys_match_octomap_on_boundaries_and_random_coordinates() {
                 ok.then_some(checked),
                 "checked key of {c:e} at res {res}"
             );
-            assert_eq!(conv.coord_to_key_unchecked(*c), unchecked, "unchecked key of {c:e}");
+            assert_eq!(
+                conv.coord_to_key_unchecked(*c),
+                unchecked,
+                "unchecked key of {c:e}"
+            );
             assert_eq!(conv.key_to_coord(unchecked).to_bits(), centre.to_bits());
         }
     }
@@ -446,7 +536,9 @@ fn keys_match_octomap_on_boundaries_and_random_coordinates() {
 /// Change detection records the same keys as OctoMap's `changed_keys` after random updates.
 #[test]
 fn change_detection_matches_octomap() {
-    let Some(refprog) = common::reference_program() else { return };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
     let dir = common::scratch("octree_diff_changes");
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
         cases: 60,
@@ -463,10 +555,7 @@ fn change_detection_matches_octomap() {
             let mut script = String::from("changes_on\n");
             // the same operations as `script_for`, without the trailing writes
             let full = script_for(&case, &dir);
-            let ops_part: Vec<&str> = full
-                .lines()
-                .filter(|l| !l.starts_with("write_"))
-                .collect();
+            let ops_part: Vec<&str> = full.lines().filter(|l| !l.starts_with("write_")).collect();
             // `tree`/`params` must come first: insert changes_on after them
             let (head, tail): (Vec<&str>, Vec<&str>) = ops_part
                 .iter()
@@ -479,16 +568,26 @@ fn change_detection_matches_octomap() {
             script = s;
             for op in &case.ops {
                 match *op {
-                    Op::Update { key, hit, repeat, lazy } => {
+                    Op::Update {
+                        key,
+                        hit,
+                        repeat,
+                        lazy,
+                    } => {
                         for _ in 0..repeat {
-                            tree.update_node(key, if hit { Update::Hit } else { Update::Miss }, lazy);
+                            tree.update_node(
+                                key,
+                                if hit { Update::Hit } else { Update::Miss },
+                                lazy,
+                            );
                         }
                     }
                     Op::Delta { key, bits, lazy } => {
                         tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
                     }
                     Op::Set { key, bits, lazy } => {
-                        tree.set_node_value(key, f32::from_bits(bits), lazy).unwrap();
+                        tree.set_node_value(key, f32::from_bits(bits), lazy)
+                            .unwrap();
                     }
                     Op::Delete { key } => {
                         tree.delete_node(key, 16);
@@ -505,7 +604,11 @@ fn change_detection_matches_octomap() {
                 .collect();
             let sp = dir.join("changes.txt");
             std::fs::write(&sp, &script).unwrap();
-            let out = Command::new(&refprog).arg("script").arg(&sp).output().unwrap();
+            let out = Command::new(&refprog)
+                .arg("script")
+                .arg(&sp)
+                .output()
+                .unwrap();
             if !out.status.success()
                 && String::from_utf8_lossy(&out.stderr).contains(OCTOMAP_DELETE_ABORT)
             {

@@ -14,7 +14,15 @@ fn small_tree() -> OcTree {
     let mut t = OcTree::new(0.1).unwrap();
     for i in 0..300u16 {
         let k = octoquant::Key::new(32760 + i % 13, 32768 + i % 7, 32768 + i % 5);
-        t.update_node(k, if i % 3 == 0 { Update::Miss } else { Update::Hit }, false);
+        t.update_node(
+            k,
+            if i % 3 == 0 {
+                Update::Miss
+            } else {
+                Update::Hit
+            },
+            false,
+        );
     }
     t
 }
@@ -32,7 +40,10 @@ fn every_truncation_of_a_bt_is_an_error_with_an_offset() {
                 assert!(offset <= cut as u64, "offset {offset} beyond cut {cut}")
             }
             Err(e) => panic!("cut at {cut}: unexpected error kind {e}"),
-            Ok(t) => panic!("cut at {cut}: accepted a truncated file ({} nodes)", t.size()),
+            Ok(t) => panic!(
+                "cut at {cut}: accepted a truncated file ({} nodes)",
+                t.size()
+            ),
         }
     }
 }
@@ -88,12 +99,30 @@ fn hostile_headers_are_rejected_without_allocation() {
             b"# Octomap OcTree binary file\nid OcTree\nsize 4000000000000\nres 0.1\ndata\n\x00\x00"
                 .to_vec(),
         ),
-        ("no data line", b"# Octomap OcTree binary file\nid OcTree\nsize 1\nres 0.1\n".to_vec()),
-        ("no res", b"# Octomap OcTree binary file\nid OcTree\nsize 0\ndata\n".to_vec()),
-        ("negative res", b"# Octomap OcTree binary file\nid OcTree\nsize 0\nres -1\ndata\n".to_vec()),
-        ("nan res", b"# Octomap OcTree binary file\nid OcTree\nsize 0\nres nan\ndata\n".to_vec()),
-        ("bad size", b"# Octomap OcTree binary file\nid OcTree\nsize -5\nres 0.1\ndata\n".to_vec()),
-        ("no id", b"# Octomap OcTree binary file\nsize 0\nres 0.1\ndata\n".to_vec()),
+        (
+            "no data line",
+            b"# Octomap OcTree binary file\nid OcTree\nsize 1\nres 0.1\n".to_vec(),
+        ),
+        (
+            "no res",
+            b"# Octomap OcTree binary file\nid OcTree\nsize 0\ndata\n".to_vec(),
+        ),
+        (
+            "negative res",
+            b"# Octomap OcTree binary file\nid OcTree\nsize 0\nres -1\ndata\n".to_vec(),
+        ),
+        (
+            "nan res",
+            b"# Octomap OcTree binary file\nid OcTree\nsize 0\nres nan\ndata\n".to_vec(),
+        ),
+        (
+            "bad size",
+            b"# Octomap OcTree binary file\nid OcTree\nsize -5\nres 0.1\ndata\n".to_vec(),
+        ),
+        (
+            "no id",
+            b"# Octomap OcTree binary file\nsize 0\nres 0.1\ndata\n".to_vec(),
+        ),
         ("huge token", {
             let mut v = b"# Octomap OcTree binary file\n".to_vec();
             v.extend(std::iter::repeat_n(b'x', 100_000));
@@ -104,20 +133,28 @@ fn hostile_headers_are_rejected_without_allocation() {
     ];
     for (what, bytes) in cases {
         assert!(read_bt(&bytes[..]).is_err(), "{what} accepted by read_bt");
-        assert!(read_tree(&bytes[..]).is_err(), "{what} accepted by read_tree");
+        assert!(
+            read_tree(&bytes[..]).is_err(),
+            "{what} accepted by read_tree"
+        );
     }
     // endless inner nodes: every record says "all eight children are inner"
     let mut deep = b"# Octomap OcTree binary file\nid OcTree\nsize 99\nres 0.1\ndata\n".to_vec();
     deep.extend(std::iter::repeat_n(0xffu8, 4096));
     match read_bt(&deep[..]) {
-        Err(OctreeError::Format { message, .. }) => assert!(message.contains("deeper"), "{message}"),
+        Err(OctreeError::Format { message, .. }) => {
+            assert!(message.contains("deeper"), "{message}")
+        }
         other => panic!("deep garbage: {other:?}"),
     }
     let mut deep_ot = b"# Octomap OcTree file\nid OcTree\nsize 99\nres 0.1\ndata\n".to_vec();
     for _ in 0..40 {
         deep_ot.extend_from_slice(&[0, 0, 0, 0, 1]);
     }
-    assert!(matches!(read_ot(&deep_ot[..]), Err(OctreeError::Format { .. })));
+    assert!(matches!(
+        read_ot(&deep_ot[..]),
+        Err(OctreeError::Format { .. })
+    ));
     let mut nan_ot = b"# Octomap OcTree file\nid OcTree\nsize 1\nres 0.1\ndata\n".to_vec();
     nan_ot.extend_from_slice(&f32::NAN.to_le_bytes());
     nan_ot.push(0);
@@ -155,11 +192,18 @@ fn empty_tree_round_trips_like_octomaps_test_io() {
 fn file_errors_name_the_file_and_writes_are_atomic() {
     let dir = common::scratch("tree_files_atomic");
     let bad = dir.join("broken.bt");
-    std::fs::write(&bad, b"# Octomap OcTree binary file\nid OcTree\nsize 3\nres 0.1\ndata\n\x00").unwrap();
+    std::fs::write(
+        &bad,
+        b"# Octomap OcTree binary file\nid OcTree\nsize 3\nres 0.1\ndata\n\x00",
+    )
+    .unwrap();
     let e = read_tree_file(&bad).unwrap_err();
     let msg = e.to_string();
     assert!(msg.contains("broken.bt") && msg.contains("byte"), "{msg}");
-    assert!(matches!(read_tree_file(&dir.join("missing.bt")), Err(TreeFileError::Open { .. })));
+    assert!(matches!(
+        read_tree_file(&dir.join("missing.bt")),
+        Err(TreeFileError::Open { .. })
+    ));
     let mut t = small_tree();
     let target = dir.join("no_such_dir/out.bt");
     assert!(write_tree_file(&mut t, &target).is_err());
@@ -167,7 +211,11 @@ fn file_errors_name_the_file_and_writes_are_atomic() {
     assert!(write_tree_file(&mut t, &dir.join("x.png")).is_err());
     let good = dir.join("good.ot");
     write_tree_file(&mut t, &good).unwrap();
-    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2, "temp files left behind");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        2,
+        "temp files left behind"
+    );
     assert_eq!(read_tree_file(&good).unwrap().size(), t.size());
 }
 
@@ -177,9 +225,20 @@ fn octoquant_cmd() -> Command {
 
 #[test]
 fn cli_info_and_convert_on_geb079() {
-    let Some(geb) = common::data_file("octomap_reference/geb079.bt") else { return };
-    let out = octoquant_cmd().arg("info").arg(&geb).arg("--json").output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let Some(geb) = common::data_file("octomap_reference/geb079.bt") else {
+        return;
+    };
+    let out = octoquant_cmd()
+        .arg("info")
+        .arg(&geb)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json = String::from_utf8(out.stdout).unwrap();
     for want in [
         "\"nodes\":532566",
@@ -201,11 +260,27 @@ fn cli_info_and_convert_on_geb079() {
     let dir = common::scratch("cli_convert");
     let ot = dir.join("geb.ot");
     let bt = dir.join("geb.bt");
-    assert!(octoquant_cmd().arg("convert").arg(&geb).arg(&ot).status().unwrap().success());
-    assert!(octoquant_cmd().arg("convert").arg(&ot).arg(&bt).status().unwrap().success());
+    assert!(octoquant_cmd()
+        .arg("convert")
+        .arg(&geb)
+        .arg(&ot)
+        .status()
+        .unwrap()
+        .success());
+    assert!(octoquant_cmd()
+        .arg("convert")
+        .arg(&ot)
+        .arg(&bt)
+        .status()
+        .unwrap()
+        .success());
     assert_eq!(std::fs::read(&bt).unwrap(), std::fs::read(&geb).unwrap());
 
-    let bad = octoquant_cmd().arg("info").arg(dir.join("nope.bt")).output().unwrap();
+    let bad = octoquant_cmd()
+        .arg("info")
+        .arg(dir.join("nope.bt"))
+        .output()
+        .unwrap();
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("nope.bt"));
 }

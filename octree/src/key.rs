@@ -53,8 +53,9 @@ impl Key {
     pub fn child_index(&self, depth: u8) -> usize {
         debug_assert!(depth < TREE_DEPTH);
         let bit = 15 - depth as u32;
-        (((self.0[0] >> bit) & 1) | (((self.0[1] >> bit) & 1) << 1) | (((self.0[2] >> bit) & 1) << 2))
-            as usize
+        (((self.0[0] >> bit) & 1)
+            | (((self.0[1] >> bit) & 1) << 1)
+            | (((self.0[2] >> bit) & 1) << 2)) as usize
     }
 
     /// The key of the node at `depth` that contains this key, in OctoMap's convention: the
@@ -96,15 +97,31 @@ impl Key {
     #[inline]
     pub fn morton(&self) -> u64 {
         fn spread(v: u16) -> u64 {
+            // every bit of `v` moves to position 3i
             let mut x = v as u64;
-            x = (x | (x << 16)) & 0x0000_ffff_0000_ffff;
-            x = (x | (x << 8)) & 0x00ff_00ff_00ff_00ff;
-            x = (x | (x << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
-            x = (x | (x << 2)) & 0x3333_3333_3333_3333;
-            x = (x | (x << 1)) & 0x5555_5555_5555_5555;
+            x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+            x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+            x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+            x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+            x = (x | (x << 2)) & 0x1249_2492_4924_9249;
             x
         }
         spread(self.0[0]) | (spread(self.0[1]) << 1) | (spread(self.0[2]) << 2)
+    }
+
+    /// The key whose [`Key::morton`] code is `code` (bits above 47 are ignored).
+    #[inline]
+    pub fn from_morton(code: u64) -> Key {
+        fn compact(v: u64) -> u16 {
+            let mut x = v & 0x1249_2492_4924_9249;
+            x = (x | (x >> 2)) & 0x10c3_0c30_c30c_30c3;
+            x = (x | (x >> 4)) & 0x100f_00f0_0f00_f00f;
+            x = (x | (x >> 8)) & 0x001f_0000_ff00_00ff;
+            x = (x | (x >> 16)) & 0x001f_0000_0000_ffff;
+            x = (x | (x >> 32)) & 0xffff;
+            x as u16
+        }
+        Key([compact(code), compact(code >> 1), compact(code >> 2)])
     }
 }
 
@@ -170,7 +187,7 @@ impl KeyConverter {
     #[inline]
     fn scaled(&self, coordinate: f64) -> i32 {
         let f = (self.factor * coordinate).floor();
-        if f >= -2_147_483_648.0 && f < 2_147_483_648.0 {
+        if (-2_147_483_648.0..2_147_483_648.0).contains(&f) {
             f as i32
         } else {
             i32::MIN
@@ -208,8 +225,9 @@ impl KeyConverter {
 
     /// Key of a point, with an error naming the point when it lies outside the map.
     pub fn point_to_key_checked(&self, p: &Point3<f64>) -> Result<Key, OctreeError> {
-        self.point_to_key(p)
-            .ok_or(OctreeError::OutOfMap { point: [p.x, p.y, p.z] })
+        self.point_to_key(p).ok_or(OctreeError::OutOfMap {
+            point: [p.x, p.y, p.z],
+        })
     }
 
     /// Unchecked key of a point: each axis wraps like [`Self::coord_to_key_unchecked`].
@@ -319,6 +337,39 @@ mod tests {
         }
         assert_eq!(Key([1, 2, 3]).at_depth(0), Key([0; 3]));
         assert_eq!(Key([1, 2, 3]).at_depth(1), Key([16384; 3]));
+    }
+
+    #[test]
+    fn morton_interleaves_three_axes() {
+        let naive = |k: Key| -> u64 {
+            let mut c = 0u64;
+            for i in 0..16 {
+                for a in 0..3 {
+                    c |= (((k.0[a] >> i) & 1) as u64) << (3 * i + a);
+                }
+            }
+            c
+        };
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..10_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let k = Key::new(s as u16, (s >> 16) as u16, (s >> 32) as u16);
+            assert_eq!(k.morton(), naive(k), "{k:?}");
+        }
+        assert_ne!(Key::new(2, 0, 0).morton(), Key::new(0, 0, 1).morton());
+        for k in [
+            Key::new(0, 0, 0),
+            Key::new(65535, 1, 32768),
+            Key::new(12345, 54321, 7),
+        ] {
+            assert_eq!(Key::from_morton(k.morton()), k);
+        }
+        assert_eq!(Key::new(0xffff, 0xffff, 0xffff).morton(), (1u64 << 48) - 1);
+        // Morton order is the tree's depth-first child order
+        let a = Key::new(32767, 30000, 1);
+        assert!(a.morton() < Key::new(32768, 0, 0).morton());
     }
 
     #[test]

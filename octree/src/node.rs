@@ -64,7 +64,10 @@ impl<B: Copy> Arena<B> {
             i
         } else {
             let i = self.blocks.len();
-            assert!(i < NO_BLOCK as usize, "octree node arena exhausted (2^32 blocks)");
+            assert!(
+                i < NO_BLOCK as usize,
+                "octree node arena exhausted (2^32 blocks)"
+            );
             self.blocks.push(self.empty);
             i as u32
         }

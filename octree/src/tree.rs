@@ -212,19 +212,18 @@ impl OcTree {
             let pos = key.child_index(depth);
             let b = self.store.kids(cur);
             let exists = b != NO_BLOCK && present(self.store.child_vals(depth + 1, b)[pos]);
-            let created;
-            if exists {
-                created = false;
+            let created = if exists {
+                false
             } else if b == NO_BLOCK && !just_created {
                 // a pruned leaf: give it all eight children before descending
                 self.store.expand_node(cur);
                 self.size += 8;
-                created = false;
+                false
             } else {
                 self.store.create_child(cur, pos, 0.0);
                 self.size += 1;
-                created = true;
-            }
+                true
+            };
             cur = NodeRef {
                 depth: depth + 1,
                 slot: pos as u8,
@@ -257,11 +256,19 @@ impl OcTree {
     /// Unlike OctoMap 1.9.7, `size()` also drops by the deleted subtree's nodes (OctoMap only
     /// counts one node per deleted child, so its size goes stale).
     pub fn delete_node(&mut self, key: Key, depth: u8) -> bool {
-        let depth = if depth == 0 || depth > TREE_DEPTH { TREE_DEPTH } else { depth };
+        let depth = if depth == 0 || depth > TREE_DEPTH {
+            TREE_DEPTH
+        } else {
+            depth
+        };
         if self.is_empty() {
             return false;
         }
-        let key = if depth < TREE_DEPTH { key.at_depth(depth) } else { key };
+        let key = if depth < TREE_DEPTH {
+            key.at_depth(depth)
+        } else {
+            key
+        };
         let mut path = [NodeRef::ROOT; TREE_DEPTH as usize];
         let mut cur = NodeRef::ROOT;
         for d in 0..depth {
@@ -275,7 +282,10 @@ impl OcTree {
                     return false;
                 }
             }
-            cur = self.store.child(cur, pos).expect("child exists after expansion");
+            cur = self
+                .store
+                .child(cur, pos)
+                .expect("child exists after expansion");
         }
         // delete upwards while parents become childless
         let mut d = depth as usize;
@@ -323,7 +333,9 @@ impl OcTree {
     /// not exist before, `(key, false)` for one whose occupancy flipped. A voxel that flipped
     /// back is dropped again, as in OctoMap.
     pub fn changed_keys(&self) -> impl Iterator<Item = (Key, bool)> + '_ {
-        self.changes.iter().flat_map(|c| c.iter().map(|(k, v)| (*k, *v)))
+        self.changes
+            .iter()
+            .flat_map(|c| c.iter().map(|(k, v)| (*k, *v)))
     }
 
     /// Number of recorded changes (OctoMap's `numChangesDetected`).

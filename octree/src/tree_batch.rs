@@ -118,16 +118,15 @@ impl OcTree {
         let mut just_created = root_just_created;
         while d < TREE_DEPTH as usize {
             let pos = key.child_index(d as u8);
-            let created;
-            if self.store.kids(cur) == NO_BLOCK && !just_created {
+            let created = if self.store.kids(cur) == NO_BLOCK && !just_created {
                 self.store.expand_node(cur);
                 self.add_size(8);
-                created = false;
+                false
             } else {
                 self.store.create_child(cur, pos, 0.0);
                 self.add_size(1);
-                created = true;
-            }
+                true
+            };
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,

@@ -61,7 +61,10 @@ pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
         }
     }
     if count != tree.size() {
-        return Err(format!("walked {count} nodes but size() is {}", tree.size()));
+        return Err(format!(
+            "walked {count} nodes but size() is {}",
+            tree.size()
+        ));
     }
     Ok(())
 }

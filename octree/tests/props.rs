@@ -134,12 +134,22 @@ fn pruning_sizes_like_octomaps_test_pruning() {
     assert_eq!(tree.size(), 17);
     tree.update_node(k(0.01, 0.01, 0.01), Update::Hit, false);
     assert_eq!(tree.size(), 18);
-    for (x, y, z) in [(0.01, 0.0, 0.0), (0.0, 0.01, 0.0), (0.0, 0.0, 0.01), (0.01, 0.01, 0.0), (0.0, 0.01, 0.01)] {
+    for (x, y, z) in [
+        (0.01, 0.0, 0.0),
+        (0.0, 0.01, 0.0),
+        (0.0, 0.0, 0.01),
+        (0.01, 0.01, 0.0),
+        (0.0, 0.01, 0.01),
+    ] {
         tree.update_node(k(x, y, z), Update::Hit, false);
     }
     assert_eq!(tree.size(), 23);
     tree.update_node(k(0.01, 0.0, 0.01), Update::Hit, false);
-    assert_eq!(tree.size(), 16, "the eighth equal sibling prunes the octant");
+    assert_eq!(
+        tree.size(),
+        16,
+        "the eighth equal sibling prunes the octant"
+    );
     tree.expand();
     assert_eq!(tree.size(), 24);
     tree.prune();
@@ -151,7 +161,11 @@ fn pruning_sizes_like_octomaps_test_pruning() {
 
 fn batch_ops() -> impl Strategy<Value = Vec<(Vec<Key>, bool, bool)>> {
     prop::collection::vec(
-        (prop::collection::vec(keys(), 0..120), any::<bool>(), prop::bool::weighted(0.2)),
+        (
+            prop::collection::vec(keys(), 0..120),
+            any::<bool>(),
+            prop::bool::weighted(0.2),
+        ),
         1..8,
     )
 }

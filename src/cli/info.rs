@@ -19,9 +19,17 @@ pub fn run(a: &Args) -> Result<()> {
     let c = tree.counts();
     let bounds = tree.metric_bounds();
     let mem = tree.memory_usage();
-    let bpn = if c.nodes > 0 { mem as f64 / c.nodes as f64 } else { 0.0 };
+    let bpn = if c.nodes > 0 {
+        mem as f64 / c.nodes as f64
+    } else {
+        0.0
+    };
     let octomap_mem = tree.octomap_memory_usage();
-    let octomap_bpn = if c.nodes > 0 { octomap_mem as f64 / c.nodes as f64 } else { 0.0 };
+    let octomap_bpn = if c.nodes > 0 {
+        octomap_mem as f64 / c.nodes as f64
+    } else {
+        0.0
+    };
     if a.json {
         let b = match bounds {
             Some((lo, hi)) => format!(

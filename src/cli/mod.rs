@@ -1,7 +1,14 @@
 //! Command-line parsing (clap) and dispatch; one file per subcommand.
 
+mod bench;
 mod convert;
+mod demo;
+mod export;
 mod info;
+mod map;
+mod reduce;
+mod render;
+mod segment;
 
 use clap::{Parser, Subcommand};
 
@@ -15,21 +22,39 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Scan the built-in scene, build the map, write map.bt and map.png, print timings.
+    Demo(demo::Args),
+    /// Draw a map as PNG: height-coloured top view, front/side view, or a slice.
+    Render(render::Args),
+    /// Export occupied (and free) voxels as PLY points or cubes.
+    Export(export::Args),
+    /// Build a map from sensor files (or the built-in scene): OctoMap's insertPointCloud.
+    Map(map::Args),
+    /// Time the insertion modes on the same frames, optionally against OctoMap, as ratios.
+    Bench(bench::Args),
     /// Summarise a .bt or .ot map: resolution, nodes, leaves, bounds, bytes per node.
     Info(info::Args),
     /// Convert between .bt and .ot (by extension).
     Convert(convert::Args),
+    /// Thin a point cloud with the online grid density reducer; writes PLY.
+    Reduce(reduce::Args),
+    /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
+    Segment(segment::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Some(Command::Demo(a)) => demo::run(&a),
+        Some(Command::Render(a)) => render::run(&a),
+        Some(Command::Export(a)) => export::run(&a),
+        Some(Command::Map(a)) => map::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Convert(a)) => convert::run(&a),
-        None => {
-            eprintln!("octoquant: no command given; try `octoquant --help`");
-            Ok(())
-        }
+        Some(Command::Reduce(a)) => reduce::run(&a),
+        Some(Command::Segment(a)) => segment::run(&a),
+        None => demo::run_default(),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

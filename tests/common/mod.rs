@@ -35,7 +35,10 @@ pub fn data_dir() -> Option<PathBuf> {
         if d.is_dir() {
             return Some(d);
         }
-        return skip(&format!("OCTOQUANT_DATA={} is not a directory", d.display()));
+        return skip(&format!(
+            "OCTOQUANT_DATA={} is not a directory",
+            d.display()
+        ));
     }
     let fallback = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     if fallback.is_dir() {

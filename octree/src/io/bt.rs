@@ -61,7 +61,10 @@ fn write_node(tree: &OcTree, n: NodeRef, out: &mut Vec<u8>) {
 /// max of their children, the root the upper clamp. The node count must match the header.
 pub fn read_bt<R: Read>(reader: R) -> Result<OcTree, OctreeError> {
     let mut s = Stream::new(reader);
-    if !s.peek(BT_HEADER.len())?.starts_with(&BT_HEADER.as_bytes()[..2]) {
+    if !s
+        .peek(BT_HEADER.len())?
+        .starts_with(&BT_HEADER.as_bytes()[..2])
+    {
         return read_legacy(&mut s);
     }
     let first = s.line(FMT)?;
@@ -91,7 +94,10 @@ fn read_body<R: Read>(s: &mut Stream<R>, res: f64, size: u64) -> Result<OcTree, 
             return Err(s.format_err(
                 FMT,
                 data_start,
-                format!("header says {size} nodes but the data holds {}", tree.size()),
+                format!(
+                    "header says {size} nodes but the data holds {}",
+                    tree.size()
+                ),
             ));
         }
     }
@@ -107,7 +113,10 @@ fn read_node<R: Read>(tree: &mut OcTree, s: &mut Stream<R>, n: NodeRef) -> Resul
         return Err(s.format_err(
             FMT,
             at,
-            format!("node at depth {} claims children (deeper than 16 levels)", n.depth),
+            format!(
+                "node at depth {} claims children (deeper than 16 levels)",
+                n.depth
+            ),
         ));
     }
     let (cmin, cmax) = (tree.params().clamp_min, tree.params().clamp_max);
@@ -130,7 +139,11 @@ fn read_node<R: Read>(tree: &mut OcTree, s: &mut Stream<R>, n: NodeRef) -> Resul
         }
     }
     for c in inner.into_iter().flatten() {
+        let at = s.offset;
         read_node(tree, s, c)?;
+        if !tree.store.has_children(c) {
+            return Err(s.format_err(FMT, at, "a node marked as inner has no children".into()));
+        }
         let m = tree.store.max_child(c);
         tree.store.set_value(c, m);
     }
@@ -148,7 +161,9 @@ fn read_legacy<R: Read>(s: &mut Stream<R>) -> Result<OcTree, OctreeError> {
         return Err(s.format_err(
             FMT,
             0,
-            format!("first line does not start with {BT_HEADER:?} (nor is it a legacy binary header)"),
+            format!(
+                "first line does not start with {BT_HEADER:?} (nor is it a legacy binary header)"
+            ),
         ));
     }
     read_body(s, res, size)

@@ -69,7 +69,11 @@ pub(crate) fn read_ot_after_first_line<R: Read>(s: &mut Stream<R>) -> Result<OcT
             return Err(s.format_err(
                 FMT,
                 data_start,
-                format!("header says {} nodes but the data holds {}", h.size, tree.size()),
+                format!(
+                    "header says {} nodes but the data holds {}",
+                    h.size,
+                    tree.size()
+                ),
             ));
         }
     }
@@ -90,7 +94,10 @@ fn read_node<R: Read>(tree: &mut OcTree, s: &mut Stream<R>, n: NodeRef) -> Resul
         return Err(s.format_err(
             FMT,
             at,
-            format!("node at depth {} claims children (deeper than 16 levels)", n.depth),
+            format!(
+                "node at depth {} claims children (deeper than 16 levels)",
+                n.depth
+            ),
         ));
     }
     for i in 0..8 {

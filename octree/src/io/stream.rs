@@ -35,7 +35,12 @@ impl<R: Read> Stream<R> {
     }
 
     /// Read exactly `buf.len()` bytes; a short stream is an error at the current offset.
-    pub fn exact(&mut self, buf: &mut [u8], format: &'static str, what: &str) -> Result<(), OctreeError> {
+    pub fn exact(
+        &mut self,
+        buf: &mut [u8],
+        format: &'static str,
+        what: &str,
+    ) -> Result<(), OctreeError> {
         match self.inner.read_exact(buf) {
             Ok(()) => {
                 self.offset += buf.len() as u64;
@@ -130,7 +135,10 @@ impl<R: Read> Stream<R> {
     /// Up to `n` bytes ahead, without consuming them (fewer at the end of the stream).
     pub fn peek(&mut self, n: usize) -> Result<Vec<u8>, OctreeError> {
         let offset = self.offset;
-        let buf = self.inner.fill_buf().map_err(|e| OctreeError::Io { offset, source: e })?;
+        let buf = self
+            .inner
+            .fill_buf()
+            .map_err(|e| OctreeError::Io { offset, source: e })?;
         Ok(buf[..buf.len().min(n)].to_vec())
     }
 }

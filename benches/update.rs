@@ -1,0 +1,55 @@
+//! Tree updates: one `update_node` per key (OctoMap's loop) against the batched `update_keys`,
+//! on the free and occupied keys of a real scan.
+
+mod common;
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use octoquant::{OcTree, Update};
+use octoquant_raycast::{compute_update, ScanUpdate};
+
+fn update(c: &mut Criterion) {
+    let frame = common::scan_frame();
+    let tree = OcTree::new(0.1).unwrap();
+    let mut up = ScanUpdate::new();
+    compute_update(
+        tree.converter(),
+        &frame.points,
+        &frame.origin,
+        None,
+        &mut up,
+    );
+    let n = (up.free().len() + up.occupied().len()) as u64;
+    let mut g = c.benchmark_group("update");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(n));
+    g.bench_function("update_node/scan_dat", |b| {
+        b.iter_batched(
+            || tree.clone(),
+            |mut t| {
+                for k in up.free() {
+                    t.update_node(*k, Update::Miss, false);
+                }
+                for k in up.occupied() {
+                    t.update_node(*k, Update::Hit, false);
+                }
+                t
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.bench_function("update_keys/scan_dat", |b| {
+        b.iter_batched(
+            || tree.clone(),
+            |mut t| {
+                t.update_keys(up.free(), Update::Miss, false);
+                t.update_keys(up.occupied(), Update::Hit, false);
+                t
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, update);
+criterion_main!(benches);

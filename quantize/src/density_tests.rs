@@ -1,0 +1,246 @@
+//! Unit tests of the density reducer: geometry, the 2D worked example, selection rules,
+//! deletion and read cycles.
+
+use super::*;
+use crate::{DensityGrid, InsertOutcome, QuantizeError};
+
+fn grid_8_17() -> GridSpec<2> {
+    GridSpec::with_sizes([8.0, 17.0]).unwrap()
+}
+
+/// The paper's 2D example uses cells of 8 (x) by 17 (y). Its table of points could not be
+/// retrieved, so these cases are derived from the formula `floor((x - offset) / size)`,
+/// including the edges: a coordinate on a cell's lower edge belongs to that cell, negative
+/// coordinates round down (floor, not truncation).
+#[test]
+fn worked_example_2d_cell_indexes() {
+    let g = grid_8_17();
+    let cases: [([f64; 2], [i64; 2]); 10] = [
+        ([0.0, 0.0], [0, 0]),
+        ([7.999, 16.999], [0, 0]),
+        ([8.0, 17.0], [1, 1]),
+        ([3.0, 20.0], [0, 1]),
+        ([12.0, 5.0], [1, 0]),
+        ([23.5, 33.9], [2, 1]),
+        ([24.0, 34.0], [3, 2]),
+        ([-0.5, 5.0], [-1, 0]),
+        ([-8.0, -17.0], [-1, -1]),
+        ([-8.01, -17.01], [-2, -2]),
+    ];
+    for (p, want) in cases {
+        assert_eq!(g.cell_index(&p), Some(want), "point {p:?}");
+    }
+    assert_eq!(g.cell_centre(&[0, 0]), [4.0, 8.5]);
+    assert_eq!(g.cell_centre(&[-1, 2]), [-4.0, 42.5]);
+    // Offsets shift the grid: with offset (2, -3) the point (1, -3) is in cell (-1, 0).
+    let shifted = GridSpec::new([8.0, 17.0], [2.0, -3.0]).unwrap();
+    assert_eq!(shifted.cell_index(&[1.0, -3.0]), Some([-1, 0]));
+    assert_eq!(shifted.cell_index(&[10.0, 14.0]), Some([1, 1]));
+}
+
+/// A worked run on the 8 x 17 grid, every step computed by hand.
+///
+/// Points (x, y) -> cell, scaled squared distance to the centre:
+/// a (4, 9)    -> (0,0), centre (4, 8.5):    (0/8)^2 + (0.5/17)^2   = 0.000865
+/// b (1, 2)    -> (0,0), far from the centre: loses to a
+/// c (9, 10)   -> (1,0), centre (12, 8.5):   (3/8)^2 + (1.5/17)^2   = 0.148
+/// d (20, 8.5) -> (2,0), centre (20, 8.5):   0
+/// e (4, 30)   -> (0,1), centre (4, 25.5):   (4.5/17)^2             = 0.070
+/// f (40, 40)  -> (5,2): no neighbour.
+/// Order: d, a, e, c, f. d emits; its neighbour c is 11 away in x (>= 4): kept.
+/// a emits; c is 5 away in x (>= 4): kept; e is 21 away in y (>= 8.5): kept.
+/// e emits; c emits (no close neighbour left); f emits. The rest of the run is commented
+/// step by step below.
+#[test]
+fn worked_example_2d_run() {
+    let mut g = DensityGrid::new(grid_8_17());
+    assert_eq!(g.insert([4.0, 9.0]), InsertOutcome::NewCell);
+    assert_eq!(g.insert([1.0, 2.0]), InsertOutcome::Member);
+    assert_eq!(g.insert([9.0, 10.0]), InsertOutcome::NewCell);
+    assert_eq!(g.insert([20.0, 8.5]), InsertOutcome::NewCell);
+    assert_eq!(g.insert([4.0, 30.0]), InsertOutcome::NewCell);
+    assert_eq!(g.insert([40.0, 40.0]), InsertOutcome::NewCell);
+    g.validate().unwrap();
+    assert_eq!(g.len(), 5);
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [4.0, 9.0]);
+    assert_eq!(g.get(&[0, 0]).unwrap().len(), 2);
+    let order: Vec<_> = g.cells_by_distance().map(|c| c.index()).collect();
+    assert_eq!(order, vec![[2, 0], [0, 0], [0, 1], [1, 0], [5, 2]]);
+    let (out, counts) = g.output_cycle();
+    assert_eq!(
+        out,
+        vec![
+            [20.0, 8.5],
+            [4.0, 9.0],
+            [4.0, 30.0],
+            [9.0, 10.0],
+            [40.0, 40.0]
+        ]
+    );
+    assert_eq!(counts.eliminated, 0);
+
+    // A point in cell (1,0) within half a cell of a on both axes, but farther from the
+    // centre than c: c stays, nothing changes.
+    assert_eq!(g.insert([8.5, 9.0]), InsertOutcome::Member);
+    // Now a point that beats c and is within half a cell of a: |11-4| = 7 >= 4, kept.
+    assert_eq!(g.insert([11.0, 9.5]), InsertOutcome::Selected);
+    // (7, 8.5) joins cell (0,0) (distance (3/8)^2 = 0.14 > a's 0.000865, so a stays). Delete a:
+    // (7, 8.5) beats b and takes over, and it is 4 from h in x: exactly half a cell, not
+    // closer, so both are kept; the check is strict.
+    assert_eq!(g.insert([7.0, 8.5]), InsertOutcome::Member);
+    assert!(g.remove(&[4.0, 9.0]));
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [7.0, 8.5]);
+    g.validate().unwrap();
+    let (out, counts) = g.output_cycle();
+    assert_eq!(counts.eliminated, 0);
+    assert_eq!(out.len(), 5);
+    // A point at (7.5, 9) would be within half a cell of h (3.5 < 4, 0.5 < 8.5).
+    g.insert([7.5, 9.0]);
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [7.0, 8.5]);
+    assert!(g.remove(&[7.0, 8.5]));
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [7.5, 9.0]);
+    // h (11, 9.5): distance (1/8)^2 + (1/17)^2 = 0.019; (7.5, 9): (3.5/8)^2 + .. = 0.19.
+    // h is visited first and eliminates (7.5, 9).
+    let (out, counts) = g.output_cycle();
+    assert_eq!(counts.eliminated, 1);
+    assert!(out.contains(&[11.0, 9.5]));
+    assert!(!out.contains(&[7.5, 9.0]));
+    assert_eq!(out.len(), 4);
+}
+
+#[test]
+fn invalid_specs_are_errors() {
+    assert_eq!(
+        GridSpec::<2>::with_sizes([1.0, 0.0]),
+        Err(QuantizeError::InvalidCellSize {
+            axis: 1,
+            value: 0.0
+        })
+    );
+    assert!(GridSpec::<1>::with_sizes([f64::NAN]).is_err());
+    assert!(GridSpec::<1>::with_sizes([-1.0]).is_err());
+    assert!(GridSpec::<1>::new([1.0], [f64::INFINITY]).is_err());
+    assert_eq!(GridSpec::<0>::with_sizes([]), Err(QuantizeError::NoAxes));
+}
+
+#[test]
+fn non_finite_and_far_points_are_rejected_and_counted() {
+    let mut g = DensityGrid::new(GridSpec::<3>::cubic(0.1).unwrap());
+    assert_eq!(g.insert([f64::NAN, 0.0, 0.0]), InsertOutcome::Rejected);
+    assert_eq!(g.insert([0.0, f64::INFINITY, 0.0]), InsertOutcome::Rejected);
+    assert_eq!(g.insert([0.0, 0.0, 1e300]), InsertOutcome::Rejected);
+    assert_eq!(g.insert([0.0, 0.0, 1e15]), InsertOutcome::Rejected); // index 1e16 > 2^53
+    assert_eq!(g.insert([0.0, 0.0, 1e14]), InsertOutcome::NewCell);
+    assert_eq!(g.counts().rejected, 4);
+    assert_eq!(g.counts().inserted, 1);
+    assert!(!g.remove(&[f64::NAN, 0.0, 0.0]));
+    g.validate().unwrap();
+}
+
+#[test]
+fn neighbour_count_is_3_pow_d_minus_1() {
+    assert_eq!(
+        DensityGrid::new(GridSpec::<1>::cubic(1.0).unwrap())
+            .neighbours
+            .len(),
+        2
+    );
+    assert_eq!(
+        DensityGrid::new(GridSpec::<3>::cubic(1.0).unwrap())
+            .neighbours
+            .len(),
+        26
+    );
+    assert_eq!(
+        DensityGrid::new(GridSpec::<4>::cubic(1.0).unwrap())
+            .neighbours
+            .len(),
+        80
+    );
+}
+
+#[test]
+fn mean_and_score_selection() {
+    let spec = GridSpec::<1>::cubic(10.0).unwrap();
+    // Members 1, 2, 9: centre 5 -> 2 (closest to the centre); mean 4 -> 2; score -x -> 9.
+    let pts = [[1.0], [2.0], [9.0]];
+    let mut centre = DensityGrid::new(spec.clone());
+    let mut mean = DensityGrid::with_selection(spec.clone(), Selection::MeanClosest);
+    let mut score = DensityGrid::with_selection(spec.clone(), Selection::score(|p| -p[0]));
+    for p in pts {
+        centre.insert(p);
+        mean.insert(p);
+        score.insert(p);
+    }
+    assert_eq!(centre.get(&[0]).unwrap().point(), [2.0]);
+    assert_eq!(score.get(&[0]).unwrap().point(), [9.0]);
+    assert_eq!(mean.get(&[0]).unwrap().point(), [2.0]);
+    assert_eq!(mean.get(&[0]).unwrap().mean(), [4.0]);
+    // Add 8 and 8.5: mean 5.7 -> 8 is closest (2.3). The centre rule ties |8 - 5| = |2 - 5|
+    // and breaks the tie by coordinates -> 2.
+    for m in [&mut centre, &mut mean] {
+        m.insert([8.0]);
+        m.insert([8.5]);
+        m.validate().unwrap();
+    }
+    assert_eq!(mean.get(&[0]).unwrap().point(), [8.0]);
+    assert_eq!(centre.get(&[0]).unwrap().point(), [2.0]);
+    // Delete 8: mean (1+2+9+8.5)/4 = 5.125 -> 2 (3.125) vs 8.5 (3.375) -> 2.
+    assert!(mean.remove(&[8.0]));
+    assert_eq!(mean.get(&[0]).unwrap().point(), [2.0]);
+    mean.validate().unwrap();
+    // A NaN score ranks last, never panics.
+    let mut nan = DensityGrid::with_selection(
+        spec,
+        Selection::score(|p| if p[0] > 5.0 { f64::NAN } else { p[0] }),
+    );
+    nan.insert([9.0]);
+    nan.insert([3.0]);
+    assert_eq!(nan.get(&[0]).unwrap().point(), [3.0]);
+}
+
+#[test]
+fn duplicates_and_deletion() {
+    let mut g = DensityGrid::new(GridSpec::<2>::cubic(1.0).unwrap());
+    g.insert([0.5, 0.5]);
+    g.insert([0.5, 0.5]);
+    g.insert([0.2, 0.2]);
+    assert_eq!(g.get(&[0, 0]).unwrap().len(), 3);
+    assert!(g.remove(&[0.5, 0.5]));
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [0.5, 0.5]);
+    assert!(g.remove(&[0.5, 0.5]));
+    assert_eq!(g.get(&[0, 0]).unwrap().point(), [0.2, 0.2]);
+    assert!(!g.remove(&[0.5, 0.5]));
+    assert!(!g.remove(&[7.0, 7.0]));
+    g.validate().unwrap();
+    assert!(g.remove(&[0.2, 0.2]));
+    assert!(g.is_empty());
+    g.validate().unwrap();
+    assert_eq!(g.counts().removed, 3);
+}
+
+/// Points arriving during a read cycle are evaluated in the next cycle, not this one.
+#[test]
+fn points_added_during_a_cycle_wait_for_the_next() {
+    let mut g = DensityGrid::new(GridSpec::<1>::cubic(1.0).unwrap());
+    g.insert([0.5]);
+    g.insert([10.5]);
+    let mut cycle = g.begin_cycle();
+    let mut out = Vec::new();
+    assert!(!g.step_cycle(&mut cycle, 1, &mut out).unwrap());
+    assert_eq!(out, vec![[0.5]]);
+    // Two new cells, both after the cursor in distance order.
+    g.insert([20.5]);
+    g.insert([5.5]);
+    while !g.step_cycle(&mut cycle, 1, &mut out).unwrap() {}
+    assert_eq!(out, vec![[0.5], [10.5]]);
+    assert_eq!(cycle.counts().deferred, 2);
+    let (next, counts) = g.output_cycle();
+    assert_eq!(next, vec![[0.5], [5.5], [10.5], [20.5]]);
+    assert_eq!(counts.deferred, 0);
+    // A stale cycle is refused.
+    assert!(matches!(
+        g.step_cycle(&mut cycle, 1, &mut out),
+        Err(QuantizeError::StaleCycle { .. })
+    ));
+}

@@ -1,0 +1,253 @@
+//! Dense voxel-key quantization of a frame's end points, before the octree update
+//! (Kwon & Yoon, "Point-Cloud Data Quantization for OctoMap Update in Real-Time").
+//!
+//! Per frame: the key bounding box of the end points, a dense bit grid over it, one bit set per
+//! end-point voxel, then each set voxel's centre emitted once. Casting rays to those centres
+//! gives exactly OctoMap's `insertPointCloud(.., discretize = true)`: OctoMap also reduces the
+//! cloud to one centre per end-point key (with its unchecked, wrapping key) and the tree does
+//! not depend on the order of the rays within a frame.
+//!
+//! The grid is used when it is small enough: at most [`QuantizeOptions::max_grid_bits`] bits and
+//! at most [`QuantizeOptions::bits_per_point`] bits per point (a sparse far-reaching LiDAR frame
+//! would spend more time clearing and scanning a huge grid than sorting its keys). Otherwise the
+//! same set is computed by sorting the keys' Morton codes; both paths give the same centres in
+//! the same order (z-major, then y, then x). Marking runs on all rayon threads for large frames.
+
+use bitvec::prelude::*;
+use nalgebra::Point3;
+use octoquant_octree::{Key, KeyConverter};
+use rayon::prelude::*;
+use std::sync::atomic::AtomicU64;
+
+/// Limits that decide between the dense bit grid and the sorted-keys fallback.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct QuantizeOptions {
+    /// Largest grid, in bits, ever allocated (default 2^30 bits = 128 MiB).
+    pub max_grid_bits: u64,
+    /// Largest grid per end point, in bits (default 4096): beyond it the box is mostly empty
+    /// and sorting is cheaper.
+    pub bits_per_point: u64,
+    /// Frames with at least this many points mark and emit in parallel (default 32 768).
+    pub parallel_threshold: usize,
+}
+
+impl Default for QuantizeOptions {
+    fn default() -> Self {
+        QuantizeOptions {
+            max_grid_bits: 1 << 30,
+            bits_per_point: 4096,
+            parallel_threshold: 1 << 15,
+        }
+    }
+}
+
+/// What [`quantize_endpoints`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct QuantizeStats {
+    /// Points given.
+    pub points: usize,
+    /// Points with a NaN or infinite coordinate, skipped.
+    pub non_finite: usize,
+    /// Distinct end-point voxels, i.e. centres emitted.
+    pub voxels: usize,
+    /// Bits in the dense grid, or 0 when the sorted fallback ran.
+    pub grid_bits: u64,
+}
+
+/// The end points of one frame reduced to one voxel centre per end-point key.
+///
+/// Keys are OctoMap's unchecked `coordToKey` (points outside the map wrap into it, as with
+/// OctoMap's `discretize`); centres are `keyToCoord` as `f32`. Non-finite points are skipped
+/// and counted (OctoMap's result for them is undefined). `out` is cleared first.
+pub fn quantize_endpoints(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    options: &QuantizeOptions,
+    out: &mut Vec<Point3<f32>>,
+) -> QuantizeStats {
+    out.clear();
+    let mut stats = QuantizeStats {
+        points: points.len(),
+        ..QuantizeStats::default()
+    };
+    let key_of = |p: &Point3<f32>| -> Option<Key> {
+        if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
+            Some(conv.point_to_key_unchecked(&p.cast::<f64>()))
+        } else {
+            None
+        }
+    };
+    // key bounding box
+    let mut lo = [u16::MAX; 3];
+    let mut hi = [0u16; 3];
+    for p in points {
+        match key_of(p) {
+            Some(k) => {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(k[a]);
+                    hi[a] = hi[a].max(k[a]);
+                }
+            }
+            None => stats.non_finite += 1,
+        }
+    }
+    let valid = points.len() - stats.non_finite;
+    if valid == 0 {
+        return stats;
+    }
+    let dims = [0, 1, 2].map(|a| (hi[a] - lo[a]) as u64 + 1);
+    let bits = dims[0] * dims[1] * dims[2];
+    let centre = |k: Key| conv.key_to_point_f32(&k);
+    if bits <= options.max_grid_bits && bits <= options.bits_per_point.saturating_mul(valid as u64)
+    {
+        stats.grid_bits = bits;
+        let index = |k: Key| -> usize {
+            (((k[2] - lo[2]) as u64 * dims[1] + (k[1] - lo[1]) as u64) * dims[0]
+                + (k[0] - lo[0]) as u64) as usize
+        };
+        let key_at = |i: usize| -> Key {
+            let i = i as u64;
+            let x = i % dims[0];
+            let y = (i / dims[0]) % dims[1];
+            let z = i / (dims[0] * dims[1]);
+            Key::new(lo[0] + x as u16, lo[1] + y as u16, lo[2] + z as u16)
+        };
+        if points.len() >= options.parallel_threshold {
+            let grid: BitVec<AtomicU64, Lsb0> = BitVec::repeat(false, bits as usize);
+            points.par_chunks(8192).for_each(|chunk| {
+                for p in chunk {
+                    if let Some(k) = key_of(p) {
+                        grid.set_aliased(index(k), true);
+                    }
+                }
+            });
+            // emit in index order: each thread scans whole words of its own range
+            let words = grid.as_raw_slice();
+            let per = words
+                .len()
+                .div_ceil(rayon::current_num_threads().max(1) * 4)
+                .max(1);
+            let parts: Vec<Vec<Point3<f32>>> = words
+                .par_chunks(per)
+                .enumerate()
+                .map(|(ci, ws)| {
+                    let mut v = Vec::new();
+                    for (wi, w) in ws.iter().enumerate() {
+                        let mut word = w.load(std::sync::atomic::Ordering::Relaxed);
+                        while word != 0 {
+                            let b = word.trailing_zeros() as usize;
+                            word &= word - 1;
+                            v.push(centre(key_at((ci * per + wi) * 64 + b)));
+                        }
+                    }
+                    v
+                })
+                .collect();
+            for p in parts {
+                out.extend(p);
+            }
+        } else {
+            let mut grid: BitVec<u64, Lsb0> = BitVec::repeat(false, bits as usize);
+            for p in points {
+                if let Some(k) = key_of(p) {
+                    grid.set(index(k), true);
+                }
+            }
+            out.extend(grid.iter_ones().map(|i| centre(key_at(i))));
+        }
+    } else {
+        // sparse fallback: sort (z, y, x)-ordered codes so the order matches the grid's
+        let mut codes: Vec<u64> = if points.len() >= options.parallel_threshold {
+            points.par_iter().filter_map(key_of).map(zyx_code).collect()
+        } else {
+            points.iter().filter_map(key_of).map(zyx_code).collect()
+        };
+        codes.par_sort_unstable();
+        codes.dedup();
+        out.extend(
+            codes
+                .into_iter()
+                .map(|c| centre(Key::new(c as u16, (c >> 16) as u16, (c >> 32) as u16))),
+        );
+    }
+    stats.voxels = out.len();
+    stats
+}
+
+#[inline]
+fn zyx_code(k: Key) -> u64 {
+    ((k[2] as u64) << 32) | ((k[1] as u64) << 16) | k[0] as u64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeSet;
+
+    fn naive(conv: &KeyConverter, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
+        let keys: BTreeSet<u64> = points
+            .iter()
+            .filter(|p| p.iter().all(|c| c.is_finite()))
+            .map(|p| zyx_code(conv.point_to_key_unchecked(&p.cast())))
+            .collect();
+        keys.into_iter()
+            .map(|c| conv.key_to_point_f32(&Key::new(c as u16, (c >> 16) as u16, (c >> 32) as u16)))
+            .collect()
+    }
+
+    fn cloud(n: usize, spread: f32, seed: u64) -> Vec<Point3<f32>> {
+        let mut s = seed | 1;
+        let mut r = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 2.0 * spread
+        };
+        let mut v: Vec<_> = (0..n).map(|_| Point3::new(r(), r(), r() * 0.3)).collect();
+        v.push(Point3::new(f32::NAN, 0.0, 0.0));
+        v.push(Point3::new(1.0, f32::INFINITY, 0.0));
+        v
+    }
+
+    #[test]
+    fn dense_sparse_and_parallel_paths_agree_with_a_set() {
+        let conv = KeyConverter::new(0.1).unwrap();
+        for (n, spread) in [(10, 1.0), (5000, 3.0), (50_000, 8.0), (40_000, 400.0)] {
+            let pts = cloud(n, spread, n as u64);
+            let want = naive(&conv, &pts);
+            for opts in [
+                QuantizeOptions::default(),
+                QuantizeOptions {
+                    bits_per_point: 0,
+                    ..QuantizeOptions::default()
+                },
+                QuantizeOptions {
+                    parallel_threshold: 0,
+                    ..QuantizeOptions::default()
+                },
+                QuantizeOptions {
+                    parallel_threshold: usize::MAX,
+                    ..QuantizeOptions::default()
+                },
+            ] {
+                let mut out = Vec::new();
+                let st = quantize_endpoints(&conv, &pts, &opts, &mut out);
+                assert_eq!(out, want, "n={n} spread={spread} {opts:?}");
+                assert_eq!(st.non_finite, 2);
+                assert_eq!(st.voxels, want.len());
+            }
+        }
+    }
+
+    #[test]
+    fn empty_and_all_bad_frames() {
+        let conv = KeyConverter::new(0.05).unwrap();
+        let mut out = vec![Point3::origin()];
+        let st = quantize_endpoints(&conv, &[], &QuantizeOptions::default(), &mut out);
+        assert!(out.is_empty());
+        assert_eq!(st.voxels, 0);
+        let bad = [Point3::new(f32::NAN, 1.0, 1.0)];
+        let st = quantize_endpoints(&conv, &bad, &QuantizeOptions::default(), &mut out);
+        assert_eq!((st.non_finite, st.voxels), (1, 0));
+    }
+}

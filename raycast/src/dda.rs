@@ -1,0 +1,356 @@
+//! The free-space ray: OctoMap's 3D DDA (`OcTreeBaseImpl::computeRayKeys`), bit for bit.
+//!
+//! [`walk_ray_keys`] visits the keys of the voxels a segment crosses, from the origin voxel up
+//! to but excluding the end voxel, without allocating; [`compute_ray_keys`] collects them into a
+//! caller-owned [`KeyRay`] that is reused from ray to ray.
+//!
+//! The arithmetic follows OctoMap exactly, because the voxels a ray grazes depend on it:
+//! the direction and the length are `f32` (squared sum in `f32`, square root in `f64` cast to
+//! `f32`, `f32` division per axis); the voxel border is the key's centre in `f64` plus
+//! `(f32)(step·res·0.5)`; `tMax`/`tDelta` are `f64`; ties go to z, then y, then x. The walk stops
+//! on the end voxel (not emitted) or, when rounding made it miss that voxel, as soon as the next
+//! border lies beyond the segment's length (the "overshoot" key is not emitted either).
+
+use nalgebra::Point3;
+use octoquant_octree::{Key, KeyConverter};
+
+/// Capacity of OctoMap's `KeyRay` (`KeyRay::maxSize`). OctoMap aborts (an `assert`) on a ray
+/// that reaches 99 999 keys; octoquant has no such limit (see [`compute_ray_keys`]).
+pub const OCTOMAP_KEY_RAY_CAPACITY: usize = 100_000;
+
+/// Extra iterations beyond the Manhattan key distance that a walk may take before it is
+/// declared degenerate. A well-conditioned walk overshoots each axis by at most one voxel, so
+/// it needs at most `manhattan + 3`; the margin only matters for rays OctoMap never finishes.
+const STEP_MARGIN: u32 = 16;
+
+/// A caller-owned, reusable list of ray keys (OctoMap's `KeyRay`).
+///
+/// [`compute_ray_keys`] clears and refills it; its allocation is kept between rays, so one
+/// `KeyRay` per thread avoids any allocation in the ray loop.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct KeyRay {
+    keys: Vec<Key>,
+}
+
+impl KeyRay {
+    /// An empty ray without allocation.
+    pub fn new() -> Self {
+        KeyRay { keys: Vec::new() }
+    }
+
+    /// An empty ray with room for `n` keys.
+    pub fn with_capacity(n: usize) -> Self {
+        KeyRay {
+            keys: Vec::with_capacity(n),
+        }
+    }
+
+    /// Remove all keys, keeping the allocation.
+    pub fn clear(&mut self) {
+        self.keys.clear();
+    }
+
+    /// Number of keys.
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// `true` when the ray holds no key.
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+
+    /// The keys in ray order (origin voxel first).
+    pub fn keys(&self) -> &[Key] {
+        &self.keys
+    }
+
+    /// Iterate over the keys in ray order.
+    pub fn iter(&self) -> std::slice::Iter<'_, Key> {
+        self.keys.iter()
+    }
+
+    /// The keys as a vector, consuming the ray.
+    pub fn into_vec(self) -> Vec<Key> {
+        self.keys
+    }
+}
+
+impl<'a> IntoIterator for &'a KeyRay {
+    type Item = &'a Key;
+    type IntoIter = std::slice::Iter<'a, Key>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.keys.iter()
+    }
+}
+
+/// How a [`walk_ray_keys`] walk ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RayWalk {
+    /// Every key up to (excluding) the end voxel was visited; OctoMap returns `true`.
+    Complete,
+    /// Origin and end share a voxel: nothing was visited; OctoMap returns `true` and an empty
+    /// ray.
+    SameVoxel,
+    /// The origin or the end is outside the map (or not finite): nothing was visited; OctoMap
+    /// returns `false`.
+    OutsideMap,
+    /// The visitor returned `false`.
+    Stopped,
+    /// The float arithmetic degenerated (for example the `f32` length underflowed to 0 or
+    /// overflowed) and the walk would never end; OctoMap loops until its `KeyRay` assertion
+    /// aborts. The walk was cut after more iterations than any regular ray needs; keys
+    /// visited so far should be discarded.
+    Degenerate,
+}
+
+/// `std::min` as C++ defines it (`b < a ? b : a`), so NaN behaves as in OctoMap.
+#[inline(always)]
+fn cmin(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// OctoMap's `Vector3::norm`: the squared sum in `f32`, the square root in `f64`.
+#[inline(always)]
+pub(crate) fn norm_f32(v: [f32; 3]) -> f64 {
+    let sq: f32 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    (sq as f64).sqrt()
+}
+
+/// `a - b` per axis in `f32`, like `point3d` subtraction.
+#[inline(always)]
+pub(crate) fn sub_f32(a: &Point3<f32>, b: &Point3<f32>) -> [f32; 3] {
+    [a.x - b.x, a.y - b.y, a.z - b.z]
+}
+
+/// The key of an `f32` point, checked like OctoMap's `coordToKeyChecked(point3d)`.
+#[inline(always)]
+pub(crate) fn key_of(conv: &KeyConverter, p: &Point3<f32>) -> Option<Key> {
+    Some(Key([
+        conv.coord_to_key_checked(p.x as f64)?,
+        conv.coord_to_key_checked(p.y as f64)?,
+        conv.coord_to_key_checked(p.z as f64)?,
+    ]))
+}
+
+/// The axis with the smallest `tMax`; ties go to z over y over x (OctoMap's comparison chain).
+#[inline(always)]
+pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
+    if t[0] < t[1] {
+        if t[0] < t[2] {
+            0
+        } else {
+            2
+        }
+    } else if t[1] < t[2] {
+        1
+    } else {
+        2
+    }
+}
+
+/// The DDA state of one ray after OctoMap's set-up: both keys, per-axis step, `tMax`,
+/// `tDelta`, the `f32` length (as `f64`) and the iteration budget.
+struct RaySetup {
+    key_origin: Key,
+    key_end: Key,
+    step: [i32; 3],
+    t_max: [f64; 3],
+    t_delta: [f64; 3],
+    length: f64,
+    budget: u32,
+}
+
+/// OctoMap's checks and set-up before the loop; `Err` is the outcome when no key is visited.
+#[inline(always)]
+fn setup(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+) -> Result<RaySetup, RayWalk> {
+    let (Some(key_origin), Some(key_end)) = (key_of(conv, origin), key_of(conv, end)) else {
+        return Err(RayWalk::OutsideMap);
+    };
+    if key_origin == key_end {
+        return Err(RayWalk::SameVoxel);
+    }
+    let mut direction = sub_f32(end, origin);
+    let length = norm_f32(direction) as f32;
+    for d in direction.iter_mut() {
+        *d /= length;
+    }
+    let res = conv.resolution();
+    let o = [origin.x as f64, origin.y as f64, origin.z as f64];
+    let mut step = [0i32; 3];
+    let mut t_max = [f64::MAX; 3];
+    let mut t_delta = [f64::MAX; 3];
+    for i in 0..3 {
+        step[i] = if direction[i] > 0.0 {
+            1
+        } else if direction[i] < 0.0 {
+            -1
+        } else {
+            0
+        };
+        if step[i] != 0 {
+            // the voxel corner in the ray's direction; OctoMap narrows the half-voxel to f32
+            let border =
+                conv.key_to_coord(key_origin[i]) + ((step[i] as f64 * res * 0.5) as f32) as f64;
+            t_max[i] = (border - o[i]) / direction[i] as f64;
+            t_delta[i] = res / direction[i].abs() as f64;
+        }
+    }
+    let manhattan: u32 = (0..3)
+        .map(|i| (key_origin[i] as i32 - key_end[i] as i32).unsigned_abs())
+        .sum();
+    Ok(RaySetup {
+        key_origin,
+        key_end,
+        step,
+        t_max,
+        t_delta,
+        length: length as f64,
+        budget: manhattan + STEP_MARGIN,
+    })
+}
+
+/// Visit the keys of the voxels the segment `origin -> end` crosses, exactly as OctoMap's
+/// `computeRayKeys` lists them: the origin voxel first, the end voxel excluded.
+///
+/// `visit` returns `true` to continue and `false` to stop the walk. Nothing is visited when an
+/// end lies outside the map ([`RayWalk::OutsideMap`]) or both ends share a voxel
+/// ([`RayWalk::SameVoxel`]). Consecutive keys differ by one on exactly one axis. Never
+/// panics and always terminates: rays whose float arithmetic degenerates (OctoMap would loop
+/// until its assertion aborts) end with [`RayWalk::Degenerate`] after at most the Manhattan
+/// key distance plus 16 visits.
+#[inline]
+pub fn walk_ray_keys<F>(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    mut visit: F,
+) -> RayWalk
+where
+    F: FnMut(Key) -> bool,
+{
+    let mut r = match setup(conv, origin, end) {
+        Ok(r) => r,
+        Err(w) => return w,
+    };
+    if !visit(r.key_origin) {
+        return RayWalk::Stopped;
+    }
+    let mut current = r.key_origin;
+    loop {
+        if r.budget == 0 {
+            return RayWalk::Degenerate;
+        }
+        r.budget -= 1;
+        let dim = min_axis(&r.t_max);
+        current[dim] = (current[dim] as i32 + r.step[dim]) as u16;
+        r.t_max[dim] += r.t_delta[dim];
+        if current == r.key_end {
+            return RayWalk::Complete;
+        }
+        // the border of the current voxel lies beyond the end point: rounding made the walk
+        // miss the end voxel, so stop here (without this key)
+        if cmin(cmin(r.t_max[0], r.t_max[1]), r.t_max[2]) > r.length {
+            return RayWalk::Complete;
+        }
+        if !visit(current) {
+            return RayWalk::Stopped;
+        }
+    }
+}
+
+/// Bits of one axis in a [`Key::morton`] code.
+const AXIS_MASK: [u64; 3] = [
+    0x2492_4924_9249,
+    0x2492_4924_9249 << 1,
+    0x2492_4924_9249 << 2,
+];
+
+/// [`walk_ray_keys`] that hands out the keys' [`Key::morton`] codes instead of keys: the
+/// same voxels in the same order, but the walk steps the code directly (dilated integer
+/// arithmetic), which is what set-building callers want. Never stops early.
+#[inline]
+pub fn walk_ray_codes<F>(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    mut visit: F,
+) -> RayWalk
+where
+    F: FnMut(u64),
+{
+    let mut r = match setup(conv, origin, end) {
+        Ok(r) => r,
+        Err(w) => return w,
+    };
+    let mut code = r.key_origin.morton();
+    let end_code = r.key_end.morton();
+    visit(code);
+    loop {
+        if r.budget == 0 {
+            return RayWalk::Degenerate;
+        }
+        r.budget -= 1;
+        let dim = min_axis(&r.t_max);
+        let m = AXIS_MASK[dim];
+        let low = 1u64 << dim;
+        let axis = if r.step[dim] > 0 {
+            ((code | !m).wrapping_add(low)) & m
+        } else {
+            ((code & m).wrapping_sub(low)) & m
+        };
+        code = axis | (code & !m);
+        r.t_max[dim] += r.t_delta[dim];
+        if code == end_code {
+            return RayWalk::Complete;
+        }
+        if cmin(cmin(r.t_max[0], r.t_max[1]), r.t_max[2]) > r.length {
+            return RayWalk::Complete;
+        }
+        visit(code);
+    }
+}
+
+/// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the
+/// segment crosses, origin voxel first, end voxel excluded.
+///
+/// Returns `false` with an empty ray when an end lies outside the map (or is not finite), and
+/// `true` with an empty ray when both ends share a voxel.
+///
+/// Capacity: OctoMap's `KeyRay` holds 100 000 keys and its assertion aborts the program on a
+/// ray of 99 999 keys or more (possible only for rays thousands of metres long). Here the
+/// buffer grows instead, so such rays return all their keys (at most 3·65 535 inside the map),
+/// continuing exactly the walk OctoMap would have made. Rays whose float arithmetic
+/// degenerates ([`RayWalk::Degenerate`], where OctoMap never terminates) return `false` with an
+/// empty ray.
+pub fn compute_ray_keys(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    ray: &mut KeyRay,
+) -> bool {
+    ray.keys.clear();
+    let keys = &mut ray.keys;
+    match walk_ray_keys(conv, origin, end, |k| {
+        keys.push(k);
+        true
+    }) {
+        RayWalk::Complete | RayWalk::SameVoxel => true,
+        RayWalk::OutsideMap | RayWalk::Stopped | RayWalk::Degenerate => {
+            ray.keys.clear();
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "dda_tests.rs"]
+mod tests;

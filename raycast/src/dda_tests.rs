@@ -1,0 +1,270 @@
+use super::*;
+use proptest::prelude::*;
+
+fn conv(res: f64) -> KeyConverter {
+    KeyConverter::new(res).unwrap()
+}
+
+fn keys(c: &KeyConverter, o: [f32; 3], e: [f32; 3]) -> (bool, Vec<Key>) {
+    let mut ray = KeyRay::new();
+    let ok = compute_ray_keys(c, &Point3::from(o), &Point3::from(e), &mut ray);
+    (ok, ray.into_vec())
+}
+
+fn k(x: u16, y: u16, z: u16) -> Key {
+    Key::new(x, y, z)
+}
+
+#[test]
+fn ties_go_to_z_then_y_then_x() {
+    // facts §2: for (0,0,0) -> (0.3,0.3,0) y steps first
+    let c = conv(0.1);
+    let (ok, r) = keys(&c, [0.0; 3], [0.3, 0.3, 0.0]);
+    assert!(ok);
+    assert_eq!(r[0], k(32768, 32768, 32768));
+    assert_eq!(r[1], k(32768, 32769, 32768));
+    assert_eq!(r[2], k(32769, 32769, 32768));
+    // the 3-D diagonal steps z, y, x
+    let (_, r) = keys(&c, [0.05; 3], [0.35; 3]);
+    assert_eq!(
+        &r[..4],
+        &[
+            k(32768, 32768, 32768),
+            k(32768, 32768, 32769),
+            k(32768, 32769, 32769),
+            k(32769, 32769, 32769)
+        ]
+    );
+}
+
+#[test]
+fn end_voxel_excluded_origin_included() {
+    let c = conv(0.1);
+    let (ok, r) = keys(&c, [0.05, 0.05, 0.05], [1.05, 0.05, 0.05]);
+    assert!(ok);
+    let xs: Vec<u16> = r.iter().map(|k| k.x()).collect();
+    assert_eq!(xs, (32768..32778).collect::<Vec<_>>());
+    // negative direction
+    let (_, r) = keys(&c, [0.05, 0.05, 0.05], [-0.25, 0.05, 0.05]);
+    let xs: Vec<u16> = r.iter().map(|k| k.x()).collect();
+    assert_eq!(xs, vec![32768, 32767, 32766]);
+}
+
+#[test]
+fn same_voxel_and_outside_map() {
+    let c = conv(0.1);
+    assert_eq!(keys(&c, [0.01; 3], [0.09; 3]), (true, vec![]));
+    assert_eq!(keys(&c, [0.0; 3], [4000.0, 0.0, 0.0]), (false, vec![]));
+    assert_eq!(keys(&c, [0.0; 3], [0.0, 0.0, -3276.9]), (false, vec![]));
+    assert_eq!(keys(&c, [f32::NAN, 0.0, 0.0], [1.0; 3]), (false, vec![]));
+    assert_eq!(
+        keys(&c, [0.0; 3], [f32::INFINITY, 0.0, 0.0]),
+        (false, vec![])
+    );
+    // the last voxel of the map is inside
+    assert!(keys(&c, [3276.0, 0.0, 0.0], [3276.79, 0.0, 0.0]).0);
+}
+
+#[test]
+fn a_failed_ray_clears_the_buffer() {
+    let c = conv(0.1);
+    let mut ray = KeyRay::new();
+    assert!(compute_ray_keys(
+        &c,
+        &Point3::new(0.0, 0.0, 0.0),
+        &Point3::new(1.05, 0.0, 0.0),
+        &mut ray
+    ));
+    assert_eq!(ray.len(), 10);
+    assert!(!compute_ray_keys(
+        &c,
+        &Point3::new(0.0, 0.0, 0.0),
+        &Point3::new(1e6, 0.0, 0.0),
+        &mut ray
+    ));
+    assert!(ray.is_empty());
+}
+
+#[test]
+fn end_on_a_boundary_drops_the_last_voxel() {
+    // the border adds (f32)(res/2), slightly more than res/2: the voxel before an end lying
+    // exactly on its border is left on the "overshoot" test, as in OctoMap
+    let c = conv(0.1);
+    let (ok, r) = keys(&c, [0.0; 3], [1.0, 0.0, 0.0]);
+    assert!(ok);
+    let xs: Vec<u16> = r.iter().map(|k| k.x()).collect();
+    assert_eq!(xs, (32768..32777).collect::<Vec<_>>());
+}
+
+#[test]
+fn visitor_can_stop() {
+    let c = conv(0.1);
+    let mut seen = 0;
+    let w = walk_ray_keys(
+        &c,
+        &Point3::new(0.0, 0.0, 0.0),
+        &Point3::new(5.0, 0.0, 0.0),
+        |_| {
+            seen += 1;
+            seen < 3
+        },
+    );
+    assert_eq!((w, seen), (RayWalk::Stopped, 3));
+}
+
+#[test]
+fn underflowing_length_still_ends_when_octomap_does() {
+    // |end - origin|^2 underflows to 0 in f32: direction becomes (inf, NaN, NaN), but the
+    // walk reaches the end voxel in one step, as in OctoMap
+    let c = conv(0.1);
+    let (ok, r) = keys(&c, [-1e-30, 0.0, 0.0], [1e-30, 0.0, 0.0]);
+    assert!(ok);
+    assert_eq!(r, vec![k(32767, 32768, 32768)]);
+}
+
+#[test]
+fn degenerate_rays_terminate() {
+    // two axes with an infinite direction: OctoMap steps y forever (until its assert aborts)
+    let c = conv(0.1);
+    let mut n = 0;
+    let w = walk_ray_keys(
+        &c,
+        &Point3::new(-1e-30, -1e-30, 0.0),
+        &Point3::new(1e-30, 1e-30, 0.0),
+        |_| {
+            n += 1;
+            true
+        },
+    );
+    assert_eq!(w, RayWalk::Degenerate);
+    assert!(n <= 1 + 2 + 16);
+    assert_eq!(
+        keys(&c, [-1e-30, -1e-30, 0.0], [1e-30, 1e-30, 0.0]),
+        (false, vec![])
+    );
+    // a resolution so large that the f32 squared length overflows: no axis can step
+    let c = conv(1e33);
+    assert_eq!(
+        keys(&c, [-1e37, 0.0, 0.0], [1e37, 0.0, 0.0]),
+        (false, vec![])
+    );
+}
+
+/// Segment-box test in f64 (slab method) against the box grown by `pad` on every side.
+fn segment_hits_box(o: [f64; 3], e: [f64; 3], lo: [f64; 3], hi: [f64; 3], pad: f64) -> bool {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for i in 0..3 {
+        let d = e[i] - o[i];
+        let (l, h) = (lo[i] - pad, hi[i] + pad);
+        if d == 0.0 {
+            if o[i] < l || o[i] > h {
+                return false;
+            }
+        } else {
+            let (a, b) = ((l - o[i]) / d, (h - o[i]) / d);
+            let (a, b) = if a < b { (a, b) } else { (b, a) };
+            t0 = t0.max(a);
+            t1 = t1.min(b);
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+fn voxel_box(c: &KeyConverter, key: Key) -> ([f64; 3], [f64; 3]) {
+    let r = c.resolution();
+    let lo = [0, 1, 2].map(|i| (key[i] as f64 - 32768.0) * r);
+    (lo, lo.map(|v| v + r))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Against the geometric definition: the keys form a 6-connected, axis-monotone path from
+    /// the origin voxel; every key's voxel touches the segment; and every voxel the segment
+    /// crosses robustly (through its interior, shrunk by a margin) is on the ray or is the end
+    /// voxel, except a voxel whose border the end point lies on.
+    #[test]
+    fn keys_are_the_voxels_the_segment_crosses(
+        res in prop::sample::select(vec![0.05, 0.1, 0.2, 0.37]),
+        o in prop::array::uniform3(-3.0f32..3.0),
+        e in prop::array::uniform3(-3.0f32..3.0),
+    ) {
+        let c = conv(res);
+        let (ok, ray) = keys(&c, o, e);
+        prop_assert!(ok);
+        let po = Point3::from(o);
+        let pe = Point3::from(e);
+        let ko = key_of(&c, &po).unwrap();
+        let ke = key_of(&c, &pe).unwrap();
+        if ko == ke {
+            prop_assert!(ray.is_empty());
+            return Ok(());
+        }
+        prop_assert_eq!(ray[0], ko);
+        prop_assert!(!ray.contains(&ke));
+        for w in ray.windows(2) {
+            let d: Vec<i32> = (0..3).map(|i| w[1][i] as i32 - w[0][i] as i32).collect();
+            prop_assert_eq!(d.iter().map(|v| v.abs()).sum::<i32>(), 1, "{:?}", w);
+            for i in 0..3 {
+                prop_assert!(d[i] == 0 || d[i].signum() == (e[i] - o[i]).signum() as i32);
+            }
+        }
+        let of = o.map(|v| v as f64);
+        let ef = e.map(|v| v as f64);
+        let tol = 1e-4 * res;
+        for key in &ray {
+            let (lo, hi) = voxel_box(&c, *key);
+            prop_assert!(segment_hits_box(of, ef, lo, hi, tol), "{:?} not on the segment", key);
+        }
+        // brute force over the keys' bounding box
+        let (lo_k, hi_k) = ([0, 1, 2].map(|i| ko[i].min(ke[i])), [0, 1, 2].map(|i| ko[i].max(ke[i])));
+        for x in lo_k[0]..=hi_k[0] {
+            for y in lo_k[1]..=hi_k[1] {
+                for z in lo_k[2]..=hi_k[2] {
+                    let key = Key::new(x, y, z);
+                    let (lo, hi) = voxel_box(&c, key);
+                    // OctoMap's overshoot test may drop the last voxel before an end lying on
+                    // (within float rounding of) that voxel's border
+                    let end_on_border = segment_hits_box(ef, ef, lo, hi, 1e-5);
+                    if segment_hits_box(of, ef, lo, hi, -tol) && !end_on_border {
+                        prop_assert!(key == ke || ray.contains(&key), "{:?} crossed but missing", key);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn code_walk_visits_the_same_voxels_as_the_key_walk() {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut r = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
+    };
+    for res in [0.05, 0.1, 0.37] {
+        let conv = KeyConverter::new(res).unwrap();
+        for i in 0..20_000 {
+            let scale = [1.0, 10.0, 300.0][i % 3];
+            let o = Point3::new(r() * scale, r() * scale, r() * scale);
+            let mut e = Point3::new(r() * scale, r() * scale, r() * scale);
+            if i % 7 == 0 {
+                e.y = o.y; // in a plane: steps on two axes only
+            }
+            let mut keys = Vec::new();
+            let wk = walk_ray_keys(&conv, &o, &e, |k| {
+                keys.push(k.morton());
+                true
+            });
+            let mut codes = Vec::new();
+            let wc = walk_ray_codes(&conv, &o, &e, |c| codes.push(c));
+            assert_eq!(wk, wc);
+            assert_eq!(keys, codes, "ray {o:?} -> {e:?} at {res}");
+        }
+    }
+}

@@ -1,0 +1,208 @@
+//! Inserting a scan into a tree: OctoMap's `insertPointCloud` and `insertPointCloudRays`.
+
+use crate::dda::{compute_ray_keys, key_of, KeyRay};
+use crate::update::{compute_discrete_update, compute_update, ScanStats, ScanUpdate};
+use nalgebra::Point3;
+use octoquant_octree::{OcTree, Update};
+
+/// Statistics of one inserted scan (see [`ScanStats`]); `free` and `occupied` count the miss
+/// and hit updates applied.
+pub type InsertStats = ScanStats;
+
+/// How [`insert_point_cloud`] treats a scan; `Default` gives OctoMap's defaults
+/// (`maxrange = -1`, `lazy_eval = false`, `discretize = false`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct InsertOptions {
+    /// Readings farther than this from the origin only clear space up to this distance and
+    /// mark nothing occupied. `None` is OctoMap's `-1` (no limit). As in OctoMap, a negative
+    /// value also means no limit and `Some(0.0)` is a real limit (only points exactly at the
+    /// origin count as hits).
+    pub max_range: Option<f64>,
+    /// Reduce the scan to one ray per endpoint voxel, cast to the voxel centre (OctoMap's
+    /// `discretize`; see [`crate::discretize`]).
+    pub discretize: bool,
+    /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
+    /// [`OcTree::update_inner_occupancy`] once after the last scan.
+    pub lazy: bool,
+}
+
+/// Apply a computed scan update: one miss per free key, then one hit per occupied key, both in
+/// Morton order, through the tree's batched [`OcTree::update_keys`].
+///
+/// The order differs from OctoMap's hash-set order, but within one scan the keys are disjoint
+/// and each is updated once, so the final tree is the same.
+pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) {
+    // batched: consecutive keys share their path from the root, which Morton order maximises
+    tree.update_keys(update.free(), Update::Miss, lazy);
+    tree.update_keys(update.occupied(), Update::Hit, lazy);
+}
+
+/// OctoMap's `insertPointCloud(scan, sensor_origin, maxrange, lazy_eval, discretize)`: compute
+/// the scan's free and occupied voxels ([`compute_update`] or [`compute_discrete_update`]) and
+/// update each once, misses first.
+///
+/// Points are in the map frame, `origin` is the sensor position. Non-finite points are skipped
+/// and counted, points outside the map dropped and counted; never panics. With `lazy`, inner
+/// nodes are left stale: call [`OcTree::update_inner_occupancy`] before querying or writing.
+pub fn insert_point_cloud(
+    tree: &mut OcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    options: &InsertOptions,
+) -> InsertStats {
+    let mut buffers = ScanUpdate::new();
+    insert_point_cloud_reusing(tree, points, origin, options, &mut buffers)
+}
+
+/// [`insert_point_cloud`] with caller-owned buffers, to avoid reallocating them for every
+/// scan. After the call `buffers` holds the scan's key sets.
+pub fn insert_point_cloud_reusing(
+    tree: &mut OcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    options: &InsertOptions,
+    buffers: &mut ScanUpdate,
+) -> InsertStats {
+    let conv = tree.converter().clone();
+    let stats = if options.discretize {
+        compute_discrete_update(&conv, points, origin, options.max_range, buffers)
+    } else {
+        compute_update(&conv, points, origin, options.max_range, buffers)
+    };
+    apply_update(tree, buffers, options.lazy);
+    stats
+}
+
+/// OctoMap's `insertPointCloudRays` (graph2tree's `-simple` mode): for each point in order,
+/// a miss on every key of its ray, then a hit on its voxel. No deduplication: a voxel may be
+/// updated many times, and a miss may follow a hit. There is no maximum range (OctoMap ignores
+/// its `maxrange` argument here).
+///
+/// A point whose ray cannot be computed (an end outside the map) changes nothing, not even its
+/// hit. `free`/`occupied` in the result count the updates applied.
+pub fn insert_point_cloud_rays(
+    tree: &mut OcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    lazy: bool,
+) -> InsertStats {
+    let conv = tree.converter().clone();
+    let mut stats = InsertStats {
+        points: points.len(),
+        ..InsertStats::default()
+    };
+    let mut ray = KeyRay::new();
+    for p in points {
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            stats.non_finite += 1;
+            continue;
+        }
+        let Some(end_key) = key_of(&conv, p) else {
+            stats.outside_map += 1;
+            stats.failed_rays += 1;
+            continue;
+        };
+        if !compute_ray_keys(&conv, origin, p, &mut ray) {
+            stats.failed_rays += 1;
+            continue;
+        }
+        stats.rays += 1;
+        // in ray order, exactly like one update_node per key; neighbours share their paths
+        tree.update_keys(ray.keys(), Update::Miss, lazy);
+        stats.free += ray.len();
+        tree.update_node(end_key, Update::Hit, lazy);
+        stats.occupied += 1;
+    }
+    stats
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use octoquant_octree::validate::assert_well_formed;
+
+    fn scan() -> Vec<Point3<f32>> {
+        let mut pts = Vec::new();
+        for i in 0..40 {
+            for j in 0..10 {
+                let a = i as f32 * 0.15;
+                let b = j as f32 * 0.1 - 0.5;
+                pts.push(Point3::new(3.0 * a.cos(), 3.0 * a.sin(), b));
+            }
+        }
+        pts.push(Point3::new(f32::NAN, 0.0, 0.0));
+        pts.push(Point3::new(1e9, 0.0, 0.0));
+        pts
+    }
+
+    #[test]
+    fn applies_each_key_once_and_matches_the_sets() {
+        let mut tree = OcTree::new(0.1).unwrap();
+        let origin = Point3::new(0.01f32, 0.02, 0.03);
+        let mut buf = ScanUpdate::new();
+        let s = insert_point_cloud_reusing(
+            &mut tree,
+            &scan(),
+            &origin,
+            &InsertOptions::default(),
+            &mut buf,
+        );
+        assert_eq!(s.non_finite, 1);
+        assert_eq!(s.outside_map, 1);
+        assert_eq!(s.failed_rays, 1);
+        assert_eq!(s.rays, 400);
+        assert_well_formed(&tree, false);
+        let p = tree.params();
+        for &k in buf.free() {
+            assert_eq!(tree.search(k, 16).map(|n| n.value), Some(p.miss));
+        }
+        for &k in buf.occupied() {
+            assert_eq!(tree.search(k, 16).map(|n| n.value), Some(p.hit));
+        }
+        assert_eq!(s.free, buf.free().len());
+        assert_eq!(s.occupied, buf.occupied().len());
+    }
+
+    #[test]
+    fn lazy_then_inner_equals_eager_after_ml() {
+        let origin = Point3::new(0.0f32, 0.0, 0.0);
+        let mut eager = OcTree::new(0.2).unwrap();
+        let mut lazy = OcTree::new(0.2).unwrap();
+        let opts = InsertOptions {
+            max_range: Some(2.5),
+            ..Default::default()
+        };
+        for _ in 0..3 {
+            insert_point_cloud(&mut eager, &scan(), &origin, &opts);
+            insert_point_cloud(
+                &mut lazy,
+                &scan(),
+                &origin,
+                &InsertOptions { lazy: true, ..opts },
+            );
+        }
+        lazy.update_inner_occupancy();
+        assert_well_formed(&lazy, true);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        octoquant_octree::io::write_bt(&mut eager, &mut a).unwrap();
+        octoquant_octree::io::write_bt(&mut lazy, &mut b).unwrap();
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn rays_mode_updates_repeatedly() {
+        let mut tree = OcTree::new(0.1).unwrap();
+        let origin = Point3::new(0.05f32, 0.05, 0.05);
+        let pts = vec![Point3::new(0.55f32, 0.05, 0.05); 3];
+        let s = insert_point_cloud_rays(&mut tree, &pts, &origin, false);
+        assert_eq!(s.rays, 3);
+        assert_eq!(s.free, 15);
+        let conv = tree.converter().clone();
+        let first = key_of(&conv, &origin).unwrap();
+        let end = key_of(&conv, &pts[0]).unwrap();
+        let p = *tree.params();
+        assert_eq!(tree.search(first, 16).unwrap().value, 3.0 * p.miss);
+        let hit = tree.search(end, 16).unwrap().value;
+        assert_eq!(hit, p.hit + p.hit + p.hit);
+    }
+}

@@ -1,0 +1,427 @@
+//! The key sets of one scan: OctoMap's `computeUpdate` and `computeDiscreteUpdate`, without
+//! hash sets.
+//!
+//! A scan's update is two disjoint key sets: the voxels the rays cross (free) and the endpoint
+//! voxels (occupied). OctoMap collects them in `std::unordered_set`s; here both go into
+//! [`BrickSet`]s, one 64-bit mask per 4x4x4 brick of voxels, hashed by the brick's Morton
+//! code. The bricks are then listed in order, the occupied bits masked out of the free ones,
+//! and the keys emitted in Morton order, which is the tree's own depth-first order, so
+//! applying them touches the tree in a cache-friendly sweep.
+
+use crate::brickset::{push_brick_keys, BrickSet};
+use crate::dda::{key_of, norm_f32, sub_f32, walk_ray_codes, RayWalk};
+use nalgebra::Point3;
+use octoquant_octree::{Key, KeyConverter};
+
+/// Counts gathered while turning a scan into key sets (and while inserting it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ScanStats {
+    /// Points given.
+    pub points: usize,
+    /// Points with a NaN or infinite coordinate: skipped, never inserted.
+    pub non_finite: usize,
+    /// Finite points outside the map (`[-32768·res, 32768·res)` per axis). OctoMap drops them
+    /// (their ray and their hit both fail), and so do we; with `discretize`, OctoMap's
+    /// unchecked key wraps them into the map instead, and that is reproduced (they are still
+    /// counted here).
+    pub outside_map: usize,
+    /// With `discretize`: points whose voxel was already seen in this scan (no ray of their
+    /// own).
+    pub duplicates: usize,
+    /// Rays whose keys were computed (both ends inside the map), max-range rays included.
+    pub rays: usize,
+    /// Rays that could not be computed because an end lies outside the map (or the float
+    /// arithmetic degenerated); their free space is lost, exactly as in OctoMap.
+    pub failed_rays: usize,
+    /// Points beyond the maximum range: their ray was cut and they add no occupied voxel.
+    pub max_range_rays: usize,
+    /// Distinct free voxels (after removing the occupied ones), or free updates applied.
+    pub free: usize,
+    /// Distinct occupied voxels, or hit updates applied.
+    pub occupied: usize,
+}
+
+/// The free and occupied keys of one scan, plus reusable scratch space.
+///
+/// Fill it with [`compute_update`] or [`compute_discrete_update`]; both clear it first. Keep
+/// one per thread and reuse it from scan to scan to avoid allocations. Both key lists are
+/// sorted in Morton order (the tree's depth-first child order), hold each key once, and are
+/// disjoint.
+#[derive(Debug, Clone, Default)]
+pub struct ScanUpdate {
+    free: Vec<Key>,
+    occupied: Vec<Key>,
+    free_set: BrickSet,
+    occ_set: BrickSet,
+    ray: Vec<u64>,
+    /// Per-thread sets for frames split across rayon threads.
+    workers: Vec<Worker>,
+    bricks: Vec<(u64, u64)>,
+    centres: Vec<Point3<f32>>,
+    order: Vec<(u64, usize)>,
+}
+
+impl ScanUpdate {
+    /// An empty update; buffers grow on first use.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Voxels to update as misses: each once, none occupied, in Morton order.
+    pub fn free(&self) -> &[Key] {
+        &self.free
+    }
+
+    /// Voxels to update as hits: each once, in Morton order.
+    pub fn occupied(&self) -> &[Key] {
+        &self.occupied
+    }
+
+    /// Empty both key lists, keeping every allocation.
+    pub fn clear(&mut self) {
+        self.free.clear();
+        self.occupied.clear();
+        self.free_set.clear();
+        self.occ_set.clear();
+    }
+}
+
+/// Which voxels a free-space ray clears.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RayModel {
+    /// OctoMap's 3D DDA: every voxel the segment crosses, bit-exact with OctoMap.
+    #[default]
+    Dda,
+    /// Integer Bresenham between the voxel keys (see [`crate::walk_bresenham_keys`]): fewer
+    /// voxels per ray, not OctoMap's free space.
+    Bresenham,
+}
+
+/// One thread's share of a frame: its own sets and ray scratch.
+#[derive(Debug, Clone, Default)]
+struct Worker {
+    free_set: BrickSet,
+    occ_set: BrickSet,
+    ray: Vec<u64>,
+    stats: ScanStats,
+}
+
+/// Frames with at least this many points are split across the rayon threads.
+const PARALLEL_MIN_POINTS: usize = 4096;
+
+/// The key's Morton code ([`Key::morton`]): sorting by it visits voxels in the tree's own
+/// depth-first child order.
+#[inline(always)]
+pub(crate) fn morton(key: Key) -> u64 {
+    key.morton()
+}
+
+/// The inverse of [`morton`].
+#[inline]
+pub(crate) fn key_from_morton(code: u64) -> Key {
+    Key::from_morton(code)
+}
+
+/// The end of a max-range ray, as OctoMap computes it in `computeUpdate` and `insertRay`:
+/// `origin + normalized(p - origin) * (float)max_range`, all in `f32` (the normalisation
+/// divides by the `f32`-rounded norm, and only when it is positive).
+#[inline]
+pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64) -> Point3<f32> {
+    let n = norm_f32(diff);
+    let mut d = diff;
+    if n > 0.0 {
+        for v in d.iter_mut() {
+            *v /= n as f32;
+        }
+    }
+    let m = max_range as f32;
+    Point3::new(
+        origin.x + d[0] * m,
+        origin.y + d[1] * m,
+        origin.z + d[2] * m,
+    )
+}
+
+/// Walk one ray and add its keys to `set`. Returns whether the ray could be computed; the keys
+/// of a degenerate ray (see [`RayWalk::Degenerate`]) are dropped, as OctoMap gets no ray.
+fn push_ray(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    set: &mut BrickSet,
+    scratch: &mut Vec<u64>,
+    model: RayModel,
+) -> bool {
+    if model == RayModel::Bresenham {
+        let (Some(a), Some(b)) = (key_of(conv, origin), key_of(conv, end)) else {
+            return false;
+        };
+        crate::bresenham::walk_bresenham_keys(a, b, |k| set.insert(morton(k)));
+        return true;
+    }
+    scratch.clear();
+    let walk = walk_ray_codes(conv, origin, end, |c| scratch.push(c));
+    match walk {
+        RayWalk::Complete | RayWalk::SameVoxel => {
+            for &c in scratch.iter() {
+                set.insert(c);
+            }
+            true
+        }
+        RayWalk::OutsideMap | RayWalk::Stopped | RayWalk::Degenerate => false,
+    }
+}
+
+/// List both sets in Morton order, masking occupied voxels out of the free ones.
+fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
+    out.free.clear();
+    out.occupied.clear();
+    out.occ_set.sorted(&mut out.bricks);
+    for &(b, m) in &out.bricks {
+        push_brick_keys(b, m, &mut out.occupied);
+    }
+    out.free_set.sorted(&mut out.bricks);
+    for &(b, m) in &out.bricks {
+        // occupied wins over free
+        let m = m & !out.occ_set.get(b);
+        push_brick_keys(b, m, &mut out.free);
+    }
+    stats.free = out.free.len();
+    stats.occupied = out.occupied.len();
+}
+
+/// The ray and endpoint of one point, OctoMap's `computeUpdate` loop body (no bounding box).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_point(
+    conv: &KeyConverter,
+    p: &Point3<f32>,
+    origin: &Point3<f32>,
+    max_range: f64,
+    free_set: &mut BrickSet,
+    occ_set: &mut BrickSet,
+    ray: &mut Vec<u64>,
+    stats: &mut ScanStats,
+    model: RayModel,
+) {
+    let diff = sub_f32(p, origin);
+    if max_range < 0.0 || norm_f32(diff) <= max_range {
+        if push_ray(conv, origin, p, free_set, ray, model) {
+            stats.rays += 1;
+        } else {
+            stats.failed_rays += 1;
+        }
+        match key_of(conv, p) {
+            Some(k) => occ_set.insert(morton(k)),
+            None => stats.outside_map += 1,
+        }
+    } else {
+        stats.max_range_rays += 1;
+        if key_of(conv, p).is_none() {
+            stats.outside_map += 1;
+        }
+        let cut = cut_at_range(origin, diff, max_range);
+        if push_ray(conv, origin, &cut, free_set, ray, model) {
+            stats.rays += 1;
+        } else {
+            stats.failed_rays += 1;
+        }
+    }
+}
+
+#[inline]
+fn is_finite(p: &Point3<f32>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
+}
+
+/// OctoMap's `computeUpdate(scan, origin, free, occupied, maxrange)` (no bounding box).
+///
+/// For each point: if it is within `max_range` of `origin` (Euclidean, `f32` differences,
+/// `<=`), the keys of the ray `origin -> point` become free and the point's voxel occupied;
+/// otherwise the ray is cut at `max_range` (`origin + max_range·direction`, in `f32`): its keys
+/// become free, the voxel containing the cut end does not (it is the ray's excluded end), and
+/// nothing becomes occupied. Finally every occupied voxel is removed from the free ones:
+/// occupied wins. Each voxel appears once.
+///
+/// `max_range`: `None` means no limit (OctoMap's `-1`). Like OctoMap, `Some(m)` with a negative
+/// `m` also means no limit, `Some(0.0)` is a real limit (only points exactly at the origin are
+/// hits), and `Some(NaN)` turns every point into a max-range ray that cannot be cast.
+///
+/// Points with a NaN or infinite coordinate are skipped and counted (OctoMap drops them
+/// too, since their keys fail the range check). Points outside the map are dropped, also like
+/// OctoMap; when the origin is outside the map no ray can be cast, but endpoints inside the
+/// map still become occupied. Clears `out` first.
+pub fn compute_update(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    out: &mut ScanUpdate,
+) -> ScanStats {
+    compute_update_with(conv, points, origin, max_range, RayModel::Dda, out)
+}
+
+/// [`compute_update`] with a choice of ray model: [`RayModel::Dda`] is OctoMap's
+/// `computeUpdate`; [`RayModel::Bresenham`] keeps its set semantics (occupied wins, each key
+/// once, max-range rays cut without an occupied end) but clears the Bresenham line's voxels.
+pub fn compute_update_with(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    model: RayModel,
+    out: &mut ScanUpdate,
+) -> ScanStats {
+    out.clear();
+    let mut stats = ScanStats {
+        points: points.len(),
+        ..ScanStats::default()
+    };
+    let m = max_range.unwrap_or(-1.0);
+    let threads = rayon::current_num_threads();
+    if threads > 1 && points.len() >= PARALLEL_MIN_POINTS {
+        // each thread casts a contiguous share of the rays into its own sets; the union is
+        // the same set whatever the split, so the output does not depend on the thread count
+        out.workers.resize_with(threads, Worker::default);
+        let chunk = points.len().div_ceil(threads);
+        use rayon::prelude::*;
+        out.workers
+            .par_iter_mut()
+            .zip(points.par_chunks(chunk))
+            .for_each(|(w, pts)| {
+                w.free_set.clear();
+                w.occ_set.clear();
+                w.stats = ScanStats::default();
+                for p in pts {
+                    if !is_finite(p) {
+                        w.stats.non_finite += 1;
+                        continue;
+                    }
+                    add_point(
+                        conv,
+                        p,
+                        origin,
+                        m,
+                        &mut w.free_set,
+                        &mut w.occ_set,
+                        &mut w.ray,
+                        &mut w.stats,
+                        model,
+                    );
+                }
+            });
+        let used = points.len().div_ceil(chunk);
+        for w in &out.workers[..used] {
+            out.free_set.union_with(&w.free_set);
+            out.occ_set.union_with(&w.occ_set);
+            stats.non_finite += w.stats.non_finite;
+            stats.outside_map += w.stats.outside_map;
+            stats.rays += w.stats.rays;
+            stats.failed_rays += w.stats.failed_rays;
+            stats.max_range_rays += w.stats.max_range_rays;
+        }
+    } else {
+        for p in points {
+            if !is_finite(p) {
+                stats.non_finite += 1;
+                continue;
+            }
+            add_point(
+                conv,
+                p,
+                origin,
+                m,
+                &mut out.free_set,
+                &mut out.occ_set,
+                &mut out.ray,
+                &mut stats,
+                model,
+            );
+        }
+    }
+    finish(out, &mut stats);
+    stats
+}
+
+/// Reduce a scan to one point per voxel, as OctoMap's `computeDiscreteUpdate` does before its
+/// `computeUpdate`: each point's key is taken unchecked (`coordToKey`; points outside the map
+/// wrap around into it, as in OctoMap), and the centre (`f32`) of every key not seen before
+/// is appended to `centres`, in first-seen order.
+///
+/// Non-finite points are skipped and counted in the returned statistics (OctoMap would map a
+/// NaN coordinate to key 32768; we refuse it instead); `outside_map` counts the wrapped ones
+/// and `duplicates` the points whose voxel was already taken. `centres` is cleared first.
+pub fn discretize(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    centres: &mut Vec<Point3<f32>>,
+) -> ScanStats {
+    let mut order = Vec::new();
+    discretize_into(conv, points, centres, &mut order)
+}
+
+fn discretize_into(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    centres: &mut Vec<Point3<f32>>,
+    order: &mut Vec<(u64, usize)>,
+) -> ScanStats {
+    centres.clear();
+    order.clear();
+    let mut stats = ScanStats {
+        points: points.len(),
+        ..ScanStats::default()
+    };
+    for (i, p) in points.iter().enumerate() {
+        if !is_finite(p) {
+            stats.non_finite += 1;
+            continue;
+        }
+        let pd = Point3::new(p.x as f64, p.y as f64, p.z as f64);
+        if conv.point_to_key(&pd).is_none() {
+            stats.outside_map += 1;
+        }
+        let k = conv.point_to_key_unchecked(&pd);
+        order.push((morton(k), i));
+    }
+    // first occurrence of every key: sort by (code, index), keep run heads, restore order
+    order.sort_unstable();
+    order.dedup_by_key(|e| e.0);
+    let kept = order.len();
+    stats.duplicates = points.len() - stats.non_finite - kept;
+    order.sort_unstable_by_key(|e| e.1);
+    centres.extend(
+        order
+            .iter()
+            .map(|&(c, _)| conv.key_to_point_f32(&key_from_morton(c))),
+    );
+    stats
+}
+
+/// OctoMap's `computeDiscreteUpdate`: [`discretize`] the points, then [`compute_update`] on the
+/// voxel centres with the same, un-discretized origin (so rays go to centres and `max_range`
+/// is measured to the centre). Clears `out` first.
+pub fn compute_discrete_update(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    out: &mut ScanUpdate,
+) -> ScanStats {
+    let mut centres = std::mem::take(&mut out.centres);
+    let mut order = std::mem::take(&mut out.order);
+    let mut stats = discretize_into(conv, points, &mut centres, &mut order);
+    let inner = compute_update(conv, &centres, origin, max_range, out);
+    out.centres = centres;
+    out.order = order;
+    stats.rays = inner.rays;
+    stats.failed_rays = inner.failed_rays;
+    stats.max_range_rays = inner.max_range_rays;
+    stats.free = inner.free;
+    stats.occupied = inner.occupied;
+    stats
+}
+
+#[cfg(test)]
+#[path = "update_tests.rs"]
+mod tests;

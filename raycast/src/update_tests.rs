@@ -1,0 +1,251 @@
+use super::*;
+use crate::dda::{compute_ray_keys, KeyRay};
+use proptest::prelude::*;
+use std::collections::HashSet;
+
+fn conv(res: f64) -> KeyConverter {
+    KeyConverter::new(res).unwrap()
+}
+
+/// facts §3.2, literally, with std sets: the naive definition to compare against.
+fn naive_update(
+    c: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: f64,
+) -> (HashSet<Key>, HashSet<Key>) {
+    let mut free = HashSet::new();
+    let mut occ = HashSet::new();
+    let mut ray = KeyRay::new();
+    for p in points {
+        let d = p - origin;
+        let dist = ((d.x * d.x + d.y * d.y + d.z * d.z) as f64).sqrt();
+        if max_range < 0.0 || dist <= max_range {
+            if compute_ray_keys(c, origin, p, &mut ray) {
+                free.extend(ray.iter().copied());
+            }
+            if let Some(k) = key_of(c, p) {
+                occ.insert(k);
+            }
+        } else {
+            let n = dist as f32;
+            let dir = if dist > 0.0 { d / n } else { d };
+            let new_end = origin + dir * max_range as f32;
+            if compute_ray_keys(c, origin, &new_end, &mut ray) {
+                free.extend(ray.iter().copied());
+            }
+        }
+    }
+    free.retain(|k| !occ.contains(k));
+    (free, occ)
+}
+
+fn sorted_by_morton(keys: &[Key]) -> bool {
+    keys.windows(2).all(|w| morton(w[0]) < morton(w[1]))
+}
+
+#[test]
+fn morton_round_trips_and_interleaves() {
+    let naive = |k: Key| -> u64 {
+        let mut c = 0u64;
+        for b in 0..16 {
+            for a in 0..3 {
+                c |= (((k[a] >> b) & 1) as u64) << (3 * b + a);
+            }
+        }
+        c
+    };
+    let mut s = 1u64;
+    for _ in 0..10_000 {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        let k = Key::new(s as u16, (s >> 16) as u16, (s >> 32) as u16);
+        assert_eq!(morton(k), naive(k), "{k:?}");
+        assert_eq!(key_from_morton(morton(k)), k);
+    }
+    for k in [
+        Key::new(0, 0, 0),
+        Key::new(65535, 65535, 65535),
+        Key::new(1, 0, 65535),
+    ] {
+        assert_eq!(key_from_morton(morton(k)), k);
+    }
+    // the tree's child order: x is the lowest bit of a triple, z the highest
+    assert!(morton(Key::new(1, 0, 0)) < morton(Key::new(0, 1, 0)));
+    assert!(morton(Key::new(0, 1, 0)) < morton(Key::new(0, 0, 1)));
+    assert!(morton(Key::new(0, 0, 1)) < morton(Key::new(2, 0, 0)));
+}
+
+#[test]
+fn max_range_ray_frees_up_to_the_cut_voxel() {
+    // facts §3.2: origin 0.05, a point at x = 1.05, maxrange 0.5 -> free 32768..=32772
+    let c = conv(0.1);
+    let mut out = ScanUpdate::new();
+    let s = compute_update(
+        &c,
+        &[Point3::new(1.05, 0.05, 0.05)],
+        &Point3::new(0.05, 0.05, 0.05),
+        Some(0.5),
+        &mut out,
+    );
+    let xs: Vec<u16> = out.free().iter().map(|k| k.x()).collect();
+    assert_eq!(xs, vec![32768, 32769, 32770, 32771, 32772]);
+    assert!(out.occupied().is_empty());
+    assert_eq!((s.max_range_rays, s.rays, s.free, s.occupied), (1, 1, 5, 0));
+}
+
+#[test]
+fn occupied_wins_and_bad_points_are_counted() {
+    let c = conv(0.1);
+    let o = Point3::new(0.05f32, 0.05, 0.05);
+    let pts = [
+        Point3::new(1.05, 0.05, 0.05),
+        Point3::new(0.55, 0.05, 0.05), // on the first ray: occupied wins
+        Point3::new(f32::NAN, 0.0, 0.0),
+        Point3::new(0.0, f32::NEG_INFINITY, 0.0),
+        Point3::new(0.0, 0.0, 1e7),
+        Point3::new(0.07, 0.02, 0.01), // same voxel as the origin: occupied, no free
+    ];
+    let mut out = ScanUpdate::new();
+    let s = compute_update(&c, &pts, &o, None, &mut out);
+    assert_eq!(s.points, 6);
+    assert_eq!(s.non_finite, 2);
+    assert_eq!(s.outside_map, 1);
+    assert_eq!(s.failed_rays, 1);
+    assert_eq!(s.rays, 3);
+    let occ: Vec<u16> = out.occupied().iter().map(|k| k.x()).collect();
+    assert_eq!(occ, vec![32768, 32773, 32778]);
+    let free: Vec<u16> = out.free().iter().map(|k| k.x()).collect();
+    assert_eq!(
+        free,
+        vec![32769, 32770, 32771, 32772, 32774, 32775, 32776, 32777]
+    );
+}
+
+#[test]
+fn origin_outside_the_map_still_marks_endpoints() {
+    let c = conv(0.1);
+    let mut out = ScanUpdate::new();
+    let s = compute_update(
+        &c,
+        &[Point3::new(1.0, 1.0, 1.0)],
+        &Point3::new(5000.0, 0.0, 0.0),
+        None,
+        &mut out,
+    );
+    assert_eq!((s.failed_rays, s.occupied, s.free), (1, 1, 0));
+}
+
+#[test]
+fn max_range_zero_and_nan() {
+    let c = conv(0.1);
+    let o = Point3::new(0.05f32, 0.05, 0.05);
+    let pts = [Point3::new(1.05, 0.05, 0.05), o];
+    let mut out = ScanUpdate::new();
+    // 0 is a real limit: only the point at the origin is a hit
+    let s = compute_update(&c, &pts, &o, Some(0.0), &mut out);
+    assert_eq!((s.occupied, s.free, s.max_range_rays), (1, 0, 1));
+    // NaN: every point is a max-range reading whose ray cannot be cast
+    let s = compute_update(&c, &pts, &o, Some(f64::NAN), &mut out);
+    assert_eq!((s.occupied, s.free, s.failed_rays), (0, 0, 2));
+    // negative: no limit
+    let s = compute_update(&c, &pts, &o, Some(-3.0), &mut out);
+    assert_eq!((s.occupied, s.free), (2, 9));
+}
+
+#[test]
+fn discretize_keeps_first_seen_centres() {
+    let c = conv(0.1);
+    let pts = [
+        Point3::new(0.31f32, 0.0, 0.0),
+        Point3::new(-0.01, 0.0, 0.0),
+        Point3::new(0.39, 0.05, 0.01),
+        Point3::new(f32::NAN, 0.0, 0.0),
+        Point3::new(-0.05, 0.02, 0.03),
+    ];
+    let mut centres = Vec::new();
+    let s = discretize(&c, &pts, &mut centres);
+    assert_eq!(
+        centres,
+        vec![
+            Point3::new(0.35f32, 0.05, 0.05),
+            Point3::new(-0.05, 0.05, 0.05)
+        ]
+    );
+    assert_eq!((s.points, s.non_finite, s.duplicates), (5, 1, 2));
+    // outside the map the unchecked key wraps, as in OctoMap
+    let s = discretize(&c, &[Point3::new(3276.85f32, 0.0, 0.0)], &mut centres);
+    assert_eq!(s.outside_map, 1);
+    assert_eq!(centres, vec![Point3::new(-3276.75f32, 0.05, 0.05)]);
+}
+
+fn point_strategy() -> impl Strategy<Value = Point3<f32>> {
+    prop_oneof![
+        30 => prop::array::uniform3(-2.0f32..2.0).prop_map(Point3::from),
+        3 => prop::array::uniform3(-20.0f32..20.0).prop_map(Point3::from),
+        // outside the map at every tested resolution (wraps into it with discretize)
+        1 => (-1.0e6f32..1.0e6).prop_map(|x| Point3::new(x.signum() * 1.0e6 + x, 0.5, -0.5)),
+        2 => Just(Point3::new(f32::NAN, 0.0, 1.0)),
+        1 => Just(Point3::new(0.0, f32::INFINITY, 1.0)),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+
+    /// The sorted, cache-filtered sets equal the naive HashSet sets of facts §3.2.
+    #[test]
+    fn compute_update_equals_naive_sets(
+        res in prop::sample::select(vec![0.05, 0.1, 0.25]),
+        pts in prop::collection::vec(point_strategy(), 0..300),
+        o in prop::array::uniform3(-0.5f32..0.5),
+        max_range in prop::sample::select(vec![-1.0, 0.0, 0.7, 1.5, 100.0]),
+        discrete in any::<bool>(),
+    ) {
+        let c = conv(res);
+        let origin = Point3::from(o);
+        let mut out = ScanUpdate::new();
+        let m = if max_range < 0.0 { None } else { Some(max_range) };
+        let (free, occ) = if discrete {
+            let s = compute_discrete_update(&c, &pts, &origin, m, &mut out);
+            let mut centres = Vec::new();
+            discretize(&c, &pts, &mut centres);
+            // naive discretize: first-seen keys of finite points
+            let mut seen = HashSet::new();
+            let naive: Vec<Point3<f32>> = pts
+                .iter()
+                .filter(|p| p.iter().all(|v| v.is_finite()))
+                .map(|p| c.point_to_key_unchecked(&p.cast::<f64>()))
+                .filter(|k| seen.insert(*k))
+                .map(|k| c.key_to_point_f32(&k))
+                .collect();
+            prop_assert_eq!(&centres, &naive);
+            prop_assert_eq!(s.duplicates + naive.len() + s.non_finite, pts.len());
+            naive_update(&c, &naive, &origin, max_range)
+        } else {
+            let s = compute_update(&c, &pts, &origin, m, &mut out);
+            prop_assert_eq!(s.points, pts.len());
+            naive_update(&c, &pts, &origin, max_range)
+        };
+        prop_assert!(sorted_by_morton(out.free()));
+        prop_assert!(sorted_by_morton(out.occupied()));
+        let f: HashSet<Key> = out.free().iter().copied().collect();
+        let oc: HashSet<Key> = out.occupied().iter().copied().collect();
+        prop_assert_eq!(f, free);
+        prop_assert_eq!(oc, occ);
+    }
+}
+
+#[test]
+fn out_of_map_points_at_fine_resolution() {
+    // at res 0.001 the map ends at +-32.768 m
+    let c = conv(0.001);
+    let pts = [Point3::new(40.0f32, 0.0, 0.0), Point3::new(0.01, 0.0, 0.0)];
+    let mut out = ScanUpdate::new();
+    let s = compute_update(&c, &pts, &Point3::origin(), None, &mut out);
+    let (free, occ) = naive_update(&c, &pts, &Point3::origin(), -1.0);
+    assert_eq!((s.outside_map, s.failed_rays), (1, 1));
+    assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
+    assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
+}

@@ -1,0 +1,295 @@
+//! `octoquant bench INPUT... --res R`: the insertion modes side by side on the same frames,
+//! optionally against the C++ OctoMap reference program, as ratios.
+
+use anyhow::{bail, Context, Result};
+use octoquant::formats::{read_frames, ReadOptions};
+use octoquant::octree::io::write_bt;
+use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
+use octoquant::Frame;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input files, as for `octoquant map`.
+    inputs: Vec<PathBuf>,
+    /// Leaf size in metres.
+    #[arg(long, default_value_t = 0.1)]
+    res: f64,
+    /// Maximum range in metres.
+    #[arg(long)]
+    max_range: Option<f64>,
+    /// Threads for the multi-threaded runs (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// The C++ reference program (tools/octoquant-ref) to time OctoMap on the same frames.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Use only the first N frames.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Use only every N-th pixel of TUM depth images.
+    #[arg(long, default_value_t = 1)]
+    pixel_step: u32,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+struct Run {
+    name: String,
+    threads: usize,
+    frame_ms: Vec<f64>,
+    ray_s: f64,
+    tree_s: f64,
+    points: usize,
+    nodes: usize,
+    bytes_per_node: f64,
+    bt: Vec<u8>,
+}
+
+fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    }
+}
+
+fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) -> Result<Run> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let (mut mapper, frame_ms) = pool.install(|| -> Result<_> {
+        let mut mapper = Mapper::new(opts.clone())?;
+        let mut ms = Vec::with_capacity(frames.len());
+        for f in frames {
+            ms.push(mapper.insert(f).seconds * 1e3);
+        }
+        mapper.finish();
+        Ok((mapper, ms))
+    })?;
+    let st = *mapper.stats();
+    let tree = mapper.tree_mut();
+    tree.shrink_to_fit();
+    let nodes = tree.size();
+    let bytes_per_node = tree.memory_usage() as f64 / nodes.max(1) as f64;
+    let mut bt = Vec::new();
+    write_bt(tree, &mut bt)?;
+    Ok(Run {
+        name: name.into(),
+        threads,
+        frame_ms,
+        ray_s: st.total.ray_seconds,
+        tree_s: st.total.tree_seconds,
+        points: st.total.points,
+        nodes,
+        bytes_per_node,
+        bt,
+    })
+}
+
+/// Time OctoMap's insertPointCloud per frame with the reference program; returns the frame
+/// times in ms and the .bt it wrote.
+fn run_reference(
+    prog: &Path,
+    frames_file: &Path,
+    a: &Args,
+    discretize: bool,
+    dir: &Path,
+) -> Result<(Vec<f64>, Vec<u8>)> {
+    let bt = dir.join(if discretize { "ref_disc.bt" } else { "ref.bt" });
+    let mut ins = format!("insert {}", frames_file.display());
+    if let Some(m) = a.max_range {
+        ins.push_str(&format!(" maxrange {m:.17e}"));
+    }
+    if discretize {
+        ins.push_str(" discretize");
+    }
+    let script = format!("tree {:.17e}\n{ins}\nwrite_bt {}\n", a.res, bt.display());
+    let sp = dir.join("bench_script.txt");
+    std::fs::write(&sp, script)?;
+    let out = Command::new(prog)
+        .arg("script")
+        .arg(&sp)
+        .output()
+        .with_context(|| format!("cannot run {}", prog.display()))?;
+    if !out.status.success() {
+        bail!(
+            "reference program failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let ms = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next() == Some("frame")).then(|| w.nth(2)?.parse::<f64>().ok())?
+        })
+        .map(|s| s * 1e3)
+        .collect();
+    Ok((ms, std::fs::read(&bt)?))
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    if a.inputs.is_empty() {
+        bail!("bench needs input files (see `octoquant bench --help`)");
+    }
+    let read = ReadOptions {
+        tum: octoquant::formats::TumOptions {
+            pixel_step: a.pixel_step.max(1),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut frames = Vec::new();
+    for p in &a.inputs {
+        frames.extend(read_frames(p, &read)?);
+    }
+    if let Some(n) = a.frames {
+        frames.truncate(n);
+    }
+    let all = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let base = MapperOptions {
+        resolution: a.res,
+        max_range: a.max_range,
+        ..MapperOptions::default()
+    };
+    let modes = [
+        ("exact", InsertMode::Exact),
+        ("quantized", InsertMode::Quantized),
+        ("quant+bres", InsertMode::QuantizedBresenham),
+    ];
+    let mut runs = Vec::new();
+    for threads in if all > 1 { vec![1, all] } else { vec![1] } {
+        for (name, mode) in modes {
+            let opts = MapperOptions {
+                mode,
+                ..base.clone()
+            };
+            runs.push(run_mode(&frames, &opts, name, threads)?);
+        }
+    }
+    let mut reference = None;
+    if let Some(prog) = &a.reference {
+        let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let ff = dir.join("frames.frames");
+        octoquant::formats::frames::write_frames_file(&ff, &frames)?;
+        let exact = run_reference(prog, &ff, a, false, &dir)?;
+        let disc = run_reference(prog, &ff, a, true, &dir)?;
+        let _ = std::fs::remove_dir_all(&dir);
+        reference = Some((exact, disc));
+    }
+    let exact1 = median(&runs[0].frame_ms);
+    let points: usize = frames.iter().map(|f| f.points.len()).sum();
+    let mut rows = Vec::new();
+    for r in &runs {
+        let med = median(&r.frame_ms);
+        let total_s: f64 = r.frame_ms.iter().sum::<f64>() / 1e3;
+        let vs_octomap = reference.as_ref().map(|((e, ebt), (d, dbt))| {
+            // exact and Bresenham against OctoMap's default insertion, quantized against
+            // OctoMap's discretize; "same .bt" only means something for the exact modes
+            let (ms, bt) = if r.name == "quantized" {
+                (d, dbt)
+            } else {
+                (e, ebt)
+            };
+            (median(ms) / med, *bt == r.bt)
+        });
+        rows.push((r, med, total_s, vs_octomap));
+    }
+    if a.json {
+        let mut s = format!(
+            "{{\"frames\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
+            frames.len(),
+            points,
+            a.res,
+            a.max_range.map_or("null".into(), |m| m.to_string())
+        );
+        for (i, (r, med, total_s, vs)) in rows.iter().enumerate() {
+            if i > 0 {
+                s.push(',');
+            }
+            s.push_str(&format!(
+                "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
+                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), r.ray_s, r.tree_s,
+                r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
+            ));
+            if let Some((ratio, same)) = vs {
+                s.push_str(&format!(
+                    ",\"speedup_vs_octomap\":{ratio:.3},\"bt_identical_to_octomap\":{same}"
+                ));
+            }
+            s.push('}');
+        }
+        s.push(']');
+        if let Some(((e, _), (d, _))) = &reference {
+            s.push_str(&format!(
+                ",\"octomap_median_ms\":{:.3},\"octomap_discretize_median_ms\":{:.3}",
+                median(e),
+                median(d)
+            ));
+        }
+        s.push('}');
+        println!("{s}");
+        return Ok(());
+    }
+    println!(
+        "{} frames, {} points, res {} m, max range {}",
+        frames.len(),
+        points,
+        a.res,
+        a.max_range.map_or("off".into(), |m| format!("{m} m"))
+    );
+    if let Some(((e, _), (d, _))) = &reference {
+        println!(
+            "OctoMap 1.9.7 (reference program): insertPointCloud median {:.1} ms/frame, discretize {:.1} ms/frame",
+            median(e),
+            median(d)
+        );
+    }
+    println!(
+        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9}",
+        "mode",
+        "threads",
+        "ms/frame",
+        "points/s",
+        "rays s",
+        "tree s",
+        "nodes",
+        "B/node",
+        "vs exact",
+        "vs OctoMap",
+        "same .bt"
+    );
+    for (r, med, total_s, vs) in rows {
+        println!(
+            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9}",
+            r.name,
+            r.threads,
+            med,
+            r.points as f64 / total_s.max(1e-12),
+            r.ray_s,
+            r.tree_s,
+            r.nodes,
+            r.bytes_per_node,
+            exact1 / med.max(1e-12),
+            vs.map_or("-".into(), |(x, _)| format!("{x:.2}x")),
+            vs.map_or("-".into(), |(_, s)| if s {
+                "yes".into()
+            } else {
+                "NO".to_string()
+            }),
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
+
+use anyhow::{bail, Context, Result};
+use octoquant::formats::{read_frames, InputFormat, ReadOptions};
+use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
+use octoquant::scene::{
+    scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
+};
+use octoquant::treefile::write_tree_file;
+use octoquant::{Frame, OccupancyParams};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input files (.graph, .frames, .txt/.dat/.log, .vtk or a VTK scan directory, .pcd, TUM
+    /// association file or depth .png; .gz/.bz2 are read transparently). None: the built-in
+    /// scene.
+    inputs: Vec<PathBuf>,
+    /// Leaf size in metres.
+    #[arg(long, default_value_t = 0.1)]
+    res: f64,
+    /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange).
+    #[arg(long)]
+    max_range: Option<f64>,
+    /// OctoMap's discretize: one ray per end-point voxel, to its centre.
+    #[arg(long)]
+    discretize: bool,
+    /// Insertion mode; `quantized` gives the same tree as --discretize via the dense bit grid,
+    /// `simple` is graph2tree's -simple (no deduplication, max range ignored).
+    #[arg(long, value_parser = ["exact", "discretize", "quantized", "simple"])]
+    mode: Option<String>,
+    /// Ray model: `dda` (OctoMap's, exact) or `bresenham` (integer lines between voxel keys,
+    /// implies the quantization pre-pass; faster, slightly less free space).
+    #[arg(long, value_parser = ["dda", "bresenham"], default_value = "dda")]
+    ray: String,
+    /// Lazy insertion: inner nodes are updated once at the end.
+    #[arg(long)]
+    lazy: bool,
+    /// Clamping probabilities (OctoMap defaults 0.1192 0.971).
+    #[arg(long, num_args = 2, value_names = ["PMIN", "PMAX"])]
+    clamping: Option<Vec<f64>>,
+    /// Sensor model, miss first as in graph2tree (defaults 0.4 0.7).
+    #[arg(long, num_args = 2, value_names = ["PMISS", "PHIT"])]
+    sensor: Option<Vec<f64>>,
+    /// Thin each frame with the online density reducer first (cell size, metres).
+    #[arg(long)]
+    reduce: Option<f64>,
+    /// Input format, instead of guessing from the file name.
+    #[arg(long)]
+    format: Option<String>,
+    /// For .graph input: points are already in world coordinates (graph2tree -g).
+    #[arg(long)]
+    global: bool,
+    /// MCAP input: the PointCloud2 topic (default: the only one).
+    #[arg(long)]
+    topic: Option<String>,
+    /// MCAP input: express clouds in this tf frame (default: the root of the tf tree).
+    #[arg(long)]
+    fixed_frame: Option<String>,
+    /// Use only every N-th pixel of TUM depth images.
+    #[arg(long, default_value_t = 1)]
+    pixel_step: usize,
+    /// Output .bt (max-likelihood, pruned, as OctoMap writes it).
+    #[arg(short, long, default_value = "map.bt")]
+    output: PathBuf,
+    /// Also write the full tree as .ot (before the .bt's max-likelihood conversion).
+    #[arg(long)]
+    ot: Option<PathBuf>,
+    /// Print the summary as one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+fn builtin_frames() -> Result<Vec<Frame>> {
+    let scene = Scene::builtin();
+    let opts = ScanOptions::default();
+    let (mut frames, _) = scan_terrestrial(&scene, &TerrestrialScanner::builtin(&scene), &opts)?;
+    frames.extend(scan_lidar(&scene, &SpinningLidar::builtin_path(), &opts)?.0);
+    Ok(frames)
+}
+
+fn mapper_options(a: &Args) -> Result<MapperOptions> {
+    let mode = match a.mode.as_deref() {
+        None if a.discretize => InsertMode::Discretize,
+        None | Some("exact") => InsertMode::Exact,
+        Some("discretize") => InsertMode::Discretize,
+        Some("quantized") => InsertMode::Quantized,
+        Some("simple") => InsertMode::Simple,
+        Some(m) => bail!("unknown mode {m}"),
+    };
+    let mode = if a.ray == "bresenham" {
+        match mode {
+            InsertMode::Exact | InsertMode::Discretize | InsertMode::Quantized => {
+                InsertMode::QuantizedBresenham
+            }
+            m => bail!("--ray bresenham does not apply to --mode {}", m.name()),
+        }
+    } else {
+        mode
+    };
+    if a.discretize && mode == InsertMode::Exact && a.mode.is_some() {
+        bail!("--discretize contradicts --mode exact");
+    }
+    let (pmin, pmax) = match &a.clamping {
+        Some(v) => (v[0], v[1]),
+        None => (0.1192, 0.971),
+    };
+    let (pmiss, phit) = match &a.sensor {
+        Some(v) => (v[0], v[1]),
+        None => (0.4, 0.7),
+    };
+    let params = OccupancyParams::from_probabilities(phit, pmiss, pmin, pmax, 0.5)
+        .context("invalid --clamping/--sensor")?;
+    if let Some(c) = a.reduce {
+        if !(c.is_finite() && c > 0.0) {
+            bail!("--reduce needs a positive cell size, got {c}");
+        }
+    }
+    if let Some(m) = a.max_range {
+        if m.is_nan() {
+            bail!("--max-range is NaN");
+        }
+    }
+    Ok(MapperOptions {
+        resolution: a.res,
+        params,
+        max_range: a.max_range,
+        mode,
+        lazy: a.lazy,
+        reduce: a.reduce.map(|c| [c; 3]),
+        ..MapperOptions::default()
+    })
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    let options = mapper_options(a)?;
+    let mut mapper = Mapper::new(options).context("invalid --res")?;
+    let mut read = ReadOptions::default();
+    if let Some(f) = &a.format {
+        read.format =
+            Some(InputFormat::from_name(f).with_context(|| format!("unknown --format {f}"))?);
+    }
+    read.graph.points_global = a.global;
+    read.mcap.topic = a.topic.clone();
+    read.mcap.fixed_frame = a.fixed_frame.clone();
+    read.tum.pixel_step = a.pixel_step.max(1) as u32;
+
+    let t_load = Instant::now();
+    let mut frames = Vec::new();
+    if a.inputs.is_empty() {
+        eprintln!("no input given: mapping the built-in scene (pass files to map your own data)");
+        frames = builtin_frames()?;
+    }
+    for p in &a.inputs {
+        frames.extend(read_frames(p, &read)?);
+    }
+    let load_s = t_load.elapsed().as_secs_f64();
+    let progress = std::io::stderr().is_terminal() && !a.json;
+    for (i, f) in frames.iter().enumerate() {
+        mapper.insert(f);
+        if progress {
+            eprint!("\rinserting frame {}/{}", i + 1, frames.len());
+        }
+    }
+    if progress {
+        eprintln!();
+    }
+    mapper.finish();
+    let stats = *mapper.stats();
+    let mut tree = mapper.into_tree();
+    let full_nodes = tree.size();
+    let bytes_per_node = if full_nodes > 0 {
+        tree.memory_usage() as f64 / full_nodes as f64
+    } else {
+        0.0
+    };
+    if let Some(ot) = &a.ot {
+        write_tree_file(&mut tree, ot)?;
+    }
+    write_tree_file(&mut tree, &a.output)?;
+    let t = &stats.total;
+    let pps = if t.seconds > 0.0 {
+        t.points as f64 / t.seconds
+    } else {
+        0.0
+    };
+    if a.json {
+        println!(
+            "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
+            stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.free, t.occupied,
+            load_s, t.seconds, pps, full_nodes, bytes_per_node, tree.size(),
+            a.output.display().to_string()
+        );
+    } else {
+        println!("frames:          {}", stats.frames);
+        println!(
+            "points:          {} ({} non-finite and {} outside the map skipped)",
+            t.points, t.non_finite, t.outside_map
+        );
+        println!("loading:         {load_s:.3} s");
+        println!(
+            "insertion:       {:.3} s, {:.0} points/s (rays {:.3} s, tree {:.3} s)",
+            t.seconds, pps, t.ray_seconds, t.tree_seconds
+        );
+        println!(
+            "tree:            {} nodes, {:.2} bytes/node ({} nodes in the .bt after ML + prune)",
+            full_nodes,
+            bytes_per_node,
+            tree.size()
+        );
+        println!("wrote:           {}", a.output.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! `octoquant render MAP -o OUT.png [--view top|front|side] [--slice C]`.
+
+use anyhow::Result;
+use octoquant::render::{render_png_file, RenderOptions, View};
+use octoquant::treefile::read_tree_file;
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum ViewArg {
+    Top,
+    Front,
+    Side,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The .bt or .ot map.
+    map: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Viewing direction: top (colour = height), front (from −y) or side (from −x).
+    #[arg(long, value_enum, default_value = "top")]
+    view: ViewArg,
+    /// Draw a slice through this coordinate of the view's depth axis (z for top).
+    #[arg(long, allow_negative_numbers = true)]
+    slice: Option<f64>,
+    /// Size of the longer side of the map area, in pixels.
+    #[arg(long, default_value_t = 1000)]
+    size: u32,
+    /// Do not draw free space.
+    #[arg(long)]
+    no_free: bool,
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    let tree = read_tree_file(&a.map)?;
+    let options = RenderOptions {
+        view: match a.view {
+            ViewArg::Top => View::Top,
+            ViewArg::Front => View::Front,
+            ViewArg::Side => View::Side,
+        },
+        slice: a.slice,
+        map_pixels: a.size,
+        show_free: !a.no_free,
+    };
+    let image = render_png_file(&tree, &a.output, &options)?;
+    eprintln!(
+        "wrote {} ({} × {} px)",
+        a.output.display(),
+        image.width,
+        image.height
+    );
+    Ok(())
+}

@@ -1,0 +1,298 @@
+//! The mapping pipeline: frame -> (density reduction) -> (quantization) -> rays -> tree.
+//!
+//! [`Mapper`] owns the tree and the reusable buffers; feed it [`Frame`]s (world coordinates)
+//! or sensor-frame points with a pose. Every mode except [`InsertMode::Simple`] updates each
+//! voxel at most once per frame, occupied winning over free, exactly like OctoMap's
+//! `insertPointCloud`; the resulting `.bt`/`.ot` files are byte-identical to OctoMap's.
+
+use crate::frame::Frame;
+use nalgebra::{Isometry3, Point3};
+use octoquant_octree::{OcTree, OccupancyParams, OctreeError, Update};
+use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
+use octoquant_raycast::{
+    compute_discrete_update, compute_update, compute_update_with, RayModel, ScanStats, ScanUpdate,
+};
+use std::time::Instant;
+
+/// How a frame's end points become rays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InsertMode {
+    /// OctoMap's `insertPointCloud`: one ray per end point.
+    #[default]
+    Exact,
+    /// OctoMap's `discretize = true`, computed as OctoMap does (unique end-point keys, rays to
+    /// voxel centres).
+    Discretize,
+    /// The dense voxel-key quantization pre-pass (Kwon & Yoon): same tree as `Discretize`,
+    /// computed with a bit grid over the frame's key box.
+    Quantized,
+    /// The quantization pre-pass, then integer Bresenham rays between voxel keys: the fastest
+    /// mode; same occupied voxels as `Quantized`, slightly less free space (see
+    /// `octoquant_raycast::walk_bresenham_keys`). Not OctoMap-identical.
+    QuantizedBresenham,
+    /// OctoMap's `insertPointCloudRays` (graph2tree `-simple`): per point, misses along the
+    /// ray then a hit, no deduplication, no maximum range.
+    Simple,
+}
+
+impl InsertMode {
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            InsertMode::Exact => "exact",
+            InsertMode::Discretize => "discretize",
+            InsertMode::Quantized => "quantized",
+            InsertMode::QuantizedBresenham => "quantized+bresenham",
+            InsertMode::Simple => "simple",
+        }
+    }
+}
+
+/// Everything that configures a [`Mapper`]; `Default` is OctoMap's default insertion at 0.1 m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapperOptions {
+    /// Leaf size in metres.
+    pub resolution: f64,
+    /// Sensor model (hit/miss, clamping, threshold).
+    pub params: OccupancyParams,
+    /// Readings beyond this distance only clear space (OctoMap's `maxrange`); `None` = off.
+    pub max_range: Option<f64>,
+    /// How end points become rays.
+    pub mode: InsertMode,
+    /// Skip inner-node upkeep during insertion; [`Mapper::finish`] restores it.
+    pub lazy: bool,
+    /// Thin each frame with the online density reducer first (cell size per axis, metres).
+    pub reduce: Option<[f64; 3]>,
+    /// Limits of the dense quantization grid.
+    pub quantize: QuantizeOptions,
+}
+
+impl Default for MapperOptions {
+    fn default() -> Self {
+        MapperOptions {
+            resolution: 0.1,
+            params: OccupancyParams::default(),
+            max_range: None,
+            mode: InsertMode::Exact,
+            lazy: false,
+            reduce: None,
+            quantize: QuantizeOptions::default(),
+        }
+    }
+}
+
+/// What happened to one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FrameStats {
+    /// Points in the frame.
+    pub points: usize,
+    /// Points with NaN/inf coordinates, skipped.
+    pub non_finite: usize,
+    /// Finite points outside the map, dropped (as OctoMap drops them).
+    pub outside_map: usize,
+    /// Points left after density reduction (equal to `points` without it).
+    pub reduced: usize,
+    /// Rays cast (after quantization).
+    pub rays: usize,
+    /// Free-voxel updates applied.
+    pub free: usize,
+    /// Occupied-voxel updates applied.
+    pub occupied: usize,
+    /// Wall-clock seconds spent on this frame.
+    pub seconds: f64,
+    /// Of which: reduction, quantization and ray casting into key sets.
+    pub ray_seconds: f64,
+    /// Of which: applying the key sets to the tree.
+    pub tree_seconds: f64,
+}
+
+/// Totals over every frame inserted so far.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MapStats {
+    /// Frames inserted.
+    pub frames: usize,
+    /// Sum of the per-frame statistics.
+    pub total: FrameStats,
+}
+
+/// Builds an occupancy tree from frames.
+pub struct Mapper {
+    tree: OcTree,
+    options: MapperOptions,
+    update: ScanUpdate,
+    centres: Vec<Point3<f32>>,
+    stats: MapStats,
+}
+
+impl Mapper {
+    /// A mapper with an empty tree. Errors for an invalid resolution.
+    pub fn new(options: MapperOptions) -> Result<Self, OctreeError> {
+        let tree = OcTree::with_params(options.resolution, options.params)?;
+        Ok(Self::with_tree(tree, options))
+    }
+
+    /// A mapper that continues an existing tree (its resolution and sensor model win).
+    pub fn with_tree(tree: OcTree, mut options: MapperOptions) -> Self {
+        options.resolution = tree.resolution();
+        options.params = *tree.params();
+        Mapper {
+            tree,
+            options,
+            update: ScanUpdate::new(),
+            centres: Vec::new(),
+            stats: MapStats::default(),
+        }
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> &MapperOptions {
+        &self.options
+    }
+
+    /// Insert one frame (world coordinates). Never panics on bad points: they are counted.
+    pub fn insert(&mut self, frame: &Frame) -> FrameStats {
+        let start = Instant::now();
+        let mut st = FrameStats {
+            points: frame.points.len(),
+            reduced: frame.points.len(),
+            ..FrameStats::default()
+        };
+        let reduced;
+        let mut points: &[Point3<f32>] = &frame.points;
+        if let Some(cell) = self.options.reduce {
+            let finite = points
+                .iter()
+                .filter(|p| p.iter().all(|c| c.is_finite()))
+                .count();
+            st.non_finite = points.len() - finite;
+            // cell sizes were validated when the options were built; fall back to no reduction
+            reduced =
+                octoquant_quantize::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
+            points = &reduced;
+            st.reduced = points.len();
+        }
+        let conv = self.tree.converter().clone();
+        let origin = frame.origin;
+        let max_range = self.options.max_range;
+        let lazy = self.options.lazy;
+        let scan: ScanStats = match self.options.mode {
+            InsertMode::Exact => {
+                compute_update(&conv, points, &origin, max_range, &mut self.update)
+            }
+            InsertMode::Discretize => {
+                compute_discrete_update(&conv, points, &origin, max_range, &mut self.update)
+            }
+            InsertMode::Quantized | InsertMode::QuantizedBresenham => {
+                let q =
+                    quantize_endpoints(&conv, points, &self.options.quantize, &mut self.centres);
+                let model = if self.options.mode == InsertMode::Quantized {
+                    RayModel::Dda
+                } else {
+                    RayModel::Bresenham
+                };
+                let mut s = compute_update_with(
+                    &conv,
+                    &self.centres,
+                    &origin,
+                    max_range,
+                    model,
+                    &mut self.update,
+                );
+                s.points = q.points;
+                s.non_finite += q.non_finite;
+                s
+            }
+            InsertMode::Simple => {
+                let s = octoquant_raycast::insert_point_cloud_rays(
+                    &mut self.tree,
+                    points,
+                    &origin,
+                    lazy,
+                );
+                st.non_finite += s.non_finite;
+                st.outside_map = s.outside_map;
+                st.rays = s.rays;
+                st.free = s.free;
+                st.occupied = s.occupied;
+                st.seconds = start.elapsed().as_secs_f64();
+                self.account(&st);
+                return st;
+            }
+        };
+        st.ray_seconds = start.elapsed().as_secs_f64();
+        let t_tree = Instant::now();
+        self.tree
+            .update_keys(self.update.free(), Update::Miss, lazy);
+        self.tree
+            .update_keys(self.update.occupied(), Update::Hit, lazy);
+        st.tree_seconds = t_tree.elapsed().as_secs_f64();
+        st.non_finite += scan.non_finite;
+        st.outside_map = scan.outside_map;
+        st.rays = scan.rays;
+        st.free = self.update.free().len();
+        st.occupied = self.update.occupied().len();
+        st.seconds = start.elapsed().as_secs_f64();
+        self.account(&st);
+        st
+    }
+
+    /// Insert points given in the sensor frame, with the sensor pose in the world
+    /// (`world = pose * p`, computed in f64, stored as f32); the origin is the pose's translation.
+    pub fn insert_sensor_frame(
+        &mut self,
+        points: &[Point3<f32>],
+        pose: &Isometry3<f64>,
+    ) -> FrameStats {
+        let frame = Frame::new(
+            Point3::from(pose.translation.vector.cast::<f32>()),
+            points
+                .iter()
+                .map(|p| (pose * p.cast::<f64>()).cast::<f32>())
+                .collect(),
+        );
+        self.insert(&frame)
+    }
+
+    fn account(&mut self, st: &FrameStats) {
+        let t = &mut self.stats.total;
+        self.stats.frames += 1;
+        t.points += st.points;
+        t.non_finite += st.non_finite;
+        t.outside_map += st.outside_map;
+        t.reduced += st.reduced;
+        t.rays += st.rays;
+        t.free += st.free;
+        t.occupied += st.occupied;
+        t.seconds += st.seconds;
+        t.ray_seconds += st.ray_seconds;
+        t.tree_seconds += st.tree_seconds;
+    }
+
+    /// Bring inner nodes up to date after lazy insertion (a no-op otherwise).
+    pub fn finish(&mut self) {
+        if self.options.lazy {
+            self.tree.update_inner_occupancy();
+        }
+    }
+
+    /// Totals over all frames.
+    pub fn stats(&self) -> &MapStats {
+        &self.stats
+    }
+
+    /// The tree (call [`Mapper::finish`] first after lazy insertion).
+    pub fn tree(&self) -> &OcTree {
+        &self.tree
+    }
+
+    /// The tree, mutably.
+    pub fn tree_mut(&mut self) -> &mut OcTree {
+        &mut self.tree
+    }
+
+    /// Finish and hand over the tree.
+    pub fn into_tree(mut self) -> OcTree {
+        self.finish();
+        self.tree
+    }
+}

@@ -1,0 +1,338 @@
+//! Whole maps from real sensor files, through octoquant's readers and pipeline, against the
+//! real OctoMap: graph2tree for ScanGraphs, the project's reference program for the rest.
+//! `.bt` and `.ot` must be byte-identical for every resolution, max range and discretize
+//! setting, in every exact insertion mode, whatever the thread count.
+
+use crate::common;
+use octoquant::formats::graph::{graph_from_frames, write_graph_file};
+use octoquant::formats::{read_frames, ReadOptions, TumOptions};
+use octoquant::octree::io::{write_bt, write_ot};
+use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
+use octoquant::Frame;
+use std::path::Path;
+use std::process::Command;
+
+/// Build a map with octoquant; returns (.ot bytes, .bt bytes).
+fn ours(
+    frames: &[Frame],
+    res: f64,
+    max_range: Option<f64>,
+    mode: InsertMode,
+    threads: usize,
+) -> (Vec<u8>, Vec<u8>) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let mut m = Mapper::new(MapperOptions {
+            resolution: res,
+            max_range,
+            mode,
+            ..MapperOptions::default()
+        })
+        .unwrap();
+        for f in frames {
+            m.insert(f);
+        }
+        let mut tree = m.into_tree();
+        let (mut ot, mut bt) = (Vec::new(), Vec::new());
+        write_ot(&tree, &mut ot).unwrap();
+        write_bt(&mut tree, &mut bt).unwrap();
+        (ot, bt)
+    })
+}
+
+/// OctoMap through graph2tree on a .graph file; returns (.ot, .bt).
+fn graph2tree(
+    graph: &Path,
+    global: bool,
+    res: f64,
+    max_range: Option<f64>,
+    discretize: bool,
+    dir: &Path,
+) -> (Vec<u8>, Vec<u8>) {
+    let out = dir.join("g2t.bt");
+    let mut cmd = Command::new("graph2tree");
+    cmd.arg("-i")
+        .arg(graph)
+        .arg("-o")
+        .arg(&out)
+        .args(["-res", &format!("{res:.17e}")]);
+    if global {
+        cmd.arg("-g");
+    }
+    if let Some(m) = max_range {
+        cmd.args(["-m", &format!("{m:.17e}")]);
+    }
+    if discretize {
+        cmd.arg("-discretize");
+    }
+    let st = cmd
+        .output()
+        .expect("graph2tree (apt-get install octomap-tools)");
+    assert!(
+        st.status.success(),
+        "graph2tree failed: {}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let ot = std::fs::read(dir.join("g2t.bt.ot")).unwrap();
+    (ot, std::fs::read(&out).unwrap())
+}
+
+/// OctoMap through the reference program on a .frames file; returns (.ot, .bt).
+fn reference(
+    refprog: &Path,
+    frames_file: &Path,
+    res: f64,
+    max_range: Option<f64>,
+    discretize: bool,
+    dir: &Path,
+) -> (Vec<u8>, Vec<u8>) {
+    let mut ins = format!("insert {}", frames_file.display());
+    if let Some(m) = max_range {
+        ins.push_str(&format!(" maxrange {m:.17e}"));
+    }
+    if discretize {
+        ins.push_str(" discretize");
+    }
+    let (ot, bt) = (dir.join("ref.ot"), dir.join("ref.bt"));
+    let script = format!(
+        "tree {res:.17e}\n{ins}\nwrite_ot {}\nwrite_bt {}\n",
+        ot.display(),
+        bt.display()
+    );
+    let sp = dir.join("script.txt");
+    std::fs::write(&sp, script).unwrap();
+    let out = Command::new(refprog)
+        .arg("script")
+        .arg(&sp)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (std::fs::read(ot).unwrap(), std::fs::read(bt).unwrap())
+}
+
+fn first_diff(a: &[u8], b: &[u8]) -> String {
+    let i = a
+        .iter()
+        .zip(b)
+        .position(|(x, y)| x != y)
+        .unwrap_or(a.len().min(b.len()));
+    format!(
+        "lengths {} vs {}, first difference at byte {i}",
+        a.len(),
+        b.len()
+    )
+}
+
+/// Compare every exact mode with OctoMap over the resolution / max range / discretize matrix.
+fn check_matrix(
+    name: &str,
+    frames: &[Frame],
+    max_range: f64,
+    mut octomap: impl FnMut(f64, Option<f64>, bool) -> (Vec<u8>, Vec<u8>),
+) {
+    let points: usize = frames.iter().map(|f| f.points.len()).sum();
+    assert!(points > 1000, "{name}: only {points} points");
+    for res in [0.05, 0.1, 0.2] {
+        for mr in [None, Some(max_range)] {
+            for discretize in [false, true] {
+                let (rot, rbt) = octomap(res, mr, discretize);
+                let modes: &[InsertMode] = if discretize {
+                    &[InsertMode::Discretize, InsertMode::Quantized]
+                } else {
+                    &[InsertMode::Exact]
+                };
+                for &mode in modes {
+                    for threads in [1, 2] {
+                        let (ot, bt) = ours(frames, res, mr, mode, threads);
+                        let what =
+                            format!("{name} res {res} max range {mr:?} {mode:?} {threads} threads");
+                        assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
+                        assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn spherical_scan_graph_matches_graph2tree() {
+    let Some(graph) = common::data_file("octomap_reference/spherical_scan.graph") else {
+        return;
+    };
+    let frames = read_frames(&graph, &ReadOptions::default()).unwrap();
+    let dir = common::scratch("map_diff_sph");
+    check_matrix("spherical_scan.graph", &frames, 3.0, |res, mr, disc| {
+        graph2tree(&graph, false, res, mr, disc, &dir)
+    });
+}
+
+#[test]
+fn scan_dat_matches_graph2tree() {
+    let Some(dat) = common::data_file("lidar3d/octomap_scan_dat/scan.dat.bz2") else {
+        return;
+    };
+    let frames = read_frames(&dat, &ReadOptions::default()).unwrap();
+    assert_eq!(frames[0].points.len(), 88_206);
+    let dir = common::scratch("map_diff_scan");
+    // our .graph writer feeds graph2tree (-g: points already in world coordinates)
+    let graph = dir.join("scan.graph");
+    write_graph_file(&graph, &graph_from_frames(&frames)).unwrap();
+    check_matrix("scan.dat", &frames, 10.0, |res, mr, disc| {
+        graph2tree(&graph, true, res, mr, disc, &dir)
+    });
+}
+
+fn subsample(frames: Vec<Frame>, keep_frames: usize, stride: usize) -> Vec<Frame> {
+    frames
+        .into_iter()
+        .take(keep_frames)
+        .map(|f| Frame {
+            points: f.points.into_iter().step_by(stride).collect(),
+            ..f
+        })
+        .collect()
+}
+
+#[test]
+fn norlab_lidar_sequence_matches_octomap() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let Some(dir_in) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let frames = read_frames(&dir_in, &ReadOptions::default()).unwrap();
+    assert_eq!(frames.len(), 14);
+    // 3 frames, every 8th point: ~15k rays of up to 195 m keep OctoMap's time reasonable
+    let frames = subsample(frames, 3, 8);
+    let dir = common::scratch("map_diff_norlab");
+    let ff = dir.join("norlab.frames");
+    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    check_matrix("norlab", &frames, 20.0, |res, mr, disc| {
+        reference(&refprog, &ff, res, mr, disc, &dir)
+    });
+}
+
+#[test]
+fn tum_rgbd_frames_match_octomap() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let opts = ReadOptions {
+        tum: TumOptions {
+            pixel_step: 6,
+            ..TumOptions::default()
+        },
+        ..ReadOptions::default()
+    };
+    let frames = read_frames(&assoc, &opts).unwrap();
+    assert_eq!(frames.len(), 10);
+    let frames = subsample(frames, 4, 1);
+    let dir = common::scratch("map_diff_tum");
+    let ff = dir.join("tum.frames");
+    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    check_matrix("tum", &frames, 4.0, |res, mr, disc| {
+        reference(&refprog, &ff, res, mr, disc, &dir)
+    });
+}
+
+/// The CLI end to end: `octoquant map` on the norlab directory writes the same .bt as the
+/// library, and reports what it skipped.
+#[test]
+fn cli_map_on_real_files() {
+    let Some(dat) = common::data_file("lidar3d/octomap_scan_dat/scan.dat.bz2") else {
+        return;
+    };
+    let Some(expected) = common::data_file("octomap_reference/expected/scan_r01_m10.bt") else {
+        return;
+    };
+    let dir = common::scratch("map_cli");
+    let out = dir.join("m.bt");
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("map")
+        .arg(&dat)
+        .args(["--res", "0.1", "--max-range", "10", "--json", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        json.contains("\"frames\":1") && json.contains("\"points\":88206"),
+        "{json}"
+    );
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        std::fs::read(expected).unwrap()
+    );
+    // a missing input names the file
+    let bad = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .args(["map", "/nonexistent/scan.pcd", "-o"])
+        .arg(dir.join("x.bt"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("/nonexistent/scan.pcd"));
+    assert!(!dir.join("x.bt").exists());
+}
+
+/// `octoquant map bag.mcap --topic T` works like any other input: the real Ouster recording
+/// gives two frames holding the non-zero returns of its two clouds.
+#[test]
+fn cli_map_reads_a_ros_bag() {
+    let Some(bag) = common::data_file("mcap/pointcloudset_ouster_os1/test.mcap") else {
+        return;
+    };
+    let dir = common::scratch("map_cli_mcap");
+    let out = dir.join("bag.bt");
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("map")
+        .arg(&bag)
+        .args([
+            "--topic",
+            "/os1_cloud_node/points",
+            "--res",
+            "0.1",
+            "--json",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = String::from_utf8(o.stdout).unwrap();
+    assert!(json.contains("\"frames\":2"), "{json}");
+    assert!(
+        json.contains(&format!("\"points\":{}", 45_716 + 45_809)),
+        "{json}"
+    );
+    let tree = octoquant::treefile::read_tree_file(&out).unwrap();
+    let occupied = tree.counts().occupied_leaves;
+    assert!(occupied > 1_000, "{occupied} occupied leaves");
+    // an unknown topic names the topics the bag has
+    let bad = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("map")
+        .arg(&bag)
+        .args(["--topic", "/nope", "-o"])
+        .arg(dir.join("y.bt"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("/nope") && err.contains("/os1_cloud_node/points"),
+        "{err}"
+    );
+}

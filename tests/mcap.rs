@@ -1,0 +1,417 @@
+//! MCAP input: the real ROS 1 Ouster recording, and ROS 2 CDR files written here with the
+//! mcap writer and read back.
+
+use crate::common;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use octoquant::formats::mcap::{datatype, list_topics, read_mcap, McapOptions, TopicInfo};
+use std::collections::BTreeMap;
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+const OUSTER: &str = "mcap/pointcloudset_ouster_os1/test.mcap";
+const OUSTER_TOPIC: &str = "/os1_cloud_node/points";
+
+#[test]
+fn ouster_recording_gives_two_clouds_with_missing_returns_skipped() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let (frames, stats) = read_mcap(&path, &McapOptions::default()).unwrap();
+    assert_eq!(frames.len(), 2);
+    assert_eq!(stats.len(), 2);
+    let kept: Vec<usize> = stats.iter().map(|s| s.kept).collect();
+    assert_eq!(kept, [45_716, 45_809]);
+    for (f, s) in frames.iter().zip(&stats) {
+        assert_eq!(s.points, 131_072);
+        assert_eq!(s.non_finite, 0);
+        assert_eq!(s.zero, 131_072 - s.kept);
+        assert_eq!(f.points.len(), s.kept);
+    }
+    // header stamps, not the replay log time
+    assert!((frames[0].stamp.unwrap() - 1_588_075_038.629_916).abs() < 1e-5);
+    assert!((frames[1].stamp.unwrap() - 1_588_075_038.729_033_5).abs() < 1e-5);
+    // /tf_static: os1_sensor <- os1_lidar is (0, 0, 0.03618) and 180° about z; the root
+    // frame os1_sensor is the default fixed frame, so the origin is lifted 3.6 cm.
+    let o = frames[0].origin;
+    assert!(o.x.abs() < 1e-6 && o.y.abs() < 1e-6, "{o}");
+    assert!((o.z - 0.03618).abs() < 1e-6, "{o}");
+    // valid ranges are 0.64–14.7 m from the sensor
+    for p in &frames[0].points {
+        let r = (p - o).norm();
+        assert!((0.6..15.0).contains(&r), "range {r}");
+    }
+}
+
+#[test]
+fn ouster_in_its_own_frame_and_topic_listing() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let topics = list_topics(&path).unwrap();
+    assert!(topics.contains(&TopicInfo {
+        topic: OUSTER_TOPIC.into(),
+        schema: "sensor_msgs/PointCloud2".into(),
+        encoding: "ros1".into(),
+    }));
+    assert!(topics.iter().any(|t| t.topic == "/tf_static"));
+
+    let own = McapOptions {
+        topic: Some(OUSTER_TOPIC.into()),
+        fixed_frame: Some("os1_lidar".into()),
+        sensor_pose: None,
+    };
+    let (lidar, _) = read_mcap(&path, &own).unwrap();
+    let (sensor, _) = read_mcap(&path, &McapOptions::default()).unwrap();
+    assert_eq!(lidar[0].origin, Point3::origin());
+    // 180° about z plus the lift: (x, y, z) -> (-x, -y, z + 0.03618)
+    let (a, b) = (lidar[0].points[100], sensor[0].points[100]);
+    assert!(
+        (b.x + a.x).abs() < 1e-5 && (b.y + a.y).abs() < 1e-5,
+        "{a} {b}"
+    );
+    assert!((b.z - a.z - 0.03618).abs() < 1e-5, "{a} {b}");
+}
+
+#[test]
+fn unknown_topic_and_frame_errors_name_what_exists() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let e = read_mcap(
+        &path,
+        &McapOptions {
+            topic: Some("/nope".into()),
+            ..McapOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("/nope") && e.contains(OUSTER_TOPIC), "{e}");
+    assert!(e.contains("test.mcap"), "{e}");
+
+    let e = read_mcap(
+        &path,
+        &McapOptions {
+            topic: Some("/os1_cloud_node/imu".into()),
+            ..McapOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("sensor_msgs/Imu"), "{e}");
+
+    let e = read_mcap(
+        &path,
+        &McapOptions {
+            fixed_frame: Some("map".into()),
+            ..McapOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("\"map\"") && e.contains("os1_sensor"), "{e}");
+}
+
+/// A CDR serializer: encapsulation header, then primitives aligned to their size relative
+/// to the end of the header.
+struct Cdr {
+    buf: Vec<u8>,
+    be: bool,
+}
+
+impl Cdr {
+    fn new(be: bool) -> Cdr {
+        Cdr {
+            buf: vec![0, if be { 0 } else { 1 }, 0, 0],
+            be,
+        }
+    }
+    fn align(&mut self, n: usize) {
+        while (self.buf.len() - 4) % n != 0 {
+            self.buf.push(0);
+        }
+    }
+    fn u8(&mut self, v: u8) {
+        self.buf.push(v);
+    }
+    fn u32(&mut self, v: u32) {
+        self.align(4);
+        let b = if self.be {
+            v.to_be_bytes()
+        } else {
+            v.to_le_bytes()
+        };
+        self.buf.extend_from_slice(&b);
+    }
+    fn f64(&mut self, v: f64) {
+        self.align(8);
+        let b = if self.be {
+            v.to_be_bytes()
+        } else {
+            v.to_le_bytes()
+        };
+        self.buf.extend_from_slice(&b);
+    }
+    fn string(&mut self, s: &str) {
+        self.u32(s.len() as u32 + 1);
+        self.buf.extend_from_slice(s.as_bytes());
+        self.buf.push(0);
+    }
+    fn header(&mut self, sec: i32, nsec: u32, frame: &str) {
+        self.u32(sec as u32);
+        self.u32(nsec);
+        self.string(frame);
+    }
+}
+
+/// A PointCloud2 of 2 rows × 3 points with f64 x, y, z at odd offsets, a leading intensity
+/// field, padded points and rows; the data follows `data_be`.
+fn cloud_message(be: bool, data_be: bool, points: &[[f64; 3]; 6], fields: &[&str]) -> Vec<u8> {
+    let mut c = Cdr::new(be);
+    c.header(100, 500_000_000, "lidar");
+    c.u32(2); // height
+    c.u32(3); // width
+    let layout: Vec<(&str, u32, u8)> = vec![
+        ("intensity", 0, datatype::FLOAT32),
+        ("x", 4, datatype::FLOAT64),
+        ("y", 12, datatype::FLOAT64),
+        ("z", 24, datatype::FLOAT64),
+    ];
+    let layout: Vec<_> = layout
+        .into_iter()
+        .filter(|f| fields.contains(&f.0))
+        .collect();
+    c.u32(layout.len() as u32);
+    for (name, offset, dt) in &layout {
+        c.string(name);
+        c.u32(*offset);
+        c.u8(*dt);
+        c.u32(1);
+    }
+    c.u8(data_be as u8);
+    let point_step = 40u32;
+    let row_step = 3 * point_step + 8;
+    c.u32(point_step);
+    c.u32(row_step);
+    let mut data = vec![0xEEu8; (2 * row_step) as usize];
+    for (i, p) in points.iter().enumerate() {
+        let base = (i / 3) * row_step as usize + (i % 3) * point_step as usize;
+        for (k, off) in [4usize, 12, 24].into_iter().enumerate() {
+            let b = if data_be {
+                p[k].to_be_bytes()
+            } else {
+                p[k].to_le_bytes()
+            };
+            data[base + off..base + off + 8].copy_from_slice(&b);
+        }
+    }
+    c.u32(data.len() as u32);
+    c.buf.extend_from_slice(&data);
+    c.u8(1); // is_dense
+    c.buf
+}
+
+fn tf_message(be: bool, transforms: &[(&str, &str, [f64; 3], [f64; 4])]) -> Vec<u8> {
+    let mut c = Cdr::new(be);
+    c.u32(transforms.len() as u32);
+    for (parent, child, t, q) in transforms {
+        c.header(0, 0, parent);
+        c.string(child);
+        for v in t {
+            c.f64(*v);
+        }
+        for v in q {
+            c.f64(*v);
+        }
+    }
+    c.buf
+}
+
+struct Msg<'a> {
+    topic: &'a str,
+    schema: &'a str,
+    encoding: &'a str,
+    data: Vec<u8>,
+}
+
+fn write_mcap(path: &Path, messages: &[Msg]) {
+    let mut w = ::mcap::WriteOptions::new()
+        .profile("ros2")
+        .compression(Some(::mcap::Compression::Zstd))
+        .create(Cursor::new(Vec::new()))
+        .unwrap();
+    let mut channels: BTreeMap<&str, u16> = BTreeMap::new();
+    for (i, m) in messages.iter().enumerate() {
+        let id = match channels.get(m.topic) {
+            Some(&id) => id,
+            None => {
+                let sid = w
+                    .add_schema(m.schema, "ros2msg", b"(definition omitted)")
+                    .unwrap();
+                let id = w
+                    .add_channel(sid, m.topic, m.encoding, &BTreeMap::new())
+                    .unwrap();
+                channels.insert(m.topic, id);
+                id
+            }
+        };
+        let header = ::mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: i as u32,
+            log_time: 1_000 + i as u64,
+            publish_time: 1_000 + i as u64,
+        };
+        w.write_to_known_channel(&header, &m.data).unwrap();
+    }
+    w.finish().unwrap();
+    std::fs::write(path, w.into_inner().into_inner()).unwrap();
+}
+
+fn ros2_file(name: &str, be: bool, data_be: bool) -> PathBuf {
+    let dir = common::scratch(name);
+    let path = dir.join("ros2.mcap");
+    let nan = f64::NAN;
+    let pts = [
+        [1.0, 2.0, 3.0],
+        [nan, 0.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [-4.5, 0.25, 1e-3],
+        [10.0, -20.0, 0.5],
+        [0.0, 0.0, 2.0],
+    ];
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    write_mcap(
+        &path,
+        &[
+            Msg {
+                topic: "/cloud",
+                schema: "sensor_msgs/msg/PointCloud2",
+                encoding: "cdr",
+                data: cloud_message(be, data_be, &pts, &["intensity", "x", "y", "z"]),
+            },
+            Msg {
+                topic: "/tf_static",
+                schema: "tf2_msgs/msg/TFMessage",
+                encoding: "cdr",
+                data: tf_message(
+                    be,
+                    &[
+                        ("map", "base", [1.0, 2.0, 3.0], [0.0, 0.0, s, s]),
+                        ("base", "lidar", [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0]),
+                    ],
+                ),
+            },
+            Msg {
+                topic: "/status",
+                schema: "std_msgs/msg/String",
+                encoding: "cdr",
+                data: vec![0, 1, 0, 0, 1, 0, 0, 0, 0],
+            },
+        ],
+    );
+    path
+}
+
+fn check_ros2_round_trip(path: &Path) {
+    let (frames, stats) = read_mcap(path, &McapOptions::default()).unwrap();
+    assert_eq!(frames.len(), 1);
+    let s = stats[0];
+    assert_eq!((s.points, s.kept, s.non_finite, s.zero), (6, 4, 1, 1));
+    assert!((frames[0].stamp.unwrap() - 100.5).abs() < 1e-9);
+    // map <- base: 90° about z then (1, 2, 3); base <- lidar: (0, 0, 0.5)
+    let pose = Isometry3::from_parts(
+        Translation3::new(1.0, 2.0, 3.0),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
+    ) * Isometry3::translation(0.0, 0.0, 0.5);
+    let expect: Vec<Point3<f32>> = [
+        [1.0, 2.0, 3.0],
+        [-4.5, 0.25, 1e-3],
+        [10.0, -20.0, 0.5],
+        [0.0, 0.0, 2.0],
+    ]
+    .iter()
+    .map(|p| (pose * Point3::new(p[0], p[1], p[2])).cast::<f32>())
+    .collect();
+    assert_eq!(frames[0].points.len(), expect.len());
+    for (a, b) in frames[0].points.iter().zip(&expect) {
+        assert!((a - b).norm() < 1e-5, "{a} vs {b}");
+    }
+    assert!((frames[0].origin - Point3::new(1.0f32, 2.0, 3.5)).norm() < 1e-6);
+
+    // a sensor pose maps the fixed frame into the world
+    let shifted = read_mcap(
+        path,
+        &McapOptions {
+            sensor_pose: Some(Isometry3::translation(0.0, 0.0, 10.0)),
+            ..McapOptions::default()
+        },
+    )
+    .unwrap()
+    .0;
+    assert!((shifted[0].origin.z - 13.5).abs() < 1e-6);
+}
+
+#[test]
+fn ros2_cdr_round_trip_little_endian() {
+    check_ros2_round_trip(&ros2_file("mcap_cdr_le", false, false));
+}
+
+#[test]
+fn ros2_cdr_round_trip_big_endian_message_and_data() {
+    check_ros2_round_trip(&ros2_file("mcap_cdr_be", true, true));
+}
+
+#[test]
+fn unknown_encoding_and_missing_field_are_named() {
+    let dir = common::scratch("mcap_errors");
+    let pts = [[1.0, 2.0, 3.0]; 6];
+    let json = dir.join("json.mcap");
+    write_mcap(
+        &json,
+        &[Msg {
+            topic: "/cloud",
+            schema: "sensor_msgs/msg/PointCloud2",
+            encoding: "json",
+            data: b"{}".to_vec(),
+        }],
+    );
+    let e = read_mcap(&json, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("json") && e.contains("json.mcap"), "{e}");
+
+    let noz = dir.join("noz.mcap");
+    write_mcap(
+        &noz,
+        &[Msg {
+            topic: "/cloud",
+            schema: "sensor_msgs/msg/PointCloud2",
+            encoding: "cdr",
+            data: cloud_message(false, false, &pts, &["x", "y"]),
+        }],
+    );
+    let e = read_mcap(&noz, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no field \"z\"") && e.contains("noz.mcap"),
+        "{e}"
+    );
+
+    let garbage = dir.join("garbage.mcap");
+    std::fs::write(&garbage, b"not an mcap file at all").unwrap();
+    let e = read_mcap(&garbage, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("garbage.mcap") && e.contains("MCAP"), "{e}");
+
+    // a truncated message: every prefix of a valid cloud fails cleanly, never panics
+    let full = cloud_message(false, false, &pts, &["x", "y", "z"]);
+    for cut in 0..full.len() {
+        assert!(octoquant::formats::mcap::decode_point_cloud2(
+            &full[..cut],
+            octoquant::formats::mcap::Encoding::Cdr
+        )
+        .is_err());
+    }
+}
