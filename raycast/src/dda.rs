@@ -137,17 +137,16 @@ pub(crate) fn key_of(conv: &KeyConverter, p: &Point3<f32>) -> Option<Key> {
     ]))
 }
 
-/// The axis with the smallest `tMax`; ties go to z over y over x (OctoMap's comparison chain).
+/// The axis with the smallest `tMax`; ties go to z over y over x (OctoMap's comparison chain
+/// `t0 < t1 ? (t0 < t2 ? 0 : 2) : (t1 < t2 ? 1 : 2)`), written with selects instead of
+/// branches: the choice is data dependent and branches on it mispredict. NaN compares false,
+/// as in the chain.
 #[inline(always)]
 pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
-    if t[0] < t[1] {
-        if t[0] < t[2] {
-            0
-        } else {
-            2
-        }
-    } else if t[1] < t[2] {
-        1
+    let first = usize::from(!(t[0] < t[1]));
+    let t_first = if first == 0 { t[0] } else { t[1] };
+    if t_first < t[2] {
+        first
     } else {
         2
     }
@@ -287,32 +286,54 @@ pub fn walk_ray_codes<F>(
 where
     F: FnMut(u64),
 {
-    let mut r = match setup(conv, origin, end) {
+    let r = match setup(conv, origin, end) {
         Ok(r) => r,
         Err(w) => return w,
     };
     let mut code = r.key_origin.morton();
     let end_code = r.key_end.morton();
     visit(code);
+    // The state lives in scalars (not arrays indexed by the axis) so it stays in registers;
+    // the comparisons are OctoMap's, in the same order.
+    let [mut t0, mut t1, mut t2] = r.t_max;
+    let [d0, d1, d2] = r.t_delta;
+    let len = r.length;
+    let mut budget = r.budget;
+    // stepping one axis of a Morton code: add or subtract the axis's lowest bit inside its mask
+    #[inline(always)]
+    fn stepped(code: u64, m: u64, low: u64, up: bool) -> u64 {
+        let axis = if up {
+            (code | !m).wrapping_add(low) & m
+        } else {
+            (code & m).wrapping_sub(low) & m
+        };
+        axis | (code & !m)
+    }
+    let up = [r.step[0] > 0, r.step[1] > 0, r.step[2] > 0];
     loop {
-        if r.budget == 0 {
+        if budget == 0 {
             return RayWalk::Degenerate;
         }
-        r.budget -= 1;
-        let dim = min_axis(&r.t_max);
-        let m = AXIS_MASK[dim];
-        let low = 1u64 << dim;
-        let axis = if r.step[dim] > 0 {
-            ((code | !m).wrapping_add(low)) & m
+        budget -= 1;
+        if t0 < t1 {
+            if t0 < t2 {
+                code = stepped(code, AXIS_MASK[0], 1, up[0]);
+                t0 += d0;
+            } else {
+                code = stepped(code, AXIS_MASK[2], 4, up[2]);
+                t2 += d2;
+            }
+        } else if t1 < t2 {
+            code = stepped(code, AXIS_MASK[1], 2, up[1]);
+            t1 += d1;
         } else {
-            ((code & m).wrapping_sub(low)) & m
-        };
-        code = axis | (code & !m);
-        r.t_max[dim] += r.t_delta[dim];
+            code = stepped(code, AXIS_MASK[2], 4, up[2]);
+            t2 += d2;
+        }
         if code == end_code {
             return RayWalk::Complete;
         }
-        if cmin(cmin(r.t_max[0], r.t_max[1]), r.t_max[2]) > r.length {
+        if cmin(cmin(t0, t1), t2) > len {
             return RayWalk::Complete;
         }
         visit(code);

@@ -160,7 +160,13 @@ fn push_ray(
         return true;
     }
     scratch.clear();
-    let walk = walk_ray_codes(conv, origin, end, |c| scratch.push(c));
+    let walk = walk_ray_codes(conv, origin, end, |c| {
+        // grows once to the longest ray, then never again
+        if scratch.len() == scratch.capacity() {
+            scratch.reserve(scratch.len().max(256));
+        }
+        scratch.push(c);
+    });
     match walk {
         RayWalk::Complete | RayWalk::SameVoxel => {
             for &c in scratch.iter() {
