@@ -3,7 +3,7 @@
 //! `.bt` and `.ot` must be byte-identical for every resolution, max range and discretize
 //! setting, in every exact insertion mode, whatever the thread count.
 
-use crate::common;
+use crate::common::{self, first_diff};
 use octoquant::formats::graph::{graph_from_frames, write_graph_file};
 use octoquant::formats::{read_frames, ReadOptions, TumOptions};
 use octoquant::octree::io::{write_bt, write_ot};
@@ -115,19 +115,6 @@ fn reference(
         String::from_utf8_lossy(&out.stderr)
     );
     (std::fs::read(ot).unwrap(), std::fs::read(bt).unwrap())
-}
-
-fn first_diff(a: &[u8], b: &[u8]) -> String {
-    let i = a
-        .iter()
-        .zip(b)
-        .position(|(x, y)| x != y)
-        .unwrap_or(a.len().min(b.len()));
-    format!(
-        "lengths {} vs {}, first difference at byte {i}",
-        a.len(),
-        b.len()
-    )
 }
 
 /// Compare every exact mode with OctoMap over the resolution / max range / discretize matrix.

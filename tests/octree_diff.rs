@@ -2,7 +2,7 @@
 //! byte-identical `.ot` and `.bt` files, and OctoMap's own files must read and rewrite
 //! identically.
 
-use crate::common;
+use crate::common::{self, first_diff};
 use octoquant::octree::io::{read_bt, read_ot, read_tree, write_bt, write_bt_const, write_ot};
 use octoquant::octree::{Key, OcTree, OccupancyParams, Update};
 use proptest::prelude::*;
@@ -120,13 +120,18 @@ fn case_strategy() -> impl Strategy<Value = Case> {
     })
 }
 
-/// Apply `case` to a Rust tree and write the three files; returns their bytes.
-fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+/// A Rust tree with the case's resolution and sensor model, after all its operations.
+fn apply_case(case: &Case) -> OcTree {
     let mut tree = OcTree::new(case.res).unwrap();
     if let Some([h, m, lo, hi, t]) = case.params {
         tree.set_params(OccupancyParams::from_probabilities(h, m, lo, hi, t).unwrap());
     }
-    for op in &case.ops {
+    apply_ops(&mut tree, &case.ops);
+    tree
+}
+
+fn apply_ops(tree: &mut OcTree, ops: &[Op]) {
+    for op in ops {
         match *op {
             Op::Update {
                 key,
@@ -155,6 +160,11 @@ fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
             Op::Inner => tree.update_inner_occupancy(),
         }
     }
+}
+
+/// Apply `case` to a Rust tree and write the three files; returns their bytes.
+fn run_rust(case: &Case) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    let mut tree = apply_case(case);
     let mut ot = Vec::new();
     write_ot(&tree, &mut ot).unwrap();
     let mut btc = Vec::new();
@@ -245,19 +255,6 @@ fn try_reference(refprog: &Path, script: &str, dir: &Path) -> Option<(Vec<u8>, V
 
 fn run_reference(refprog: &Path, script: &str, dir: &Path) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
     try_reference(refprog, script, dir).expect("the reference program aborted")
-}
-
-fn first_diff(a: &[u8], b: &[u8]) -> String {
-    let i = a
-        .iter()
-        .zip(b)
-        .position(|(x, y)| x != y)
-        .unwrap_or(a.len().min(b.len()));
-    format!(
-        "lengths {} vs {}, first difference at byte {i}",
-        a.len(),
-        b.len()
-    )
 }
 
 #[test]
@@ -566,38 +563,7 @@ fn change_detection_matches_octomap() {
             s.push_str(&tail.join("\n"));
             s.push_str("\nprint_changes\n");
             script = s;
-            for op in &case.ops {
-                match *op {
-                    Op::Update {
-                        key,
-                        hit,
-                        repeat,
-                        lazy,
-                    } => {
-                        for _ in 0..repeat {
-                            tree.update_node(
-                                key,
-                                if hit { Update::Hit } else { Update::Miss },
-                                lazy,
-                            );
-                        }
-                    }
-                    Op::Delta { key, bits, lazy } => {
-                        tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
-                    }
-                    Op::Set { key, bits, lazy } => {
-                        tree.set_node_value(key, f32::from_bits(bits), lazy)
-                            .unwrap();
-                    }
-                    Op::Delete { key } => {
-                        tree.delete_node(key, 16);
-                    }
-                    Op::Prune => tree.prune(),
-                    Op::Expand => tree.expand(),
-                    Op::MaxLikelihood => tree.to_max_likelihood(),
-                    Op::Inner => tree.update_inner_occupancy(),
-                }
-            }
+            apply_ops(&mut tree, &case.ops);
             let mine: String = tree
                 .changed_keys()
                 .map(|(k, new)| format!("change {} {} {} {}\n", k.x(), k.y(), k.z(), new as u8))

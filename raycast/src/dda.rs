@@ -137,16 +137,17 @@ pub(crate) fn key_of(conv: &KeyConverter, p: &Point3<f32>) -> Option<Key> {
     ]))
 }
 
-/// The axis with the smallest `tMax`; ties go to z over y over x (OctoMap's comparison chain
-/// `t0 < t1 ? (t0 < t2 ? 0 : 2) : (t1 < t2 ? 1 : 2)`), written with selects instead of
-/// branches: the choice is data dependent and branches on it mispredict. NaN compares false,
-/// as in the chain.
+/// The axis with the smallest `tMax`; ties go to z over y over x (OctoMap's comparison chain).
 #[inline(always)]
 pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
-    let first = usize::from(!(t[0] < t[1]));
-    let t_first = if first == 0 { t[0] } else { t[1] };
-    if t_first < t[2] {
-        first
+    if t[0] < t[1] {
+        if t[0] < t[2] {
+            0
+        } else {
+            2
+        }
+    } else if t[1] < t[2] {
+        1
     } else {
         2
     }

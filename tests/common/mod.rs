@@ -101,3 +101,17 @@ pub fn scratch(name: &str) -> PathBuf {
     std::fs::create_dir_all(&d).expect("create scratch dir");
     d
 }
+
+/// Where two byte strings first differ, for assertion messages.
+pub fn first_diff(a: &[u8], b: &[u8]) -> String {
+    let i = a
+        .iter()
+        .zip(b)
+        .position(|(x, y)| x != y)
+        .unwrap_or(a.len().min(b.len()));
+    format!(
+        "lengths {} vs {}, first difference at byte {i}",
+        a.len(),
+        b.len()
+    )
+}
