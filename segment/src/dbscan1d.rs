@@ -1,12 +1,17 @@
 //! DBSCAN on sorted 1D data in linear time (Meglicki, "Linear time DBSCAN for sorted 1D data
 //! and laser range scan segmentation", arXiv:2103.16245).
 //!
-//! On sorted data every epsilon-neighbourhood is a contiguous index range. Two monotone sweeps
+//! On sorted data every epsilon-neighbourhood is a contiguous index range. Two monotone pointers
 //! give the range of every point, so the neighbourhood size (and the core test) is O(1) per
 //! point. Core points that are neighbours of the next core point form one cluster, so clusters
 //! are runs of consecutive cores; the members of a cluster are the index range from the first
 //! neighbour of its first core to the last neighbour of its last core. Everything is O(N),
 //! whatever epsilon and `min_points`.
+//!
+//! For linear data the constant does not depend on epsilon either: the ranges come from one
+//! branch-free merge walk (`bounds_linear`) and the core flags, clusters and labels from one
+//! sweep over them (`sweep_linear`), so every point costs the same whether it ends up noise
+//! or deep inside a cluster; only the start of each cluster takes a branch.
 //!
 //! Circular data (angles with any period) is handled with virtual indices: index `t` outside
 //! `0..n` stands for point `t mod n` shifted by whole periods, so a neighbourhood or a cluster
@@ -115,18 +120,21 @@ impl Dbscan1dParams {
 ///
 /// Cluster ids are `0..n_clusters()` in the order the original DBSCAN discovers them when it
 /// visits points in index order (the cluster holding the lowest-index core point is 0).
+///
+/// The per-point buffers keep the largest size seen and are overwritten, not cleared, by the next
+/// call, so reusing one `Clustering` costs no allocation and no extra pass over memory.
 #[derive(Clone, Debug, Default)]
 pub struct Clustering {
     n: usize,
     border: BorderPolicy,
-    /// Virtual index of the first neighbour of each point (may be negative when circular).
-    lo: Vec<i64>,
-    /// Virtual index of the last neighbour of each point (may be `>= n` when circular).
-    hi: Vec<i64>,
+    /// Per point `i`: `i - ` the virtual index of its first neighbour.
+    back: Vec<u32>,
+    /// Per point `i`: the virtual index of its last neighbour `- i`.
+    fwd: Vec<u32>,
     core: Vec<bool>,
     labels: Vec<u32>,
     second: Vec<u32>,
-    /// Per cluster: virtual index of its first and last core point.
+    /// Circular data only: per cluster, virtual index of its first and last core point.
     runs: Vec<(i64, i64)>,
     /// Per cluster: virtual index range `[start, end]` of the points it reaches.
     ranges: Vec<(i64, i64)>,
@@ -150,24 +158,24 @@ impl Clustering {
 
     /// Number of clusters found.
     pub fn n_clusters(&self) -> usize {
-        self.runs.len()
+        self.ranges.len()
     }
 
     /// Cluster of each point, [`NOISE`] for noise. Under [`BorderPolicy::All`] a border point
     /// reached by two clusters carries the lower id here and the other in [`Self::second_label`].
     pub fn labels(&self) -> &[u32] {
-        &self.labels
+        &self.labels[..self.n]
     }
 
     /// Cluster of point `i`, `None` for noise or an index out of range.
     pub fn label(&self, i: usize) -> Option<u32> {
-        self.labels.get(i).copied().filter(|&l| l != NOISE)
+        self.labels().get(i).copied().filter(|&l| l != NOISE)
     }
 
     /// Under [`BorderPolicy::All`], the second cluster of a border point reached by two
     /// clusters; `None` otherwise (in 1D no point is reached by more than two clusters).
     pub fn second_label(&self, i: usize) -> Option<u32> {
-        if self.border != BorderPolicy::All {
+        if self.border != BorderPolicy::All || i >= self.n {
             return None;
         }
         self.second.get(i).copied().filter(|&l| l != NOISE)
@@ -175,25 +183,25 @@ impl Clustering {
 
     /// Whether point `i` is a core point (`false` out of range).
     pub fn is_core(&self, i: usize) -> bool {
-        self.core.get(i).copied().unwrap_or(false)
+        self.core().get(i).copied().unwrap_or(false)
     }
 
     /// Core flag of every point.
     pub fn core(&self) -> &[bool] {
-        &self.core
+        &self.core[..self.n]
     }
 
     /// Size of the epsilon-neighbourhood of point `i`, itself included (0 out of range).
     pub fn neighbour_count(&self, i: usize) -> usize {
-        match (self.lo.get(i), self.hi.get(i)) {
-            (Some(&lo), Some(&hi)) => (hi - lo + 1).min(self.n as i64) as usize,
-            _ => 0,
+        if i >= self.n {
+            return 0;
         }
+        (self.back[i] as usize + self.fwd[i] as usize + 1).min(self.n)
     }
 
     /// Number of points labelled noise.
     pub fn noise_count(&self) -> usize {
-        self.labels.iter().filter(|&&l| l == NOISE).count()
+        self.labels().iter().filter(|&&l| l == NOISE).count()
     }
 
     /// Indices of the members of cluster `c`, in (circular) index order starting from the
@@ -217,23 +225,27 @@ impl Clustering {
         }
     }
 
+    /// Make room for `n` points. Buffers only grow; their old contents are left in place,
+    /// since every call overwrites the first `n` entries of each.
     fn reset(&mut self, n: usize, border: BorderPolicy) {
         self.n = n;
         self.border = border;
-        self.lo.clear();
-        self.lo.resize(n, 0);
-        self.hi.clear();
-        self.hi.resize(n, 0);
-        self.core.clear();
-        self.core.resize(n, false);
-        self.labels.clear();
-        self.labels.resize(n, NOISE);
-        self.second.clear();
+        grow(&mut self.back, n, 0);
+        grow(&mut self.fwd, n, 0);
+        grow(&mut self.core, n, false);
+        grow(&mut self.labels, n, NOISE);
         if border == BorderPolicy::All {
+            self.second.clear();
             self.second.resize(n, NOISE);
         }
         self.runs.clear();
         self.ranges.clear();
+    }
+}
+
+fn grow<T: Copy>(v: &mut Vec<T>, len: usize, fill: T) {
+    if v.len() < len {
+        v.resize(len, fill);
     }
 }
 
@@ -274,17 +286,23 @@ where
     if n == 0 {
         return Ok(());
     }
-    let k = |i: usize| key(&items[i]);
     match params.period {
-        None => bounds_linear(&k, n, params.eps, out),
-        Some(p) => bounds_circular(&k, n, p, params.eps, out),
+        None => {
+            bounds_linear(items, &key, params.eps, &mut out.back, &mut out.fwd);
+            sweep_linear(out, params.min_points);
+        }
+        Some(p) => {
+            bounds_circular(&|i: usize| key(&items[i]), n, p, params.eps, out);
+            let nn = n as i64;
+            for i in 0..n {
+                let count = (out.back[i] as i64 + out.fwd[i] as i64 + 1).min(nn);
+                out.core[i] = count >= params.min_points as i64;
+            }
+            out.labels[..n].fill(NOISE);
+            find_runs_circular(out);
+            assign_circular(out);
+        }
     }
-    let nn = n as i64;
-    for i in 0..n {
-        out.core[i] = (out.hi[i] - out.lo[i] + 1).min(nn) >= params.min_points as i64;
-    }
-    find_runs(out, params.period.is_some());
-    assign(out);
     Ok(())
 }
 
@@ -315,6 +333,23 @@ where
             max: NOISE as usize - 1,
         });
     }
+    // A branch-free scan says whether anything is wrong; only then find the first culprit.
+    let period = params.period.unwrap_or(f64::INFINITY);
+    let lower = if params.period.is_some() {
+        0.0
+    } else {
+        f64::NEG_INFINITY
+    };
+    let mut prev = f64::NEG_INFINITY;
+    let mut bad = false;
+    for item in items {
+        let value = key(item);
+        bad |= !value.is_finite() | (value < prev) | (value < lower) | (value >= period);
+        prev = value;
+    }
+    if !bad {
+        return Ok(());
+    }
     let mut prev = f64::NEG_INFINITY;
     for (index, item) in items.iter().enumerate() {
         let value = key(item);
@@ -338,30 +373,181 @@ where
     Ok(())
 }
 
-/// Two monotone sweeps: first and last neighbour of every point.
-fn bounds_linear(k: &impl Fn(usize) -> f64, n: usize, eps: f64, out: &mut Clustering) {
-    let mut j = 0;
-    for i in 0..n {
+/// Independent merge walks interleaved by [`bounds_linear`], so that the processor overlaps
+/// their dependency chains.
+const STREAMS: usize = 4;
+
+/// First and last neighbour of every point, as `back` and `fwd` offsets, in one branch-free
+/// merge walk.
+///
+/// Point `j` is outside the neighbourhood of a later point `i` when `x[i] - x[j] > eps`. Walking
+/// two pointers `j <= i` upward, each step either finds that `j` has left `i`'s neighbourhood
+/// (so `j`'s last neighbour is `i - 1`; `j` advances) or that `j` is `i`'s first neighbour (`i`
+/// advances). Each step stores both candidate offsets and advances one pointer by a 0/1 flag, so
+/// it has no data-dependent branch and costs the same whatever `eps`; the walk takes `2N` steps.
+/// The index range is split into [`STREAMS`] contiguous parts walked in lockstep.
+fn bounds_linear<T>(
+    items: &[T],
+    key: &impl Fn(&T) -> f64,
+    eps: f64,
+    back: &mut [u32],
+    fwd: &mut [u32],
+) {
+    // One length for all three lets one bounds check cover a load and a store.
+    let n = items.len();
+    let (back, fwd) = (&mut back[..n], &mut fwd[..n]);
+    let k = |i: usize| key(&items[i]);
+    // First neighbour of point i by binary search (the predicate is monotone in j).
+    let first_neighbour = |i: usize| -> usize {
+        let (mut a, mut b) = (0, i);
         let ki = k(i);
-        while ki - k(j) > eps {
-            j += 1;
+        while a < b {
+            let mid = (a + b) / 2;
+            if ki - k(mid) > eps {
+                a = mid + 1;
+            } else {
+                b = mid;
+            }
         }
-        out.lo[i] = j as i64;
+        a
+    };
+    let mut i = [0usize; STREAMS];
+    let mut j = [0usize; STREAMS];
+    let mut end = [0usize; STREAMS];
+    for s in 0..STREAMS {
+        i[s] = s * n / STREAMS;
+        end[s] = (s + 1) * n / STREAMS;
+        j[s] = first_neighbour(i[s]);
     }
-    let mut j = 0;
-    for i in 0..n {
-        j = j.max(i);
-        let ki = k(i);
-        while j + 1 < n && k(j + 1) - ki <= eps {
-            j += 1;
+    // Where each walk's `j` must end: the first neighbour of the next part's first point.
+    let mut j_end = [n; STREAMS];
+    j_end[..STREAMS - 1].copy_from_slice(&j[1..]);
+    // Both offsets are stored at every step; the last store to each is the right one.
+    let step = |i: &mut usize, j: &mut usize, back: &mut [u32], fwd: &mut [u32]| {
+        let (a, b) = (*i, *j);
+        let out = k(a) - k(b) > eps;
+        fwd[b] = a.wrapping_sub(1).wrapping_sub(b) as u32;
+        back[a] = (a - b) as u32;
+        *i = a + usize::from(!out);
+        *j = b + usize::from(out);
+    };
+    // Every walk takes at least `end - i` more steps, so that many run safely in lockstep.
+    loop {
+        let steps = (0..STREAMS).map(|s| end[s] - i[s]).min().unwrap_or(0);
+        if steps == 0 {
+            break;
         }
-        out.hi[i] = j as i64;
+        for _ in 0..steps {
+            for s in 0..STREAMS {
+                step(&mut i[s], &mut j[s], back, fwd);
+            }
+        }
+    }
+    for s in 0..STREAMS {
+        while i[s] < end[s] {
+            step(&mut i[s], &mut j[s], back, fwd);
+        }
+        // The points this walk's `j` has not passed reach exactly to the end of its part.
+        for (t, f) in (j[s]..).zip(&mut fwd[j[s]..j_end[s]]) {
+            *f = (end[s] - 1 - t) as u32;
+        }
+    }
+    // A walk's last `j` may be the next part's first one, and its stores there may have come
+    // after the right one: redo those few by binary search (the predicate is monotone in i).
+    for &t in &j_end[..STREAMS - 1] {
+        if t < n {
+            let (mut a, mut b) = (t, n);
+            let kt = k(t);
+            while a < b {
+                let mid = (a + b) / 2;
+                if k(mid) - kt > eps {
+                    b = mid;
+                } else {
+                    a = mid + 1;
+                }
+            }
+            fwd[t] = (a - 1 - t) as u32;
+        }
     }
 }
 
-/// The circular version: virtual index `t` is point `t mod n` shifted by whole periods. The
-/// backward range covers `i-n+1..=i`, the forward one `i..=i+n-1`; when they overlap the
-/// neighbourhood is the whole circle.
+/// One sweep over the neighbourhood bounds: core flags, clusters and labels together.
+///
+/// A cluster is a maximal run of core points each a neighbour of the next; a new one starts at
+/// a core point whose neighbourhood does not reach back to the previous core point. A point is
+/// labelled with the current cluster when the last core point so far reaches it. The only points
+/// this misses are those reached first by the first core point of the next cluster: they lie
+/// between the previous cluster's reach and that core point, and are filled when it starts
+/// (under [`BorderPolicy::All`] the previous cluster's border points it reaches get it as their
+/// second label). Per point the work is the same whatever `eps`, with no data-dependent branch
+/// but the rare one that starts a cluster.
+fn sweep_linear(out: &mut Clustering, min_points: usize) {
+    match out.border {
+        BorderPolicy::First => sweep_linear_as::<false, false>(out, min_points),
+        BorderPolicy::All => sweep_linear_as::<false, true>(out, min_points),
+        BorderPolicy::Noise => sweep_linear_as::<true, false>(out, min_points),
+    }
+}
+
+/// [`sweep_linear`] for one border policy: border points are noise (`NOISE_BORDER`), or also
+/// get a second label (`SECOND`), or neither (first cluster wins).
+fn sweep_linear_as<const NOISE_BORDER: bool, const SECOND: bool>(
+    out: &mut Clustering,
+    min_points: usize,
+) {
+    let n = out.n;
+    let min_points = min_points as i64;
+    let back = &out.back[..n];
+    let fwd = &out.fwd[..n];
+    let core = &mut out.core[..n];
+    let labels = &mut out.labels[..n];
+    let second = &mut out.second;
+    let ranges = &mut out.ranges;
+    // Current cluster id (NOISE before the first), its first point, how far its core points
+    // reach, and the last core point so far (-1 before the first).
+    let mut cid = NOISE;
+    let mut start = 0i64;
+    let mut reach = -1i64;
+    let mut last_core = -1i64;
+    for i in 0..n {
+        let (b, f) = (i64::from(back[i]), i64::from(fwd[i]));
+        let ii = i as i64;
+        let lo = ii - b;
+        let is_core = b + f + 1 >= min_points;
+        // All ones for a core point: the updates below are arithmetic, not branches.
+        let mask = -i64::from(is_core);
+        if (lo - last_core) & mask > 0 {
+            if cid != NOISE {
+                ranges.push((start, reach));
+            }
+            cid = cid.wrapping_add(1);
+            start = lo;
+            if !NOISE_BORDER {
+                // Points the previous cluster did not reach: this cluster reaches them first.
+                labels[(reach + 1).max(lo) as usize..i].fill(cid);
+                if SECOND && reach >= lo {
+                    second[lo as usize..=reach as usize].fill(cid);
+                }
+            }
+        }
+        last_core += (ii - last_core) & mask;
+        reach += (ii + f - reach) & mask;
+        let labelled = if NOISE_BORDER {
+            is_core
+        } else {
+            last_core >= lo
+        };
+        labels[i] = if labelled { cid } else { NOISE };
+        core[i] = is_core;
+    }
+    if cid != NOISE {
+        ranges.push((start, reach));
+    }
+}
+
+/// The circular version of the bounds: virtual index `t` is point `t mod n` shifted by whole
+/// periods. The backward range covers `i-n+1..=i`, the forward one `i..=i+n-1`; when they overlap
+/// the neighbourhood is the whole circle.
 fn bounds_circular(k: &impl Fn(usize) -> f64, n: usize, p: f64, eps: f64, out: &mut Clustering) {
     let nn = n as i64;
     // Distance from virtual t (t <= i) back to i, in the canonical min(b - a, (a + P) - b) forms.
@@ -387,7 +573,7 @@ fn bounds_circular(k: &impl Fn(usize) -> f64, n: usize, p: f64, eps: f64, out: &
         while j < ii && back(i, j) > eps {
             j += 1;
         }
-        out.lo[i] = j;
+        out.back[i] = (ii - j) as u32;
     }
     let mut j: i64 = 0;
     for i in 0..n {
@@ -396,24 +582,25 @@ fn bounds_circular(k: &impl Fn(usize) -> f64, n: usize, p: f64, eps: f64, out: &
         while j < ii + nn - 1 && fwd(i, j + 1) <= eps {
             j += 1;
         }
-        out.hi[i] = j;
+        out.fwd[i] = (j - ii) as u32;
     }
 }
 
-/// Clusters are maximal runs of consecutive core points each a direct neighbour (without
-/// crossing the seam) of the next; when circular, the last run joins the first if its last core
-/// reaches the first core across the seam. Consecutive cores that are neighbours only the long
-/// way round lie, with every other core, in one arc of length `<= eps` over the seam, so this
-/// seam join finds them too.
-fn find_runs(out: &mut Clustering, circular: bool) {
+/// Circular clusters: maximal runs of consecutive core points each a direct neighbour (without
+/// crossing the seam) of the next; the last run joins the first if its last core reaches the
+/// first core across the seam. Consecutive cores that are neighbours only the long way round
+/// lie, with every other core, in one arc of length `<= eps` over the seam, so this seam join
+/// finds them too.
+fn find_runs_circular(out: &mut Clustering) {
     let n = out.n;
     let mut prev: Option<usize> = None;
     for i in 0..n {
         if !out.core[i] {
             continue;
         }
+        let lo = i as i64 - i64::from(out.back[i]);
         match prev {
-            Some(p) if p as i64 >= out.lo[i] => {
+            Some(p) if p as i64 >= lo => {
                 let c = out.runs.len() - 1;
                 out.runs[c].1 = i as i64;
                 out.labels[i] = c as u32;
@@ -425,10 +612,11 @@ fn find_runs(out: &mut Clustering, circular: bool) {
         }
         prev = Some(i);
     }
-    if circular && out.runs.len() > 1 {
+    if out.runs.len() > 1 {
         let first = out.runs[0].0 as usize;
         let (last_start, last_end) = out.runs[out.runs.len() - 1];
-        if first as i64 + n as i64 <= out.hi[last_end as usize] {
+        let last_hi = last_end + i64::from(out.fwd[last_end as usize]);
+        if first as i64 + n as i64 <= last_hi {
             for t in last_start..=last_end {
                 if out.core[t as usize] {
                     out.labels[t as usize] = 0;
@@ -440,11 +628,17 @@ fn find_runs(out: &mut Clustering, circular: bool) {
     }
 }
 
-/// Member ranges per cluster, then border labels by policy, in cluster (discovery) order.
-fn assign(out: &mut Clustering) {
+/// Circular member ranges per cluster, then border labels by policy, in cluster order.
+fn assign_circular(out: &mut Clustering) {
     let n = out.n as i64;
-    let lo_of = |out: &Clustering, t: i64| out.lo[t.rem_euclid(n) as usize] + t.div_euclid(n) * n;
-    let hi_of = |out: &Clustering, t: i64| out.hi[t.rem_euclid(n) as usize] + t.div_euclid(n) * n;
+    let lo_of = |out: &Clustering, t: i64| {
+        let j = t.rem_euclid(n) as usize;
+        j as i64 - i64::from(out.back[j]) + t.div_euclid(n) * n
+    };
+    let hi_of = |out: &Clustering, t: i64| {
+        let j = t.rem_euclid(n) as usize;
+        j as i64 + i64::from(out.fwd[j]) + t.div_euclid(n) * n
+    };
     for c in 0..out.runs.len() {
         let (first, last) = out.runs[c];
         let start = lo_of(out, first);
