@@ -31,6 +31,10 @@ pub struct Args {
     /// Use only every N-th pixel of TUM depth images.
     #[arg(long, default_value_t = 1)]
     pixel_step: u32,
+    /// Repeat every run (each mode, and OctoMap) this many times, interleaved, and take
+    /// medians over all of them: single-frame inputs then still give a stable figure.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -39,9 +43,12 @@ pub struct Args {
 struct Run {
     name: String,
     threads: usize,
+    /// Frame times of every repetition.
     frame_ms: Vec<f64>,
-    ray_s: f64,
-    tree_s: f64,
+    /// Per repetition: seconds spent casting rays and updating the tree.
+    ray_s: Vec<f64>,
+    tree_s: Vec<f64>,
+    /// Points inserted over all repetitions.
     points: usize,
     nodes: usize,
     bytes_per_node: f64,
@@ -86,13 +93,26 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
         name: name.into(),
         threads,
         frame_ms,
-        ray_s: st.total.ray_seconds,
-        tree_s: st.total.tree_seconds,
+        ray_s: vec![st.total.ray_seconds],
+        tree_s: vec![st.total.tree_seconds],
         points: st.total.points,
         nodes,
         bytes_per_node,
         bt,
     })
+}
+
+/// One OctoMap timing: frame times in ms and the `.bt` it wrote.
+type RefRun = (Vec<f64>, Vec<u8>);
+
+impl Run {
+    /// Add the figures of a repetition of the same run.
+    fn absorb(&mut self, again: Run) {
+        self.frame_ms.extend(again.frame_ms);
+        self.ray_s.extend(again.ray_s);
+        self.tree_s.extend(again.tree_s);
+        self.points += again.points;
+    }
 }
 
 /// Time OctoMap's insertPointCloud per frame with the reference program; returns the frame
@@ -168,26 +188,48 @@ pub fn run(a: &Args) -> Result<()> {
         ("quantized", InsertMode::Quantized),
         ("quant+bres", InsertMode::QuantizedBresenham),
     ];
-    let mut runs = Vec::new();
-    for threads in if all > 1 { vec![1, all] } else { vec![1] } {
-        for (name, mode) in modes {
-            let opts = MapperOptions {
-                mode,
-                ..base.clone()
-            };
-            runs.push(run_mode(&frames, &opts, name, threads)?);
+    let thread_counts = if all > 1 { vec![1, all] } else { vec![1] };
+    let mut runs: Vec<Run> = Vec::new();
+    let mut reference: Option<(RefRun, RefRun)> = None;
+    let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
+    let ff = dir.join("frames.frames");
+    if a.reference.is_some() {
+        std::fs::create_dir_all(&dir)?;
+        octoquant::formats::frames::write_frames_file(&ff, &frames)?;
+    }
+    // repetitions interleave every mode and OctoMap, so a slow spell of a shared machine
+    // hits all of them alike
+    for rep in 0..a.repeat.max(1) {
+        let mut i = 0;
+        for &threads in &thread_counts {
+            for (name, mode) in modes {
+                let opts = MapperOptions {
+                    mode,
+                    ..base.clone()
+                };
+                let run = run_mode(&frames, &opts, name, threads)?;
+                if rep == 0 {
+                    runs.push(run);
+                } else {
+                    runs[i].absorb(run);
+                }
+                i += 1;
+            }
+        }
+        if let Some(prog) = &a.reference {
+            let exact = run_reference(prog, &ff, a, false, &dir)?;
+            let disc = run_reference(prog, &ff, a, true, &dir)?;
+            match &mut reference {
+                None => reference = Some((exact, disc)),
+                Some(((e, _), (d, _))) => {
+                    e.extend(exact.0);
+                    d.extend(disc.0);
+                }
+            }
         }
     }
-    let mut reference = None;
-    if let Some(prog) = &a.reference {
-        let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
-        let ff = dir.join("frames.frames");
-        octoquant::formats::frames::write_frames_file(&ff, &frames)?;
-        let exact = run_reference(prog, &ff, a, false, &dir)?;
-        let disc = run_reference(prog, &ff, a, true, &dir)?;
+    if a.reference.is_some() {
         let _ = std::fs::remove_dir_all(&dir);
-        reference = Some((exact, disc));
     }
     let exact1 = median(&runs[0].frame_ms);
     let points: usize = frames.iter().map(|f| f.points.len()).sum();
@@ -209,8 +251,9 @@ pub fn run(a: &Args) -> Result<()> {
     }
     if a.json {
         let mut s = format!(
-            "{{\"frames\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
+            "{{\"frames\":{},\"repetitions\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
             frames.len(),
+            a.repeat.max(1),
             points,
             a.res,
             a.max_range.map_or("null".into(), |m| m.to_string())
@@ -221,7 +264,7 @@ pub fn run(a: &Args) -> Result<()> {
             }
             s.push_str(&format!(
                 "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
-                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), r.ray_s, r.tree_s,
+                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
                 r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
             ));
             if let Some((ratio, same)) = vs {
@@ -244,11 +287,12 @@ pub fn run(a: &Args) -> Result<()> {
         return Ok(());
     }
     println!(
-        "{} frames, {} points, res {} m, max range {}",
+        "{} frames, {} points, res {} m, max range {}, {} repetitions (medians over all)",
         frames.len(),
         points,
         a.res,
-        a.max_range.map_or("off".into(), |m| format!("{m} m"))
+        a.max_range.map_or("off".into(), |m| format!("{m} m")),
+        a.repeat.max(1)
     );
     if let Some(((e, _), (d, _))) = &reference {
         println!(
@@ -278,8 +322,8 @@ pub fn run(a: &Args) -> Result<()> {
             r.threads,
             med,
             r.points as f64 / total_s.max(1e-12),
-            r.ray_s,
-            r.tree_s,
+            median(&r.ray_s),
+            median(&r.tree_s),
             r.nodes,
             r.bytes_per_node,
             exact1 / med.max(1e-12),
