@@ -53,7 +53,7 @@ pub struct Counts {
 #[derive(Clone)]
 pub struct OcTree {
     conv: KeyConverter,
-    params: OccupancyParams,
+    pub(crate) params: OccupancyParams,
     pub(crate) store: NodeStore,
     size: usize,
     /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new".

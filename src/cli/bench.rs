@@ -53,6 +53,8 @@ struct Run {
     nodes: usize,
     bytes_per_node: f64,
     bt: Vec<u8>,
+    /// The map of the first repetition, to compare classes with the exact mode's.
+    tree: octoquant::octree::OcTree,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -89,6 +91,7 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
     let bytes_per_node = tree.memory_usage() as f64 / nodes.max(1) as f64;
     let mut bt = Vec::new();
     write_bt(tree, &mut bt)?;
+    let tree = mapper.into_tree();
     Ok(Run {
         name: name.into(),
         threads,
@@ -99,6 +102,7 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
         nodes,
         bytes_per_node,
         bt,
+        tree,
     })
 }
 
@@ -247,7 +251,19 @@ pub fn run(a: &Args) -> Result<()> {
             };
             (median(ms) / med, *bt == r.bt)
         });
-        rows.push((r, med, total_s, vs_octomap));
+        // share of voxels with the same class (unknown/free/occupied) as the exact map
+        let exact = runs
+            .iter()
+            .find(|x| x.name == "exact" && x.threads == r.threads)
+            .unwrap_or(&runs[0]);
+        let classes = octoquant::octree::compare_classes(&exact.tree, &r.tree)?;
+        // and with the quantized map: the same end points, DDA rays
+        let quantized = runs
+            .iter()
+            .find(|x| x.name == "quantized" && x.threads == r.threads)
+            .unwrap_or(&runs[0]);
+        let vs_quantized = octoquant::octree::compare_classes(&quantized.tree, &r.tree)?;
+        rows.push((r, med, total_s, vs_octomap, classes, vs_quantized));
     }
     if a.json {
         let mut s = format!(
@@ -258,7 +274,7 @@ pub fn run(a: &Args) -> Result<()> {
             a.res,
             a.max_range.map_or("null".into(), |m| m.to_string())
         );
-        for (i, (r, med, total_s, vs)) in rows.iter().enumerate() {
+        for (i, (r, med, total_s, vs, classes, vs_q)) in rows.iter().enumerate() {
             if i > 0 {
                 s.push(',');
             }
@@ -266,6 +282,13 @@ pub fn run(a: &Args) -> Result<()> {
                 "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
                 r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
                 r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
+            ));
+            let c = &classes.counts;
+            s.push_str(&format!(
+                ",\"class_agreement_with_exact\":{:.6},\"class_agreement_with_quantized\":{:.6},\"classes_vs_exact\":[[{},{},{}],[{},{},{}],[{},{},{}]]",
+                classes.agreement(),
+                vs_q.agreement(),
+                c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]
             ));
             if let Some((ratio, same)) = vs {
                 s.push_str(&format!(
@@ -302,7 +325,7 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     println!(
-        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9}",
+        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9} {:>8} {:>8}",
         "mode",
         "threads",
         "ms/frame",
@@ -313,11 +336,13 @@ pub fn run(a: &Args) -> Result<()> {
         "B/node",
         "vs exact",
         "vs OctoMap",
-        "same .bt"
+        "same .bt",
+        "agree %",
+        "agree q%"
     );
-    for (r, med, total_s, vs) in rows {
+    for (r, med, total_s, vs, classes, vs_q) in &rows {
         println!(
-            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9}",
+            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9} {:>8.3} {:>8.3}",
             r.name,
             r.threads,
             med,
@@ -333,6 +358,23 @@ pub fn run(a: &Args) -> Result<()> {
             } else {
                 "NO".to_string()
             }),
+            100.0 * classes.agreement(),
+            100.0 * vs_q.agreement(),
+        );
+    }
+    println!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)");
+    // where the Bresenham map's classes differ from the exact one's
+    if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.name == "quant+bres") {
+        use octoquant::octree::VoxelClass::{Free, Occupied, Unknown};
+        println!(
+            "quant+bres vs exact ({} thread): voxels free in exact but unknown {} / occupied {}; occupied in exact but unknown {} / free {}; unknown in exact but free {} / occupied {}",
+            r.threads,
+            c.count(Free, Unknown),
+            c.count(Free, Occupied),
+            c.count(Occupied, Unknown),
+            c.count(Occupied, Free),
+            c.count(Unknown, Free),
+            c.count(Unknown, Occupied),
         );
     }
     Ok(())
