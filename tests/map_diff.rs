@@ -32,8 +32,13 @@ fn ours(
             ..MapperOptions::default()
         })
         .unwrap();
-        for f in frames {
-            m.insert(f);
+        if threads > 1 {
+            // the pipelined path (rays of the next frame while the tree takes this one)
+            m.insert_frames(frames);
+        } else {
+            for f in frames {
+                m.insert(f);
+            }
         }
         let mut tree = m.into_tree();
         let (mut ot, mut bt) = (Vec::new(), Vec::new());

@@ -77,10 +77,11 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
         .build()?;
     let (mut mapper, frame_ms) = pool.install(|| -> Result<_> {
         let mut mapper = Mapper::new(opts.clone())?;
-        let mut ms = Vec::with_capacity(frames.len());
-        for f in frames {
-            ms.push(mapper.insert(f).seconds * 1e3);
-        }
+        let ms = mapper
+            .insert_frames(frames)
+            .iter()
+            .map(|st| st.seconds * 1e3)
+            .collect::<Vec<_>>();
         mapper.finish();
         Ok((mapper, ms))
     })?;
