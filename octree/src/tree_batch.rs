@@ -135,6 +135,12 @@ impl OcTree {
             d += 1;
             path[d] = cur;
             just_created = created;
+            if created && d < TREE_DEPTH as usize {
+                // everything below a new node is new: one block per level, no checks
+                cur = self.store.create_chain(cur, key, path);
+                self.add_size(TREE_DEPTH as usize - d);
+                d = TREE_DEPTH as usize;
+            }
         }
         let old = self.store.value(cur);
         let v = old + delta;
