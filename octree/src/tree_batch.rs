@@ -34,6 +34,36 @@ impl OcTree {
                 Some(p) => common_depth(p, key).min(valid.saturating_sub(1)),
                 None => 0,
             };
+            if common == TREE_DEPTH as usize - 1 && valid == TREE_DEPTH as usize + 1 {
+                // a sibling of the previous voxel, whose whole path exists: only the leaf
+                // block is touched (the previous leaf needs no refresh)
+                let block = path[TREE_DEPTH as usize].block;
+                let pos = key.child_index(TREE_DEPTH - 1);
+                let leaf = NodeRef {
+                    depth: TREE_DEPTH,
+                    slot: pos as u8,
+                    block,
+                };
+                let old = self.store.value(leaf);
+                let created = !present(old);
+                let old = if created {
+                    self.add_size(1);
+                    0.0
+                } else if (delta >= 0.0 && old >= cmax) || (delta <= 0.0 && old <= cmin) {
+                    // OctoMap's early exit at a voxel already at the clamp
+                    path[TREE_DEPTH as usize] = leaf;
+                    prev = Some(key);
+                    continue;
+                } else {
+                    old
+                };
+                let v = clamp_sum(old, delta, cmin, cmax);
+                self.store.set_value(leaf, v);
+                self.record_change(key, old, v, created);
+                path[TREE_DEPTH as usize] = leaf;
+                prev = Some(key);
+                continue;
+            }
             // leave the previous key's nodes below the common ancestor
             if !lazy {
                 for d in (common + 1..valid).rev() {
@@ -143,17 +173,23 @@ impl OcTree {
             }
         }
         let old = self.store.value(cur);
-        let v = old + delta;
-        let v = if v < cmin {
-            cmin
-        } else if v > cmax {
-            cmax
-        } else {
-            v
-        };
+        let v = clamp_sum(old, delta, cmin, cmax);
         self.store.set_value(cur, v);
         self.record_change(key, old, v, just_created);
         TREE_DEPTH as usize + 1
+    }
+}
+
+/// `old + delta` clamped to `[cmin, cmax]`, as `updateNodeLogOdds` computes it.
+#[inline(always)]
+fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
+    let v = old + delta;
+    if v < cmin {
+        cmin
+    } else if v > cmax {
+        cmax
+    } else {
+        v
     }
 }
 
