@@ -323,6 +323,46 @@ impl NodeStore {
         true
     }
 
+    /// The per-ancestor step of `updateNodeRecurs` with one look-up of the child block:
+    /// nothing for a childless node (`None`); otherwise prune it when its eight children are
+    /// equal leaves (`Some(true)`), else set it to the max of its children (`Some(false)`).
+    #[inline]
+    pub fn prune_or_refresh(&mut self, n: NodeRef) -> Option<bool> {
+        let b = self.kids(n);
+        if b == NO_BLOCK {
+            return None;
+        }
+        let (vals, leaves) = if n.depth == 15 {
+            (self.leaf.blocks[b as usize].vals, true)
+        } else {
+            let blk = &self.inner.blocks[b as usize];
+            (
+                blk.vals,
+                blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK,
+            )
+        };
+        let v0 = vals[0];
+        if leaves && present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0)) {
+            if n.depth == 15 {
+                self.leaf.release(b);
+            } else {
+                self.inner.release(b);
+            }
+            self.set_kids(n, NO_BLOCK);
+            self.set_value(n, v0);
+            return Some(true);
+        }
+        // absent children hold a NaN, which `>` never picks
+        let mut m = -f32::MAX;
+        for v in vals {
+            if v > m {
+                m = v;
+            }
+        }
+        self.set_value(n, m);
+        Some(false)
+    }
+
     /// Maximum log-odds over the existing children of a node that has children
     /// (`getMaxChildLogOdds`).
     #[inline]

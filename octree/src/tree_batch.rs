@@ -90,14 +90,8 @@ impl OcTree {
     /// `updateNodeRecurs`). Leaves are left alone.
     #[inline]
     fn refresh(&mut self, n: NodeRef) {
-        if !self.store.has_children(n) {
-            return;
-        }
-        if self.store.prune_node(n) {
+        if self.store.prune_or_refresh(n) == Some(true) {
             self.sub_size(8);
-        } else {
-            let m = self.store.max_child(n);
-            self.store.set_value(n, m);
         }
     }
 
