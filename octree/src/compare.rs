@@ -8,7 +8,7 @@
 
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
-use crate::node::NodeRef;
+use crate::node::{present, NodeRef, NO_BLOCK};
 use crate::tree::OcTree;
 
 /// What a map says about a voxel.
@@ -86,14 +86,36 @@ impl OcTree {
         }
     }
 
-    fn child_side(&self, s: Side, i: usize) -> Side {
-        match s {
-            Side::Inner(n) => match self.store.child(n, i) {
-                Some(c) => self.side(c),
-                None => Side::Absent,
-            },
-            other => other,
-        }
+    /// The eight children of a side: an inner node's children read from its block once; a
+    /// leaf or unknown space stands for all eight.
+    fn child_sides(&self, s: Side) -> [Side; 8] {
+        let Side::Inner(n) = s else {
+            return [s; 8];
+        };
+        let b = self.store.kids(n);
+        let cd = n.depth + 1;
+        let vals = *self.store.child_vals(cd, b);
+        let kids = if cd < TREE_DEPTH {
+            self.store.inner.blocks[b as usize].kids
+        } else {
+            [NO_BLOCK; 8]
+        };
+        std::array::from_fn(|i| {
+            let v = vals[i];
+            if !present(v) {
+                Side::Absent
+            } else if kids[i] != NO_BLOCK {
+                Side::Inner(NodeRef {
+                    depth: cd,
+                    slot: i as u8,
+                    block: b,
+                })
+            } else if self.params.is_occupied(v) {
+                Side::Leaf(VoxelClass::Occupied)
+            } else {
+                Side::Leaf(VoxelClass::Free)
+            }
+        })
     }
 
     fn root_side(&self) -> Side {
@@ -134,15 +156,9 @@ fn walk(a: &OcTree, b: &OcTree, sa: Side, sb: Side, depth: u8, out: &mut ClassCo
             out.counts[ca as usize][cb as usize] += voxels;
         }
         _ => {
+            let (ka, kb) = (a.child_sides(sa), b.child_sides(sb));
             for i in 0..8 {
-                walk(
-                    a,
-                    b,
-                    a.child_side(sa, i),
-                    b.child_side(sb, i),
-                    depth + 1,
-                    out,
-                );
+                walk(a, b, ka[i], kb[i], depth + 1, out);
             }
         }
     }
