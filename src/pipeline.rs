@@ -7,7 +7,7 @@
 
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3};
-use octoquant_octree::{OcTree, OccupancyParams, OctreeError, Update};
+use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError, Update};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
     compute_discrete_update, compute_update, compute_update_with, RayModel, ScanStats, ScanUpdate,
@@ -121,6 +121,9 @@ pub struct Mapper {
     options: MapperOptions,
     update: ScanUpdate,
     centres: Vec<Point3<f32>>,
+    /// The second buffers of [`Mapper::insert_frames`]: the next frame's rays.
+    next_update: ScanUpdate,
+    next_centres: Vec<Point3<f32>>,
     stats: MapStats,
 }
 
@@ -140,6 +143,8 @@ impl Mapper {
             options,
             update: ScanUpdate::new(),
             centres: Vec::new(),
+            next_update: ScanUpdate::new(),
+            next_centres: Vec::new(),
             stats: MapStats::default(),
         }
     }
@@ -152,88 +157,103 @@ impl Mapper {
     /// Insert one frame (world coordinates). Never panics on bad points: they are counted.
     pub fn insert(&mut self, frame: &Frame) -> FrameStats {
         let start = Instant::now();
-        let mut st = FrameStats {
-            points: frame.points.len(),
-            reduced: frame.points.len(),
-            ..FrameStats::default()
-        };
-        let reduced;
-        let mut points: &[Point3<f32>] = &frame.points;
-        if let Some(cell) = self.options.reduce {
-            let finite = points
-                .iter()
-                .filter(|p| p.iter().all(|c| c.is_finite()))
-                .count();
-            st.non_finite = points.len() - finite;
-            // cell sizes were validated when the options were built; fall back to no reduction
-            reduced =
-                octoquant_quantize::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
-            points = &reduced;
-            st.reduced = points.len();
+        if self.options.mode == InsertMode::Simple {
+            let mut st = FrameStats {
+                points: frame.points.len(),
+                reduced: frame.points.len(),
+                ..FrameStats::default()
+            };
+            let points = match self.options.reduce {
+                Some(cell) => reduce(&frame.points, cell, &mut st),
+                None => frame.points.clone(),
+            };
+            let s = octoquant_raycast::insert_point_cloud_rays(
+                &mut self.tree,
+                &points,
+                &frame.origin,
+                self.options.lazy,
+            );
+            st.non_finite += s.non_finite;
+            st.outside_map = s.outside_map;
+            st.rays = s.rays;
+            st.free = s.free;
+            st.occupied = s.occupied;
+            st.seconds = start.elapsed().as_secs_f64();
+            self.account(&st);
+            return st;
         }
         let conv = self.tree.converter().clone();
-        let origin = frame.origin;
-        let max_range = self.options.max_range;
-        let lazy = self.options.lazy;
-        let scan: ScanStats = match self.options.mode {
-            InsertMode::Exact => {
-                compute_update(&conv, points, &origin, max_range, &mut self.update)
-            }
-            InsertMode::Discretize => {
-                compute_discrete_update(&conv, points, &origin, max_range, &mut self.update)
-            }
-            InsertMode::Quantized | InsertMode::QuantizedBresenham => {
-                let q =
-                    quantize_endpoints(&conv, points, &self.options.quantize, &mut self.centres);
-                let model = if self.options.mode == InsertMode::Quantized {
-                    RayModel::Dda
-                } else {
-                    RayModel::Bresenham
-                };
-                let mut s = compute_update_with(
-                    &conv,
-                    &self.centres,
-                    &origin,
-                    max_range,
-                    model,
-                    &mut self.update,
-                );
-                s.points = q.points;
-                s.non_finite += q.non_finite;
-                s
-            }
-            InsertMode::Simple => {
-                let s = octoquant_raycast::insert_point_cloud_rays(
-                    &mut self.tree,
-                    points,
-                    &origin,
-                    lazy,
-                );
-                st.non_finite += s.non_finite;
-                st.outside_map = s.outside_map;
-                st.rays = s.rays;
-                st.free = s.free;
-                st.occupied = s.occupied;
-                st.seconds = start.elapsed().as_secs_f64();
-                self.account(&st);
-                return st;
-            }
-        };
-        st.ray_seconds = start.elapsed().as_secs_f64();
-        let t_tree = Instant::now();
-        self.tree
-            .update_keys(self.update.free(), Update::Miss, lazy);
-        self.tree
-            .update_keys(self.update.occupied(), Update::Hit, lazy);
-        st.tree_seconds = t_tree.elapsed().as_secs_f64();
-        st.non_finite += scan.non_finite;
-        st.outside_map = scan.outside_map;
-        st.rays = scan.rays;
-        st.free = self.update.free().len();
-        st.occupied = self.update.occupied().len();
+        let mut st = prepare(
+            &conv,
+            &self.options,
+            frame,
+            &mut self.update,
+            &mut self.centres,
+        );
+        st.tree_seconds = apply(&mut self.tree, &self.update, self.options.lazy);
         st.seconds = start.elapsed().as_secs_f64();
         self.account(&st);
         st
+    }
+
+    /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
+    /// each in turn (the same key sets applied in the same order, so the same tree, byte for
+    /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of frame
+    /// `i + 1` are cast on the others. With one rayon thread it is a plain loop.
+    ///
+    /// Each frame's `seconds` is the wall time from the end of the previous frame's tree
+    /// update to the end of its own (its share of the throughput); `ray_seconds` and
+    /// `tree_seconds` are measured inside each stage and overlap between frames.
+    pub fn insert_frames(&mut self, frames: &[Frame]) -> Vec<FrameStats> {
+        if self.options.mode == InsertMode::Simple
+            || rayon::current_num_threads() < 2
+            || frames.len() < 2
+        {
+            return frames.iter().map(|f| self.insert(f)).collect();
+        }
+        let conv = self.tree.converter().clone();
+        let lazy = self.options.lazy;
+        let mut out = Vec::with_capacity(frames.len());
+        let mut mark = Instant::now();
+        let mut cur = prepare(
+            &conv,
+            &self.options,
+            &frames[0],
+            &mut self.update,
+            &mut self.centres,
+        );
+        for i in 0..frames.len() {
+            let Mapper {
+                tree,
+                options,
+                update,
+                centres,
+                next_update,
+                next_centres,
+                ..
+            } = self;
+            let (tree_s, next) = match frames.get(i + 1) {
+                Some(f) => {
+                    let (t, n) = rayon::join(
+                        || apply(tree, update, lazy),
+                        || prepare(&conv, options, f, next_update, next_centres),
+                    );
+                    (t, Some(n))
+                }
+                None => (apply(tree, update, lazy), None),
+            };
+            std::mem::swap(update, next_update);
+            std::mem::swap(centres, next_centres);
+            cur.tree_seconds = tree_s;
+            cur.seconds = mark.elapsed().as_secs_f64();
+            mark = Instant::now();
+            self.account(&cur);
+            out.push(cur);
+            if let Some(n) = next {
+                cur = n;
+            }
+        }
+        out
     }
 
     /// Insert points given in the sensor frame, with the sensor pose in the world
@@ -295,4 +315,76 @@ impl Mapper {
         self.finish();
         self.tree
     }
+}
+
+/// Thin `points` with the online density reducer, counting non-finite points in `st`.
+fn reduce(points: &[Point3<f32>], cell: [f64; 3], st: &mut FrameStats) -> Vec<Point3<f32>> {
+    let finite = points
+        .iter()
+        .filter(|p| p.iter().all(|c| c.is_finite()))
+        .count();
+    st.non_finite = points.len() - finite;
+    // cell sizes were validated when the options were built; fall back to no reduction
+    let out = octoquant_quantize::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
+    st.reduced = out.len();
+    out
+}
+
+/// Everything of a frame's insertion except the tree: reduction, quantization and rays into
+/// `update`'s key sets. Fills the statistics but `tree_seconds` and `seconds`.
+fn prepare(
+    conv: &KeyConverter,
+    options: &MapperOptions,
+    frame: &Frame,
+    update: &mut ScanUpdate,
+    centres: &mut Vec<Point3<f32>>,
+) -> FrameStats {
+    let start = Instant::now();
+    let mut st = FrameStats {
+        points: frame.points.len(),
+        reduced: frame.points.len(),
+        ..FrameStats::default()
+    };
+    let reduced;
+    let mut points: &[Point3<f32>] = &frame.points;
+    if let Some(cell) = options.reduce {
+        reduced = reduce(points, cell, &mut st);
+        points = &reduced;
+    }
+    let origin = frame.origin;
+    let max_range = options.max_range;
+    let scan: ScanStats = match options.mode {
+        InsertMode::Exact | InsertMode::Simple => {
+            compute_update(conv, points, &origin, max_range, update)
+        }
+        InsertMode::Discretize => compute_discrete_update(conv, points, &origin, max_range, update),
+        InsertMode::Quantized | InsertMode::QuantizedBresenham => {
+            let q = quantize_endpoints(conv, points, &options.quantize, centres);
+            let model = if options.mode == InsertMode::Quantized {
+                RayModel::Dda
+            } else {
+                RayModel::Bresenham
+            };
+            let mut s = compute_update_with(conv, centres, &origin, max_range, model, update);
+            s.points = q.points;
+            s.non_finite += q.non_finite;
+            s
+        }
+    };
+    st.ray_seconds = start.elapsed().as_secs_f64();
+    st.non_finite += scan.non_finite;
+    st.outside_map = scan.outside_map;
+    st.rays = scan.rays;
+    st.free = update.free().len();
+    st.occupied = update.occupied().len();
+    st
+}
+
+/// Apply a frame's key sets to the tree (free first, then occupied, as OctoMap); returns the
+/// seconds it took.
+fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
+    let start = Instant::now();
+    tree.update_keys(update.free(), Update::Miss, lazy);
+    tree.update_keys(update.occupied(), Update::Hit, lazy);
+    start.elapsed().as_secs_f64()
 }

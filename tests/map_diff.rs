@@ -32,8 +32,13 @@ fn ours(
             ..MapperOptions::default()
         })
         .unwrap();
-        for f in frames {
-            m.insert(f);
+        if threads > 1 {
+            // the pipelined path (rays of the next frame while the tree takes this one)
+            m.insert_frames(frames);
+        } else {
+            for f in frames {
+                m.insert(f);
+            }
         }
         let mut tree = m.into_tree();
         let (mut ot, mut bt) = (Vec::new(), Vec::new());
@@ -322,4 +327,57 @@ fn cli_map_reads_a_ros_bag() {
         err.contains("/nope") && err.contains("/os1_cloud_node/points"),
         "{err}"
     );
+}
+
+/// `octoquant bench` on real multi-frame data with the reference program: the exact and
+/// quantized runs (1 and 2 threads, the latter pipelined) write OctoMap's `.bt` byte for byte,
+/// and the class agreement it reports is 1 for a map with itself and a real share for the
+/// Bresenham map.
+#[test]
+fn cli_bench_matches_octomap_and_measures_agreement() {
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let Some(reference) = common::reference_program() else {
+        return;
+    };
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("bench")
+        .arg(&assoc)
+        .args(["--res", "0.05", "--frames", "3", "--pixel-step", "8"])
+        .args(["--threads", "2", "--repeat", "1", "--json", "--reference"])
+        .arg(&reference)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = String::from_utf8(o.stdout).unwrap();
+    let field = |run: &str, name: &str| -> String {
+        let at = run
+            .find(&format!("\"{name}\":"))
+            .unwrap_or_else(|| panic!("{name} in {run}"));
+        run[at + name.len() + 3..]
+            .split([',', '}'])
+            .next()
+            .unwrap()
+            .to_string()
+    };
+    let runs: Vec<&str> = json.split("{\"mode\":").skip(1).collect();
+    assert_eq!(runs.len(), 6, "{json}");
+    for run in &runs {
+        let agree: f64 = field(run, "class_agreement_with_exact").parse().unwrap();
+        let agree_q: f64 = field(run, "class_agreement_with_quantized")
+            .parse()
+            .unwrap();
+        if run.starts_with("\"exact\"") {
+            assert_eq!(field(run, "bt_identical_to_octomap"), "true", "{run}");
+            assert_eq!(agree, 1.0);
+        } else if run.starts_with("\"quantized\"") {
+            assert_eq!(field(run, "bt_identical_to_octomap"), "true", "{run}");
+            assert_eq!(agree_q, 1.0);
+        } else {
+            assert!(run.starts_with("\"quant+bres\""), "{run}");
+            assert!(agree_q > 0.5 && agree_q < 1.0, "{run}");
+        }
+    }
 }

@@ -34,6 +34,14 @@ pub enum OctreeError {
     /// A log-odds value that is NaN cannot be stored in the tree.
     #[error("log-odds value is NaN")]
     NanValue,
+    /// Two maps that must share a resolution do not.
+    #[error("resolutions differ: {first} and {second}")]
+    ResolutionMismatch {
+        /// The first map's resolution.
+        first: f64,
+        /// The second map's resolution.
+        second: f64,
+    },
     /// A depth outside 0..=16 was requested.
     #[error("depth {depth} is outside 0..=16")]
     InvalidDepth {

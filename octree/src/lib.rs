@@ -24,6 +24,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+mod compare;
 mod error;
 pub mod io;
 mod iter;
@@ -35,6 +36,7 @@ mod tree_batch;
 mod tree_prune;
 pub mod validate;
 
+pub use compare::{compare_classes, ClassComparison, VoxelClass};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};

@@ -6,6 +6,8 @@
 //! marked by a reserved NaN bit pattern in its value slot, a node without children by
 //! [`NO_BLOCK`]. On real maps this costs about 8 bytes per node, against OctoMap's ~27.
 
+use crate::key::Key;
+
 /// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
 /// never stores, since NaN log-odds are rejected at the API).
 pub(crate) const ABSENT_BITS: u32 = 0x7fc0_0a5e;
@@ -92,11 +94,6 @@ impl<B: Copy> Arena<B> {
     /// Bytes held by the blocks (including freed ones awaiting reuse) and the free list.
     pub fn bytes(&self) -> usize {
         self.blocks.len() * std::mem::size_of::<B>() + self.free.len() * 4
-    }
-
-    pub fn shrink_to_fit(&mut self) {
-        self.blocks.shrink_to_fit();
-        self.free.shrink_to_fit();
     }
 }
 
@@ -246,6 +243,39 @@ impl NodeStore {
         c
     }
 
+    /// Below `n` (childless, at depth < 16), create one child per level along `key` down to
+    /// depth 16, each with value 0 (what OctoMap's `createNodeChild` does under a node it has
+    /// just created); records the new nodes in `path[depth]` and returns the voxel's node.
+    #[inline]
+    pub fn create_chain(&mut self, mut n: NodeRef, key: Key, path: &mut [NodeRef]) -> NodeRef {
+        debug_assert_eq!(self.kids(n), NO_BLOCK);
+        let mut d = n.depth;
+        while d < 15 {
+            let b = self.inner.alloc();
+            self.set_kids(n, b);
+            let pos = key.child_index(d);
+            self.inner.blocks[b as usize].vals[pos] = 0.0;
+            d += 1;
+            n = NodeRef {
+                depth: d,
+                slot: pos as u8,
+                block: b,
+            };
+            path[d as usize] = n;
+        }
+        let b = self.leaf.alloc();
+        self.set_kids(n, b);
+        let pos = key.child_index(15);
+        self.leaf.blocks[b as usize].vals[pos] = 0.0;
+        n = NodeRef {
+            depth: 16,
+            slot: pos as u8,
+            block: b,
+        };
+        path[16] = n;
+        n
+    }
+
     /// Give a childless node all eight children, each a copy of its value (`expandNode`).
     #[inline]
     pub fn expand_node(&mut self, n: NodeRef) -> u32 {
@@ -268,21 +298,22 @@ impl NodeStore {
             return false;
         }
         let cd = n.depth + 1;
+        // `all_equal` and `all_leaves` fold without short-circuit so they compile to a few
+        // vector compares; an absent child (NaN) never equals a present `v0`
+        let all_equal = |vals: &[f32; 8], v0: f32| vals.iter().fold(true, |a, &v| a & (v == v0));
         let v0;
         if cd == 16 {
             let vals = &self.leaf.blocks[b as usize].vals;
             v0 = vals[0];
-            if !present(v0) || vals.iter().any(|&v| v != v0) {
+            if !present(v0) || !all_equal(vals, v0) {
                 return false;
             }
             self.leaf.release(b);
         } else {
             let blk = &self.inner.blocks[b as usize];
             v0 = blk.vals[0];
-            if !present(v0)
-                || blk.vals.iter().any(|&v| v != v0)
-                || blk.kids.iter().any(|&k| k != NO_BLOCK)
-            {
+            let all_leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
+            if !present(v0) || !all_equal(&blk.vals, v0) || !all_leaves {
                 return false;
             }
             self.inner.release(b);
@@ -292,15 +323,57 @@ impl NodeStore {
         true
     }
 
+    /// The per-ancestor step of `updateNodeRecurs` with one look-up of the child block:
+    /// nothing for a childless node (`None`); otherwise prune it when its eight children are
+    /// equal leaves (`Some(true)`), else set it to the max of its children (`Some(false)`).
+    #[inline]
+    pub fn prune_or_refresh(&mut self, n: NodeRef) -> Option<bool> {
+        let b = self.kids(n);
+        if b == NO_BLOCK {
+            return None;
+        }
+        let (vals, leaves) = if n.depth == 15 {
+            (self.leaf.blocks[b as usize].vals, true)
+        } else {
+            let blk = &self.inner.blocks[b as usize];
+            (
+                blk.vals,
+                blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK,
+            )
+        };
+        let v0 = vals[0];
+        if leaves && present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0)) {
+            if n.depth == 15 {
+                self.leaf.release(b);
+            } else {
+                self.inner.release(b);
+            }
+            self.set_kids(n, NO_BLOCK);
+            self.set_value(n, v0);
+            return Some(true);
+        }
+        // absent children hold a NaN, which `>` never picks
+        let mut m = -f32::MAX;
+        for v in vals {
+            if v > m {
+                m = v;
+            }
+        }
+        self.set_value(n, m);
+        Some(false)
+    }
+
     /// Maximum log-odds over the existing children of a node that has children
     /// (`getMaxChildLogOdds`).
     #[inline]
     pub fn max_child(&self, n: NodeRef) -> f32 {
         let b = self.kids(n);
         debug_assert_ne!(b, NO_BLOCK);
+        // absent children hold a NaN, which `>` never picks; strict `>` in child order keeps
+        // OctoMap's choice between equal values (+0.0 and -0.0)
         let mut m = -f32::MAX;
         for &v in self.child_vals(n.depth + 1, b) {
-            if present(v) && v > m {
+            if v > m {
                 m = v;
             }
         }
@@ -344,6 +417,46 @@ impl NodeStore {
             self.set_kids(n, NO_BLOCK);
         }
         removed
+    }
+
+    /// Copy the tree into fresh arenas in depth-first order, dropping the blocks that pruning
+    /// freed and any spare capacity; indices change, the tree does not.
+    pub fn compact(&mut self) {
+        let mut inner = Arena::new(EMPTY_INNER);
+        let mut leaf = Arena::new(EMPTY_LEAF);
+        inner.blocks.reserve_exact(self.inner.live());
+        leaf.blocks.reserve_exact(self.leaf.live());
+        if self.root_kids != NO_BLOCK {
+            self.root_kids = self.copy_block(1, self.root_kids, &mut inner, &mut leaf);
+        }
+        self.inner = inner;
+        self.leaf = leaf;
+    }
+
+    /// Copy block `b` (holding nodes at depth `cd`) and everything below it; returns its new
+    /// index.
+    fn copy_block(
+        &self,
+        cd: u8,
+        b: u32,
+        inner: &mut Arena<InnerBlock>,
+        leaf: &mut Arena<LeafBlock>,
+    ) -> u32 {
+        if cd == 16 {
+            let i = leaf.blocks.len() as u32;
+            leaf.blocks.push(self.leaf.blocks[b as usize]);
+            return i;
+        }
+        let blk = self.inner.blocks[b as usize];
+        let i = inner.blocks.len();
+        inner.blocks.push(blk);
+        for (slot, &kid) in blk.kids.iter().enumerate() {
+            if kid != NO_BLOCK {
+                let nb = self.copy_block(cd + 1, kid, inner, leaf);
+                inner.blocks[i].kids[slot] = nb;
+            }
+        }
+        i as u32
     }
 
     /// Bytes held by the node arenas (blocks in use and freed, plus free lists).

@@ -53,7 +53,7 @@ pub struct Counts {
 #[derive(Clone)]
 pub struct OcTree {
     conv: KeyConverter,
-    params: OccupancyParams,
+    pub(crate) params: OccupancyParams,
     pub(crate) store: NodeStore,
     size: usize,
     /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new".
@@ -476,10 +476,11 @@ impl OcTree {
         320 + 16 * c.nodes + 64 * c.inner
     }
 
-    /// Release capacity the arenas hold beyond what they use.
+    /// Give back memory: the tree is copied into fresh arenas in depth-first order, which drops
+    /// the blocks pruning freed (kept for reuse while mapping) and any spare capacity. O(size);
+    /// the tree, its files and its iteration order do not change.
     pub fn shrink_to_fit(&mut self) {
-        self.store.inner.shrink_to_fit();
-        self.store.leaf.shrink_to_fit();
+        self.store.compact();
     }
 
     /// Blocks in use: (inner blocks of 64 bytes, leaf blocks of 32 bytes).

@@ -34,6 +34,36 @@ impl OcTree {
                 Some(p) => common_depth(p, key).min(valid.saturating_sub(1)),
                 None => 0,
             };
+            if common == TREE_DEPTH as usize - 1 && valid == TREE_DEPTH as usize + 1 {
+                // a sibling of the previous voxel, whose whole path exists: only the leaf
+                // block is touched (the previous leaf needs no refresh)
+                let block = path[TREE_DEPTH as usize].block;
+                let pos = key.child_index(TREE_DEPTH - 1);
+                let leaf = NodeRef {
+                    depth: TREE_DEPTH,
+                    slot: pos as u8,
+                    block,
+                };
+                let old = self.store.value(leaf);
+                let created = !present(old);
+                let old = if created {
+                    self.add_size(1);
+                    0.0
+                } else if (delta >= 0.0 && old >= cmax) || (delta <= 0.0 && old <= cmin) {
+                    // OctoMap's early exit at a voxel already at the clamp
+                    path[TREE_DEPTH as usize] = leaf;
+                    prev = Some(key);
+                    continue;
+                } else {
+                    old
+                };
+                let v = clamp_sum(old, delta, cmin, cmax);
+                self.store.set_value(leaf, v);
+                self.record_change(key, old, v, created);
+                path[TREE_DEPTH as usize] = leaf;
+                prev = Some(key);
+                continue;
+            }
             // leave the previous key's nodes below the common ancestor
             if !lazy {
                 for d in (common + 1..valid).rev() {
@@ -60,14 +90,8 @@ impl OcTree {
     /// `updateNodeRecurs`). Leaves are left alone.
     #[inline]
     fn refresh(&mut self, n: NodeRef) {
-        if !self.store.has_children(n) {
-            return;
-        }
-        if self.store.prune_node(n) {
+        if self.store.prune_or_refresh(n) == Some(true) {
             self.sub_size(8);
-        } else {
-            let m = self.store.max_child(n);
-            self.store.set_value(n, m);
         }
     }
 
@@ -135,19 +159,31 @@ impl OcTree {
             d += 1;
             path[d] = cur;
             just_created = created;
+            if created && d < TREE_DEPTH as usize {
+                // everything below a new node is new: one block per level, no checks
+                cur = self.store.create_chain(cur, key, path);
+                self.add_size(TREE_DEPTH as usize - d);
+                d = TREE_DEPTH as usize;
+            }
         }
         let old = self.store.value(cur);
-        let v = old + delta;
-        let v = if v < cmin {
-            cmin
-        } else if v > cmax {
-            cmax
-        } else {
-            v
-        };
+        let v = clamp_sum(old, delta, cmin, cmax);
         self.store.set_value(cur, v);
         self.record_change(key, old, v, just_created);
         TREE_DEPTH as usize + 1
+    }
+}
+
+/// `old + delta` clamped to `[cmin, cmax]`, as `updateNodeLogOdds` computes it.
+#[inline(always)]
+fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
+    let v = old + delta;
+    if v < cmin {
+        cmin
+    } else if v > cmax {
+        cmax
+    } else {
+        v
     }
 }
 

@@ -196,6 +196,18 @@ proptest! {
         write_ot(&single, &mut a).unwrap();
         write_ot(&batch, &mut b).unwrap();
         prop_assert!(a == b, "trees differ");
+        // compaction keeps the tree and leaves no freed block behind
+        let before = batch.memory_usage();
+        batch.shrink_to_fit();
+        // lazy batches leave inner values stale, so only the structure is checked
+        assert_well_formed(&batch, true);
+        let mut c = Vec::new();
+        write_ot(&batch, &mut c).unwrap();
+        prop_assert!(a == c, "compaction changed the tree");
+        prop_assert!(batch.memory_usage() <= before);
+        let (inner, leaf) = batch.live_blocks();
+        let empty = OcTree::new(0.1).unwrap().memory_usage();
+        prop_assert_eq!(batch.memory_usage(), inner * 64 + leaf * 32 + empty);
         let ca: Vec<_> = single.changed_keys().collect();
         let cb: Vec<_> = batch.changed_keys().collect();
         prop_assert_eq!(ca, cb);

@@ -12,10 +12,11 @@ use octoquant_octree::Key;
 const EMPTY: u64 = u64::MAX;
 
 /// The key set. `clear` keeps the allocation for the next frame.
+///
+/// Each slot holds `(brick, bits)` side by side, so a probe touches one cache line.
 #[derive(Debug, Clone)]
 pub(crate) struct BrickSet {
-    bricks: Vec<u64>,
-    bits: Vec<u64>,
+    slots: Vec<(u64, u64)>,
     len: usize,
     /// Slot of the brick touched last (a cache for ray walks).
     last: usize,
@@ -24,8 +25,7 @@ pub(crate) struct BrickSet {
 impl Default for BrickSet {
     fn default() -> Self {
         BrickSet {
-            bricks: vec![EMPTY; 1024],
-            bits: vec![0; 1024],
+            slots: vec![(EMPTY, 0); 1024],
             len: 0,
             last: 0,
         }
@@ -41,8 +41,7 @@ impl BrickSet {
     /// Remove every key, keeping the table's size.
     pub fn clear(&mut self) {
         if self.len > 0 {
-            self.bricks.fill(EMPTY);
-            self.bits.fill(0);
+            self.slots.fill((EMPTY, 0));
         }
         self.len = 0;
         self.last = 0;
@@ -57,25 +56,24 @@ impl BrickSet {
     /// Add the keys of `bit` (a mask) in brick `brick`.
     #[inline(always)]
     pub fn insert_bits(&mut self, brick: u64, bit: u64) {
-        if self.bricks[self.last] == brick {
-            self.bits[self.last] |= bit;
+        if self.slots[self.last].0 == brick {
+            self.slots[self.last].1 |= bit;
             return;
         }
-        let mask = self.bricks.len() - 1;
+        let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
         loop {
-            let b = self.bricks[i];
-            if b == brick {
-                self.bits[i] |= bit;
+            let slot = &mut self.slots[i];
+            if slot.0 == brick {
+                slot.1 |= bit;
                 self.last = i;
                 return;
             }
-            if b == EMPTY {
-                self.bricks[i] = brick;
-                self.bits[i] = bit;
+            if slot.0 == EMPTY {
+                *slot = (brick, bit);
                 self.len += 1;
                 self.last = i;
-                if self.len * 2 > self.bricks.len() {
+                if self.len * 2 > self.slots.len() {
                     self.grow();
                 }
                 return;
@@ -87,12 +85,12 @@ impl BrickSet {
     /// The bit mask of a brick (0 when absent).
     #[inline]
     pub fn get(&self, brick: u64) -> u64 {
-        let mask = self.bricks.len() - 1;
+        let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
         loop {
-            let b = self.bricks[i];
+            let (b, m) = self.slots[i];
             if b == brick {
-                return self.bits[i];
+                return m;
             }
             if b == EMPTY {
                 return 0;
@@ -102,18 +100,16 @@ impl BrickSet {
     }
 
     fn grow(&mut self) {
-        let n = self.bricks.len() * 2;
-        let old_b = std::mem::replace(&mut self.bricks, vec![EMPTY; n]);
-        let old_m = std::mem::replace(&mut self.bits, vec![0; n]);
-        let mask = self.bricks.len() - 1;
-        for (b, m) in old_b.into_iter().zip(old_m) {
+        let n = self.slots.len() * 2;
+        let old = std::mem::replace(&mut self.slots, vec![(EMPTY, 0); n]);
+        let mask = n - 1;
+        for (b, m) in old {
             if b != EMPTY {
                 let mut i = hash(b, mask);
-                while self.bricks[i] != EMPTY {
+                while self.slots[i].0 != EMPTY {
                     i = (i + 1) & mask;
                 }
-                self.bricks[i] = b;
-                self.bits[i] = m;
+                self.slots[i] = (b, m);
             }
         }
         self.last = 0;
@@ -121,9 +117,9 @@ impl BrickSet {
 
     /// Add every key of `other`.
     pub fn union_with(&mut self, other: &BrickSet) {
-        for (b, m) in other.bricks.iter().zip(&other.bits) {
-            if *b != EMPTY {
-                self.insert_bits(*b, *m);
+        for &(b, m) in &other.slots {
+            if b != EMPTY {
+                self.insert_bits(b, m);
             }
         }
     }
@@ -132,13 +128,7 @@ impl BrickSet {
     pub fn sorted(&self, out: &mut Vec<(u64, u64)>) {
         out.clear();
         out.reserve(self.len);
-        out.extend(
-            self.bricks
-                .iter()
-                .zip(&self.bits)
-                .filter(|(b, _)| **b != EMPTY)
-                .map(|(b, m)| (*b, *m)),
-        );
+        out.extend(self.slots.iter().filter(|(b, _)| *b != EMPTY).copied());
         out.sort_unstable_by_key(|e| e.0);
     }
 }

@@ -163,6 +163,9 @@ struct RaySetup {
     t_delta: [f64; 3],
     length: f64,
     budget: u32,
+    /// The `f32` length is finite and positive and every direction component finite: the
+    /// walk then provably ends within `budget` steps (see [`try_walk_ray_codes`]).
+    well_conditioned: bool,
 }
 
 /// OctoMap's checks and set-up before the loop; `Err` is the outcome when no key is visited.
@@ -183,6 +186,8 @@ fn setup(
     for d in direction.iter_mut() {
         *d /= length;
     }
+    let well_conditioned =
+        length.is_finite() && length > 0.0 && direction.iter().all(|d| d.is_finite());
     let res = conv.resolution();
     let o = [origin.x as f64, origin.y as f64, origin.z as f64];
     let mut step = [0i32; 3];
@@ -215,6 +220,7 @@ fn setup(
         t_delta,
         length: length as f64,
         budget: manhattan + STEP_MARGIN,
+        well_conditioned,
     })
 }
 
@@ -339,6 +345,121 @@ where
         }
         visit(code);
     }
+}
+
+/// One step along one axis of a [`Key::morton`] code, without a branch on the direction:
+/// up is `((code | !m) + low) & m`, down is `((code & m) - low) & m` (dilated arithmetic on
+/// the axis's bits `m`), written as `(((code & keep) | fill) + add) & m`.
+#[derive(Clone, Copy)]
+pub(crate) struct AxisStep {
+    keep: u64,
+    fill: u64,
+    add: u64,
+    mask: u64,
+}
+
+impl AxisStep {
+    /// The step by +1 (`up`) or -1 on `axis` (0, 1 or 2).
+    #[inline(always)]
+    pub(crate) fn new(axis: usize, up: bool) -> Self {
+        let mask = AXIS_MASK[axis];
+        let low = 1u64 << axis;
+        if up {
+            AxisStep {
+                keep: u64::MAX,
+                fill: !mask,
+                add: low,
+                mask,
+            }
+        } else {
+            AxisStep {
+                keep: mask,
+                fill: 0,
+                add: low.wrapping_neg(),
+                mask,
+            }
+        }
+    }
+
+    /// The code of the neighbouring voxel.
+    #[inline(always)]
+    pub(crate) fn apply(self, code: u64) -> u64 {
+        ((((code & self.keep) | self.fill).wrapping_add(self.add)) & self.mask)
+            | (code & !self.mask)
+    }
+}
+
+/// [`walk_ray_codes`] for set-building callers that cannot take keys back: `None` (nothing
+/// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
+/// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
+/// the brick's visited voxels (bit `code & 63`), gathered in registers while the walk stays in
+/// the brick: `flush` runs once per brick entered, not once per voxel.
+///
+/// Why it is safe to visit without buffering: with a finite positive length and finite
+/// direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its `tMax`
+/// passes the length, which is within two of the key distance on that axis, so the walk ends
+/// long before the budget of the Manhattan distance plus 16. Only ill-conditioned rays (a
+/// zero, infinite or NaN length) can degenerate, and those are the ones refused here, so
+/// [`RayWalk::Degenerate`] never follows a visit.
+#[inline]
+pub(crate) fn try_walk_ray_bricks<F>(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    mut flush: F,
+) -> Option<RayWalk>
+where
+    F: FnMut(u64, u64),
+{
+    let r = match setup(conv, origin, end) {
+        Ok(r) => r,
+        Err(w) => return Some(w),
+    };
+    if !r.well_conditioned {
+        return None;
+    }
+    let mut code = r.key_origin.morton();
+    let end_code = r.key_end.morton();
+    let s0 = AxisStep::new(0, r.step[0] > 0);
+    let s1 = AxisStep::new(1, r.step[1] > 0);
+    let s2 = AxisStep::new(2, r.step[2] > 0);
+    let [mut t0, mut t1, mut t2] = r.t_max;
+    let [d0, d1, d2] = r.t_delta;
+    let len = r.length;
+    let mut brick = code >> 6;
+    let mut bits = 1u64 << (code & 63);
+    for _ in 0..r.budget {
+        // OctoMap's comparison chain (ties to z, then y); the smallest tMax after the step
+        // is the same comparison on the new values, taken in the same order as `cmin`
+        if t0 < t1 {
+            if t0 < t2 {
+                code = s0.apply(code);
+                t0 += d0;
+            } else {
+                code = s2.apply(code);
+                t2 += d2;
+            }
+        } else if t1 < t2 {
+            code = s1.apply(code);
+            t1 += d1;
+        } else {
+            code = s2.apply(code);
+            t2 += d2;
+        }
+        if code == end_code || cmin(cmin(t0, t1), t2) > len {
+            flush(brick, bits);
+            return Some(RayWalk::Complete);
+        }
+        if code >> 6 != brick {
+            flush(brick, bits);
+            brick = code >> 6;
+            bits = 0;
+        }
+        bits |= 1u64 << (code & 63);
+    }
+    debug_assert!(false, "a well-conditioned ray exhausted its budget");
+    flush(brick, bits);
+    Some(RayWalk::Degenerate)
 }
 
 /// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the

@@ -9,7 +9,7 @@
 //! applying them touches the tree in a cache-friendly sweep.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{key_of, norm_f32, sub_f32, walk_ray_codes, RayWalk};
+use crate::dda::{key_of, norm_f32, sub_f32, try_walk_ray_bricks, walk_ray_codes, RayWalk};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 
@@ -156,8 +156,16 @@ fn push_ray(
         let (Some(a), Some(b)) = (key_of(conv, origin), key_of(conv, end)) else {
             return false;
         };
-        crate::bresenham::walk_bresenham_keys(a, b, |k| set.insert(morton(k)));
+        crate::bresenham::walk_bresenham_bricks(a, b, |brick, bits| set.insert_bits(brick, bits));
         return true;
+    }
+    // Well-conditioned rays go straight into the set, brick by brick; the rare others are
+    // buffered so that a degenerate walk can be dropped whole.
+    let fast = try_walk_ray_bricks(conv, origin, end, |brick, bits| {
+        set.insert_bits(brick, bits)
+    });
+    if let Some(walk) = fast {
+        return matches!(walk, RayWalk::Complete | RayWalk::SameVoxel);
     }
     scratch.clear();
     let walk = walk_ray_codes(conv, origin, end, |c| {

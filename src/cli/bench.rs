@@ -31,6 +31,10 @@ pub struct Args {
     /// Use only every N-th pixel of TUM depth images.
     #[arg(long, default_value_t = 1)]
     pixel_step: u32,
+    /// Repeat every run (each mode, and OctoMap) this many times, interleaved, and take
+    /// medians over all of them: single-frame inputs then still give a stable figure.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -39,13 +43,18 @@ pub struct Args {
 struct Run {
     name: String,
     threads: usize,
+    /// Frame times of every repetition.
     frame_ms: Vec<f64>,
-    ray_s: f64,
-    tree_s: f64,
+    /// Per repetition: seconds spent casting rays and updating the tree.
+    ray_s: Vec<f64>,
+    tree_s: Vec<f64>,
+    /// Points inserted over all repetitions.
     points: usize,
     nodes: usize,
     bytes_per_node: f64,
     bt: Vec<u8>,
+    /// The map of the first repetition, to compare classes with the exact mode's.
+    tree: octoquant::octree::OcTree,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -68,10 +77,11 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
         .build()?;
     let (mut mapper, frame_ms) = pool.install(|| -> Result<_> {
         let mut mapper = Mapper::new(opts.clone())?;
-        let mut ms = Vec::with_capacity(frames.len());
-        for f in frames {
-            ms.push(mapper.insert(f).seconds * 1e3);
-        }
+        let ms = mapper
+            .insert_frames(frames)
+            .iter()
+            .map(|st| st.seconds * 1e3)
+            .collect::<Vec<_>>();
         mapper.finish();
         Ok((mapper, ms))
     })?;
@@ -82,17 +92,32 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
     let bytes_per_node = tree.memory_usage() as f64 / nodes.max(1) as f64;
     let mut bt = Vec::new();
     write_bt(tree, &mut bt)?;
+    let tree = mapper.into_tree();
     Ok(Run {
         name: name.into(),
         threads,
         frame_ms,
-        ray_s: st.total.ray_seconds,
-        tree_s: st.total.tree_seconds,
+        ray_s: vec![st.total.ray_seconds],
+        tree_s: vec![st.total.tree_seconds],
         points: st.total.points,
         nodes,
         bytes_per_node,
         bt,
+        tree,
     })
+}
+
+/// One OctoMap timing: frame times in ms and the `.bt` it wrote.
+type RefRun = (Vec<f64>, Vec<u8>);
+
+impl Run {
+    /// Add the figures of a repetition of the same run.
+    fn absorb(&mut self, again: Run) {
+        self.frame_ms.extend(again.frame_ms);
+        self.ray_s.extend(again.ray_s);
+        self.tree_s.extend(again.tree_s);
+        self.points += again.points;
+    }
 }
 
 /// Time OctoMap's insertPointCloud per frame with the reference program; returns the frame
@@ -168,26 +193,48 @@ pub fn run(a: &Args) -> Result<()> {
         ("quantized", InsertMode::Quantized),
         ("quant+bres", InsertMode::QuantizedBresenham),
     ];
-    let mut runs = Vec::new();
-    for threads in if all > 1 { vec![1, all] } else { vec![1] } {
-        for (name, mode) in modes {
-            let opts = MapperOptions {
-                mode,
-                ..base.clone()
-            };
-            runs.push(run_mode(&frames, &opts, name, threads)?);
+    let thread_counts = if all > 1 { vec![1, all] } else { vec![1] };
+    let mut runs: Vec<Run> = Vec::new();
+    let mut reference: Option<(RefRun, RefRun)> = None;
+    let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
+    let ff = dir.join("frames.frames");
+    if a.reference.is_some() {
+        std::fs::create_dir_all(&dir)?;
+        octoquant::formats::frames::write_frames_file(&ff, &frames)?;
+    }
+    // repetitions interleave every mode and OctoMap, so a slow spell of a shared machine
+    // hits all of them alike
+    for rep in 0..a.repeat.max(1) {
+        let mut i = 0;
+        for &threads in &thread_counts {
+            for (name, mode) in modes {
+                let opts = MapperOptions {
+                    mode,
+                    ..base.clone()
+                };
+                let run = run_mode(&frames, &opts, name, threads)?;
+                if rep == 0 {
+                    runs.push(run);
+                } else {
+                    runs[i].absorb(run);
+                }
+                i += 1;
+            }
+        }
+        if let Some(prog) = &a.reference {
+            let exact = run_reference(prog, &ff, a, false, &dir)?;
+            let disc = run_reference(prog, &ff, a, true, &dir)?;
+            match &mut reference {
+                None => reference = Some((exact, disc)),
+                Some(((e, _), (d, _))) => {
+                    e.extend(exact.0);
+                    d.extend(disc.0);
+                }
+            }
         }
     }
-    let mut reference = None;
-    if let Some(prog) = &a.reference {
-        let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
-        let ff = dir.join("frames.frames");
-        octoquant::formats::frames::write_frames_file(&ff, &frames)?;
-        let exact = run_reference(prog, &ff, a, false, &dir)?;
-        let disc = run_reference(prog, &ff, a, true, &dir)?;
+    if a.reference.is_some() {
         let _ = std::fs::remove_dir_all(&dir);
-        reference = Some((exact, disc));
     }
     let exact1 = median(&runs[0].frame_ms);
     let points: usize = frames.iter().map(|f| f.points.len()).sum();
@@ -205,24 +252,44 @@ pub fn run(a: &Args) -> Result<()> {
             };
             (median(ms) / med, *bt == r.bt)
         });
-        rows.push((r, med, total_s, vs_octomap));
+        // share of voxels with the same class (unknown/free/occupied) as the exact map
+        let exact = runs
+            .iter()
+            .find(|x| x.name == "exact" && x.threads == r.threads)
+            .unwrap_or(&runs[0]);
+        let classes = octoquant::octree::compare_classes(&exact.tree, &r.tree)?;
+        // and with the quantized map: the same end points, DDA rays
+        let quantized = runs
+            .iter()
+            .find(|x| x.name == "quantized" && x.threads == r.threads)
+            .unwrap_or(&runs[0]);
+        let vs_quantized = octoquant::octree::compare_classes(&quantized.tree, &r.tree)?;
+        rows.push((r, med, total_s, vs_octomap, classes, vs_quantized));
     }
     if a.json {
         let mut s = format!(
-            "{{\"frames\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
+            "{{\"frames\":{},\"repetitions\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
             frames.len(),
+            a.repeat.max(1),
             points,
             a.res,
             a.max_range.map_or("null".into(), |m| m.to_string())
         );
-        for (i, (r, med, total_s, vs)) in rows.iter().enumerate() {
+        for (i, (r, med, total_s, vs, classes, vs_q)) in rows.iter().enumerate() {
             if i > 0 {
                 s.push(',');
             }
             s.push_str(&format!(
                 "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
-                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), r.ray_s, r.tree_s,
+                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
                 r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
+            ));
+            let c = &classes.counts;
+            s.push_str(&format!(
+                ",\"class_agreement_with_exact\":{:.6},\"class_agreement_with_quantized\":{:.6},\"classes_vs_exact\":[[{},{},{}],[{},{},{}],[{},{},{}]]",
+                classes.agreement(),
+                vs_q.agreement(),
+                c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]
             ));
             if let Some((ratio, same)) = vs {
                 s.push_str(&format!(
@@ -244,11 +311,12 @@ pub fn run(a: &Args) -> Result<()> {
         return Ok(());
     }
     println!(
-        "{} frames, {} points, res {} m, max range {}",
+        "{} frames, {} points, res {} m, max range {}, {} repetitions (medians over all)",
         frames.len(),
         points,
         a.res,
-        a.max_range.map_or("off".into(), |m| format!("{m} m"))
+        a.max_range.map_or("off".into(), |m| format!("{m} m")),
+        a.repeat.max(1)
     );
     if let Some(((e, _), (d, _))) = &reference {
         println!(
@@ -258,7 +326,7 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     println!(
-        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9}",
+        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9} {:>8} {:>8}",
         "mode",
         "threads",
         "ms/frame",
@@ -269,17 +337,19 @@ pub fn run(a: &Args) -> Result<()> {
         "B/node",
         "vs exact",
         "vs OctoMap",
-        "same .bt"
+        "same .bt",
+        "agree %",
+        "agree q%"
     );
-    for (r, med, total_s, vs) in rows {
+    for (r, med, total_s, vs, classes, vs_q) in &rows {
         println!(
-            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9}",
+            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9} {:>8.3} {:>8.3}",
             r.name,
             r.threads,
             med,
             r.points as f64 / total_s.max(1e-12),
-            r.ray_s,
-            r.tree_s,
+            median(&r.ray_s),
+            median(&r.tree_s),
             r.nodes,
             r.bytes_per_node,
             exact1 / med.max(1e-12),
@@ -289,6 +359,23 @@ pub fn run(a: &Args) -> Result<()> {
             } else {
                 "NO".to_string()
             }),
+            100.0 * classes.agreement(),
+            100.0 * vs_q.agreement(),
+        );
+    }
+    println!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)");
+    // where the Bresenham map's classes differ from the exact one's
+    if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.name == "quant+bres") {
+        use octoquant::octree::VoxelClass::{Free, Occupied, Unknown};
+        println!(
+            "quant+bres vs exact ({} thread): voxels free in exact but unknown {} / occupied {}; occupied in exact but unknown {} / free {}; unknown in exact but free {} / occupied {}",
+            r.threads,
+            c.count(Free, Unknown),
+            c.count(Free, Occupied),
+            c.count(Occupied, Unknown),
+            c.count(Occupied, Free),
+            c.count(Unknown, Free),
+            c.count(Unknown, Occupied),
         );
     }
     Ok(())

@@ -158,10 +158,13 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let load_s = t_load.elapsed().as_secs_f64();
     let progress = std::io::stderr().is_terminal() && !a.json;
-    for (i, f) in frames.iter().enumerate() {
-        mapper.insert(f);
+    // pipelined in chunks, so that progress can still be shown
+    let mut done = 0;
+    for chunk in frames.chunks(16) {
+        mapper.insert_frames(chunk);
+        done += chunk.len();
         if progress {
-            eprint!("\rinserting frame {}/{}", i + 1, frames.len());
+            eprint!("\rinserting frame {}/{}", done, frames.len());
         }
     }
     if progress {
