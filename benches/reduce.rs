@@ -2,7 +2,8 @@
 //! BENCHMARKS.md compares with PCL's `pcl_voxel_grid`.
 //!
 //! Ids: `reduce/grid/<cloud>` is the input (grid) stage alone, `reduce/whole/<cloud>` the grid
-//! stage plus one output cycle. Data come from `OCTOQUANT_DATA` (or `../shared/data`); a
+//! stage plus one output cycle. Both fill the grid with `extend_rewalk`, as `octoquant reduce`
+//! does. Data come from `OCTOQUANT_DATA` (or `../shared/data`); a
 //! missing cloud is reported and left out.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -68,14 +69,14 @@ fn bench_reduce(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("grid", name), pts, |b, pts| {
             b.iter(|| {
                 let mut grid = DensityGrid::new(spec.clone());
-                grid.extend(pts.iter().copied());
+                grid.extend_rewalk(pts.iter().copied());
                 black_box(grid.len())
             })
         });
         g.bench_with_input(BenchmarkId::new("whole", name), pts, |b, pts| {
             b.iter(|| {
                 let mut grid = DensityGrid::new(spec.clone());
-                grid.extend(pts.iter().copied());
+                grid.extend_rewalk(pts.iter().copied());
                 black_box(grid.output_cycle().0.len())
             })
         });

@@ -5,10 +5,11 @@
 //! every point, and it never invents points. It runs in two stages that may overlap in time:
 //!
 //! * **input** ([`DensityGrid::insert`], [`DensityGrid::remove`]): each point goes to the cell
-//!   `floor((x - offset) / size)` per axis, found in an ordered index of cells (a `BTreeMap`
-//!   keyed by the cell index, the paper's red-black tree). A cell keeps the member chosen by its
-//!   [`Selection`] rule, and all cells stay sorted by the distance of that point to the cell
-//!   centre. Deleting a point repairs only its own cell.
+//!   `floor((x - offset) / size)` per axis. The cells sit in an ordered index (a `BTreeMap`
+//!   keyed by the cell index, the paper's red-black tree) and, for look-ups, in a hash index
+//!   over the same keys. A cell keeps the member chosen by its [`Selection`] rule, and all
+//!   cells stay sorted by the distance of that point to the cell centre. Deleting a point
+//!   repairs only its own cell.
 //! * **output** ([`DensityGrid::begin_cycle`], [`DensityGrid::step_cycle`]): a read cycle with
 //!   its own id visits the cells in ascending distance; each visited point is emitted, and a
 //!   point of any of the 3^D - 1 neighbouring cells that lies closer than half a cell size on
@@ -16,9 +17,12 @@
 //!   left to the next cycle.
 //!
 //! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `density_grid.rs` the
-//! store, `density_output.rs` the read cycles, `density_shared.rs` the two-thread wrapper and
-//! `density_reduce.rs` the one-call helpers.
+//! store, `density_batch.rs` batch insertion (counting sort by cell, one-pass build of an
+//! empty store), `density_index.rs` the hash index, key packing and radix sort, `density_output.rs`
+//! the read cycles, `density_shared.rs` the two-thread wrapper and `density_reduce.rs` the
+//! one-call helpers.
 
+use crate::density_index::floor_index;
 use crate::error::QuantizeError;
 use std::cmp::Ordering;
 use std::fmt;
@@ -86,11 +90,7 @@ impl<const D: usize> GridSpec<D> {
     pub fn cell_index(&self, p: &[f64; D]) -> Option<CellIndex<D>> {
         let mut index = [0i64; D];
         for a in 0..D {
-            let f = ((p[a] - self.offset[a]) / self.size[a]).floor();
-            if !f.is_finite() || f.abs() > MAX_CELL_INDEX as f64 {
-                return None;
-            }
-            index[a] = f as i64;
+            index[a] = floor_index((p[a] - self.offset[a]) / self.size[a], MAX_CELL_INDEX)?;
         }
         Some(index)
     }

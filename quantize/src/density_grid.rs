@@ -3,6 +3,7 @@
 use crate::density::{
     cmp_points, sanitize_score, scaled_distance, CellIndex, GridSpec, Rank, Selection,
 };
+use crate::density_index::{hash_index, SlotTable};
 use crate::error::QuantizeError;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet};
@@ -31,42 +32,71 @@ pub struct GridCounts {
     pub removed: u64,
 }
 
-/// One cell of the store.
-#[derive(Debug, Clone)]
-pub(crate) struct Cell<const D: usize> {
+/// The part of a cell that the read cycle touches (one cache line for D = 3): its index for the
+/// hash index's key check, a copy of its representative, and the stamps.
+#[derive(Debug, Clone, Copy)]
+#[repr(align(64))]
+pub(crate) struct Hot<const D: usize> {
     pub index: CellIndex<D>,
-    /// Every point in the cell, kept so that deletion can repair the cell locally.
-    pub members: Vec<[f64; D]>,
-    /// Position of the representative in `members`.
-    pub selected: usize,
-    /// The representative's rank under the selection rule.
-    pub rank: Rank,
+    /// The representative (a copy of member `selected`).
+    pub point: [f64; D],
     /// Input generation at which the cell was created or its representative last changed.
     pub stamp: u64,
     /// Id of the last output cycle that emitted or eliminated this cell.
     pub mark: u64,
 }
 
-impl<const D: usize> Cell<D> {
-    pub(crate) fn point(&self) -> &[f64; D] {
-        &self.members[self.selected]
+/// The rest of a cell. Its members live in the grid's member arena at `start..start + len`;
+/// the arena holds `cap >= len` places for it.
+#[derive(Debug, Clone)]
+pub(crate) struct Cell {
+    /// First member in the arena.
+    pub start: usize,
+    /// Number of members (0 only for a free slot).
+    pub len: u32,
+    /// Places reserved in the arena from `start`.
+    pub cap: u32,
+    /// Position of the representative among the members.
+    pub selected: u32,
+    /// The representative's rank under the selection rule.
+    pub rank: Rank,
+}
+
+impl Cell {
+    /// Arena position of the representative.
+    #[inline]
+    pub(crate) fn point_at(&self) -> usize {
+        self.start + self.selected as usize
     }
+
+    /// Arena range of the members.
+    #[inline]
+    pub(crate) fn span(&self) -> std::ops::Range<usize> {
+        self.start..self.start + self.len as usize
+    }
+}
+
+/// A member count or position as the `u32` a cell stores.
+pub(crate) fn to_u32(n: usize) -> u32 {
+    u32::try_from(n).expect("more than 2^32 - 1 points in one cell")
 }
 
 /// Read-only view of one cell.
 #[derive(Debug, Clone, Copy)]
 pub struct CellView<'a, const D: usize> {
-    cell: &'a Cell<D>,
+    hot: &'a Hot<D>,
+    cell: &'a Cell,
+    arena: &'a [[f64; D]],
 }
 
 impl<'a, const D: usize> CellView<'a, D> {
     /// The cell's index.
     pub fn index(&self) -> CellIndex<D> {
-        self.cell.index
+        self.hot.index
     }
     /// The point representing the cell (always one of its members).
     pub fn point(&self) -> [f64; D] {
-        *self.cell.point()
+        self.hot.point
     }
     /// Scaled squared distance of the representative to the cell centre (the output order).
     pub fn distance(&self) -> f64 {
@@ -74,19 +104,19 @@ impl<'a, const D: usize> CellView<'a, D> {
     }
     /// Number of points in the cell.
     pub fn len(&self) -> usize {
-        self.cell.members.len()
+        self.cell.len as usize
     }
     /// Always `false`: empty cells are removed.
     pub fn is_empty(&self) -> bool {
-        self.cell.members.is_empty()
+        self.cell.len == 0
     }
     /// All points in the cell, in no particular order.
     pub fn members(&self) -> &'a [[f64; D]] {
-        &self.cell.members
+        &self.arena[self.cell.span()]
     }
     /// The mean of the cell's members (not an input point in general).
     pub fn mean(&self) -> [f64; D] {
-        mean(&self.cell.members)
+        mean(self.members())
     }
 }
 
@@ -119,6 +149,15 @@ pub struct GridState<const D: usize> {
 /// The density reducer's store: an ordered index of cells, each with its members and chosen
 /// point, plus the cells sorted by the chosen point's distance to the cell centre.
 ///
+/// * `index`: the ordered index (a B-tree, the paper's red-black tree), cell index -> slot, for
+///   iteration in lexicographic order. A batch into an empty grid builds it in one pass from
+///   its sorted run.
+/// * `lookup`: a hash index over the same cells, for the point look-ups of insertion, deletion
+///   and the read cycle's neighbour checks.
+/// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest); the members
+///   of all cells share one arena, `points`, one contiguous span per cell.
+/// * `by_distance`: the output order.
+///
 /// Insertion and deletion are the input stage; [`DensityGrid::begin_cycle`] starts the output
 /// stage (see `density_output.rs`). For two threads wrap it in
 /// [`SharedDensityGrid`](crate::SharedDensityGrid).
@@ -126,19 +165,26 @@ pub struct GridState<const D: usize> {
 pub struct DensityGrid<const D: usize> {
     pub(crate) spec: GridSpec<D>,
     pub(crate) selection: Selection<D>,
-    /// Ordered index: cell index -> slot in `slots`.
+    /// Ordered index: cell index -> slot.
     pub(crate) index: BTreeMap<CellIndex<D>, u32>,
-    pub(crate) slots: Vec<Cell<D>>,
-    free: Vec<u32>,
-    /// `(distance bits, cell index)`: ascending distance, ties by index.
-    pub(crate) by_distance: BTreeSet<(u64, CellIndex<D>)>,
+    /// Hash index: cell index -> slot.
+    pub(crate) lookup: SlotTable,
+    pub(crate) hot: Vec<Hot<D>>,
+    pub(crate) slots: Vec<Cell>,
+    pub(crate) free: Vec<u32>,
+    /// Member arena: every cell's members, one contiguous span per cell.
+    pub(crate) points: Vec<[f64; D]>,
+    /// Sum of the live cells' `cap`: the arena beyond it is abandoned spans.
+    pub(crate) reserved: usize,
+    /// `(distance bits, cell index, slot)`: ascending distance, ties by index.
+    pub(crate) by_distance: BTreeSet<(u64, CellIndex<D>, u32)>,
     /// Last cell touched: consecutive scan points often share a cell.
-    last: Option<(CellIndex<D>, u32)>,
+    pub(crate) last: Option<(CellIndex<D>, u32)>,
     pub(crate) generation: u64,
     pub(crate) cycle: u64,
     /// Neighbour offsets, 3^D - 1 of them.
     pub(crate) neighbours: Vec<[i64; D]>,
-    counts: GridCounts,
+    pub(crate) counts: GridCounts,
 }
 
 impl<const D: usize> DensityGrid<D> {
@@ -153,8 +199,12 @@ impl<const D: usize> DensityGrid<D> {
             spec,
             selection,
             index: BTreeMap::new(),
+            lookup: SlotTable::default(),
+            hot: Vec::new(),
             slots: Vec::new(),
             free: Vec::new(),
+            points: Vec::new(),
+            reserved: 0,
             by_distance: BTreeSet::new(),
             last: None,
             generation: 0,
@@ -194,25 +244,35 @@ impl<const D: usize> DensityGrid<D> {
         self.counts.inserted - self.counts.removed
     }
 
+    fn view(&self, slot: u32) -> CellView<'_, D> {
+        CellView {
+            hot: &self.hot[slot as usize],
+            cell: &self.slots[slot as usize],
+            arena: &self.points,
+        }
+    }
+
+    /// The slot of cell `index`, through the hash index.
+    #[inline]
+    pub(crate) fn find_slot(&self, index: &CellIndex<D>) -> Option<u32> {
+        let hot = &self.hot;
+        self.lookup
+            .find(hash_index(index), |s| hot[s as usize].index == *index)
+    }
+
     /// The cell `index`, if it holds a point.
     pub fn get(&self, index: &CellIndex<D>) -> Option<CellView<'_, D>> {
-        self.index.get(index).map(|&s| CellView {
-            cell: &self.slots[s as usize],
-        })
+        self.find_slot(index).map(|s| self.view(s))
     }
 
     /// All cells in lexicographic index order.
     pub fn cells(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.index.values().map(move |&s| CellView {
-            cell: &self.slots[s as usize],
-        })
+        self.index.values().map(move |&s| self.view(s))
     }
 
     /// All cells in output order: ascending distance of their point to the centre.
     pub fn cells_by_distance(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.by_distance.iter().map(move |(_, i)| CellView {
-            cell: &self.slots[self.index[i] as usize],
-        })
+        self.by_distance.iter().map(move |&(_, _, s)| self.view(s))
     }
 
     /// The grid stage's result: one point per cell, in index order.
@@ -220,8 +280,24 @@ impl<const D: usize> DensityGrid<D> {
         self.cells().map(|c| c.point()).collect()
     }
 
-    fn rank_of(&self, p: &[f64; D], index: &CellIndex<D>, mean: Option<&[f64; D]>) -> Rank {
-        let centre = self.spec.centre_distance(p, index);
+    /// The members of slot `s`.
+    pub(crate) fn members_of(&self, s: usize) -> &[[f64; D]] {
+        &self.points[self.slots[s].span()]
+    }
+
+    pub(crate) fn rank_of(
+        &self,
+        p: &[f64; D],
+        index: &CellIndex<D>,
+        mean: Option<&[f64; D]>,
+    ) -> Rank {
+        self.rank_near(p, &self.spec.cell_centre(index), mean)
+    }
+
+    /// [`Self::rank_of`] with the cell centre `c` already computed (same arithmetic).
+    #[inline]
+    pub(crate) fn rank_near(&self, p: &[f64; D], c: &[f64; D], mean: Option<&[f64; D]>) -> Rank {
+        let centre = scaled_distance(p, c, self.spec.size());
         let primary = match &self.selection {
             Selection::CentreClosest => centre,
             Selection::MeanClosest => match mean {
@@ -239,9 +315,107 @@ impl<const D: usize> DensityGrid<D> {
                 return Some(*s);
             }
         }
-        let s = *self.index.get(index)?;
+        let s = self.find_slot(index)?;
         self.last = Some((*index, s));
         Some(s)
+    }
+
+    /// Open cell `index` with members `run` (copied to the end of the arena), representative
+    /// `selected` ranked `rank`, in every index and the distance order; returns its slot.
+    pub(crate) fn open_cell(
+        &mut self,
+        index: CellIndex<D>,
+        run: &[[f64; D]],
+        selected: usize,
+        rank: Rank,
+    ) -> u32 {
+        let start = self.points.len();
+        self.points.extend_from_slice(run);
+        let len = to_u32(run.len());
+        self.reserved += run.len();
+        self.generation += 1;
+        let hot = Hot {
+            index,
+            point: run[selected],
+            stamp: self.generation,
+            mark: 0,
+        };
+        let cell = Cell {
+            start,
+            len,
+            cap: len,
+            selected: to_u32(selected),
+            rank,
+        };
+        let slot = match self.free.pop() {
+            Some(s) => {
+                self.hot[s as usize] = hot;
+                self.slots[s as usize] = cell;
+                s
+            }
+            None => {
+                self.hot.push(hot);
+                self.slots.push(cell);
+                new_slot(self.slots.len() - 1)
+            }
+        };
+        self.index.insert(index, slot);
+        self.lookup.insert(hash_index(&index), slot);
+        self.by_distance
+            .insert((rank.centre.to_bits(), index, slot));
+        slot
+    }
+
+    /// Append `run` to the members of slot `s`, moving the cell's span to the end of the arena
+    /// (with room to double) when it is full.
+    pub(crate) fn push_members(&mut self, s: usize, run: &[[f64; D]]) {
+        let (start, len, cap) = {
+            let c = &self.slots[s];
+            (c.start, c.len as usize, c.cap as usize)
+        };
+        let need = len + run.len();
+        if start + cap == self.points.len() {
+            // Last span of the arena: grow in place.
+            self.points.truncate(start + len);
+            self.points.extend_from_slice(run);
+            self.reserved = self.reserved - cap + need;
+            let c = &mut self.slots[s];
+            c.len = to_u32(need);
+            c.cap = c.len;
+        } else if need <= cap {
+            self.points[start + len..start + need].copy_from_slice(run);
+            self.slots[s].len = to_u32(need);
+        } else {
+            let new_cap = need.max(2 * len);
+            let new_start = self.points.len();
+            self.points.extend_from_within(start..start + len);
+            self.points.extend_from_slice(run);
+            let pad = self.points[new_start];
+            self.points.resize(new_start + new_cap, pad);
+            self.reserved = self.reserved - cap + new_cap;
+            let c = &mut self.slots[s];
+            c.start = new_start;
+            c.len = to_u32(need);
+            c.cap = to_u32(new_cap);
+        }
+    }
+
+    /// Rewrite the arena without abandoned spans and spare room once they make up most of it.
+    pub(crate) fn maybe_compact(&mut self) {
+        let live = self.point_count() as usize;
+        if self.points.len() <= 2 * live + 4096 {
+            return;
+        }
+        let mut arena = Vec::with_capacity(live);
+        for &slot in self.index.values() {
+            let c = &mut self.slots[slot as usize];
+            let start = arena.len();
+            arena.extend_from_slice(&self.points[c.span()]);
+            c.start = start;
+            c.cap = c.len;
+        }
+        self.points = arena;
+        self.reserved = live;
     }
 
     /// Input stage: add one point.
@@ -257,165 +431,92 @@ impl<const D: usize> DensityGrid<D> {
         match self.slot_of(&index) {
             None => {
                 let rank = self.rank_of(&p, &index, Some(&p));
-                self.generation += 1;
-                let cell = Cell {
-                    index,
-                    members: vec![p],
-                    selected: 0,
-                    rank,
-                    stamp: self.generation,
-                    mark: 0,
-                };
-                let slot = match self.free.pop() {
-                    Some(s) => {
-                        self.slots[s as usize] = cell;
-                        s
-                    }
-                    None => {
-                        self.slots.push(cell);
-                        (self.slots.len() - 1) as u32
-                    }
-                };
-                self.index.insert(index, slot);
-                self.by_distance.insert((rank.centre.to_bits(), index));
+                let slot = self.open_cell(index, &[p], 0, rank);
                 self.last = Some((index, slot));
                 InsertOutcome::NewCell
             }
             Some(slot) => {
                 let s = slot as usize;
-                self.slots[s].members.push(p);
-                if self.selection.needs_members() {
-                    return if self.reselect(s) {
+                self.push_members(s, &[p]);
+                let outcome = if self.selection.needs_members() {
+                    if self.reselect(s) {
                         InsertOutcome::Selected
                     } else {
                         InsertOutcome::Member
-                    };
-                }
-                let rank = self.rank_of(&p, &index, None);
-                let cell = &self.slots[s];
-                if rank.cmp_with(&p, &cell.rank, cell.point()) == Ordering::Less {
-                    let new_sel = cell.members.len() - 1;
-                    self.set_selected(s, new_sel, rank);
-                    InsertOutcome::Selected
+                    }
                 } else {
-                    InsertOutcome::Member
-                }
+                    let rank = self.rank_of(&p, &index, None);
+                    if rank.cmp_with(&p, &self.slots[s].rank, &self.hot[s].point) == Ordering::Less
+                    {
+                        let new_sel = self.slots[s].len as usize - 1;
+                        self.set_selected(s, new_sel, rank);
+                        InsertOutcome::Selected
+                    } else {
+                        InsertOutcome::Member
+                    }
+                };
+                self.maybe_compact();
+                outcome
             }
         }
     }
 
-    /// Insert a batch of points; returns how many were rejected.
-    ///
-    /// The batch is sorted by cell index first (as PCL's VoxelGrid sorts), so each cell is
-    /// looked up once per batch; the resulting state is the same as inserting one by one.
-    pub fn extend<I: IntoIterator<Item = [f64; D]>>(&mut self, points: I) -> u64 {
-        let mut batch: Vec<(CellIndex<D>, [f64; D])> = Vec::new();
-        let mut rejected = 0;
-        for p in points {
-            match self.spec.cell_index(&p) {
-                Some(i) => batch.push((i, p)),
-                None => rejected += 1,
-            }
-        }
-        self.counts.rejected += rejected;
-        self.counts.inserted += batch.len() as u64;
-        batch.sort_unstable_by_key(|a| a.0);
-        let mut start = 0;
-        while start < batch.len() {
-            let index = batch[start].0;
-            let mut end = start + 1;
-            while end < batch.len() && batch[end].0 == index {
-                end += 1;
-            }
-            self.insert_run(index, &batch[start..end]);
-            start = end;
-        }
-        rejected
-    }
-
-    /// Add points that all lie in cell `index` (already counted as inserted).
-    fn insert_run(&mut self, index: CellIndex<D>, run: &[(CellIndex<D>, [f64; D])]) {
-        let best_of_run = |g: &Self| {
-            let mut best = (0, g.rank_of(&run[0].1, &index, None));
-            for (k, (_, p)) in run.iter().enumerate().skip(1) {
-                let r = g.rank_of(p, &index, None);
-                if r.cmp_with(p, &best.1, &run[best.0].1) == Ordering::Less {
-                    best = (k, r);
-                }
-            }
-            best
-        };
-        match self.index.get(&index).copied() {
+    /// Add points that all lie in cell `index` (already counted as inserted) to the grid.
+    pub(crate) fn insert_run(&mut self, index: CellIndex<D>, run: &[[f64; D]]) {
+        match self.find_slot(&index) {
             None => {
-                let members: Vec<[f64; D]> = run.iter().map(|(_, p)| *p).collect();
-                let (sel, rank) = if self.selection.needs_members() {
-                    (
-                        0,
-                        Rank {
-                            primary: 0.0,
-                            centre: 0.0,
-                        },
-                    )
-                } else {
-                    best_of_run(self)
-                };
-                self.generation += 1;
-                let cell = Cell {
-                    index,
-                    members,
-                    selected: sel,
-                    rank,
-                    stamp: self.generation,
-                    mark: 0,
-                };
-                let slot = match self.free.pop() {
-                    Some(s) => {
-                        self.slots[s as usize] = cell;
-                        s
-                    }
-                    None => {
-                        self.slots.push(cell);
-                        (self.slots.len() - 1) as u32
-                    }
-                };
-                self.index.insert(index, slot);
-                if self.selection.needs_members() {
-                    let (sel, rank) = self.best_member(slot as usize);
-                    let cell = &mut self.slots[slot as usize];
-                    cell.selected = sel;
-                    cell.rank = rank;
-                }
-                let rank = self.slots[slot as usize].rank;
-                self.by_distance.insert((rank.centre.to_bits(), index));
+                let (sel, rank) = self.best_in(&index, run);
+                self.open_cell(index, run, sel, rank);
             }
             Some(slot) => {
                 let s = slot as usize;
                 if self.selection.needs_members() {
-                    self.slots[s].members.extend(run.iter().map(|(_, p)| *p));
+                    self.push_members(s, run);
                     self.reselect(s);
                     return;
                 }
-                let (k, rank) = best_of_run(self);
-                let cell = &mut self.slots[s];
-                let base = cell.members.len();
-                cell.members.extend(run.iter().map(|(_, p)| *p));
-                let p = run[k].1;
-                if rank.cmp_with(&p, &cell.rank, cell.point()) == Ordering::Less {
+                let (k, rank) = self.best_in(&index, run);
+                let base = self.slots[s].len as usize;
+                self.push_members(s, run);
+                let p = run[k];
+                if rank.cmp_with(&p, &self.slots[s].rank, &self.hot[s].point) == Ordering::Less {
                     self.set_selected(s, base + k, rank);
                 }
             }
         }
     }
 
+    /// The best of `members` (all in cell `index`, at least one) under the selection rule, with
+    /// its rank; the mean rule takes the mean of `members`.
+    pub(crate) fn best_in(&self, index: &CellIndex<D>, members: &[[f64; D]]) -> (usize, Rank) {
+        let m = self.selection.needs_members().then(|| mean(members));
+        let c = self.spec.cell_centre(index);
+        let mut best = (0, self.rank_near(&members[0], &c, m.as_ref()));
+        for (k, p) in members.iter().enumerate().skip(1) {
+            let r = self.rank_near(p, &c, m.as_ref());
+            if r.cmp_with(p, &best.1, &members[best.0]) == Ordering::Less {
+                best = (k, r);
+            }
+        }
+        best
+    }
+
+    /// Record member `sel` ranked `rank` as the representative of slot `s` (no bookkeeping).
+    fn choose(&mut self, s: usize, sel: usize, rank: Rank) {
+        let cell = &mut self.slots[s];
+        cell.selected = to_u32(sel);
+        cell.rank = rank;
+        self.hot[s].point = self.points[cell.point_at()];
+    }
+
     /// Make member `sel` the representative of slot `s`, keeping the distance order.
     fn set_selected(&mut self, s: usize, sel: usize, rank: Rank) {
         self.generation += 1;
-        let cell = &mut self.slots[s];
-        let old = (cell.rank.centre.to_bits(), cell.index);
-        let new = (rank.centre.to_bits(), cell.index);
-        cell.selected = sel;
-        cell.rank = rank;
-        cell.stamp = self.generation;
+        let index = self.hot[s].index;
+        let old = (self.slots[s].rank.centre.to_bits(), index, s as u32);
+        let new = (rank.centre.to_bits(), index, s as u32);
+        self.choose(s, sel, rank);
+        self.hot[s].stamp = self.generation;
         if old != new {
             self.by_distance.remove(&old);
             self.by_distance.insert(new);
@@ -423,17 +524,8 @@ impl<const D: usize> DensityGrid<D> {
     }
 
     /// The best member of slot `s` under the selection rule, with its rank.
-    fn best_member(&self, s: usize) -> (usize, Rank) {
-        let cell = &self.slots[s];
-        let m = self.selection.needs_members().then(|| mean(&cell.members));
-        let mut best = (0, self.rank_of(&cell.members[0], &cell.index, m.as_ref()));
-        for (k, p) in cell.members.iter().enumerate().skip(1) {
-            let r = self.rank_of(p, &cell.index, m.as_ref());
-            if r.cmp_with(p, &best.1, &cell.members[best.0]) == Ordering::Less {
-                best = (k, r);
-            }
-        }
-        best
+    pub(crate) fn best_member(&self, s: usize) -> (usize, Rank) {
+        self.best_in(&self.hot[s].index, self.members_of(s))
     }
 
     /// Local repair: choose the representative of slot `s` again from its members.
@@ -441,15 +533,14 @@ impl<const D: usize> DensityGrid<D> {
     fn reselect(&mut self, s: usize) -> bool {
         let (k, r) = self.best_member(s);
         let cell = &self.slots[s];
-        let changed = cmp_points(&cell.members[k], cell.point()) != Ordering::Equal
+        let changed = cmp_points(&self.points[cell.start + k], &self.hot[s].point)
+            != Ordering::Equal
             || r.centre.to_bits() != cell.rank.centre.to_bits();
         if changed {
             self.set_selected(s, k, r);
         } else {
             // Same point (perhaps a duplicate at another position): keep the rank fresh.
-            let cell = &mut self.slots[s];
-            cell.selected = k;
-            cell.rank = r;
+            self.choose(s, k, r);
         }
         changed
     }
@@ -468,47 +559,59 @@ impl<const D: usize> DensityGrid<D> {
             return false;
         };
         let s = slot as usize;
-        let cell = &mut self.slots[s];
-        let Some(k) = cell
-            .members
+        let Some(k) = self
+            .members_of(s)
             .iter()
             .position(|m| cmp_points(m, p) == Ordering::Equal)
         else {
             return false;
         };
         self.counts.removed += 1;
-        if cell.members.len() == 1 {
-            let key = (cell.rank.centre.to_bits(), cell.index);
-            cell.members = Vec::new();
+        let cell = &mut self.slots[s];
+        let key = (cell.rank.centre.to_bits(), index, slot);
+        if cell.len == 1 {
+            self.reserved -= cell.cap as usize;
+            cell.len = 0;
+            cell.cap = 0;
             self.by_distance.remove(&key);
             self.index.remove(&index);
+            self.lookup.remove(hash_index(&index), slot);
+            // A free slot's record must never match a look-up by index (cell indexes are
+            // within +-2^53, neighbours of them within +-(2^53 + 1)).
+            self.hot[s].index = [i64::MIN; D];
             self.free.push(slot);
             self.last = None;
             self.generation += 1;
+            if self.index.is_empty() {
+                self.points.clear();
+                self.reserved = 0;
+            }
+            self.maybe_compact();
             return true;
         }
-        let last = cell.members.len() - 1;
-        if cell.selected == k {
+        // Swap-remove member k within the span.
+        let last = cell.len as usize - 1;
+        let (start, was_selected) = (cell.start, cell.selected as usize == k);
+        self.points[start + k] = self.points[start + last];
+        cell.len -= 1;
+        if was_selected {
             // The representative leaves: the best remaining member takes over.
-            let old_key = (cell.rank.centre.to_bits(), cell.index);
-            cell.members.swap_remove(k);
-            self.by_distance.remove(&old_key);
+            self.by_distance.remove(&key);
             let (sel, rank) = self.best_member(s);
             self.generation += 1;
-            let cell = &mut self.slots[s];
-            cell.selected = sel;
-            cell.rank = rank;
-            cell.stamp = self.generation;
-            self.by_distance.insert((rank.centre.to_bits(), index));
+            self.choose(s, sel, rank);
+            self.hot[s].stamp = self.generation;
+            self.by_distance
+                .insert((rank.centre.to_bits(), index, slot));
         } else {
-            cell.members.swap_remove(k);
-            if cell.selected == last {
-                cell.selected = k;
+            if cell.selected as usize == last {
+                cell.selected = to_u32(k);
             }
             if self.selection.needs_members() {
                 self.reselect(s);
             }
         }
+        self.maybe_compact();
         true
     }
 
@@ -527,50 +630,76 @@ impl<const D: usize> DensityGrid<D> {
                 }
             })
             .collect();
-        let distance_order = self.by_distance.iter().map(|(_, i)| *i).collect();
+        let distance_order = self.by_distance.iter().map(|(_, i, _)| *i).collect();
         GridState {
             cells,
             distance_order,
         }
     }
 
-    /// Check every store invariant: index, arena and distance order agree, every member lies
-    /// in its cell, and each representative is the best member under the selection rule.
+    /// Check every store invariant: both indexes, the cells, the arena and the distance order
+    /// agree, spans do not overlap, every member lies in its cell, and each representative is
+    /// the best member under the selection rule.
     pub fn validate(&self) -> Result<(), QuantizeError> {
         let bad = |what: String| Err(QuantizeError::Invariant { what });
-        if self.by_distance.len() != self.index.len() {
+        if self.by_distance.len() != self.index.len() || self.lookup.len() != self.index.len() {
             return bad(format!(
-                "{} distance entries for {} cells",
+                "{} distance entries and {} hash entries for {} cells",
                 self.by_distance.len(),
+                self.lookup.len(),
                 self.index.len()
             ));
         }
+        if self.hot.len() != self.slots.len() {
+            return bad(format!(
+                "{} hot records for {} slots",
+                self.hot.len(),
+                self.slots.len()
+            ));
+        }
         let mut points = 0u64;
+        let mut reserved = 0usize;
+        let mut spans = Vec::with_capacity(self.index.len());
         for (index, &slot) in &self.index {
-            let Some(cell) = self.slots.get(slot as usize) else {
+            let (Some(cell), Some(hot)) =
+                (self.slots.get(slot as usize), self.hot.get(slot as usize))
+            else {
                 return bad(format!("cell {index:?} points to missing slot {slot}"));
             };
-            if &cell.index != index {
-                return bad(format!("slot {slot} holds {:?}, not {index:?}", cell.index));
+            if &hot.index != index {
+                return bad(format!("slot {slot} holds {:?}, not {index:?}", hot.index));
             }
-            if cell.members.is_empty() || cell.selected >= cell.members.len() {
+            if self.find_slot(index) != Some(slot) {
+                return bad(format!("cell {index:?} missing from the hash index"));
+            }
+            if cell.len == 0 || cell.selected >= cell.len || cell.cap < cell.len {
                 return bad(format!("cell {index:?} empty or bad selection"));
             }
-            points += cell.members.len() as u64;
-            for m in &cell.members {
+            if cell.start + cell.cap as usize > self.points.len() {
+                return bad(format!("cell {index:?} reaches beyond the arena"));
+            }
+            spans.push((cell.start, cell.start + cell.cap as usize));
+            points += u64::from(cell.len);
+            reserved += cell.cap as usize;
+            let members = self.members_of(slot as usize);
+            for m in members {
                 if self.spec.cell_index(m).as_ref() != Some(index) {
                     return bad(format!("member {m:?} is not in cell {index:?}"));
                 }
             }
-            let mean_pt = mean(&cell.members);
+            let chosen = &self.points[cell.point_at()];
+            if cmp_points(chosen, &hot.point) != Ordering::Equal {
+                return bad(format!("cell {index:?}: stale copy of the chosen point"));
+            }
+            let mean_pt = mean(members);
             let m = self.selection.needs_members().then_some(&mean_pt);
-            let sel_rank = self.rank_of(cell.point(), index, m);
+            let sel_rank = self.rank_of(chosen, index, m);
             if sel_rank.centre.to_bits() != cell.rank.centre.to_bits() {
                 return bad(format!("cell {index:?} has a stale distance"));
             }
-            for p in &cell.members {
+            for p in members {
                 let r = self.rank_of(p, index, m);
-                if r.cmp_with(p, &sel_rank, cell.point()) == Ordering::Less {
+                if r.cmp_with(p, &sel_rank, chosen) == Ordering::Less {
                     return bad(format!(
                         "cell {index:?}: member {p:?} beats the chosen point"
                     ));
@@ -578,10 +707,38 @@ impl<const D: usize> DensityGrid<D> {
             }
             if !self
                 .by_distance
-                .contains(&(cell.rank.centre.to_bits(), *index))
+                .contains(&(cell.rank.centre.to_bits(), *index, slot))
             {
                 return bad(format!("cell {index:?} missing from the distance order"));
             }
+        }
+        for &f in &self.free {
+            let free_ok = self.slots.get(f as usize).is_some_and(|c| c.len == 0)
+                && self
+                    .hot
+                    .get(f as usize)
+                    .is_some_and(|h| h.index == [i64::MIN; D]);
+            if !free_ok {
+                return bad(format!("free slot {f} is in use or still matches a cell"));
+            }
+        }
+        if self.free.len() + self.index.len() != self.slots.len() {
+            return bad(format!(
+                "{} free and {} used slots of {}",
+                self.free.len(),
+                self.index.len(),
+                self.slots.len()
+            ));
+        }
+        spans.sort_unstable();
+        if spans.windows(2).any(|w| w[0].1 > w[1].0) {
+            return bad("two cells share arena places".to_string());
+        }
+        if reserved != self.reserved {
+            return bad(format!(
+                "{reserved} arena places reserved, the store says {}",
+                self.reserved
+            ));
         }
         if points != self.point_count() {
             return bad(format!(
@@ -590,6 +747,14 @@ impl<const D: usize> DensityGrid<D> {
             ));
         }
         Ok(())
+    }
+}
+
+/// Slot number `n` (slot `u32::MAX` is reserved for the hash index's empty bucket).
+pub(crate) fn new_slot(n: usize) -> u32 {
+    match u32::try_from(n) {
+        Ok(s) if s != u32::MAX => s,
+        _ => panic!("more than 2^32 - 2 cells"),
     }
 }
 

@@ -3,6 +3,7 @@
 
 use crate::density::CellIndex;
 use crate::density_grid::DensityGrid;
+use crate::density_index::hash_index;
 use crate::error::QuantizeError;
 use std::ops::Bound;
 
@@ -80,20 +81,30 @@ impl<const D: usize> DensityGrid<D> {
         if cycle.finished {
             return Ok(true);
         }
-        let lower = match &cycle.cursor {
+        // Entries after the cursor cell (whatever its slot): `u32::MAX` bounds every slot.
+        let after = |c: &Option<(u64, CellIndex<D>)>| match c {
             None => Bound::Unbounded,
-            Some(c) => Bound::Excluded(*c),
+            Some((d, i)) => Bound::Excluded((*d, *i, u32::MAX)),
         };
-        // Collect the next keys first: marking neighbours needs `&mut self`.
-        let keys: Vec<(u64, CellIndex<D>)> = self
-            .by_distance
-            .range((lower, Bound::Unbounded))
+        // Walk the distance order while marking cells: disjoint fields of the store.
+        let DensityGrid {
+            spec,
+            lookup,
+            hot,
+            by_distance,
+            neighbours,
+            ..
+        } = self;
+        let (size, offset) = (*spec.size(), *spec.offset());
+        let mut last = None;
+        let mut probes: Vec<(CellIndex<D>, u64, u64)> = Vec::with_capacity(neighbours.len());
+        for &(d, index, slot) in by_distance
+            .range((after(&cycle.cursor), Bound::Unbounded))
             .take(max_cells)
-            .copied()
-            .collect();
-        for key in &keys {
-            let slot = self.index[&key.1] as usize;
-            let cell = &self.slots[slot];
+        {
+            last = Some((d, index));
+            let s = slot as usize;
+            let cell = &mut hot[s];
             if cell.stamp > cycle.horizon {
                 cycle.counts.deferred += 1;
                 continue;
@@ -101,16 +112,14 @@ impl<const D: usize> DensityGrid<D> {
             if cell.mark == cycle.id {
                 continue;
             }
-            let p = *cell.point();
-            let index = cell.index;
-            self.slots[slot].mark = cycle.id;
+            cell.mark = cycle.id;
+            let p = cell.point;
             out.push(p);
             cycle.counts.emitted += 1;
             // Per axis, only the side the point leans to can hold a point closer than half a
             // cell; a margin keeps this pruning conservative under rounding.
             let mut up = [false; D];
             let mut down = [false; D];
-            let (size, offset) = (self.spec.size(), self.spec.offset());
             for a in 0..D {
                 let lo = offset[a] + index[a] as f64 * size[a];
                 let hi = offset[a] + (index[a] + 1) as f64 * size[a];
@@ -118,8 +127,10 @@ impl<const D: usize> DensityGrid<D> {
                 up[a] = p[a] > hi - 0.5 * size[a] - eps;
                 down[a] = p[a] < lo + 0.5 * size[a] + eps;
             }
-            for k in 0..self.neighbours.len() {
-                let off = self.neighbours[k];
+            // Neighbours that may hold a close point, with their hashes; then their first
+            // buckets, all loaded before any is examined, so that the misses overlap.
+            probes.clear();
+            for off in neighbours.iter() {
                 if (0..D).any(|a| (off[a] == 1 && !up[a]) || (off[a] == -1 && !down[a])) {
                     continue;
                 }
@@ -127,29 +138,35 @@ impl<const D: usize> DensityGrid<D> {
                 for a in 0..D {
                     n[a] += off[a];
                 }
-                let Some(&ns) = self.index.get(&n) else {
-                    continue;
+                probes.push((n, hash_index(&n), 0));
+            }
+            for pr in probes.iter_mut() {
+                pr.2 = lookup.first_bucket(pr.1);
+            }
+            for &(n, h, e) in probes.iter() {
+                let ns = {
+                    let hot = &*hot;
+                    match lookup.find_from(h, e, |c| hot[c as usize].index == n) {
+                        Some(c) => c as usize,
+                        None => continue,
+                    }
                 };
-                let nc = &mut self.slots[ns as usize];
+                let nc = &mut hot[ns];
                 if nc.stamp > cycle.horizon || nc.mark == cycle.id {
                     continue;
                 }
-                if self.spec.within_half_cell(&p, &nc.members[nc.selected]) {
+                if spec.within_half_cell(&p, &nc.point) {
                     nc.mark = cycle.id;
                     cycle.counts.eliminated += 1;
                 }
             }
         }
-        if let Some(last) = keys.last() {
-            cycle.cursor = Some(*last);
+        if last.is_some() {
+            cycle.cursor = last;
         }
-        let lower = match &cycle.cursor {
-            None => Bound::Unbounded,
-            Some(c) => Bound::Excluded(*c),
-        };
         cycle.finished = self
             .by_distance
-            .range((lower, Bound::Unbounded))
+            .range((after(&cycle.cursor), Bound::Unbounded))
             .next()
             .is_none();
         Ok(cycle.finished)

@@ -28,6 +28,11 @@ pub fn reduce<const D: usize>(
 ) -> (Vec<[f64; D]>, ReduceCounts) {
     let mut grid = DensityGrid::new(spec);
     grid.extend(points);
+    finish(grid)
+}
+
+/// One read cycle of a filled grid, with the counts.
+fn finish<const D: usize>(mut grid: DensityGrid<D>) -> (Vec<[f64; D]>, ReduceCounts) {
     let c = grid.counts();
     let grid_len = grid.len() as u64;
     let (out, _) = grid.output_cycle();
@@ -47,13 +52,13 @@ pub fn reduce_points_counted(
     points: &[Point3<f32>],
     cell: [f64; 3],
 ) -> Result<(Vec<Point3<f32>>, ReduceCounts), QuantizeError> {
-    let spec = GridSpec::with_sizes(cell)?;
-    let (out, counts) = reduce(
+    let mut grid = DensityGrid::new(GridSpec::with_sizes(cell)?);
+    grid.extend_rewalk(
         points
             .iter()
             .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)]),
-        spec,
     );
+    let (out, counts) = finish(grid);
     // f32 -> f64 -> f32 is exact, so the output points are input points bit for bit.
     let out = out
         .into_iter()

@@ -36,7 +36,7 @@ impl<const D: usize> SharedDensityGrid<D> {
 
     /// Input stage: insert a batch under one lock; returns how many were rejected.
     pub fn insert_batch(&self, points: &[[f64; D]]) -> u64 {
-        self.lock().extend(points.iter().copied())
+        self.lock().extend_rewalk(points.iter().copied())
     }
 
     /// Input stage: delete one point (see [`DensityGrid::remove`]).

@@ -244,3 +244,199 @@ fn points_added_during_a_cycle_wait_for_the_next() {
         Err(QuantizeError::StaleCycle { .. })
     ));
 }
+
+/// Small LCG for the store tests below.
+fn lcg(x: &mut u64) -> u64 {
+    *x = x
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    *x >> 33
+}
+
+/// A batch spread over more cells than 63 bits of packed key can hold goes through the
+/// comparison sort; it must give the same store as inserting one point at a time.
+#[test]
+fn very_wide_batch_matches_single_inserts() {
+    let spec = GridSpec::<3>::cubic(1.0).unwrap();
+    let far = 4.0e15; // cell indexes near +-2^52 on every axis: 3 x 54 bits
+    let mut x = 5;
+    let mut pts = Vec::new();
+    for k in 0..300 {
+        let base = match k % 3 {
+            0 => [-far, far, -far],
+            1 => [far, -far, far],
+            _ => [0.0, 0.0, 0.0],
+        };
+        pts.push([
+            base[0] + (lcg(&mut x) % 8) as f64 * 0.5,
+            base[1] + (lcg(&mut x) % 8) as f64 * 0.5,
+            base[2] + (lcg(&mut x) % 8) as f64 * 0.5,
+        ]);
+    }
+    pts.push([f64::NAN, 0.0, 0.0]);
+    pts.push([0.0, 1e300, 0.0]);
+    let mut batch = DensityGrid::new(spec.clone());
+    assert_eq!(batch.extend(pts.iter().copied()), 2);
+    let mut single = DensityGrid::new(spec);
+    for p in pts.iter().rev() {
+        single.insert(*p);
+    }
+    batch.validate().unwrap();
+    single.validate().unwrap();
+    assert_eq!(batch.state(), single.state());
+    assert_eq!(batch.counts(), single.counts());
+    assert_eq!(batch.output_cycle(), single.output_cycle());
+}
+
+/// Many single insertions into few cells in turn move spans to the arena's end (and
+/// compact it); deleting most points again compacts it; the store stays valid throughout and
+/// ends equal to a store that only ever saw the remaining points.
+#[test]
+fn member_arena_relocation_and_compaction() {
+    let spec = GridSpec::<2>::cubic(1.0).unwrap();
+    let mut g = DensityGrid::new(spec.clone());
+    let mut x = 17;
+    let pts: Vec<[f64; 2]> = (0..12_000)
+        .map(|_| {
+            [
+                (lcg(&mut x) % 40) as f64 * 0.25,
+                (lcg(&mut x) % 40) as f64 * 0.25,
+            ]
+        })
+        .collect();
+    for (k, p) in pts.iter().enumerate() {
+        g.insert(*p);
+        if k % 1000 == 0 {
+            g.validate().unwrap();
+        }
+    }
+    g.validate().unwrap();
+    // Arena: all points, plus at most twice that in abandoned spans and spare room.
+    assert!(g.points.len() <= 3 * pts.len() + 4096, "{}", g.points.len());
+    let (gone, kept) = pts.split_at(11_000);
+    for (k, p) in gone.iter().enumerate() {
+        assert!(g.remove(p));
+        if k % 1000 == 0 {
+            g.validate().unwrap();
+        }
+    }
+    g.validate().unwrap();
+    assert!(
+        g.points.len() <= 2 * kept.len() + 4096,
+        "{}",
+        g.points.len()
+    );
+    let mut fresh = DensityGrid::new(spec);
+    fresh.extend(kept.iter().copied());
+    assert_eq!(g.state(), fresh.state());
+    assert_eq!(g.output_cycle(), fresh.output_cycle());
+}
+
+/// A grid emptied by deletion is rebuilt by the next batch in one pass (reusing nothing of
+/// the old slots), and a batch into a non-empty grid merges run by run.
+#[test]
+fn batches_into_emptied_and_non_empty_grids() {
+    let spec = GridSpec::<2>::with_sizes([0.5, 2.0]).unwrap();
+    let mut x = 3;
+    let mut cloud = |n: usize| -> Vec<[f64; 2]> {
+        (0..n)
+            .map(|_| {
+                [
+                    (lcg(&mut x) % 64) as f64 / 8.0,
+                    (lcg(&mut x) % 64) as f64 / 8.0,
+                ]
+            })
+            .collect()
+    };
+    let (a, b, c) = (cloud(500), cloud(500), cloud(300));
+    let mut g = DensityGrid::new(spec.clone());
+    g.extend(a.iter().copied());
+    let _ = g.output_cycle();
+    for p in &a {
+        assert!(g.remove(p));
+    }
+    assert!(g.is_empty());
+    g.validate().unwrap();
+    g.extend(b.iter().copied());
+    g.validate().unwrap();
+    g.extend(c.iter().copied());
+    g.validate().unwrap();
+    let mut fresh = DensityGrid::new(spec);
+    for p in b.iter().chain(&c) {
+        fresh.insert(*p);
+    }
+    assert_eq!(g.state(), fresh.state());
+    assert_eq!(g.output_cycle(), fresh.output_cycle());
+}
+
+/// Batches in one and in four dimensions (key packing over other axis counts, 3^4 - 1 = 80
+/// neighbours) agree with one-at-a-time insertion.
+#[test]
+fn batches_in_one_and_four_dimensions() {
+    let mut x = 11;
+    let one: Vec<[f64; 1]> = (0..400)
+        .map(|_| [(lcg(&mut x) % 1000) as f64 / 7.0 - 60.0])
+        .collect();
+    let spec1 = GridSpec::<1>::new([1.5], [0.25]).unwrap();
+    let mut a = DensityGrid::new(spec1.clone());
+    a.extend(one.iter().copied());
+    let mut b = DensityGrid::new(spec1);
+    for p in &one {
+        b.insert(*p);
+    }
+    a.validate().unwrap();
+    assert_eq!(a.state(), b.state());
+    assert_eq!(a.output_cycle(), b.output_cycle());
+
+    let four: Vec<[f64; 4]> = (0..600)
+        .map(|_| {
+            let mut p = [0.0; 4];
+            for v in &mut p {
+                *v = (lcg(&mut x) % 48) as f64 / 8.0;
+            }
+            p
+        })
+        .collect();
+    let spec4 = GridSpec::<4>::new([1.0, 0.5, 2.0, 1.0], [0.0, -0.1, 0.3, 0.0]).unwrap();
+    let mut a = DensityGrid::new(spec4.clone());
+    a.extend(four.iter().copied());
+    let mut b = DensityGrid::new(spec4);
+    for p in four.iter().rev() {
+        b.insert(*p);
+    }
+    a.validate().unwrap();
+    assert_eq!(a.state(), b.state());
+    assert_eq!(a.output_cycle(), b.output_cycle());
+}
+
+/// The copying and the re-walking batch entry points give the same store.
+#[test]
+fn extend_and_extend_rewalk_agree() {
+    let spec = GridSpec::<3>::new([0.3, 0.2, 0.5], [0.05, 0.0, -1.0]).unwrap();
+    let mut x = 29;
+    let mut pts: Vec<[f32; 3]> = (0..2000)
+        .map(|_| {
+            [
+                (lcg(&mut x) % 200) as f32 * 0.037 - 3.0,
+                (lcg(&mut x) % 200) as f32 * 0.041,
+                (lcg(&mut x) % 50) as f32 * 0.11 - 2.0,
+            ]
+        })
+        .collect();
+    pts[7] = [f32::NAN, 0.0, 0.0];
+    pts[99] = [0.0, f32::INFINITY, 0.0];
+    let as_f64 = |p: &[f32; 3]| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+    let mut a = DensityGrid::new(spec.clone());
+    let mut b = DensityGrid::new(spec);
+    assert_eq!(a.extend(pts.iter().map(as_f64)), 2);
+    assert_eq!(b.extend_rewalk(pts.iter().map(as_f64)), 2);
+    a.validate().unwrap();
+    b.validate().unwrap();
+    assert_eq!(a.state(), b.state());
+    assert_eq!(a.counts(), b.counts());
+    // Into non-empty grids too.
+    a.extend(pts[..500].iter().map(as_f64));
+    b.extend_rewalk(pts[..500].iter().map(as_f64));
+    assert_eq!(a.state(), b.state());
+    assert_eq!(a.output_cycle(), b.output_cycle());
+}

@@ -6,8 +6,9 @@
 //!
 //! * [`GridSpec`]: per-axis cell sizes and offsets; cell index `floor((x - offset) / size)`.
 //! * [`DensityGrid`]: the store. [`DensityGrid::insert`] and [`DensityGrid::remove`] are the
-//!   input stage; [`Selection`] picks each cell's point (closest to the centre, closest to the
-//!   mean, or a caller's score).
+//!   input stage, [`DensityGrid::extend`] (or [`DensityGrid::extend_rewalk`]) its batch form;
+//!   [`Selection`] picks each cell's point (closest to the centre, closest to the mean, or a
+//!   caller's score).
 //! * [`OutputCycle`]: the output stage, one read cycle at a time, eliminating a neighbour whose
 //!   point is within half a cell on every axis of an emitted one.
 //! * [`SharedDensityGrid`]: both stages on two threads over one store.
@@ -32,7 +33,9 @@
 #![forbid(unsafe_code)]
 
 mod density;
+mod density_batch;
 mod density_grid;
+mod density_index;
 mod density_output;
 mod density_reduce;
 mod density_shared;

@@ -64,7 +64,7 @@ pub fn run(a: &Args) -> Result<()> {
 
     let t1 = Instant::now();
     let mut grid = DensityGrid::new(spec);
-    grid.extend(
+    grid.extend_rewalk(
         points
             .iter()
             .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)]),

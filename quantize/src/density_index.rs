@@ -1,0 +1,429 @@
+//! Fast building blocks of the density reducer's store: a compact hash index from cell index
+//! to slot (the look-ups of insertion, deletion and the read cycle's neighbour checks), an
+//! exact `floor` without a libm call, packing of cell indexes into one `u64` whose integer
+//! order is the lexicographic order, and an LSD radix sort on such keys (the sort of a batch's
+//! distinct cells).
+
+use crate::density::CellIndex;
+
+/// Hash of a cell index: multiply-rotate over the axes, then a 64-bit finaliser so that small,
+/// dense indexes spread over all bits.
+#[inline]
+pub(crate) fn hash_index<const D: usize>(index: &CellIndex<D>) -> u64 {
+    let mut h = 0u64;
+    for &v in index {
+        h = (h.rotate_left(23) ^ v as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+    h ^= h >> 31;
+    h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h ^ (h >> 29)
+}
+
+/// Hash index from cell index to slot: open addressing with linear probing over 8-byte buckets
+/// `(hash low 32 bits) << 32 | slot`, at most half full. It does not hold the keys: a probe
+/// whose hash bits match asks the caller whether the slot holds the key, which the caller
+/// answers from the cell it then needs anyway. Deletion shifts the following entries back, so
+/// there are no tombstones.
+#[derive(Debug, Clone)]
+pub(crate) struct SlotTable {
+    buckets: Vec<u64>,
+    len: usize,
+}
+
+/// An empty bucket (no slot is `u32::MAX`).
+const EMPTY: u64 = u64::MAX;
+
+impl Default for SlotTable {
+    fn default() -> Self {
+        SlotTable {
+            buckets: vec![EMPTY; 16],
+            len: 0,
+        }
+    }
+}
+
+impl SlotTable {
+    /// Number of entries.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Remove every entry.
+    pub(crate) fn clear(&mut self) {
+        self.buckets.clear();
+        self.buckets.resize(16, EMPTY);
+        self.len = 0;
+    }
+
+    #[inline]
+    fn mask(&self) -> usize {
+        self.buckets.len() - 1
+    }
+
+    /// The slot with hash `h` for which `holds(slot)` is true.
+    #[inline]
+    pub(crate) fn find(&self, h: u64, mut holds: impl FnMut(u32) -> bool) -> Option<u32> {
+        let mask = self.mask();
+        let tag = h as u32;
+        let mut i = h as usize & mask;
+        loop {
+            let e = self.buckets[i];
+            if e == EMPTY {
+                return None;
+            }
+            if (e >> 32) as u32 == tag && holds(e as u32) {
+                return Some(e as u32);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+
+    /// The first bucket a look-up of hash `h` examines (to be passed to [`Self::find_from`]).
+    #[inline]
+    pub(crate) fn first_bucket(&self, h: u64) -> u64 {
+        self.buckets[h as usize & self.mask()]
+    }
+
+    /// [`Self::find`], given the first bucket `e` already read by [`Self::first_bucket`].
+    #[inline]
+    pub(crate) fn find_from(
+        &self,
+        h: u64,
+        e: u64,
+        mut holds: impl FnMut(u32) -> bool,
+    ) -> Option<u32> {
+        if e == EMPTY {
+            return None;
+        }
+        if (e >> 32) as u32 == h as u32 && holds(e as u32) {
+            return Some(e as u32);
+        }
+        let mask = self.mask();
+        let tag = h as u32;
+        let mut i = (h as usize & mask).wrapping_add(1) & mask;
+        loop {
+            let e = self.buckets[i];
+            if e == EMPTY {
+                return None;
+            }
+            if (e >> 32) as u32 == tag && holds(e as u32) {
+                return Some(e as u32);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+
+    /// Make room for `extra` more entries.
+    pub(crate) fn reserve(&mut self, extra: usize) {
+        let want = (2 * (self.len + extra)).next_power_of_two().max(16);
+        if want > self.buckets.len() {
+            let old = std::mem::replace(&mut self.buckets, vec![EMPTY; want]);
+            for e in old {
+                if e != EMPTY {
+                    self.place(e);
+                }
+            }
+        }
+    }
+
+    fn place(&mut self, e: u64) {
+        let mask = self.mask();
+        let mut i = (e >> 32) as usize & mask;
+        while self.buckets[i] != EMPTY {
+            i = (i + 1) & mask;
+        }
+        self.buckets[i] = e;
+    }
+
+    /// Add `slot` with hash `h` (the key must not be present).
+    pub(crate) fn insert(&mut self, h: u64, slot: u32) {
+        debug_assert_ne!(slot, u32::MAX);
+        self.reserve(1);
+        self.place(((h as u32 as u64) << 32) | u64::from(slot));
+        self.len += 1;
+    }
+
+    /// Remove `slot`, stored with hash `h`; returns whether it was there.
+    pub(crate) fn remove(&mut self, h: u64, slot: u32) -> bool {
+        let mask = self.mask();
+        let want = ((h as u32 as u64) << 32) | u64::from(slot);
+        let mut i = h as usize & mask;
+        loop {
+            let e = self.buckets[i];
+            if e == EMPTY {
+                return false;
+            }
+            if e == want {
+                break;
+            }
+            i = (i + 1) & mask;
+        }
+        // Backward shift: move later entries of the cluster into the hole when their home
+        // bucket does not lie cyclically in (hole, their position].
+        let mut hole = i;
+        let mut j = (i + 1) & mask;
+        loop {
+            let e = self.buckets[j];
+            if e == EMPTY {
+                break;
+            }
+            let home = (e >> 32) as usize & mask;
+            let stays = if hole <= j {
+                hole < home && home <= j
+            } else {
+                hole < home || home <= j
+            };
+            if !stays {
+                self.buckets[hole] = e;
+                hole = j;
+            }
+            j = (j + 1) & mask;
+        }
+        self.buckets[hole] = EMPTY;
+        self.len -= 1;
+        true
+    }
+}
+
+/// `floor(q)` as an integer when `|floor(q)| <= limit` (`limit < 2^62`), else `None` (also for
+/// NaN and infinities). Exactly `q.floor()`, without the libm call that `f64::floor` becomes on
+/// x86-64 targets without SSE4.1.
+#[inline]
+pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
+    // 2^62: beyond it every f64 is an integer far out of range; NaN fails the comparison too.
+    if q.is_nan() || q.abs() >= 4_611_686_018_427_387_904.0 {
+        return None;
+    }
+    // Truncation toward zero is exact here; at or above 2^52 `q` is already an integer, below
+    // it `t` converts back exactly, so the comparison decides floor vs. truncation exactly.
+    let mut t = q as i64;
+    if (t as f64) > q {
+        t -= 1;
+    }
+    (t.abs() <= limit).then_some(t)
+}
+
+/// Packing of cell indexes within a box of cells into `u64` keys, axis 0 most significant, so
+/// that the integer order of keys is the lexicographic order of the indexes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Packing<const D: usize> {
+    min: CellIndex<D>,
+    shift: [u32; D],
+    mask: [u64; D],
+    /// Total key bits.
+    pub bits: u32,
+}
+
+impl<const D: usize> Packing<D> {
+    /// The packing of the box `lo..=hi` (per axis), or `None` when it needs more than 64 bits.
+    pub(crate) fn new(lo: &CellIndex<D>, hi: &CellIndex<D>) -> Option<Self> {
+        let mut width = [0u32; D];
+        for a in 0..D {
+            // Both ends lie within +-2^53, so the span fits in u64.
+            let span = hi[a].abs_diff(lo[a]);
+            width[a] = 64 - span.leading_zeros();
+        }
+        let bits: u32 = width.iter().sum();
+        if bits > 64 {
+            return None;
+        }
+        let mut shift = [0u32; D];
+        let mut mask = [0u64; D];
+        let mut s = 0;
+        for a in (0..D).rev() {
+            shift[a] = s;
+            mask[a] = if width[a] == 0 {
+                0
+            } else {
+                u64::MAX >> (64 - width[a])
+            };
+            s += width[a];
+        }
+        Some(Packing {
+            min: *lo,
+            shift,
+            mask,
+            bits,
+        })
+    }
+
+    /// The key of `index`, which must lie in the box.
+    #[inline]
+    pub(crate) fn pack(&self, index: &CellIndex<D>) -> u64 {
+        let mut k = 0u64;
+        for (a, &v) in index.iter().enumerate() {
+            // `shift` is < 64 whenever the axis has a non-zero width; a zero-width axis adds 0.
+            if self.mask[a] != 0 {
+                k |= v.abs_diff(self.min[a]) << self.shift[a];
+            }
+        }
+        k
+    }
+
+    /// The index of key `k`.
+    #[inline]
+    pub(crate) fn unpack(&self, k: u64) -> CellIndex<D> {
+        let mut index = self.min;
+        for (a, v) in index.iter_mut().enumerate() {
+            if self.mask[a] != 0 {
+                *v += ((k >> self.shift[a]) & self.mask[a]) as i64;
+            }
+        }
+        index
+    }
+}
+
+/// Stable LSD radix sort of `v` by bits `lo..hi` of each word, in as few passes of at most
+/// 11-bit digits as the range needs; digits on which every word agrees are skipped. `scratch`
+/// is reused between calls.
+pub(crate) fn radix_sort_bits(v: &mut Vec<u64>, scratch: &mut Vec<u64>, lo: u32, hi: u32) {
+    if v.len() < 2 || hi <= lo {
+        return;
+    }
+    let passes = (hi - lo).div_ceil(11);
+    let width = (hi - lo).div_ceil(passes);
+    let buckets = 1usize << width;
+    let digit_mask = buckets as u64 - 1;
+    // Histograms of every digit in one pass.
+    let mut counts = vec![0usize; buckets * passes as usize];
+    for &x in v.iter() {
+        let y = x >> lo;
+        for d in 0..passes {
+            counts[d as usize * buckets + ((y >> (width * d)) & digit_mask) as usize] += 1;
+        }
+    }
+    scratch.clear();
+    scratch.resize(v.len(), 0);
+    for (d, c) in counts.chunks_exact_mut(buckets).enumerate() {
+        if c.contains(&v.len()) {
+            continue;
+        }
+        // Counts become start positions.
+        let mut sum = 0;
+        for n in c.iter_mut() {
+            let here = *n;
+            *n = sum;
+            sum += here;
+        }
+        let s = lo + width * d as u32;
+        for &x in v.iter() {
+            let b = ((x >> s) & digit_mask) as usize;
+            scratch[c[b]] = x;
+            c[b] += 1;
+        }
+        std::mem::swap(v, scratch);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_index_is_floor() {
+        let limit = 1i64 << 53;
+        let cases = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.0000001,
+            2.9999999,
+            -7.5,
+            4503599627370495.5,
+            -4503599627370495.5,
+            9007199254740992.0,
+            -9007199254740992.0,
+            9007199254740994.0,
+            1e17,
+            -1e300,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for q in cases {
+            let f = q.floor();
+            let want = (f.is_finite() && f.abs() <= limit as f64).then_some(f as i64);
+            assert_eq!(floor_index(q, limit), want, "{q}");
+        }
+    }
+
+    #[test]
+    fn packing_keeps_lexicographic_order() {
+        let lo = [-3i64, 5, -100];
+        let hi = [4i64, 5, 27];
+        let p = Packing::new(&lo, &hi).unwrap();
+        assert_eq!(p.bits, 3 + 7);
+        let mut all = Vec::new();
+        for x in lo[0]..=hi[0] {
+            for z in lo[2]..=hi[2] {
+                all.push([x, 5, z]);
+            }
+        }
+        for w in all.windows(2) {
+            assert!(p.pack(&w[0]) < p.pack(&w[1]));
+            assert_eq!(p.unpack(p.pack(&w[0])), w[0]);
+        }
+        let big = 1i64 << 53;
+        assert!(Packing::new(&[-big, 0], &[big, 0]).is_some());
+        assert!(Packing::new(&[-big, -big], &[big, big]).is_none());
+        assert!(Packing::new(&[7i64; 4], &[7i64; 4]).unwrap().bits == 0);
+    }
+
+    /// Random inserts and deletes against a `HashMap`, with a weak hash so that clusters form
+    /// and wrap around the table's end.
+    #[test]
+    fn slot_table_matches_a_hash_map() {
+        use std::collections::HashMap;
+        let mut t = SlotTable::default();
+        let mut m: HashMap<u32, u64> = HashMap::new();
+        let mut x = 99u64;
+        for step in 0..20_000u32 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let slot = ((x >> 40) % 3000) as u32;
+            // Few distinct hashes, many equal tags: probing must ask `holds`.
+            let h = u64::from(slot % 37) * 0x1_0000_0001 + 0xFFF0;
+            if let std::collections::hash_map::Entry::Vacant(e) = m.entry(slot) {
+                if step % 3 != 0 {
+                    t.insert(h, slot);
+                    e.insert(h);
+                }
+            } else if step % 2 == 0 {
+                assert!(t.remove(h, slot));
+                m.remove(&slot);
+            }
+            assert_eq!(t.len(), m.len());
+            if step % 97 == 0 {
+                for s in 0..3000u32 {
+                    let h = u64::from(s % 37) * 0x1_0000_0001 + 0xFFF0;
+                    let want = m.contains_key(&s).then_some(s);
+                    assert_eq!(t.find(h, |c| c == s), want, "slot {s}");
+                }
+            }
+        }
+        assert!(!t.remove(5, 4000));
+    }
+
+    #[test]
+    fn radix_sort_sorts_stably_by_the_bit_range() {
+        let mut x = 12345u64;
+        let mut v: Vec<u64> = (0..5000u64)
+            .map(|i| {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((x >> 40) << 13) | i
+            })
+            .collect();
+        let mut want = v.clone();
+        want.sort_by_key(|w| w >> 13);
+        radix_sort_bits(&mut v, &mut Vec::new(), 13, 13 + 24);
+        assert_eq!(v, want);
+    }
+}
