@@ -175,7 +175,19 @@ fn setup(
     origin: &Point3<f32>,
     end: &Point3<f32>,
 ) -> Result<RaySetup, RayWalk> {
-    let (Some(key_origin), Some(key_end)) = (key_of(conv, origin), key_of(conv, end)) else {
+    setup_from(conv, origin, key_of(conv, origin), end)
+}
+
+/// [`setup`] with the origin's key already known (`key_of(conv, origin)`), for callers that
+/// cast many rays from one origin.
+#[inline(always)]
+fn setup_from(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    origin_key: Option<Key>,
+    end: &Point3<f32>,
+) -> Result<RaySetup, RayWalk> {
+    let (Some(key_origin), Some(key_end)) = (origin_key, key_of(conv, end)) else {
         return Err(RayWalk::OutsideMap);
     };
     if key_origin == key_end {
@@ -393,7 +405,8 @@ impl AxisStep {
 /// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
 /// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
 /// the brick's visited voxels (bit `code & 63`), gathered in registers while the walk stays in
-/// the brick: `flush` runs once per brick entered, not once per voxel.
+/// the brick: `flush` runs once per brick entered, not once per voxel. `origin_key` must be
+/// `key_of(conv, origin)`, computed once for all the rays of a scan.
 ///
 /// Why it is safe to visit without buffering: with a finite positive length and finite
 /// direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its `tMax`
@@ -405,13 +418,14 @@ impl AxisStep {
 pub(crate) fn try_walk_ray_bricks<F>(
     conv: &KeyConverter,
     origin: &Point3<f32>,
+    origin_key: Option<Key>,
     end: &Point3<f32>,
     mut flush: F,
 ) -> Option<RayWalk>
 where
     F: FnMut(u64, u64),
 {
-    let r = match setup(conv, origin, end) {
+    let r = match setup_from(conv, origin, origin_key, end) {
         Ok(r) => r,
         Err(w) => return Some(w),
     };

@@ -147,13 +147,14 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
 fn push_ray(
     conv: &KeyConverter,
     origin: &Point3<f32>,
+    origin_key: Option<Key>,
     end: &Point3<f32>,
     set: &mut BrickSet,
     scratch: &mut Vec<u64>,
     model: RayModel,
 ) -> bool {
     if model == RayModel::Bresenham {
-        let (Some(a), Some(b)) = (key_of(conv, origin), key_of(conv, end)) else {
+        let (Some(a), Some(b)) = (origin_key, key_of(conv, end)) else {
             return false;
         };
         crate::bresenham::walk_bresenham_bricks(a, b, |brick, bits| set.insert_bits(brick, bits));
@@ -161,7 +162,7 @@ fn push_ray(
     }
     // Well-conditioned rays go straight into the set, brick by brick; the rare others are
     // buffered so that a degenerate walk can be dropped whole.
-    let fast = try_walk_ray_bricks(conv, origin, end, |brick, bits| {
+    let fast = try_walk_ray_bricks(conv, origin, origin_key, end, |brick, bits| {
         set.insert_bits(brick, bits)
     });
     if let Some(walk) = fast {
@@ -211,6 +212,7 @@ fn add_point(
     conv: &KeyConverter,
     p: &Point3<f32>,
     origin: &Point3<f32>,
+    origin_key: Option<Key>,
     max_range: f64,
     free_set: &mut BrickSet,
     occ_set: &mut BrickSet,
@@ -220,7 +222,7 @@ fn add_point(
 ) {
     let diff = sub_f32(p, origin);
     if max_range < 0.0 || norm_f32(diff) <= max_range {
-        if push_ray(conv, origin, p, free_set, ray, model) {
+        if push_ray(conv, origin, origin_key, p, free_set, ray, model) {
             stats.rays += 1;
         } else {
             stats.failed_rays += 1;
@@ -235,7 +237,7 @@ fn add_point(
             stats.outside_map += 1;
         }
         let cut = cut_at_range(origin, diff, max_range);
-        if push_ray(conv, origin, &cut, free_set, ray, model) {
+        if push_ray(conv, origin, origin_key, &cut, free_set, ray, model) {
             stats.rays += 1;
         } else {
             stats.failed_rays += 1;
@@ -292,6 +294,7 @@ pub fn compute_update_with(
         ..ScanStats::default()
     };
     let m = max_range.unwrap_or(-1.0);
+    let origin_key = key_of(conv, origin);
     let threads = rayon::current_num_threads();
     if threads > 1 && points.len() >= PARALLEL_MIN_POINTS {
         // each thread casts a contiguous share of the rays into its own sets; the union is
@@ -315,6 +318,7 @@ pub fn compute_update_with(
                         conv,
                         p,
                         origin,
+                        origin_key,
                         m,
                         &mut w.free_set,
                         &mut w.occ_set,
@@ -344,6 +348,7 @@ pub fn compute_update_with(
                 conv,
                 p,
                 origin,
+                origin_key,
                 m,
                 &mut out.free_set,
                 &mut out.occ_set,
