@@ -83,7 +83,7 @@ impl BrickSet {
     }
 
     /// The bit mask of a brick (0 when absent).
-    #[inline]
+    #[cfg(test)]
     pub fn get(&self, brick: u64) -> u64 {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
@@ -113,15 +113,6 @@ impl BrickSet {
             }
         }
         self.last = 0;
-    }
-
-    /// Add every key of `other`.
-    pub fn union_with(&mut self, other: &BrickSet) {
-        for &(b, m) in &other.slots {
-            if b != EMPTY {
-                self.insert_bits(b, m);
-            }
-        }
     }
 
     /// The non-empty bricks as `(brick, bits)`, sorted by brick (that is, in Morton order).

@@ -57,6 +57,8 @@ pub struct ScanUpdate {
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
     bricks: Vec<(u64, u64)>,
+    occ_bricks: Vec<(u64, u64)>,
+    merge_tmp: Vec<(u64, u64)>,
     centres: Vec<Point3<f32>>,
     order: Vec<(u64, usize)>,
 }
@@ -104,10 +106,15 @@ struct Worker {
     occ_set: BrickSet,
     ray: Vec<u64>,
     stats: ScanStats,
+    /// The worker's sets as sorted brick lists, for the merge.
+    free_sorted: Vec<(u64, u64)>,
+    occ_sorted: Vec<(u64, u64)>,
 }
 
 /// Frames with at least this many points are split across the rayon threads.
 const PARALLEL_MIN_POINTS: usize = 4096;
+/// Points per block handed to the threads in turn.
+const PARALLEL_BLOCK: usize = 256;
 
 /// The key's Morton code ([`Key::morton`]): sorting by it visits voxels in the tree's own
 /// depth-first child order.
@@ -189,20 +196,60 @@ fn push_ray(
 
 /// List both sets in Morton order, masking occupied voxels out of the free ones.
 fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
+    out.free_set.sorted(&mut out.bricks);
+    out.occ_set.sorted(&mut out.occ_bricks);
+    emit(out, stats);
+}
+
+/// Turn the sorted brick lists `out.bricks` (free) and `out.occ_bricks` (occupied) into the
+/// key lists: occupied as they are, free with the occupied bits masked out (occupied wins),
+/// found by walking both sorted lists side by side.
+fn emit(out: &mut ScanUpdate, stats: &mut ScanStats) {
     out.free.clear();
     out.occupied.clear();
-    out.occ_set.sorted(&mut out.bricks);
-    for &(b, m) in &out.bricks {
+    for &(b, m) in &out.occ_bricks {
         push_brick_keys(b, m, &mut out.occupied);
     }
-    out.free_set.sorted(&mut out.bricks);
+    let occ = &out.occ_bricks;
+    let mut j = 0;
     for &(b, m) in &out.bricks {
-        // occupied wins over free
-        let m = m & !out.occ_set.get(b);
-        push_brick_keys(b, m, &mut out.free);
+        while j < occ.len() && occ[j].0 < b {
+            j += 1;
+        }
+        let taken = if j < occ.len() && occ[j].0 == b {
+            occ[j].1
+        } else {
+            0
+        };
+        push_brick_keys(b, m & !taken, &mut out.free);
     }
     stats.free = out.free.len();
     stats.occupied = out.occupied.len();
+}
+
+/// `acc := acc ∪ other` for brick lists sorted by brick (each brick once), OR-ing the bits of
+/// bricks in both; `tmp` is scratch.
+fn merge_into(acc: &mut Vec<(u64, u64)>, other: &[(u64, u64)], tmp: &mut Vec<(u64, u64)>) {
+    tmp.clear();
+    tmp.reserve(acc.len() + other.len());
+    let (mut i, mut j) = (0, 0);
+    while i < acc.len() && j < other.len() {
+        let (a, b) = (acc[i], other[j]);
+        if a.0 < b.0 {
+            tmp.push(a);
+            i += 1;
+        } else if b.0 < a.0 {
+            tmp.push(b);
+            j += 1;
+        } else {
+            tmp.push((a.0, a.1 | b.1));
+            i += 1;
+            j += 1;
+        }
+    }
+    tmp.extend_from_slice(&acc[i..]);
+    tmp.extend_from_slice(&other[j..]);
+    std::mem::swap(acc, tmp);
 }
 
 /// The ray and endpoint of one point, OctoMap's `computeUpdate` loop body (no bounding box).
@@ -300,16 +347,16 @@ pub fn compute_update_with(
         // each thread casts a contiguous share of the rays into its own sets; the union is
         // the same set whatever the split, so the output does not depend on the thread count
         out.workers.resize_with(threads, Worker::default);
-        let chunk = points.len().div_ceil(threads);
+        // worker `w` takes blocks w, w + T, w + 2T, ... of the points: neighbouring points
+        // have similar rays, so every worker gets a fair share of long and short ones
+        let blocks: Vec<&[Point3<f32>]> = points.chunks(PARALLEL_BLOCK).collect();
         use rayon::prelude::*;
-        out.workers
-            .par_iter_mut()
-            .zip(points.par_chunks(chunk))
-            .for_each(|(w, pts)| {
-                w.free_set.clear();
-                w.occ_set.clear();
-                w.stats = ScanStats::default();
-                for p in pts {
+        out.workers.par_iter_mut().enumerate().for_each(|(wi, w)| {
+            w.free_set.clear();
+            w.occ_set.clear();
+            w.stats = ScanStats::default();
+            for pts in blocks.iter().skip(wi).step_by(threads) {
+                for p in pts.iter() {
                     if !is_finite(p) {
                         w.stats.non_finite += 1;
                         continue;
@@ -327,36 +374,44 @@ pub fn compute_update_with(
                         model,
                     );
                 }
-            });
-        let used = points.len().div_ceil(chunk);
+            }
+            w.free_set.sorted(&mut w.free_sorted);
+            w.occ_set.sorted(&mut w.occ_sorted);
+        });
+        let used = threads;
+        // each worker's sets were sorted on its own thread; merging sorted lists replaces a
+        // serial hash union and a sort of the whole frame
+        out.bricks.clear();
+        out.occ_bricks.clear();
         for w in &out.workers[..used] {
-            out.free_set.union_with(&w.free_set);
-            out.occ_set.union_with(&w.occ_set);
+            merge_into(&mut out.bricks, &w.free_sorted, &mut out.merge_tmp);
+            merge_into(&mut out.occ_bricks, &w.occ_sorted, &mut out.merge_tmp);
             stats.non_finite += w.stats.non_finite;
             stats.outside_map += w.stats.outside_map;
             stats.rays += w.stats.rays;
             stats.failed_rays += w.stats.failed_rays;
             stats.max_range_rays += w.stats.max_range_rays;
         }
-    } else {
-        for p in points {
-            if !is_finite(p) {
-                stats.non_finite += 1;
-                continue;
-            }
-            add_point(
-                conv,
-                p,
-                origin,
-                origin_key,
-                m,
-                &mut out.free_set,
-                &mut out.occ_set,
-                &mut out.ray,
-                &mut stats,
-                model,
-            );
+        emit(out, &mut stats);
+        return stats;
+    }
+    for p in points {
+        if !is_finite(p) {
+            stats.non_finite += 1;
+            continue;
         }
+        add_point(
+            conv,
+            p,
+            origin,
+            origin_key,
+            m,
+            &mut out.free_set,
+            &mut out.occ_set,
+            &mut out.ray,
+            &mut stats,
+            model,
+        );
     }
     finish(out, &mut stats);
     stats
