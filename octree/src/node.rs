@@ -22,6 +22,20 @@ pub(crate) fn present(v: f32) -> bool {
     v.to_bits() != ABSENT_BITS
 }
 
+/// The largest present value of a child block (`-f32::MAX` when none): absent children hold
+/// a NaN, which `>` never picks, and strict `>` in child order keeps OctoMap's choice between
+/// equal values (+0.0 and -0.0).
+#[inline]
+fn max_present(vals: &[f32; 8]) -> f32 {
+    let mut m = -f32::MAX;
+    for &v in vals {
+        if v > m {
+            m = v;
+        }
+    }
+    m
+}
+
 /// Eight children at depths 1..=15: their log-odds and their own child blocks.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
@@ -294,28 +308,31 @@ impl NodeStore {
     #[inline]
     pub fn prune_node(&mut self, n: NodeRef) -> bool {
         let b = self.kids(n);
-        if b == NO_BLOCK {
-            return false;
-        }
-        let cd = n.depth + 1;
-        // `all_equal` and `all_leaves` fold without short-circuit so they compile to a few
-        // vector compares; an absent child (NaN) never equals a present `v0`
-        let all_equal = |vals: &[f32; 8], v0: f32| vals.iter().fold(true, |a, &v| a & (v == v0));
-        let v0;
-        if cd == 16 {
-            let vals = &self.leaf.blocks[b as usize].vals;
-            v0 = vals[0];
-            if !present(v0) || !all_equal(vals, v0) {
-                return false;
-            }
-            self.leaf.release(b);
+        b != NO_BLOCK && self.try_collapse(n, b)
+    }
+
+    /// Collapse `n` (whose child block is `b`) when its eight children are equal leaves:
+    /// free the block and give `n` child 0's value. The comparisons fold without
+    /// short-circuit so they compile to a few vector compares; an absent child (NaN) never
+    /// equals a present value.
+    #[inline]
+    fn try_collapse(&mut self, n: NodeRef, b: u32) -> bool {
+        let (vals, leaves) = if n.depth == 15 {
+            (&self.leaf.blocks[b as usize].vals, true)
         } else {
             let blk = &self.inner.blocks[b as usize];
-            v0 = blk.vals[0];
-            let all_leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
-            if !present(v0) || !all_equal(&blk.vals, v0) || !all_leaves {
-                return false;
-            }
+            (
+                &blk.vals,
+                blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK,
+            )
+        };
+        let v0 = vals[0];
+        if !(leaves && present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0))) {
+            return false;
+        }
+        if n.depth == 15 {
+            self.leaf.release(b);
+        } else {
             self.inner.release(b);
         }
         self.set_kids(n, NO_BLOCK);
@@ -332,33 +349,10 @@ impl NodeStore {
         if b == NO_BLOCK {
             return None;
         }
-        let (vals, leaves) = if n.depth == 15 {
-            (self.leaf.blocks[b as usize].vals, true)
-        } else {
-            let blk = &self.inner.blocks[b as usize];
-            (
-                blk.vals,
-                blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK,
-            )
-        };
-        let v0 = vals[0];
-        if leaves && present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0)) {
-            if n.depth == 15 {
-                self.leaf.release(b);
-            } else {
-                self.inner.release(b);
-            }
-            self.set_kids(n, NO_BLOCK);
-            self.set_value(n, v0);
+        if self.try_collapse(n, b) {
             return Some(true);
         }
-        // absent children hold a NaN, which `>` never picks
-        let mut m = -f32::MAX;
-        for v in vals {
-            if v > m {
-                m = v;
-            }
-        }
+        let m = max_present(self.child_vals(n.depth + 1, b));
         self.set_value(n, m);
         Some(false)
     }
@@ -369,15 +363,7 @@ impl NodeStore {
     pub fn max_child(&self, n: NodeRef) -> f32 {
         let b = self.kids(n);
         debug_assert_ne!(b, NO_BLOCK);
-        // absent children hold a NaN, which `>` never picks; strict `>` in child order keeps
-        // OctoMap's choice between equal values (+0.0 and -0.0)
-        let mut m = -f32::MAX;
-        for &v in self.child_vals(n.depth + 1, b) {
-            if v > m {
-                m = v;
-            }
-        }
-        m
+        max_present(self.child_vals(n.depth + 1, b))
     }
 
     /// Delete the subtree below `n` (not `n` itself); returns the number of nodes removed.

@@ -237,11 +237,8 @@ impl OcTree {
         self.record_change(key, old, v, just_created);
         if !lazy {
             for n in path.iter().rev() {
-                if self.store.prune_node(*n) {
+                if self.store.prune_or_refresh(*n) == Some(true) {
                     self.size -= 8;
-                } else {
-                    let m = self.store.max_child(*n);
-                    self.store.set_value(*n, m);
                 }
             }
         }

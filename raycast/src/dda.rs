@@ -318,17 +318,9 @@ where
     let [d0, d1, d2] = r.t_delta;
     let len = r.length;
     let mut budget = r.budget;
-    // stepping one axis of a Morton code: add or subtract the axis's lowest bit inside its mask
-    #[inline(always)]
-    fn stepped(code: u64, m: u64, low: u64, up: bool) -> u64 {
-        let axis = if up {
-            (code | !m).wrapping_add(low) & m
-        } else {
-            (code & m).wrapping_sub(low) & m
-        };
-        axis | (code & !m)
-    }
-    let up = [r.step[0] > 0, r.step[1] > 0, r.step[2] > 0];
+    let s0 = AxisStep::new(0, r.step[0] > 0);
+    let s1 = AxisStep::new(1, r.step[1] > 0);
+    let s2 = AxisStep::new(2, r.step[2] > 0);
     loop {
         if budget == 0 {
             return RayWalk::Degenerate;
@@ -336,17 +328,17 @@ where
         budget -= 1;
         if t0 < t1 {
             if t0 < t2 {
-                code = stepped(code, AXIS_MASK[0], 1, up[0]);
+                code = s0.apply(code);
                 t0 += d0;
             } else {
-                code = stepped(code, AXIS_MASK[2], 4, up[2]);
+                code = s2.apply(code);
                 t2 += d2;
             }
         } else if t1 < t2 {
-            code = stepped(code, AXIS_MASK[1], 2, up[1]);
+            code = s1.apply(code);
             t1 += d1;
         } else {
-            code = stepped(code, AXIS_MASK[2], 4, up[2]);
+            code = s2.apply(code);
             t2 += d2;
         }
         if code == end_code {

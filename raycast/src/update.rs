@@ -292,6 +292,32 @@ fn add_point(
     }
 }
 
+/// [`add_point`] for every finite point of `points`; non-finite ones are counted.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_points(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    origin_key: Option<Key>,
+    max_range: f64,
+    free_set: &mut BrickSet,
+    occ_set: &mut BrickSet,
+    ray: &mut Vec<u64>,
+    stats: &mut ScanStats,
+    model: RayModel,
+) {
+    for p in points {
+        if !is_finite(p) {
+            stats.non_finite += 1;
+            continue;
+        }
+        add_point(
+            conv, p, origin, origin_key, max_range, free_set, occ_set, ray, stats, model,
+        );
+    }
+}
+
 #[inline]
 fn is_finite(p: &Point3<f32>) -> bool {
     p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
@@ -356,24 +382,18 @@ pub fn compute_update_with(
             w.occ_set.clear();
             w.stats = ScanStats::default();
             for pts in blocks.iter().skip(wi).step_by(threads) {
-                for p in pts.iter() {
-                    if !is_finite(p) {
-                        w.stats.non_finite += 1;
-                        continue;
-                    }
-                    add_point(
-                        conv,
-                        p,
-                        origin,
-                        origin_key,
-                        m,
-                        &mut w.free_set,
-                        &mut w.occ_set,
-                        &mut w.ray,
-                        &mut w.stats,
-                        model,
-                    );
-                }
+                add_points(
+                    conv,
+                    pts,
+                    origin,
+                    origin_key,
+                    m,
+                    &mut w.free_set,
+                    &mut w.occ_set,
+                    &mut w.ray,
+                    &mut w.stats,
+                    model,
+                );
             }
             w.free_set.sorted(&mut w.free_sorted);
             w.occ_set.sorted(&mut w.occ_sorted);
@@ -395,24 +415,18 @@ pub fn compute_update_with(
         emit(out, &mut stats);
         return stats;
     }
-    for p in points {
-        if !is_finite(p) {
-            stats.non_finite += 1;
-            continue;
-        }
-        add_point(
-            conv,
-            p,
-            origin,
-            origin_key,
-            m,
-            &mut out.free_set,
-            &mut out.occ_set,
-            &mut out.ray,
-            &mut stats,
-            model,
-        );
-    }
+    add_points(
+        conv,
+        points,
+        origin,
+        origin_key,
+        m,
+        &mut out.free_set,
+        &mut out.occ_set,
+        &mut out.ray,
+        &mut stats,
+        model,
+    );
     finish(out, &mut stats);
     stats
 }
