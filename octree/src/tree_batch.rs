@@ -28,6 +28,10 @@ impl OcTree {
         // `valid` = number of leading path entries (depth 0..valid) known to match the previous
         // key's path and still exist; ancestors below that have been processed.
         let mut valid = 0usize;
+        // `dirty` = number of leading path entries with an applied update below them since
+        // they were last refreshed; a key that takes OctoMap's early exit dirties nothing, as
+        // `updateNode` then refreshes no ancestor
+        let mut dirty = 0usize;
         let mut prev: Option<Key> = None;
         for &key in keys {
             let common = match prev {
@@ -61,21 +65,34 @@ impl OcTree {
                 self.store.set_value(leaf, v);
                 self.record_change(key, old, v, created);
                 path[TREE_DEPTH as usize] = leaf;
+                dirty = TREE_DEPTH as usize + 1;
                 prev = Some(key);
                 continue;
             }
             // leave the previous key's nodes below the common ancestor
             if !lazy {
-                for d in (common + 1..valid).rev() {
+                for d in (common + 1..valid.min(dirty)).rev() {
                     self.refresh(path[d]);
                 }
             }
-            if self.store.root_val.is_none() {
+            dirty = dirty.min(common + 1);
+            let just_rooted = self.store.root_val.is_none();
+            if just_rooted {
                 self.store.root_val = Some(0.0);
                 self.add_size(1);
-                valid = self.apply_from(key, &mut path, 0, true, delta, cmin, cmax);
-            } else {
-                valid = self.apply_from(key, &mut path, common, false, delta, cmin, cmax);
+            }
+            let (v, applied) = self.apply_from(
+                key,
+                &mut path,
+                if just_rooted { 0 } else { common },
+                just_rooted,
+                delta,
+                cmin,
+                cmax,
+            );
+            valid = v;
+            if applied {
+                dirty = valid;
             }
             prev = Some(key);
         }
@@ -96,7 +113,8 @@ impl OcTree {
     }
 
     /// Walk from `path[start]` to `key`'s voxel, creating or expanding nodes, and apply the
-    /// delta; returns how many path entries (from the root) are valid afterwards. Returns
+    /// delta; returns how many path entries (from the root) are valid afterwards and whether
+    /// the delta was applied (not OctoMap's early exit). Returns
     /// early, creating nothing, when OctoMap's clamp early-exit applies.
     #[allow(clippy::too_many_arguments)]
     #[inline]
@@ -109,7 +127,7 @@ impl OcTree {
         delta: f32,
         cmin: f32,
         cmax: f32,
-    ) -> usize {
+    ) -> (usize, bool) {
         // read-only descent to the deepest existing node (OctoMap's `search`)
         let mut d = start;
         let mut cur = path[d];
@@ -135,7 +153,7 @@ impl OcTree {
         if !missing_child && !root_just_created {
             let v = self.store.value(cur);
             if (delta >= 0.0 && v >= cmax) || (delta <= 0.0 && v <= cmin) {
-                return d + 1;
+                return (d + 1, false);
             }
         }
         // create or expand the rest of the path
@@ -170,7 +188,7 @@ impl OcTree {
         let v = clamp_sum(old, delta, cmin, cmax);
         self.store.set_value(cur, v);
         self.record_change(key, old, v, just_created);
-        TREE_DEPTH as usize + 1
+        (TREE_DEPTH as usize + 1, true)
     }
 }
 
