@@ -77,20 +77,27 @@ pub fn quantize_endpoints(
             None
         }
     };
-    // key bounding box
-    let mut lo = [u16::MAX; 3];
-    let mut hi = [0u16; 3];
-    for p in points {
-        match key_of(p) {
-            Some(k) => {
-                for a in 0..3 {
-                    lo[a] = lo[a].min(k[a]);
-                    hi[a] = hi[a].max(k[a]);
-                }
+    // key bounding box (and the count of non-finite points), in parallel for large frames
+    let bounds = |pts: &[Point3<f32>]| -> KeyBounds {
+        let mut b = KeyBounds::EMPTY;
+        for p in pts {
+            match key_of(p) {
+                Some(k) => b.add(k),
+                None => b.non_finite += 1,
             }
-            None => stats.non_finite += 1,
         }
-    }
+        b
+    };
+    let b = if points.len() >= options.parallel_threshold {
+        points
+            .par_chunks(8192)
+            .map(bounds)
+            .reduce(|| KeyBounds::EMPTY, KeyBounds::union)
+    } else {
+        bounds(points)
+    };
+    let (lo, hi) = (b.lo, b.hi);
+    stats.non_finite = b.non_finite;
     let valid = points.len() - stats.non_finite;
     if valid == 0 {
         return stats;
@@ -114,10 +121,17 @@ pub fn quantize_endpoints(
         };
         if points.len() >= options.parallel_threshold {
             let grid: BitVec<AtomicU64, Lsb0> = BitVec::repeat(false, bits as usize);
+            let words = grid.as_raw_slice();
             points.par_chunks(8192).for_each(|chunk| {
                 for p in chunk {
                     if let Some(k) = key_of(p) {
-                        grid.set_aliased(index(k), true);
+                        // most end points share a voxel with an earlier one: a plain load
+                        // finds the bit set and skips the locked read-modify-write
+                        let i = index(k);
+                        let (w, bit) = (&words[i / 64], 1u64 << (i % 64));
+                        if w.load(std::sync::atomic::Ordering::Relaxed) & bit == 0 {
+                            w.fetch_or(bit, std::sync::atomic::Ordering::Relaxed);
+                        }
                     }
                 }
             });
@@ -172,6 +186,38 @@ pub fn quantize_endpoints(
     }
     stats.voxels = out.len();
     stats
+}
+
+/// Key bounding box of a share of the points, and how many of them were not finite.
+#[derive(Clone, Copy)]
+struct KeyBounds {
+    lo: [u16; 3],
+    hi: [u16; 3],
+    non_finite: usize,
+}
+
+impl KeyBounds {
+    const EMPTY: KeyBounds = KeyBounds {
+        lo: [u16::MAX; 3],
+        hi: [0; 3],
+        non_finite: 0,
+    };
+
+    #[inline]
+    fn add(&mut self, k: Key) {
+        for a in 0..3 {
+            self.lo[a] = self.lo[a].min(k[a]);
+            self.hi[a] = self.hi[a].max(k[a]);
+        }
+    }
+
+    fn union(a: KeyBounds, b: KeyBounds) -> KeyBounds {
+        KeyBounds {
+            lo: [0, 1, 2].map(|i| a.lo[i].min(b.lo[i])),
+            hi: [0, 1, 2].map(|i| a.hi[i].max(b.hi[i])),
+            non_finite: a.non_finite + b.non_finite,
+        }
+    }
 }
 
 #[inline]
