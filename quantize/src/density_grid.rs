@@ -182,8 +182,6 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) last: Option<(CellIndex<D>, u32)>,
     pub(crate) generation: u64,
     pub(crate) cycle: u64,
-    /// Neighbour offsets, 3^D - 1 of them.
-    pub(crate) neighbours: Vec<[i64; D]>,
     pub(crate) counts: GridCounts,
 }
 
@@ -209,7 +207,6 @@ impl<const D: usize> DensityGrid<D> {
             last: None,
             generation: 0,
             cycle: 0,
-            neighbours: neighbour_offsets::<D>(),
             counts: GridCounts::default(),
         }
     }
@@ -774,22 +771,4 @@ pub(crate) fn mean<const D: usize>(points: &[[f64; D]]) -> [f64; D] {
         *v /= n;
     }
     m
-}
-
-/// All offsets in {-1, 0, 1}^D except the zero offset, in lexicographic order.
-fn neighbour_offsets<const D: usize>() -> Vec<[i64; D]> {
-    let total = 3usize.saturating_pow(D as u32);
-    let mut out = Vec::with_capacity(total.saturating_sub(1));
-    for n in 0..total {
-        let mut o = [0i64; D];
-        let mut r = n;
-        for k in (0..D).rev() {
-            o[k] = (r % 3) as i64 - 1;
-            r /= 3;
-        }
-        if o.iter().any(|&v| v != 0) {
-            out.push(o);
-        }
-    }
-    out
 }

@@ -2,6 +2,7 @@
 //! deletion and read cycles.
 
 use super::*;
+use crate::density_output::for_each_lean_neighbour;
 use crate::{DensityGrid, InsertOutcome, QuantizeError};
 
 fn grid_8_17() -> GridSpec<2> {
@@ -137,26 +138,50 @@ fn non_finite_and_far_points_are_rejected_and_counted() {
     g.validate().unwrap();
 }
 
+/// All offsets in {-1, 0, 1}^D except zero, in lexicographic order (the brute-force list).
+fn all_offsets<const D: usize>() -> Vec<[i64; D]> {
+    let total = 3usize.pow(D as u32);
+    let mut out = Vec::new();
+    for n in 0..total {
+        let mut o = [0i64; D];
+        let mut r = n;
+        for k in (0..D).rev() {
+            o[k] = (r % 3) as i64 - 1;
+            r /= 3;
+        }
+        if o.iter().any(|&v| v != 0) {
+            out.push(o);
+        }
+    }
+    out
+}
+
+/// The lean-neighbour enumeration equals filtering all 3^D - 1 offsets, order included, for
+/// every combination of leaning sides.
+fn check_lean_neighbours<const D: usize>() {
+    let index: [i64; D] = std::array::from_fn(|a| 10 * a as i64 - 7);
+    let all = all_offsets::<D>();
+    assert_eq!(all.len(), 3usize.pow(D as u32) - 1);
+    for mask in 0..(1u32 << (2 * D)) {
+        let up: [bool; D] = std::array::from_fn(|a| mask >> a & 1 == 1);
+        let down: [bool; D] = std::array::from_fn(|a| mask >> (D + a) & 1 == 1);
+        let want: Vec<[i64; D]> = all
+            .iter()
+            .filter(|o| (0..D).all(|a| (o[a] != 1 || up[a]) && (o[a] != -1 || down[a])))
+            .map(|o| std::array::from_fn(|a| index[a] + o[a]))
+            .collect();
+        let mut got = Vec::new();
+        for_each_lean_neighbour(&index, &up, &down, |n| got.push(n));
+        assert_eq!(got, want, "up {up:?} down {down:?}");
+    }
+}
+
 #[test]
-fn neighbour_count_is_3_pow_d_minus_1() {
-    assert_eq!(
-        DensityGrid::new(GridSpec::<1>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        2
-    );
-    assert_eq!(
-        DensityGrid::new(GridSpec::<3>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        26
-    );
-    assert_eq!(
-        DensityGrid::new(GridSpec::<4>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        80
-    );
+fn lean_neighbours_match_the_filtered_3_pow_d_list() {
+    check_lean_neighbours::<1>();
+    check_lean_neighbours::<2>();
+    check_lean_neighbours::<3>();
+    check_lean_neighbours::<4>();
 }
 
 #[test]
