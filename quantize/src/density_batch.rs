@@ -6,14 +6,13 @@
 //! packed key; the distinct cells alone are sorted (radix sort of their keys); a last pass
 //! moves each point into its cell's run. A batch whose box does not pack into 63 bits is
 //! sorted by comparison instead. Into an empty grid the runs build the store in one pass: the
-//! sorted batch becomes the member arena, and the ordered index and the distance order are
-//! bulk-built from sorted sequences. Into a non-empty grid each run goes to its cell as in
+//! sorted batch becomes the member arena, slot order is index order (so the ordered index needs
+//! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
 //! [`DensityGrid::insert`], one look-up per cell.
 
 use crate::density::CellIndex;
 use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
-use crate::density_index::{hash_index, radix_sort_bits, Packing};
-use std::collections::{BTreeMap, BTreeSet};
+use crate::density_index::{hash_index, radix_sort_bits, radix_sort_by_key, Packing};
 
 /// A batch sorted by cell: the points in cell order and, per cell, its index and the end of
 /// its run in `points`.
@@ -45,7 +44,7 @@ impl<const D: usize> DensityGrid<D> {
         let (batch, rejected) = self.sort_batch(points.into_iter());
         self.counts.rejected += rejected;
         self.counts.inserted += batch.points.len() as u64;
-        if self.index.is_empty() {
+        if self.is_empty() {
             self.build(batch);
         } else {
             let mut start = 0;
@@ -177,11 +176,12 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Build the store of an empty grid from a sorted batch in one pass.
     fn build(&mut self, batch: SortedBatch<D>) {
-        debug_assert!(self.index.is_empty());
+        debug_assert!(self.is_empty());
         self.hot.clear();
         self.slots.clear();
         self.free.clear();
         self.lookup.clear();
+        self.index.clear();
         self.by_distance.clear();
         self.last = None;
         self.points = batch.points;
@@ -214,18 +214,19 @@ impl<const D: usize> DensityGrid<D> {
             distance.push((rank.centre.to_bits(), slot));
             start = end;
         }
-        self.index = batch
-            .runs
-            .iter()
-            .enumerate()
-            .map(|(slot, &(index, _))| (index, slot as u32))
-            .collect::<BTreeMap<_, _>>();
-        // Ascending distance, ties by index (= by slot here).
-        distance.sort_unstable();
-        self.by_distance = distance
-            .into_iter()
-            .map(|(d, slot)| (d, self.hot[slot as usize].index, slot))
-            .collect::<BTreeSet<_>>();
+        // Ascending distance, ties by index (= by slot here: the sort is stable and `distance`
+        // is in slot order). Distances are non-negative, so their bits sort as the values do.
+        let max = distance.iter().map(|e| e.0).max().unwrap_or(0);
+        radix_sort_by_key(
+            &mut distance,
+            &mut Vec::new(),
+            |e| e.0,
+            0,
+            u64::BITS - max.leading_zeros(),
+        );
+        // The ordered index is the slot order: both orders stay in this compact form until a
+        // change needs the B-trees.
+        self.built = Some(distance);
     }
 }
 

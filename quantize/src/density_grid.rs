@@ -150,13 +150,15 @@ pub struct GridState<const D: usize> {
 /// point, plus the cells sorted by the chosen point's distance to the cell centre.
 ///
 /// * `index`: the ordered index (a B-tree, the paper's red-black tree), cell index -> slot, for
-///   iteration in lexicographic order. A batch into an empty grid builds it in one pass from
-///   its sorted run.
+///   iteration in lexicographic order.
 /// * `lookup`: a hash index over the same cells, for the point look-ups of insertion, deletion
 ///   and the read cycle's neighbour checks.
 /// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest); the members
 ///   of all cells share one arena, `points`, one contiguous span per cell.
 /// * `by_distance`: the output order.
+/// * `built`: the compact form of both orders that a batch into an empty grid leaves (see
+///   `density_order.rs`): while it is `Some`, slot order is index order and both B-trees are
+///   empty; the first change that needs them builds them.
 ///
 /// Insertion and deletion are the input stage; [`DensityGrid::begin_cycle`] starts the output
 /// stage (see `density_output.rs`). For two threads wrap it in
@@ -178,6 +180,8 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) reserved: usize,
     /// `(distance bits, cell index, slot)`: ascending distance, ties by index.
     pub(crate) by_distance: BTreeSet<(u64, CellIndex<D>, u32)>,
+    /// Compact form of both orders: `(distance bits, slot)` ascending, slots in index order.
+    pub(crate) built: Option<Vec<(u64, u32)>>,
     /// Last cell touched: consecutive scan points often share a cell.
     pub(crate) last: Option<(CellIndex<D>, u32)>,
     pub(crate) generation: u64,
@@ -204,6 +208,7 @@ impl<const D: usize> DensityGrid<D> {
             points: Vec::new(),
             reserved: 0,
             by_distance: BTreeSet::new(),
+            built: None,
             last: None,
             generation: 0,
             cycle: 0,
@@ -223,12 +228,12 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Number of non-empty cells (the size of the grid stage's output).
     pub fn len(&self) -> usize {
-        self.index.len()
+        self.cell_count()
     }
 
     /// `true` when no cell holds a point.
     pub fn is_empty(&self) -> bool {
-        self.index.is_empty()
+        self.cell_count() == 0
     }
 
     /// Running input counts.
@@ -264,12 +269,13 @@ impl<const D: usize> DensityGrid<D> {
 
     /// All cells in lexicographic index order.
     pub fn cells(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.index.values().map(move |&s| self.view(s))
+        self.index_slots().map(move |s| self.view(s))
     }
 
     /// All cells in output order: ascending distance of their point to the centre.
     pub fn cells_by_distance(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.by_distance.iter().map(move |&(_, _, s)| self.view(s))
+        self.distance_slots_after(None)
+            .map(move |(_, s)| self.view(s))
     }
 
     /// The grid stage's result: one point per cell, in index order.
@@ -356,10 +362,10 @@ impl<const D: usize> DensityGrid<D> {
                 new_slot(self.slots.len() - 1)
             }
         };
-        self.index.insert(index, slot);
+        let (ordered, by_distance) = self.trees();
+        ordered.insert(index, slot);
+        by_distance.insert((rank.centre.to_bits(), index, slot));
         self.lookup.insert(hash_index(&index), slot);
-        self.by_distance
-            .insert((rank.centre.to_bits(), index, slot));
         slot
     }
 
@@ -404,7 +410,8 @@ impl<const D: usize> DensityGrid<D> {
             return;
         }
         let mut arena = Vec::with_capacity(live);
-        for &slot in self.index.values() {
+        let order: Vec<u32> = self.index_slots().collect();
+        for slot in order {
             let c = &mut self.slots[slot as usize];
             let start = arena.len();
             arena.extend_from_slice(&self.points[c.span()]);
@@ -515,8 +522,9 @@ impl<const D: usize> DensityGrid<D> {
         self.choose(s, sel, rank);
         self.hot[s].stamp = self.generation;
         if old != new {
-            self.by_distance.remove(&old);
-            self.by_distance.insert(new);
+            let (_, by_distance) = self.trees();
+            by_distance.remove(&old);
+            by_distance.insert(new);
         }
     }
 
@@ -564,6 +572,7 @@ impl<const D: usize> DensityGrid<D> {
             return false;
         };
         self.counts.removed += 1;
+        self.trees();
         let cell = &mut self.slots[s];
         let key = (cell.rank.centre.to_bits(), index, slot);
         if cell.len == 1 {
@@ -627,7 +636,10 @@ impl<const D: usize> DensityGrid<D> {
                 }
             })
             .collect();
-        let distance_order = self.by_distance.iter().map(|(_, i, _)| *i).collect();
+        let distance_order = self
+            .distance_slots_after(None)
+            .map(|(_, s)| self.hot[s as usize].index)
+            .collect();
         GridState {
             cells,
             distance_order,
@@ -639,12 +651,16 @@ impl<const D: usize> DensityGrid<D> {
     /// the best member under the selection rule.
     pub fn validate(&self) -> Result<(), QuantizeError> {
         let bad = |what: String| Err(QuantizeError::Invariant { what });
-        if self.by_distance.len() != self.index.len() || self.lookup.len() != self.index.len() {
+        self.validate_orders().or_else(bad)?;
+        let cells = self.cell_count();
+        let distance_entries = match &self.built {
+            Some(order) => order.len(),
+            None => self.by_distance.len(),
+        };
+        if distance_entries != cells || self.lookup.len() != cells {
             return bad(format!(
-                "{} distance entries and {} hash entries for {} cells",
-                self.by_distance.len(),
+                "{distance_entries} distance entries and {} hash entries for {cells} cells",
                 self.lookup.len(),
-                self.index.len()
             ));
         }
         if self.hot.len() != self.slots.len() {
@@ -656,8 +672,18 @@ impl<const D: usize> DensityGrid<D> {
         }
         let mut points = 0u64;
         let mut reserved = 0usize;
-        let mut spans = Vec::with_capacity(self.index.len());
-        for (index, &slot) in &self.index {
+        let mut spans = Vec::with_capacity(cells);
+        // (index, slot) in index order: the compact form takes the index from the slot's
+        // record (its slot order was checked to be index order).
+        let entries: Vec<(CellIndex<D>, u32)> = match &self.built {
+            Some(_) => self
+                .index_slots()
+                .map(|s| (self.hot[s as usize].index, s))
+                .collect(),
+            None => self.index.iter().map(|(i, &s)| (*i, s)).collect(),
+        };
+        for (index, slot) in &entries {
+            let (index, slot) = (index, *slot);
             let (Some(cell), Some(hot)) =
                 (self.slots.get(slot as usize), self.hot.get(slot as usize))
             else {
@@ -702,10 +728,7 @@ impl<const D: usize> DensityGrid<D> {
                     ));
                 }
             }
-            if !self
-                .by_distance
-                .contains(&(cell.rank.centre.to_bits(), *index, slot))
-            {
+            if !self.distance_order_has(cell.rank.centre.to_bits(), index, slot) {
                 return bad(format!("cell {index:?} missing from the distance order"));
             }
         }
@@ -719,11 +742,10 @@ impl<const D: usize> DensityGrid<D> {
                 return bad(format!("free slot {f} is in use or still matches a cell"));
             }
         }
-        if self.free.len() + self.index.len() != self.slots.len() {
+        if self.free.len() + cells != self.slots.len() {
             return bad(format!(
-                "{} free and {} used slots of {}",
+                "{} free and {cells} used slots of {}",
                 self.free.len(),
-                self.index.len(),
                 self.slots.len()
             ));
         }

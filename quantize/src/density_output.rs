@@ -4,8 +4,8 @@
 use crate::density::CellIndex;
 use crate::density_grid::DensityGrid;
 use crate::density_index::hash_index;
+use crate::density_order::distance_slots_after;
 use crate::error::QuantizeError;
-use std::ops::Bound;
 
 /// Counts of one output cycle so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -81,29 +81,24 @@ impl<const D: usize> DensityGrid<D> {
         if cycle.finished {
             return Ok(true);
         }
-        // Entries after the cursor cell (whatever its slot): `u32::MAX` bounds every slot.
-        let after = |c: &Option<(u64, CellIndex<D>)>| match c {
-            None => Bound::Unbounded,
-            Some((d, i)) => Bound::Excluded((*d, *i, u32::MAX)),
-        };
         // Walk the distance order while marking cells: disjoint fields of the store.
         let DensityGrid {
             spec,
             lookup,
             hot,
             by_distance,
+            built,
             ..
         } = self;
         let (size, offset) = (*spec.size(), *spec.offset());
         let mut last = None;
         let mut probes: Vec<(CellIndex<D>, u64, u64)> = Vec::with_capacity(1 << D);
-        for &(d, index, slot) in by_distance
-            .range((after(&cycle.cursor), Bound::Unbounded))
-            .take(max_cells)
+        for (d, slot) in distance_slots_after(built, by_distance, hot, cycle.cursor).take(max_cells)
         {
-            last = Some((d, index));
             let s = slot as usize;
             let cell = &mut hot[s];
+            let index = cell.index;
+            last = Some((d, index));
             if cell.stamp > cycle.horizon {
                 cycle.counts.deferred += 1;
                 continue;
@@ -156,11 +151,7 @@ impl<const D: usize> DensityGrid<D> {
         if last.is_some() {
             cycle.cursor = last;
         }
-        cycle.finished = self
-            .by_distance
-            .range((after(&cycle.cursor), Bound::Unbounded))
-            .next()
-            .is_none();
+        cycle.finished = self.distance_slots_after(cycle.cursor).next().is_none();
         Ok(cycle.finished)
     }
 

@@ -465,3 +465,65 @@ fn extend_and_extend_rewalk_agree() {
     assert_eq!(a.state(), b.state());
     assert_eq!(a.output_cycle(), b.output_cycle());
 }
+
+/// A batch into an empty grid leaves the compact orders (no B-tree); a read cycle stepped over
+/// it, interrupted by an insertion, a re-ranking insertion and a deletion (each switching to
+/// the B-trees), continues from its cursor exactly as on a grid that always had the B-trees.
+#[test]
+fn compact_orders_switch_to_trees_mid_cycle() {
+    let spec = GridSpec::<3>::new([0.5, 0.5, 0.25], [0.1, -0.2, 0.0]).unwrap();
+    let mut x = 29;
+    let pts: Vec<[f64; 3]> = (0..3000)
+        .map(|_| {
+            [
+                (lcg(&mut x) % 97) as f64 / 13.0,
+                (lcg(&mut x) % 89) as f64 / 11.0,
+                (lcg(&mut x) % 31) as f64 / 17.0,
+            ]
+        })
+        .collect();
+    let mut compact = DensityGrid::new(spec.clone());
+    compact.extend(pts.iter().copied());
+    assert!(compact.built.is_some() && compact.index.is_empty());
+    compact.validate().unwrap();
+    let mut trees = DensityGrid::new(spec.clone());
+    for p in &pts {
+        trees.insert(*p);
+    }
+    assert!(trees.built.is_none());
+    assert_eq!(compact.state(), trees.state());
+    assert_eq!(
+        compact.selected_points(),
+        trees.selected_points(),
+        "index order"
+    );
+
+    // A point on the centre of an occupied cell re-ranks it; one far away opens a cell; a
+    // member of another cell leaves.
+    let recentre = spec.cell_centre(&spec.cell_index(&pts[7]).unwrap());
+    let changes: [(bool, [f64; 3]); 3] = [
+        (true, recentre),
+        (true, [40.0, 40.0, 40.0]),
+        (false, pts[100]),
+    ];
+    let mut cycles = Vec::new();
+    for g in [&mut compact, &mut trees] {
+        let mut cycle = g.begin_cycle();
+        let mut out = Vec::new();
+        for (k, &(add, p)) in changes.iter().enumerate() {
+            assert!(!g.step_cycle(&mut cycle, 150 + 37 * k, &mut out).unwrap());
+            if add {
+                g.insert(p);
+            } else {
+                assert!(g.remove(&p));
+            }
+            g.validate().unwrap();
+        }
+        while !g.step_cycle(&mut cycle, 200, &mut out).unwrap() {}
+        cycles.push((out, cycle.counts(), g.output_cycle()));
+    }
+    assert!(compact.built.is_none());
+    assert_eq!(cycles[0], cycles[1]);
+    assert!(cycles[0].1.deferred >= 1);
+    assert_eq!(compact.state(), trees.state());
+}

@@ -36,6 +36,7 @@ mod density;
 mod density_batch;
 mod density_grid;
 mod density_index;
+mod density_order;
 mod density_output;
 mod density_reduce;
 mod density_shared;
