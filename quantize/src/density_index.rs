@@ -48,13 +48,6 @@ impl SlotTable {
         self.len
     }
 
-    /// Remove every entry.
-    pub(crate) fn clear(&mut self) {
-        self.buckets.clear();
-        self.buckets.resize(16, EMPTY);
-        self.len = 0;
-    }
-
     #[inline]
     fn mask(&self) -> usize {
         self.buckets.len() - 1
@@ -110,6 +103,18 @@ impl SlotTable {
                 return Some(e as u32);
             }
             i = (i + 1) & mask;
+        }
+    }
+
+    /// An empty table with room for `entries` entries, in `buffer`'s storage when it is large
+    /// enough (its content is discarded).
+    pub(crate) fn with_buffer(mut buffer: Vec<u64>, entries: usize) -> Self {
+        let want = (2 * entries).next_power_of_two().max(16);
+        buffer.clear();
+        buffer.resize(want, EMPTY);
+        SlotTable {
+            buckets: buffer,
+            len: 0,
         }
     }
 
