@@ -11,12 +11,19 @@
 //! [`DensityGrid::insert`], one look-up per cell.
 
 use crate::density::CellIndex;
+use crate::density_arena::narrow_point;
 use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
 use crate::density_index::{hash_index, radix_sort_bits, radix_sort_by_key, Packing, SlotTable};
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
 struct SortedBatch<const D: usize> {
+    /// Accepted points.
+    len: usize,
+    /// The points in cell order, unless they are in `narrow`.
     points: Vec<[f64; D]>,
+    /// The points in cell order as `f32`, when all are exact in `f32` and the batch goes into
+    /// an empty grid (the narrow arena, see `density_arena.rs`).
+    narrow: Option<Vec<[f32; D]>>,
     runs: Runs<D>,
     /// The key table's buckets, handed on as the hash index's storage (already faulted in).
     spare: Vec<u64>,
@@ -85,7 +92,7 @@ impl<const D: usize> DensityGrid<D> {
     {
         let (batch, rejected) = self.sort_batch(points.into_iter());
         self.counts.rejected += rejected;
-        self.counts.inserted += batch.points.len() as u64;
+        self.counts.inserted += batch.len as u64;
         if self.is_empty() {
             self.build(batch);
         } else {
@@ -117,9 +124,12 @@ impl<const D: usize> DensityGrid<D> {
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
         let mut n = 0;
+        // Only a build (batch into an empty grid) takes the narrow arena.
+        let mut narrow = self.is_empty();
         for p in points.clone() {
             n += 1;
             if p.iter().all(|v| v.is_finite()) {
+                narrow = narrow && narrow_point(&p).is_some();
                 for a in 0..D {
                     lo[a] = lo[a].min(p[a]);
                     hi[a] = hi[a].max(p[a]);
@@ -168,17 +178,20 @@ impl<const D: usize> DensityGrid<D> {
             *c = end;
             end += here;
         }
-        let mut sorted = vec![[0.0; D]; end];
-        for (p, &id) in points.zip(&ids) {
-            if id != u32::MAX {
-                let at = &mut counts[id as usize];
-                sorted[*at] = p;
-                *at += 1;
-            }
-        }
+        let (sorted, sorted32) = if narrow {
+            let conv = |p: [f64; D]| p.map(|v| v as f32);
+            (
+                Vec::new(),
+                Some(scatter(points, &ids, &mut counts, end, conv)),
+            )
+        } else {
+            (scatter(points, &ids, &mut counts, end, |p| p), None)
+        };
         (
             SortedBatch {
+                len: end,
                 points: sorted,
+                narrow: sorted32,
                 runs: Runs::Packed {
                     packing,
                     keys,
@@ -216,7 +229,9 @@ impl<const D: usize> DensityGrid<D> {
         }
         (
             SortedBatch {
+                len: sorted.len(),
                 points: sorted,
+                narrow: None,
                 runs: Runs::Listed(runs),
                 spare: Vec::new(),
             },
@@ -234,7 +249,8 @@ impl<const D: usize> DensityGrid<D> {
         self.by_distance.clear();
         self.last = None;
         self.points = batch.points;
-        self.reserved = self.points.len();
+        self.narrow = batch.narrow;
+        self.reserved = batch.len;
         let cells = batch.runs.len();
         self.hot.reserve(cells);
         self.slots.reserve(cells);
@@ -245,11 +261,11 @@ impl<const D: usize> DensityGrid<D> {
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
             let slot = new_slot(k);
-            let (sel, rank) = self.best_in(&index, &self.points[start..end]);
+            let (sel, rank) = self.best_of(&index, self.arena().members(start..end));
             self.generation += 1;
             self.hot.push(Hot {
                 index,
-                point: self.points[start + sel],
+                point: self.arena().get(start + sel),
                 stamp: self.generation,
                 mark: 0,
             });
@@ -278,6 +294,26 @@ impl<const D: usize> DensityGrid<D> {
         // change needs the B-trees.
         self.built = Some(distance);
     }
+}
+
+/// Move each point with a cell id (`ids`, `u32::MAX` for none) to its cell's run, converted by
+/// `conv`; `next[id]` holds the start of cell `id`'s run and ends at its end. `len` points.
+fn scatter<const D: usize, T: Copy + Default>(
+    points: impl Iterator<Item = [f64; D]>,
+    ids: &[u32],
+    next: &mut [usize],
+    len: usize,
+    conv: impl Fn([f64; D]) -> [T; D],
+) -> Vec<[T; D]> {
+    let mut sorted = vec![[T::default(); D]; len];
+    for (p, &id) in points.zip(ids) {
+        if id != u32::MAX {
+            let at = &mut next[id as usize];
+            sorted[*at] = conv(p);
+            *at += 1;
+        }
+    }
+    sorted
 }
 
 /// The ids `0..keys.len()` in ascending order of their (distinct) keys: radix sorted with the

@@ -3,6 +3,7 @@
 use crate::density::{
     cmp_points, sanitize_score, scaled_distance, CellIndex, GridSpec, Rank, Selection,
 };
+use crate::density_arena::ArenaRef;
 use crate::density_index::{hash_index, SlotTable};
 use crate::error::QuantizeError;
 use std::cmp::Ordering;
@@ -86,7 +87,7 @@ pub(crate) fn to_u32(n: usize) -> u32 {
 pub struct CellView<'a, const D: usize> {
     hot: &'a Hot<D>,
     cell: &'a Cell,
-    arena: &'a [[f64; D]],
+    arena: ArenaRef<'a, D>,
 }
 
 impl<'a, const D: usize> CellView<'a, D> {
@@ -111,8 +112,8 @@ impl<'a, const D: usize> CellView<'a, D> {
         self.cell.len == 0
     }
     /// All points in the cell, in no particular order.
-    pub fn members(&self) -> &'a [[f64; D]] {
-        &self.arena[self.cell.span()]
+    pub fn members(&self) -> impl ExactSizeIterator<Item = [f64; D]> + Clone + 'a {
+        self.arena.members(self.cell.span())
     }
     /// The mean of the cell's members (not an input point in general).
     pub fn mean(&self) -> [f64; D] {
@@ -176,6 +177,8 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) free: Vec<u32>,
     /// Member arena: every cell's members, one contiguous span per cell.
     pub(crate) points: Vec<[f64; D]>,
+    /// The arena in `f32` form, when `Some` (`points` is then empty; see `density_arena.rs`).
+    pub(crate) narrow: Option<Vec<[f32; D]>>,
     /// Sum of the live cells' `cap`: the arena beyond it is abandoned spans.
     pub(crate) reserved: usize,
     /// `(distance bits, cell index, slot)`: ascending distance, ties by index.
@@ -206,6 +209,7 @@ impl<const D: usize> DensityGrid<D> {
             slots: Vec::new(),
             free: Vec::new(),
             points: Vec::new(),
+            narrow: None,
             reserved: 0,
             by_distance: BTreeSet::new(),
             built: None,
@@ -250,7 +254,7 @@ impl<const D: usize> DensityGrid<D> {
         CellView {
             hot: &self.hot[slot as usize],
             cell: &self.slots[slot as usize],
-            arena: &self.points,
+            arena: self.arena(),
         }
     }
 
@@ -281,11 +285,6 @@ impl<const D: usize> DensityGrid<D> {
     /// The grid stage's result: one point per cell, in index order.
     pub fn selected_points(&self) -> Vec<[f64; D]> {
         self.cells().map(|c| c.point()).collect()
-    }
-
-    /// The members of slot `s`.
-    pub(crate) fn members_of(&self, s: usize) -> &[[f64; D]] {
-        &self.points[self.slots[s].span()]
     }
 
     pub(crate) fn rank_of(
@@ -332,6 +331,7 @@ impl<const D: usize> DensityGrid<D> {
         selected: usize,
         rank: Rank,
     ) -> u32 {
+        self.widen();
         let start = self.points.len();
         self.points.extend_from_slice(run);
         let len = to_u32(run.len());
@@ -372,6 +372,7 @@ impl<const D: usize> DensityGrid<D> {
     /// Append `run` to the members of slot `s`, moving the cell's span to the end of the arena
     /// (with room to double) when it is full.
     pub(crate) fn push_members(&mut self, s: usize, run: &[[f64; D]]) {
+        self.widen();
         let (start, len, cap) = {
             let c = &self.slots[s];
             (c.start, c.len as usize, c.cap as usize)
@@ -406,9 +407,10 @@ impl<const D: usize> DensityGrid<D> {
     /// Rewrite the arena without abandoned spans and spare room once they make up most of it.
     pub(crate) fn maybe_compact(&mut self) {
         let live = self.point_count() as usize;
-        if self.points.len() <= 2 * live + 4096 {
+        if self.arena().len() <= 2 * live + 4096 {
             return;
         }
+        self.widen();
         let mut arena = Vec::with_capacity(live);
         let order: Vec<u32> = self.index_slots().collect();
         for slot in order {
@@ -493,13 +495,30 @@ impl<const D: usize> DensityGrid<D> {
     /// The best of `members` (all in cell `index`, at least one) under the selection rule, with
     /// its rank; the mean rule takes the mean of `members`.
     pub(crate) fn best_in(&self, index: &CellIndex<D>, members: &[[f64; D]]) -> (usize, Rank) {
-        let m = self.selection.needs_members().then(|| mean(members));
+        self.best_of(index, members.iter().copied())
+    }
+
+    /// [`Self::best_in`] over members given as an iterator (at least one).
+    pub(crate) fn best_of<I>(&self, index: &CellIndex<D>, members: I) -> (usize, Rank)
+    where
+        I: Iterator<Item = [f64; D]> + Clone,
+    {
+        let m = self
+            .selection
+            .needs_members()
+            .then(|| mean(members.clone()));
         let c = self.spec.cell_centre(index);
-        let mut best = (0, self.rank_near(&members[0], &c, m.as_ref()));
-        for (k, p) in members.iter().enumerate().skip(1) {
-            let r = self.rank_near(p, &c, m.as_ref());
-            if r.cmp_with(p, &best.1, &members[best.0]) == Ordering::Less {
-                best = (k, r);
+        let mut it = members;
+        let Some(first) = it.next() else {
+            return (0, self.rank_near(&c, &c, m.as_ref()));
+        };
+        let mut best = (0, self.rank_near(&first, &c, m.as_ref()));
+        let mut best_point = first;
+        for (k, p) in it.enumerate() {
+            let r = self.rank_near(&p, &c, m.as_ref());
+            if r.cmp_with(&p, &best.1, &best_point) == Ordering::Less {
+                best = (k + 1, r);
+                best_point = p;
             }
         }
         best
@@ -510,7 +529,8 @@ impl<const D: usize> DensityGrid<D> {
         let cell = &mut self.slots[s];
         cell.selected = to_u32(sel);
         cell.rank = rank;
-        self.hot[s].point = self.points[cell.point_at()];
+        let at = cell.point_at();
+        self.hot[s].point = self.arena().get(at);
     }
 
     /// Make member `sel` the representative of slot `s`, keeping the distance order.
@@ -530,7 +550,7 @@ impl<const D: usize> DensityGrid<D> {
 
     /// The best member of slot `s` under the selection rule, with its rank.
     pub(crate) fn best_member(&self, s: usize) -> (usize, Rank) {
-        self.best_in(&self.hot[s].index, self.members_of(s))
+        self.best_of(&self.hot[s].index, self.members_of(s))
     }
 
     /// Local repair: choose the representative of slot `s` again from its members.
@@ -538,7 +558,7 @@ impl<const D: usize> DensityGrid<D> {
     fn reselect(&mut self, s: usize) -> bool {
         let (k, r) = self.best_member(s);
         let cell = &self.slots[s];
-        let changed = cmp_points(&self.points[cell.start + k], &self.hot[s].point)
+        let changed = cmp_points(&self.arena().get(cell.start + k), &self.hot[s].point)
             != Ordering::Equal
             || r.centre.to_bits() != cell.rank.centre.to_bits();
         if changed {
@@ -566,13 +586,13 @@ impl<const D: usize> DensityGrid<D> {
         let s = slot as usize;
         let Some(k) = self
             .members_of(s)
-            .iter()
-            .position(|m| cmp_points(m, p) == Ordering::Equal)
+            .position(|m| cmp_points(&m, p) == Ordering::Equal)
         else {
             return false;
         };
         self.counts.removed += 1;
         self.trees();
+        self.widen();
         let cell = &mut self.slots[s];
         let key = (cell.rank.centre.to_bits(), index, slot);
         if cell.len == 1 {
@@ -626,7 +646,7 @@ impl<const D: usize> DensityGrid<D> {
         let cells = self
             .cells()
             .map(|c| {
-                let mut m = c.members().to_vec();
+                let mut m: Vec<[f64; D]> = c.members().collect();
                 m.sort_by(cmp_points);
                 CellState {
                     index: c.index(),
@@ -663,6 +683,9 @@ impl<const D: usize> DensityGrid<D> {
                 self.lookup.len(),
             ));
         }
+        if self.narrow.is_some() && !self.points.is_empty() {
+            return bad("both arena forms hold points".to_string());
+        }
         if self.hot.len() != self.slots.len() {
             return bad(format!(
                 "{} hot records for {} slots",
@@ -698,31 +721,31 @@ impl<const D: usize> DensityGrid<D> {
             if cell.len == 0 || cell.selected >= cell.len || cell.cap < cell.len {
                 return bad(format!("cell {index:?} empty or bad selection"));
             }
-            if cell.start + cell.cap as usize > self.points.len() {
+            if cell.start + cell.cap as usize > self.arena().len() {
                 return bad(format!("cell {index:?} reaches beyond the arena"));
             }
             spans.push((cell.start, cell.start + cell.cap as usize));
             points += u64::from(cell.len);
             reserved += cell.cap as usize;
             let members = self.members_of(slot as usize);
-            for m in members {
-                if self.spec.cell_index(m).as_ref() != Some(index) {
+            for m in members.clone() {
+                if self.spec.cell_index(&m).as_ref() != Some(index) {
                     return bad(format!("member {m:?} is not in cell {index:?}"));
                 }
             }
-            let chosen = &self.points[cell.point_at()];
+            let chosen = &self.arena().get(cell.point_at());
             if cmp_points(chosen, &hot.point) != Ordering::Equal {
                 return bad(format!("cell {index:?}: stale copy of the chosen point"));
             }
-            let mean_pt = mean(members);
+            let mean_pt = mean(members.clone());
             let m = self.selection.needs_members().then_some(&mean_pt);
             let sel_rank = self.rank_of(chosen, index, m);
             if sel_rank.centre.to_bits() != cell.rank.centre.to_bits() {
                 return bad(format!("cell {index:?} has a stale distance"));
             }
             for p in members {
-                let r = self.rank_of(p, index, m);
-                if r.cmp_with(p, &sel_rank, chosen) == Ordering::Less {
+                let r = self.rank_of(&p, index, m);
+                if r.cmp_with(&p, &sel_rank, chosen) == Ordering::Less {
                     return bad(format!(
                         "cell {index:?}: member {p:?} beats the chosen point"
                     ));
@@ -777,18 +800,20 @@ pub(crate) fn new_slot(n: usize) -> u32 {
     }
 }
 
-/// The mean of some points (zeros for none).
-pub(crate) fn mean<const D: usize>(points: &[[f64; D]]) -> [f64; D] {
+/// The mean of some points (zeros for none), summed in their order.
+pub(crate) fn mean<const D: usize>(points: impl IntoIterator<Item = [f64; D]>) -> [f64; D] {
     let mut m = [0.0; D];
-    if points.is_empty() {
-        return m;
-    }
+    let mut n = 0usize;
     for p in points {
         for k in 0..D {
             m[k] += p[k];
         }
+        n += 1;
     }
-    let n = points.len() as f64;
+    if n == 0 {
+        return m;
+    }
+    let n = n as f64;
     for v in &mut m {
         *v /= n;
     }

@@ -527,3 +527,53 @@ fn compact_orders_switch_to_trees_mid_cycle() {
     assert!(cycles[0].1.deferred >= 1);
     assert_eq!(compact.state(), trees.state());
 }
+
+/// A batch of `f32`-exact points into an empty grid keeps its members as `f32` (same values
+/// back), widens them on the first change, and matches a grid that only ever held `f64`; one
+/// point that `f32` cannot hold keeps the whole batch in `f64`.
+#[test]
+fn narrow_arena_holds_the_same_points() {
+    let spec = GridSpec::<3>::cubic(0.25).unwrap();
+    let mut x = 41;
+    let mut pts: Vec<[f64; 3]> = (0..2000)
+        .map(|_| {
+            [
+                f64::from((lcg(&mut x) % 4001) as f32 * 0.001_3),
+                -f64::from((lcg(&mut x) % 999) as f32 / 7.0),
+                f64::from((lcg(&mut x) % 77) as f32 * 0.1),
+            ]
+        })
+        .collect();
+    pts.push([f64::NAN, 0.0, 0.0]);
+    let mut narrow = DensityGrid::new(spec.clone());
+    narrow.extend(pts.iter().copied());
+    assert!(narrow.narrow.is_some() && narrow.points.is_empty());
+    narrow.validate().unwrap();
+    let mut wide = DensityGrid::new(spec.clone());
+    for p in &pts {
+        wide.insert(*p);
+    }
+    assert!(wide.narrow.is_none());
+    assert_eq!(narrow.state(), wide.state());
+    let cell = narrow.get(&spec.cell_index(&pts[3]).unwrap()).unwrap();
+    assert!(cell.members().any(|m| m == pts[3]));
+    assert_eq!(narrow.clone().output_cycle(), wide.clone().output_cycle());
+
+    // The first change widens the arena; the grids stay equal.
+    for g in [&mut narrow, &mut wide] {
+        assert!(g.remove(&pts[10]));
+        g.insert([0.1, -0.2, 0.3]);
+        g.validate().unwrap();
+    }
+    assert!(narrow.narrow.is_none());
+    assert_eq!(narrow.state(), wide.state());
+    assert_eq!(narrow.output_cycle(), wide.output_cycle());
+
+    // 0.1 is not an f32 value.
+    let mut mixed = pts.clone();
+    mixed.push([0.1, 0.0, 0.0]);
+    let mut g = DensityGrid::new(spec);
+    g.extend(mixed.iter().copied());
+    assert!(g.narrow.is_none());
+    g.validate().unwrap();
+}

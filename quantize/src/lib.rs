@@ -33,6 +33,7 @@
 #![forbid(unsafe_code)]
 
 mod density;
+mod density_arena;
 mod density_batch;
 mod density_grid;
 mod density_index;
