@@ -503,11 +503,32 @@ impl<const D: usize> DensityGrid<D> {
     where
         I: Iterator<Item = [f64; D]> + Clone,
     {
+        let c = self.spec.cell_centre(index);
+        if let Selection::CentreClosest = self.selection {
+            // The rank's primary criterion is the centre distance itself: one comparison of
+            // distances, then of coordinates (the same order as `Rank::cmp_with`).
+            let size = self.spec.size();
+            let mut best = (0, f64::INFINITY, c);
+            for (k, p) in members.enumerate() {
+                let d = scaled_distance(&p, &c, size);
+                if k == 0
+                    || d.total_cmp(&best.1)
+                        .then_with(|| cmp_points(&p, &best.2))
+                        .is_lt()
+                {
+                    best = (k, d, p);
+                }
+            }
+            let rank = Rank {
+                primary: best.1,
+                centre: best.1,
+            };
+            return (best.0, rank);
+        }
         let m = self
             .selection
             .needs_members()
             .then(|| mean(members.clone()));
-        let c = self.spec.cell_centre(index);
         let mut it = members;
         let Some(first) = it.next() else {
             return (0, self.rank_near(&c, &c, m.as_ref()));
