@@ -155,7 +155,9 @@ pub struct GridState<const D: usize> {
 /// * `lookup`: a hash index over the same cells, for the point look-ups of insertion, deletion
 ///   and the read cycle's neighbour checks.
 /// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest); the members
-///   of all cells share one arena, `points`, one contiguous span per cell.
+///   of all cells share one arena, `points`, one contiguous span per cell (or `narrow`, the
+///   same arena in `f32`, after a batch of `f32`-exact points into an empty grid; see
+///   `density_arena.rs`).
 /// * `by_distance`: the output order.
 /// * `built`: the compact form of both orders that a batch into an empty grid leaves (see
 ///   `density_order.rs`): while it is `Some`, slot order is index order and both B-trees are
