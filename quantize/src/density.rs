@@ -6,8 +6,9 @@
 //!
 //! * **input** ([`DensityGrid::insert`], [`DensityGrid::remove`]): each point goes to the cell
 //!   `floor((x - offset) / size)` per axis. The cells sit in an ordered index (a `BTreeMap`
-//!   keyed by the cell index, the paper's red-black tree) and, for look-ups, in a hash index
-//!   over the same keys. A cell keeps the member chosen by its [`Selection`] rule, and all
+//!   keyed by the cell index, the paper's red-black tree; after a batch into an empty grid
+//!   simply the slot order until the first change) and, for look-ups, in a hash index over
+//!   the same keys. A cell keeps the member chosen by its [`Selection`] rule, and all
 //!   cells stay sorted by the distance of that point to the cell centre. Deleting a point
 //!   repairs only its own cell.
 //! * **output** ([`DensityGrid::begin_cycle`], [`DensityGrid::step_cycle`]): a read cycle with
@@ -18,9 +19,11 @@
 //!
 //! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `density_grid.rs` the
 //! store, `density_batch.rs` batch insertion (counting sort by cell, one-pass build of an
-//! empty store), `density_index.rs` the hash index, key packing and radix sort, `density_output.rs`
-//! the read cycles, `density_shared.rs` the two-thread wrapper and `density_reduce.rs` the
-//! one-call helpers.
+//! empty store), `density_index.rs` the hash index, key packing and radix sort,
+//! `density_order.rs` the ordered index and distance order (compact `Vec` form after a build,
+//! B-trees once changed), `density_arena.rs` the `f32` form of the member arena,
+//! `density_output.rs` the read cycles, `density_shared.rs` the two-thread wrapper and
+//! `density_reduce.rs` the one-call helpers.
 
 use crate::density_index::floor_index;
 use crate::error::QuantizeError;

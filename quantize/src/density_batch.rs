@@ -6,20 +6,68 @@
 //! packed key; the distinct cells alone are sorted (radix sort of their keys); a last pass
 //! moves each point into its cell's run. A batch whose box does not pack into 63 bits is
 //! sorted by comparison instead. Into an empty grid the runs build the store in one pass: the
-//! sorted batch becomes the member arena, and the ordered index and the distance order are
-//! bulk-built from sorted sequences. Into a non-empty grid each run goes to its cell as in
+//! sorted batch becomes the member arena, slot order is index order (so the ordered index needs
+//! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
 //! [`DensityGrid::insert`], one look-up per cell.
 
 use crate::density::CellIndex;
+use crate::density_arena::narrow_point;
 use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
-use crate::density_index::{hash_index, radix_sort_bits, Packing};
-use std::collections::{BTreeMap, BTreeSet};
+use crate::density_index::{hash_index, radix_sort_bits, radix_sort_by_key, Packing, SlotTable};
 
-/// A batch sorted by cell: the points in cell order and, per cell, its index and the end of
-/// its run in `points`.
+/// A batch sorted by cell: the points in cell order and its cells' runs.
 struct SortedBatch<const D: usize> {
+    /// Accepted points.
+    len: usize,
+    /// The points in cell order, unless they are in `narrow`.
     points: Vec<[f64; D]>,
-    runs: Vec<(CellIndex<D>, usize)>,
+    /// The points in cell order as `f32`, when all are exact in `f32` and the batch goes into
+    /// an empty grid (the narrow arena, see `density_arena.rs`).
+    narrow: Option<Vec<[f32; D]>>,
+    runs: Runs<D>,
+    /// The key table's buckets, handed on as the hash index's storage (already faulted in).
+    spare: Vec<u64>,
+}
+
+/// The cells of a [`SortedBatch`] in index order, each with the end of its run in `points`.
+enum Runs<const D: usize> {
+    /// From the counting sort: `order` lists the batch-local cell ids in index order; cell `id`
+    /// has the packed key `keys[id]` and its run ends at `ends[id]`.
+    Packed {
+        packing: Packing<D>,
+        keys: Vec<u64>,
+        order: Vec<u32>,
+        ends: Vec<usize>,
+    },
+    /// From the comparison sort: `(cell index, run end)`.
+    Listed(Vec<(CellIndex<D>, usize)>),
+}
+
+impl<const D: usize> Runs<D> {
+    /// Number of cells.
+    fn len(&self) -> usize {
+        match self {
+            Runs::Packed { order, .. } => order.len(),
+            Runs::Listed(v) => v.len(),
+        }
+    }
+
+    /// The `k`-th cell in index order and the end of its run.
+    #[inline]
+    fn get(&self, k: usize) -> (CellIndex<D>, usize) {
+        match self {
+            Runs::Packed {
+                packing,
+                keys,
+                order,
+                ends,
+            } => {
+                let id = order[k] as usize;
+                (packing.unpack(keys[id]), ends[id])
+            }
+            Runs::Listed(v) => v[k],
+        }
+    }
 }
 
 impl<const D: usize> DensityGrid<D> {
@@ -44,12 +92,13 @@ impl<const D: usize> DensityGrid<D> {
     {
         let (batch, rejected) = self.sort_batch(points.into_iter());
         self.counts.rejected += rejected;
-        self.counts.inserted += batch.points.len() as u64;
-        if self.index.is_empty() {
+        self.counts.inserted += batch.len as u64;
+        if self.is_empty() {
             self.build(batch);
         } else {
             let mut start = 0;
-            for &(index, end) in &batch.runs {
+            for k in 0..batch.runs.len() {
+                let (index, end) = batch.runs.get(k);
                 self.insert_run(index, &batch.points[start..end]);
                 start = end;
             }
@@ -74,8 +123,13 @@ impl<const D: usize> DensityGrid<D> {
     {
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
+        let mut n = 0;
+        // Only a build (batch into an empty grid) takes the narrow arena.
+        let mut narrow = self.is_empty();
         for p in points.clone() {
+            n += 1;
             if p.iter().all(|v| v.is_finite()) {
+                narrow = narrow && narrow_point(&p).is_some();
                 for a in 0..D {
                     lo[a] = lo[a].min(p[a]);
                     hi[a] = hi[a].max(p[a]);
@@ -89,10 +143,11 @@ impl<const D: usize> DensityGrid<D> {
         let Some(packing) = packing else {
             return self.sort_general(points);
         };
-        let mut ids: Vec<u32> = Vec::with_capacity(points.size_hint().0);
+        let mut ids: Vec<u32> = Vec::with_capacity(n);
         let mut keys: Vec<u64> = Vec::new();
+        // Points per cell id; later the start, then the end, of each cell's run.
         let mut counts: Vec<usize> = Vec::new();
-        let mut table = KeyTable::default();
+        let mut table = KeyTable::new(n);
         let mut last = (u64::MAX, 0u32);
         let mut rejected = 0;
         for p in points.clone() {
@@ -105,39 +160,45 @@ impl<const D: usize> DensityGrid<D> {
             let id = if key == last.0 {
                 last.1
             } else {
-                let id = table.get_or_insert(key, || {
-                    keys.push(key);
+                let id = table.get_or_insert(key, &mut keys);
+                if id as usize == counts.len() {
                     counts.push(0);
-                    new_slot(keys.len() - 1)
-                });
+                }
                 last = (key, id);
                 id
             };
             counts[id as usize] += 1;
             ids.push(id);
         }
-        drop(table);
-        // Start of each cell's run, in cell order; `runs` ends each run.
-        let mut next = vec![0usize; keys.len()];
-        let mut runs = Vec::with_capacity(keys.len());
+        let order = sort_keys(&keys);
         let mut end = 0;
-        for id in sort_keys(&keys) {
-            next[id as usize] = end;
-            end += counts[id as usize];
-            runs.push((packing.unpack(keys[id as usize]), end));
+        for &id in &order {
+            let c = &mut counts[id as usize];
+            let here = *c;
+            *c = end;
+            end += here;
         }
-        let mut sorted = vec![[0.0; D]; end];
-        for (p, &id) in points.zip(&ids) {
-            if id != u32::MAX {
-                let at = &mut next[id as usize];
-                sorted[*at] = p;
-                *at += 1;
-            }
-        }
+        let (sorted, sorted32) = if narrow {
+            let conv = |p: [f64; D]| p.map(|v| v as f32);
+            (
+                Vec::new(),
+                Some(scatter(points, &ids, &mut counts, end, conv)),
+            )
+        } else {
+            (scatter(points, &ids, &mut counts, end, |p| p), None)
+        };
         (
             SortedBatch {
+                len: end,
                 points: sorted,
-                runs,
+                narrow: sorted32,
+                runs: Runs::Packed {
+                    packing,
+                    keys,
+                    order,
+                    ends: counts,
+                },
+                spare: table.into_buffer(),
             },
             rejected,
         )
@@ -168,8 +229,11 @@ impl<const D: usize> DensityGrid<D> {
         }
         (
             SortedBatch {
+                len: sorted.len(),
                 points: sorted,
-                runs,
+                narrow: None,
+                runs: Runs::Listed(runs),
+                spare: Vec::new(),
             },
             rejected,
         )
@@ -177,29 +241,31 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Build the store of an empty grid from a sorted batch in one pass.
     fn build(&mut self, batch: SortedBatch<D>) {
-        debug_assert!(self.index.is_empty());
+        debug_assert!(self.is_empty());
         self.hot.clear();
         self.slots.clear();
         self.free.clear();
-        self.lookup.clear();
+        self.index.clear();
         self.by_distance.clear();
         self.last = None;
         self.points = batch.points;
-        self.reserved = self.points.len();
+        self.narrow = batch.narrow;
+        self.reserved = batch.len;
         let cells = batch.runs.len();
         self.hot.reserve(cells);
         self.slots.reserve(cells);
-        self.lookup.reserve(cells);
+        self.lookup = SlotTable::with_buffer(batch.spare, cells);
         // Slots are created in index order, so slot order is index order.
         let mut distance: Vec<(u64, u32)> = Vec::with_capacity(cells);
         let mut start = 0;
-        for (slot, &(index, end)) in batch.runs.iter().enumerate() {
-            let slot = new_slot(slot);
-            let (sel, rank) = self.best_in(&index, &self.points[start..end]);
+        for k in 0..cells {
+            let (index, end) = batch.runs.get(k);
+            let slot = new_slot(k);
+            let (sel, rank) = self.best_of(&index, self.arena().members(start..end));
             self.generation += 1;
             self.hot.push(Hot {
                 index,
-                point: self.points[start + sel],
+                point: self.arena().get(start + sel),
                 stamp: self.generation,
                 mark: 0,
             });
@@ -214,19 +280,40 @@ impl<const D: usize> DensityGrid<D> {
             distance.push((rank.centre.to_bits(), slot));
             start = end;
         }
-        self.index = batch
-            .runs
-            .iter()
-            .enumerate()
-            .map(|(slot, &(index, _))| (index, slot as u32))
-            .collect::<BTreeMap<_, _>>();
-        // Ascending distance, ties by index (= by slot here).
-        distance.sort_unstable();
-        self.by_distance = distance
-            .into_iter()
-            .map(|(d, slot)| (d, self.hot[slot as usize].index, slot))
-            .collect::<BTreeSet<_>>();
+        // Ascending distance, ties by index (= by slot here: the sort is stable and `distance`
+        // is in slot order). Distances are non-negative, so their bits sort as the values do.
+        let max = distance.iter().map(|e| e.0).max().unwrap_or(0);
+        radix_sort_by_key(
+            &mut distance,
+            &mut Vec::new(),
+            |e| e.0,
+            0,
+            u64::BITS - max.leading_zeros(),
+        );
+        // The ordered index is the slot order: both orders stay in this compact form until a
+        // change needs the B-trees.
+        self.built = Some(distance);
     }
+}
+
+/// Move each point with a cell id (`ids`, `u32::MAX` for none) to its cell's run, converted by
+/// `conv`; `next[id]` holds the start of cell `id`'s run and ends at its end. `len` points.
+fn scatter<const D: usize, T: Copy + Default>(
+    points: impl Iterator<Item = [f64; D]>,
+    ids: &[u32],
+    next: &mut [usize],
+    len: usize,
+    conv: impl Fn([f64; D]) -> [T; D],
+) -> Vec<[T; D]> {
+    let mut sorted = vec![[T::default(); D]; len];
+    for (p, &id) in points.zip(ids) {
+        if id != u32::MAX {
+            let at = &mut next[id as usize];
+            sorted[*at] = conv(p);
+            *at += 1;
+        }
+    }
+    sorted
 }
 
 /// The ids `0..keys.len()` in ascending order of their (distinct) keys: radix sorted with the
@@ -258,66 +345,94 @@ fn sort_keys(keys: &[u64]) -> Vec<u32> {
     }
 }
 
-/// Hash table from a packed cell key (`< u64::MAX`) to a batch-local id: open addressing,
-/// linear probing, the key in the bucket, at most half full.
+/// Hash table from a packed cell key to a batch-local id (`keys[id]` is the key): open
+/// addressing, linear probing, at most half full, over 8-byte buckets `fingerprint | id`
+/// (the id in the low `id_bits`, hash bits above). A bucket whose fingerprint matches is
+/// confirmed against `keys`.
 struct KeyTable {
-    buckets: Vec<(u64, u32)>,
+    buckets: Vec<u64>,
     len: usize,
     shift: u32,
+    id_mask: u64,
 }
 
-impl Default for KeyTable {
-    fn default() -> Self {
-        KeyTable {
-            buckets: vec![(u64::MAX, 0); 1 << 10],
-            len: 0,
-            shift: 64 - 10,
-        }
-    }
-}
+/// An empty [`KeyTable`] bucket: no id reaches `id_mask`, so no entry is all ones.
+const FREE: u64 = u64::MAX;
 
 impl KeyTable {
-    #[inline]
-    fn home(&self, key: u64) -> usize {
-        ((key ^ (key >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
+    /// A table for the ids of a batch of `n` points (ids < n).
+    fn new(n: usize) -> Self {
+        // `id_mask >= n + 1 > id`, so that no entry equals `FREE`.
+        let id_bits = (u64::BITS - (n as u64).saturating_add(1).leading_zeros()).min(63);
+        KeyTable {
+            buckets: vec![FREE; 1 << 10],
+            len: 0,
+            shift: 64 - 10,
+            id_mask: (1u64 << id_bits) - 1,
+        }
     }
 
-    /// The id of `key`, inserting the id `make()` gives when it is new.
     #[inline]
-    fn get_or_insert(&mut self, key: u64, make: impl FnOnce() -> u32) -> u32 {
+    fn hash(key: u64) -> u64 {
+        (key ^ (key >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    }
+
+    /// Home bucket (high hash bits) and fingerprint (other hash bits, above the id).
+    #[inline]
+    fn place_of(&self, key: u64) -> (usize, u64) {
+        let h = Self::hash(key);
+        (
+            (h >> self.shift) as usize,
+            h.rotate_right(32) & !self.id_mask,
+        )
+    }
+
+    /// The id of `key`; a new key gets the id `keys.len()` and is appended to `keys`.
+    #[inline]
+    fn get_or_insert(&mut self, key: u64, keys: &mut Vec<u64>) -> u32 {
         let mask = self.buckets.len() - 1;
-        let mut i = self.home(key);
+        let (mut i, fp) = self.place_of(key);
         loop {
-            let (k, id) = self.buckets[i];
-            if k == key {
-                return id;
-            }
-            if k == u64::MAX {
-                let id = make();
-                self.buckets[i] = (key, id);
+            let e = self.buckets[i];
+            if e == FREE {
+                let id = new_slot(keys.len());
+                keys.push(key);
+                self.buckets[i] = fp | u64::from(id);
                 self.len += 1;
                 if 2 * self.len > self.buckets.len() {
-                    self.grow();
+                    self.grow(keys);
                 }
                 return id;
+            }
+            if e & !self.id_mask == fp {
+                let id = (e & self.id_mask) as u32;
+                if keys[id as usize] == key {
+                    return id;
+                }
             }
             i = (i + 1) & mask;
         }
     }
 
-    fn grow(&mut self) {
+    fn grow(&mut self, keys: &[u64]) {
         let size = 2 * self.buckets.len();
-        let old = std::mem::replace(&mut self.buckets, vec![(u64::MAX, 0); size]);
+        let old = std::mem::replace(&mut self.buckets, vec![FREE; size]);
         self.shift -= 1;
-        let mask = self.buckets.len() - 1;
-        for (k, id) in old {
-            if k != u64::MAX {
-                let mut i = self.home(k);
-                while self.buckets[i].0 != u64::MAX {
+        let mask = size - 1;
+        for e in old {
+            if e != FREE {
+                let (mut i, _) = self.place_of(keys[(e & self.id_mask) as usize]);
+                while self.buckets[i] != FREE {
                     i = (i + 1) & mask;
                 }
-                self.buckets[i] = (k, id);
+                // The fingerprint does not depend on the table size.
+                self.buckets[i] = e;
             }
         }
+    }
+
+    /// The bucket storage, for reuse.
+    fn into_buffer(self) -> Vec<u64> {
+        self.buckets
     }
 }

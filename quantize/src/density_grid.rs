@@ -3,6 +3,7 @@
 use crate::density::{
     cmp_points, sanitize_score, scaled_distance, CellIndex, GridSpec, Rank, Selection,
 };
+use crate::density_arena::ArenaRef;
 use crate::density_index::{hash_index, SlotTable};
 use crate::error::QuantizeError;
 use std::cmp::Ordering;
@@ -86,7 +87,7 @@ pub(crate) fn to_u32(n: usize) -> u32 {
 pub struct CellView<'a, const D: usize> {
     hot: &'a Hot<D>,
     cell: &'a Cell,
-    arena: &'a [[f64; D]],
+    arena: ArenaRef<'a, D>,
 }
 
 impl<'a, const D: usize> CellView<'a, D> {
@@ -111,8 +112,8 @@ impl<'a, const D: usize> CellView<'a, D> {
         self.cell.len == 0
     }
     /// All points in the cell, in no particular order.
-    pub fn members(&self) -> &'a [[f64; D]] {
-        &self.arena[self.cell.span()]
+    pub fn members(&self) -> impl ExactSizeIterator<Item = [f64; D]> + Clone + 'a {
+        self.arena.members(self.cell.span())
     }
     /// The mean of the cell's members (not an input point in general).
     pub fn mean(&self) -> [f64; D] {
@@ -150,13 +151,17 @@ pub struct GridState<const D: usize> {
 /// point, plus the cells sorted by the chosen point's distance to the cell centre.
 ///
 /// * `index`: the ordered index (a B-tree, the paper's red-black tree), cell index -> slot, for
-///   iteration in lexicographic order. A batch into an empty grid builds it in one pass from
-///   its sorted run.
+///   iteration in lexicographic order.
 /// * `lookup`: a hash index over the same cells, for the point look-ups of insertion, deletion
 ///   and the read cycle's neighbour checks.
 /// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest); the members
-///   of all cells share one arena, `points`, one contiguous span per cell.
+///   of all cells share one arena, `points`, one contiguous span per cell (or `narrow`, the
+///   same arena in `f32`, after a batch of `f32`-exact points into an empty grid; see
+///   `density_arena.rs`).
 /// * `by_distance`: the output order.
+/// * `built`: the compact form of both orders that a batch into an empty grid leaves (see
+///   `density_order.rs`): while it is `Some`, slot order is index order and both B-trees are
+///   empty; the first change that needs them builds them.
 ///
 /// Insertion and deletion are the input stage; [`DensityGrid::begin_cycle`] starts the output
 /// stage (see `density_output.rs`). For two threads wrap it in
@@ -174,16 +179,18 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) free: Vec<u32>,
     /// Member arena: every cell's members, one contiguous span per cell.
     pub(crate) points: Vec<[f64; D]>,
+    /// The arena in `f32` form, when `Some` (`points` is then empty; see `density_arena.rs`).
+    pub(crate) narrow: Option<Vec<[f32; D]>>,
     /// Sum of the live cells' `cap`: the arena beyond it is abandoned spans.
     pub(crate) reserved: usize,
     /// `(distance bits, cell index, slot)`: ascending distance, ties by index.
     pub(crate) by_distance: BTreeSet<(u64, CellIndex<D>, u32)>,
+    /// Compact form of both orders: `(distance bits, slot)` ascending, slots in index order.
+    pub(crate) built: Option<Vec<(u64, u32)>>,
     /// Last cell touched: consecutive scan points often share a cell.
     pub(crate) last: Option<(CellIndex<D>, u32)>,
     pub(crate) generation: u64,
     pub(crate) cycle: u64,
-    /// Neighbour offsets, 3^D - 1 of them.
-    pub(crate) neighbours: Vec<[i64; D]>,
     pub(crate) counts: GridCounts,
 }
 
@@ -204,12 +211,13 @@ impl<const D: usize> DensityGrid<D> {
             slots: Vec::new(),
             free: Vec::new(),
             points: Vec::new(),
+            narrow: None,
             reserved: 0,
             by_distance: BTreeSet::new(),
+            built: None,
             last: None,
             generation: 0,
             cycle: 0,
-            neighbours: neighbour_offsets::<D>(),
             counts: GridCounts::default(),
         }
     }
@@ -226,12 +234,12 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Number of non-empty cells (the size of the grid stage's output).
     pub fn len(&self) -> usize {
-        self.index.len()
+        self.cell_count()
     }
 
     /// `true` when no cell holds a point.
     pub fn is_empty(&self) -> bool {
-        self.index.is_empty()
+        self.cell_count() == 0
     }
 
     /// Running input counts.
@@ -248,7 +256,7 @@ impl<const D: usize> DensityGrid<D> {
         CellView {
             hot: &self.hot[slot as usize],
             cell: &self.slots[slot as usize],
-            arena: &self.points,
+            arena: self.arena(),
         }
     }
 
@@ -267,22 +275,18 @@ impl<const D: usize> DensityGrid<D> {
 
     /// All cells in lexicographic index order.
     pub fn cells(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.index.values().map(move |&s| self.view(s))
+        self.index_slots().map(move |s| self.view(s))
     }
 
     /// All cells in output order: ascending distance of their point to the centre.
     pub fn cells_by_distance(&self) -> impl Iterator<Item = CellView<'_, D>> + '_ {
-        self.by_distance.iter().map(move |&(_, _, s)| self.view(s))
+        self.distance_slots_after(None)
+            .map(move |(_, s)| self.view(s))
     }
 
     /// The grid stage's result: one point per cell, in index order.
     pub fn selected_points(&self) -> Vec<[f64; D]> {
         self.cells().map(|c| c.point()).collect()
-    }
-
-    /// The members of slot `s`.
-    pub(crate) fn members_of(&self, s: usize) -> &[[f64; D]] {
-        &self.points[self.slots[s].span()]
     }
 
     pub(crate) fn rank_of(
@@ -329,6 +333,7 @@ impl<const D: usize> DensityGrid<D> {
         selected: usize,
         rank: Rank,
     ) -> u32 {
+        self.widen();
         let start = self.points.len();
         self.points.extend_from_slice(run);
         let len = to_u32(run.len());
@@ -359,16 +364,17 @@ impl<const D: usize> DensityGrid<D> {
                 new_slot(self.slots.len() - 1)
             }
         };
-        self.index.insert(index, slot);
+        let (ordered, by_distance) = self.trees();
+        ordered.insert(index, slot);
+        by_distance.insert((rank.centre.to_bits(), index, slot));
         self.lookup.insert(hash_index(&index), slot);
-        self.by_distance
-            .insert((rank.centre.to_bits(), index, slot));
         slot
     }
 
     /// Append `run` to the members of slot `s`, moving the cell's span to the end of the arena
     /// (with room to double) when it is full.
     pub(crate) fn push_members(&mut self, s: usize, run: &[[f64; D]]) {
+        self.widen();
         let (start, len, cap) = {
             let c = &self.slots[s];
             (c.start, c.len as usize, c.cap as usize)
@@ -403,11 +409,13 @@ impl<const D: usize> DensityGrid<D> {
     /// Rewrite the arena without abandoned spans and spare room once they make up most of it.
     pub(crate) fn maybe_compact(&mut self) {
         let live = self.point_count() as usize;
-        if self.points.len() <= 2 * live + 4096 {
+        if self.arena().len() <= 2 * live + 4096 {
             return;
         }
+        self.widen();
         let mut arena = Vec::with_capacity(live);
-        for &slot in self.index.values() {
+        let order: Vec<u32> = self.index_slots().collect();
+        for slot in order {
             let c = &mut self.slots[slot as usize];
             let start = arena.len();
             arena.extend_from_slice(&self.points[c.span()]);
@@ -489,13 +497,51 @@ impl<const D: usize> DensityGrid<D> {
     /// The best of `members` (all in cell `index`, at least one) under the selection rule, with
     /// its rank; the mean rule takes the mean of `members`.
     pub(crate) fn best_in(&self, index: &CellIndex<D>, members: &[[f64; D]]) -> (usize, Rank) {
-        let m = self.selection.needs_members().then(|| mean(members));
+        self.best_of(index, members.iter().copied())
+    }
+
+    /// [`Self::best_in`] over members given as an iterator (at least one).
+    pub(crate) fn best_of<I>(&self, index: &CellIndex<D>, members: I) -> (usize, Rank)
+    where
+        I: Iterator<Item = [f64; D]> + Clone,
+    {
         let c = self.spec.cell_centre(index);
-        let mut best = (0, self.rank_near(&members[0], &c, m.as_ref()));
-        for (k, p) in members.iter().enumerate().skip(1) {
-            let r = self.rank_near(p, &c, m.as_ref());
-            if r.cmp_with(p, &best.1, &members[best.0]) == Ordering::Less {
-                best = (k, r);
+        if let Selection::CentreClosest = self.selection {
+            // The rank's primary criterion is the centre distance itself: one comparison of
+            // distances, then of coordinates (the same order as `Rank::cmp_with`).
+            let size = self.spec.size();
+            let mut best = (0, f64::INFINITY, c);
+            for (k, p) in members.enumerate() {
+                let d = scaled_distance(&p, &c, size);
+                if k == 0
+                    || d.total_cmp(&best.1)
+                        .then_with(|| cmp_points(&p, &best.2))
+                        .is_lt()
+                {
+                    best = (k, d, p);
+                }
+            }
+            let rank = Rank {
+                primary: best.1,
+                centre: best.1,
+            };
+            return (best.0, rank);
+        }
+        let m = self
+            .selection
+            .needs_members()
+            .then(|| mean(members.clone()));
+        let mut it = members;
+        let Some(first) = it.next() else {
+            return (0, self.rank_near(&c, &c, m.as_ref()));
+        };
+        let mut best = (0, self.rank_near(&first, &c, m.as_ref()));
+        let mut best_point = first;
+        for (k, p) in it.enumerate() {
+            let r = self.rank_near(&p, &c, m.as_ref());
+            if r.cmp_with(&p, &best.1, &best_point) == Ordering::Less {
+                best = (k + 1, r);
+                best_point = p;
             }
         }
         best
@@ -506,7 +552,8 @@ impl<const D: usize> DensityGrid<D> {
         let cell = &mut self.slots[s];
         cell.selected = to_u32(sel);
         cell.rank = rank;
-        self.hot[s].point = self.points[cell.point_at()];
+        let at = cell.point_at();
+        self.hot[s].point = self.arena().get(at);
     }
 
     /// Make member `sel` the representative of slot `s`, keeping the distance order.
@@ -518,14 +565,15 @@ impl<const D: usize> DensityGrid<D> {
         self.choose(s, sel, rank);
         self.hot[s].stamp = self.generation;
         if old != new {
-            self.by_distance.remove(&old);
-            self.by_distance.insert(new);
+            let (_, by_distance) = self.trees();
+            by_distance.remove(&old);
+            by_distance.insert(new);
         }
     }
 
     /// The best member of slot `s` under the selection rule, with its rank.
     pub(crate) fn best_member(&self, s: usize) -> (usize, Rank) {
-        self.best_in(&self.hot[s].index, self.members_of(s))
+        self.best_of(&self.hot[s].index, self.members_of(s))
     }
 
     /// Local repair: choose the representative of slot `s` again from its members.
@@ -533,7 +581,7 @@ impl<const D: usize> DensityGrid<D> {
     fn reselect(&mut self, s: usize) -> bool {
         let (k, r) = self.best_member(s);
         let cell = &self.slots[s];
-        let changed = cmp_points(&self.points[cell.start + k], &self.hot[s].point)
+        let changed = cmp_points(&self.arena().get(cell.start + k), &self.hot[s].point)
             != Ordering::Equal
             || r.centre.to_bits() != cell.rank.centre.to_bits();
         if changed {
@@ -561,12 +609,13 @@ impl<const D: usize> DensityGrid<D> {
         let s = slot as usize;
         let Some(k) = self
             .members_of(s)
-            .iter()
-            .position(|m| cmp_points(m, p) == Ordering::Equal)
+            .position(|m| cmp_points(&m, p) == Ordering::Equal)
         else {
             return false;
         };
         self.counts.removed += 1;
+        self.trees();
+        self.widen();
         let cell = &mut self.slots[s];
         let key = (cell.rank.centre.to_bits(), index, slot);
         if cell.len == 1 {
@@ -620,7 +669,7 @@ impl<const D: usize> DensityGrid<D> {
         let cells = self
             .cells()
             .map(|c| {
-                let mut m = c.members().to_vec();
+                let mut m: Vec<[f64; D]> = c.members().collect();
                 m.sort_by(cmp_points);
                 CellState {
                     index: c.index(),
@@ -630,7 +679,10 @@ impl<const D: usize> DensityGrid<D> {
                 }
             })
             .collect();
-        let distance_order = self.by_distance.iter().map(|(_, i, _)| *i).collect();
+        let distance_order = self
+            .distance_slots_after(None)
+            .map(|(_, s)| self.hot[s as usize].index)
+            .collect();
         GridState {
             cells,
             distance_order,
@@ -642,13 +694,20 @@ impl<const D: usize> DensityGrid<D> {
     /// the best member under the selection rule.
     pub fn validate(&self) -> Result<(), QuantizeError> {
         let bad = |what: String| Err(QuantizeError::Invariant { what });
-        if self.by_distance.len() != self.index.len() || self.lookup.len() != self.index.len() {
+        self.validate_orders().or_else(bad)?;
+        let cells = self.cell_count();
+        let distance_entries = match &self.built {
+            Some(order) => order.len(),
+            None => self.by_distance.len(),
+        };
+        if distance_entries != cells || self.lookup.len() != cells {
             return bad(format!(
-                "{} distance entries and {} hash entries for {} cells",
-                self.by_distance.len(),
+                "{distance_entries} distance entries and {} hash entries for {cells} cells",
                 self.lookup.len(),
-                self.index.len()
             ));
+        }
+        if self.narrow.is_some() && !self.points.is_empty() {
+            return bad("both arena forms hold points".to_string());
         }
         if self.hot.len() != self.slots.len() {
             return bad(format!(
@@ -659,8 +718,18 @@ impl<const D: usize> DensityGrid<D> {
         }
         let mut points = 0u64;
         let mut reserved = 0usize;
-        let mut spans = Vec::with_capacity(self.index.len());
-        for (index, &slot) in &self.index {
+        let mut spans = Vec::with_capacity(cells);
+        // (index, slot) in index order: the compact form takes the index from the slot's
+        // record (its slot order was checked to be index order).
+        let entries: Vec<(CellIndex<D>, u32)> = match &self.built {
+            Some(_) => self
+                .index_slots()
+                .map(|s| (self.hot[s as usize].index, s))
+                .collect(),
+            None => self.index.iter().map(|(i, &s)| (*i, s)).collect(),
+        };
+        for (index, slot) in &entries {
+            let (index, slot) = (index, *slot);
             let (Some(cell), Some(hot)) =
                 (self.slots.get(slot as usize), self.hot.get(slot as usize))
             else {
@@ -675,40 +744,37 @@ impl<const D: usize> DensityGrid<D> {
             if cell.len == 0 || cell.selected >= cell.len || cell.cap < cell.len {
                 return bad(format!("cell {index:?} empty or bad selection"));
             }
-            if cell.start + cell.cap as usize > self.points.len() {
+            if cell.start + cell.cap as usize > self.arena().len() {
                 return bad(format!("cell {index:?} reaches beyond the arena"));
             }
             spans.push((cell.start, cell.start + cell.cap as usize));
             points += u64::from(cell.len);
             reserved += cell.cap as usize;
             let members = self.members_of(slot as usize);
-            for m in members {
-                if self.spec.cell_index(m).as_ref() != Some(index) {
+            for m in members.clone() {
+                if self.spec.cell_index(&m).as_ref() != Some(index) {
                     return bad(format!("member {m:?} is not in cell {index:?}"));
                 }
             }
-            let chosen = &self.points[cell.point_at()];
+            let chosen = &self.arena().get(cell.point_at());
             if cmp_points(chosen, &hot.point) != Ordering::Equal {
                 return bad(format!("cell {index:?}: stale copy of the chosen point"));
             }
-            let mean_pt = mean(members);
+            let mean_pt = mean(members.clone());
             let m = self.selection.needs_members().then_some(&mean_pt);
             let sel_rank = self.rank_of(chosen, index, m);
             if sel_rank.centre.to_bits() != cell.rank.centre.to_bits() {
                 return bad(format!("cell {index:?} has a stale distance"));
             }
             for p in members {
-                let r = self.rank_of(p, index, m);
-                if r.cmp_with(p, &sel_rank, chosen) == Ordering::Less {
+                let r = self.rank_of(&p, index, m);
+                if r.cmp_with(&p, &sel_rank, chosen) == Ordering::Less {
                     return bad(format!(
                         "cell {index:?}: member {p:?} beats the chosen point"
                     ));
                 }
             }
-            if !self
-                .by_distance
-                .contains(&(cell.rank.centre.to_bits(), *index, slot))
-            {
+            if !self.distance_order_has(cell.rank.centre.to_bits(), index, slot) {
                 return bad(format!("cell {index:?} missing from the distance order"));
             }
         }
@@ -722,11 +788,10 @@ impl<const D: usize> DensityGrid<D> {
                 return bad(format!("free slot {f} is in use or still matches a cell"));
             }
         }
-        if self.free.len() + self.index.len() != self.slots.len() {
+        if self.free.len() + cells != self.slots.len() {
             return bad(format!(
-                "{} free and {} used slots of {}",
+                "{} free and {cells} used slots of {}",
                 self.free.len(),
-                self.index.len(),
                 self.slots.len()
             ));
         }
@@ -758,38 +823,22 @@ pub(crate) fn new_slot(n: usize) -> u32 {
     }
 }
 
-/// The mean of some points (zeros for none).
-pub(crate) fn mean<const D: usize>(points: &[[f64; D]]) -> [f64; D] {
+/// The mean of some points (zeros for none), summed in their order.
+pub(crate) fn mean<const D: usize>(points: impl IntoIterator<Item = [f64; D]>) -> [f64; D] {
     let mut m = [0.0; D];
-    if points.is_empty() {
-        return m;
-    }
+    let mut n = 0usize;
     for p in points {
         for k in 0..D {
             m[k] += p[k];
         }
+        n += 1;
     }
-    let n = points.len() as f64;
+    if n == 0 {
+        return m;
+    }
+    let n = n as f64;
     for v in &mut m {
         *v /= n;
     }
     m
-}
-
-/// All offsets in {-1, 0, 1}^D except the zero offset, in lexicographic order.
-fn neighbour_offsets<const D: usize>() -> Vec<[i64; D]> {
-    let total = 3usize.saturating_pow(D as u32);
-    let mut out = Vec::with_capacity(total.saturating_sub(1));
-    for n in 0..total {
-        let mut o = [0i64; D];
-        let mut r = n;
-        for k in (0..D).rev() {
-            o[k] = (r % 3) as i64 - 1;
-            r /= 3;
-        }
-        if o.iter().any(|&v| v != 0) {
-            out.push(o);
-        }
-    }
-    out
 }

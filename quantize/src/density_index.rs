@@ -48,13 +48,6 @@ impl SlotTable {
         self.len
     }
 
-    /// Remove every entry.
-    pub(crate) fn clear(&mut self) {
-        self.buckets.clear();
-        self.buckets.resize(16, EMPTY);
-        self.len = 0;
-    }
-
     #[inline]
     fn mask(&self) -> usize {
         self.buckets.len() - 1
@@ -110,6 +103,18 @@ impl SlotTable {
                 return Some(e as u32);
             }
             i = (i + 1) & mask;
+        }
+    }
+
+    /// An empty table with room for `entries` entries, in `buffer`'s storage when it is large
+    /// enough (its content is discarded).
+    pub(crate) fn with_buffer(mut buffer: Vec<u64>, entries: usize) -> Self {
+        let want = (2 * entries).next_power_of_two().max(16);
+        buffer.clear();
+        buffer.resize(want, EMPTY);
+        SlotTable {
+            buckets: buffer,
+            len: 0,
         }
     }
 
@@ -277,6 +282,17 @@ impl<const D: usize> Packing<D> {
 /// 11-bit digits as the range needs; digits on which every word agrees are skipped. `scratch`
 /// is reused between calls.
 pub(crate) fn radix_sort_bits(v: &mut Vec<u64>, scratch: &mut Vec<u64>, lo: u32, hi: u32) {
+    radix_sort_by_key(v, scratch, |&x| x, lo, hi);
+}
+
+/// Stable LSD radix sort of `v` by bits `lo..hi` of `key(element)`, as [`radix_sort_bits`].
+pub(crate) fn radix_sort_by_key<T: Copy>(
+    v: &mut Vec<T>,
+    scratch: &mut Vec<T>,
+    key: impl Fn(&T) -> u64,
+    lo: u32,
+    hi: u32,
+) {
     if v.len() < 2 || hi <= lo {
         return;
     }
@@ -286,14 +302,14 @@ pub(crate) fn radix_sort_bits(v: &mut Vec<u64>, scratch: &mut Vec<u64>, lo: u32,
     let digit_mask = buckets as u64 - 1;
     // Histograms of every digit in one pass.
     let mut counts = vec![0usize; buckets * passes as usize];
-    for &x in v.iter() {
-        let y = x >> lo;
+    for x in v.iter() {
+        let y = key(x) >> lo;
         for d in 0..passes {
             counts[d as usize * buckets + ((y >> (width * d)) & digit_mask) as usize] += 1;
         }
     }
     scratch.clear();
-    scratch.resize(v.len(), 0);
+    scratch.resize(v.len(), v[0]);
     for (d, c) in counts.chunks_exact_mut(buckets).enumerate() {
         if c.contains(&v.len()) {
             continue;
@@ -306,9 +322,9 @@ pub(crate) fn radix_sort_bits(v: &mut Vec<u64>, scratch: &mut Vec<u64>, lo: u32,
             sum += here;
         }
         let s = lo + width * d as u32;
-        for &x in v.iter() {
-            let b = ((x >> s) & digit_mask) as usize;
-            scratch[c[b]] = x;
+        for x in v.iter() {
+            let b = ((key(x) >> s) & digit_mask) as usize;
+            scratch[c[b]] = *x;
             c[b] += 1;
         }
         std::mem::swap(v, scratch);

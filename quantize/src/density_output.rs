@@ -4,8 +4,8 @@
 use crate::density::CellIndex;
 use crate::density_grid::DensityGrid;
 use crate::density_index::hash_index;
+use crate::density_order::distance_slots_after;
 use crate::error::QuantizeError;
-use std::ops::Bound;
 
 /// Counts of one output cycle so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -81,30 +81,24 @@ impl<const D: usize> DensityGrid<D> {
         if cycle.finished {
             return Ok(true);
         }
-        // Entries after the cursor cell (whatever its slot): `u32::MAX` bounds every slot.
-        let after = |c: &Option<(u64, CellIndex<D>)>| match c {
-            None => Bound::Unbounded,
-            Some((d, i)) => Bound::Excluded((*d, *i, u32::MAX)),
-        };
         // Walk the distance order while marking cells: disjoint fields of the store.
         let DensityGrid {
             spec,
             lookup,
             hot,
             by_distance,
-            neighbours,
+            built,
             ..
         } = self;
         let (size, offset) = (*spec.size(), *spec.offset());
         let mut last = None;
-        let mut probes: Vec<(CellIndex<D>, u64, u64)> = Vec::with_capacity(neighbours.len());
-        for &(d, index, slot) in by_distance
-            .range((after(&cycle.cursor), Bound::Unbounded))
-            .take(max_cells)
+        let mut probes: Vec<(CellIndex<D>, u64, u64)> = Vec::with_capacity(1 << D);
+        for (d, slot) in distance_slots_after(built, by_distance, hot, cycle.cursor).take(max_cells)
         {
-            last = Some((d, index));
             let s = slot as usize;
             let cell = &mut hot[s];
+            let index = cell.index;
+            last = Some((d, index));
             if cell.stamp > cycle.horizon {
                 cycle.counts.deferred += 1;
                 continue;
@@ -130,16 +124,9 @@ impl<const D: usize> DensityGrid<D> {
             // Neighbours that may hold a close point, with their hashes; then their first
             // buckets, all loaded before any is examined, so that the misses overlap.
             probes.clear();
-            for off in neighbours.iter() {
-                if (0..D).any(|a| (off[a] == 1 && !up[a]) || (off[a] == -1 && !down[a])) {
-                    continue;
-                }
-                let mut n = index;
-                for a in 0..D {
-                    n[a] += off[a];
-                }
+            for_each_lean_neighbour(&index, &up, &down, |n| {
                 probes.push((n, hash_index(&n), 0));
-            }
+            });
             for pr in probes.iter_mut() {
                 pr.2 = lookup.first_bucket(pr.1);
             }
@@ -164,11 +151,7 @@ impl<const D: usize> DensityGrid<D> {
         if last.is_some() {
             cycle.cursor = last;
         }
-        cycle.finished = self
-            .by_distance
-            .range((after(&cycle.cursor), Bound::Unbounded))
-            .next()
-            .is_none();
+        cycle.finished = self.distance_slots_after(cycle.cursor).next().is_none();
         Ok(cycle.finished)
     }
 
@@ -179,5 +162,59 @@ impl<const D: usize> DensityGrid<D> {
         // A fresh cycle is current and the grid is not shared, so this cannot be stale.
         let _ = self.step_cycle(&mut cycle, usize::MAX, &mut out);
         (out, cycle.counts)
+    }
+}
+
+/// Calls `f` with every neighbour of cell `index` (offsets in {-1, 0, 1}^D, not all zero) whose
+/// offset is 1 only on axes where `up` holds and -1 only where `down` holds, in lexicographic
+/// order of the offsets. Costs O(number of such neighbours), not O(3^D).
+pub(crate) fn for_each_lean_neighbour<const D: usize>(
+    index: &CellIndex<D>,
+    up: &[bool; D],
+    down: &[bool; D],
+    mut f: impl FnMut(CellIndex<D>),
+) {
+    // Allowed offsets per axis, ascending.
+    let mut choice = [[0i64; 3]; D];
+    let mut count = [0usize; D];
+    for a in 0..D {
+        let mut k = 0;
+        if down[a] {
+            choice[a][k] = -1;
+            k += 1;
+        }
+        choice[a][k] = 0;
+        k += 1;
+        if up[a] {
+            choice[a][k] = 1;
+            k += 1;
+        }
+        count[a] = k;
+    }
+    // Odometer over the allowed offsets, the last axis fastest.
+    let mut pos = [0usize; D];
+    loop {
+        let mut n = *index;
+        let mut zero = true;
+        for a in 0..D {
+            let o = choice[a][pos[a]];
+            n[a] += o;
+            zero &= o == 0;
+        }
+        if !zero {
+            f(n);
+        }
+        let mut a = D;
+        loop {
+            if a == 0 {
+                return;
+            }
+            a -= 1;
+            pos[a] += 1;
+            if pos[a] < count[a] {
+                break;
+            }
+            pos[a] = 0;
+        }
     }
 }

@@ -2,6 +2,7 @@
 //! deletion and read cycles.
 
 use super::*;
+use crate::density_output::for_each_lean_neighbour;
 use crate::{DensityGrid, InsertOutcome, QuantizeError};
 
 fn grid_8_17() -> GridSpec<2> {
@@ -137,26 +138,50 @@ fn non_finite_and_far_points_are_rejected_and_counted() {
     g.validate().unwrap();
 }
 
+/// All offsets in {-1, 0, 1}^D except zero, in lexicographic order (the brute-force list).
+fn all_offsets<const D: usize>() -> Vec<[i64; D]> {
+    let total = 3usize.pow(D as u32);
+    let mut out = Vec::new();
+    for n in 0..total {
+        let mut o = [0i64; D];
+        let mut r = n;
+        for k in (0..D).rev() {
+            o[k] = (r % 3) as i64 - 1;
+            r /= 3;
+        }
+        if o.iter().any(|&v| v != 0) {
+            out.push(o);
+        }
+    }
+    out
+}
+
+/// The lean-neighbour enumeration equals filtering all 3^D - 1 offsets, order included, for
+/// every combination of leaning sides.
+fn check_lean_neighbours<const D: usize>() {
+    let index: [i64; D] = std::array::from_fn(|a| 10 * a as i64 - 7);
+    let all = all_offsets::<D>();
+    assert_eq!(all.len(), 3usize.pow(D as u32) - 1);
+    for mask in 0..(1u32 << (2 * D)) {
+        let up: [bool; D] = std::array::from_fn(|a| mask >> a & 1 == 1);
+        let down: [bool; D] = std::array::from_fn(|a| mask >> (D + a) & 1 == 1);
+        let want: Vec<[i64; D]> = all
+            .iter()
+            .filter(|o| (0..D).all(|a| (o[a] != 1 || up[a]) && (o[a] != -1 || down[a])))
+            .map(|o| std::array::from_fn(|a| index[a] + o[a]))
+            .collect();
+        let mut got = Vec::new();
+        for_each_lean_neighbour(&index, &up, &down, |n| got.push(n));
+        assert_eq!(got, want, "up {up:?} down {down:?}");
+    }
+}
+
 #[test]
-fn neighbour_count_is_3_pow_d_minus_1() {
-    assert_eq!(
-        DensityGrid::new(GridSpec::<1>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        2
-    );
-    assert_eq!(
-        DensityGrid::new(GridSpec::<3>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        26
-    );
-    assert_eq!(
-        DensityGrid::new(GridSpec::<4>::cubic(1.0).unwrap())
-            .neighbours
-            .len(),
-        80
-    );
+fn lean_neighbours_match_the_filtered_3_pow_d_list() {
+    check_lean_neighbours::<1>();
+    check_lean_neighbours::<2>();
+    check_lean_neighbours::<3>();
+    check_lean_neighbours::<4>();
 }
 
 #[test]
@@ -439,4 +464,116 @@ fn extend_and_extend_rewalk_agree() {
     b.extend_rewalk(pts[..500].iter().map(as_f64));
     assert_eq!(a.state(), b.state());
     assert_eq!(a.output_cycle(), b.output_cycle());
+}
+
+/// A batch into an empty grid leaves the compact orders (no B-tree); a read cycle stepped over
+/// it, interrupted by an insertion, a re-ranking insertion and a deletion (each switching to
+/// the B-trees), continues from its cursor exactly as on a grid that always had the B-trees.
+#[test]
+fn compact_orders_switch_to_trees_mid_cycle() {
+    let spec = GridSpec::<3>::new([0.5, 0.5, 0.25], [0.1, -0.2, 0.0]).unwrap();
+    let mut x = 29;
+    let pts: Vec<[f64; 3]> = (0..3000)
+        .map(|_| {
+            [
+                (lcg(&mut x) % 97) as f64 / 13.0,
+                (lcg(&mut x) % 89) as f64 / 11.0,
+                (lcg(&mut x) % 31) as f64 / 17.0,
+            ]
+        })
+        .collect();
+    let mut compact = DensityGrid::new(spec.clone());
+    compact.extend(pts.iter().copied());
+    assert!(compact.built.is_some() && compact.index.is_empty());
+    compact.validate().unwrap();
+    let mut trees = DensityGrid::new(spec.clone());
+    for p in &pts {
+        trees.insert(*p);
+    }
+    assert!(trees.built.is_none());
+    assert_eq!(compact.state(), trees.state());
+    assert_eq!(
+        compact.selected_points(),
+        trees.selected_points(),
+        "index order"
+    );
+
+    // A point on the centre of an occupied cell re-ranks it; one far away opens a cell; a
+    // member of another cell leaves.
+    let recentre = spec.cell_centre(&spec.cell_index(&pts[7]).unwrap());
+    let changes: [(bool, [f64; 3]); 3] = [
+        (true, recentre),
+        (true, [40.0, 40.0, 40.0]),
+        (false, pts[100]),
+    ];
+    let mut cycles = Vec::new();
+    for g in [&mut compact, &mut trees] {
+        let mut cycle = g.begin_cycle();
+        let mut out = Vec::new();
+        for (k, &(add, p)) in changes.iter().enumerate() {
+            assert!(!g.step_cycle(&mut cycle, 150 + 37 * k, &mut out).unwrap());
+            if add {
+                g.insert(p);
+            } else {
+                assert!(g.remove(&p));
+            }
+            g.validate().unwrap();
+        }
+        while !g.step_cycle(&mut cycle, 200, &mut out).unwrap() {}
+        cycles.push((out, cycle.counts(), g.output_cycle()));
+    }
+    assert!(compact.built.is_none());
+    assert_eq!(cycles[0], cycles[1]);
+    assert!(cycles[0].1.deferred >= 1);
+    assert_eq!(compact.state(), trees.state());
+}
+
+/// A batch of `f32`-exact points into an empty grid keeps its members as `f32` (same values
+/// back), widens them on the first change, and matches a grid that only ever held `f64`; one
+/// point that `f32` cannot hold keeps the whole batch in `f64`.
+#[test]
+fn narrow_arena_holds_the_same_points() {
+    let spec = GridSpec::<3>::cubic(0.25).unwrap();
+    let mut x = 41;
+    let mut pts: Vec<[f64; 3]> = (0..2000)
+        .map(|_| {
+            [
+                f64::from((lcg(&mut x) % 4001) as f32 * 0.001_3),
+                -f64::from((lcg(&mut x) % 999) as f32 / 7.0),
+                f64::from((lcg(&mut x) % 77) as f32 * 0.1),
+            ]
+        })
+        .collect();
+    pts.push([f64::NAN, 0.0, 0.0]);
+    let mut narrow = DensityGrid::new(spec.clone());
+    narrow.extend(pts.iter().copied());
+    assert!(narrow.narrow.is_some() && narrow.points.is_empty());
+    narrow.validate().unwrap();
+    let mut wide = DensityGrid::new(spec.clone());
+    for p in &pts {
+        wide.insert(*p);
+    }
+    assert!(wide.narrow.is_none());
+    assert_eq!(narrow.state(), wide.state());
+    let cell = narrow.get(&spec.cell_index(&pts[3]).unwrap()).unwrap();
+    assert!(cell.members().any(|m| m == pts[3]));
+    assert_eq!(narrow.clone().output_cycle(), wide.clone().output_cycle());
+
+    // The first change widens the arena; the grids stay equal.
+    for g in [&mut narrow, &mut wide] {
+        assert!(g.remove(&pts[10]));
+        g.insert([0.1, -0.2, 0.3]);
+        g.validate().unwrap();
+    }
+    assert!(narrow.narrow.is_none());
+    assert_eq!(narrow.state(), wide.state());
+    assert_eq!(narrow.output_cycle(), wide.output_cycle());
+
+    // 0.1 is not an f32 value.
+    let mut mixed = pts.clone();
+    mixed.push([0.1, 0.0, 0.0]);
+    let mut g = DensityGrid::new(spec);
+    g.extend(mixed.iter().copied());
+    assert!(g.narrow.is_none());
+    g.validate().unwrap();
 }

@@ -33,9 +33,11 @@
 #![forbid(unsafe_code)]
 
 mod density;
+mod density_arena;
 mod density_batch;
 mod density_grid;
 mod density_index;
+mod density_order;
 mod density_output;
 mod density_reduce;
 mod density_shared;

@@ -1,0 +1,113 @@
+//! The member arena's narrow form.
+//!
+//! A batch into an empty grid whose points are all exactly representable in `f32` (every
+//! cloud read from an `f32` file) stores its members as `[f32; D]`: half the memory to fill and
+//! fault in, and the same `f64` values when read back (`f32 -> f64` is exact). The grid keeps
+//! that form (field `narrow`, the `f64` arena `points` then empty) until the first change to a
+//! cell's members, which widens the arena to `f64` once.
+
+use crate::density_grid::DensityGrid;
+use std::ops::Range;
+use std::slice;
+
+/// A borrowed view of the member arena, in either form.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ArenaRef<'a, const D: usize> {
+    Wide(&'a [[f64; D]]),
+    Narrow(&'a [[f32; D]]),
+}
+
+impl<'a, const D: usize> ArenaRef<'a, D> {
+    /// The members at arena positions `range`, as `f64`.
+    #[inline]
+    pub(crate) fn members(self, range: Range<usize>) -> Members<'a, D> {
+        match self {
+            ArenaRef::Wide(a) => Members::Wide(a[range].iter()),
+            ArenaRef::Narrow(a) => Members::Narrow(a[range].iter()),
+        }
+    }
+
+    /// The member at arena position `i`, as `f64`.
+    #[inline]
+    pub(crate) fn get(self, i: usize) -> [f64; D] {
+        match self {
+            ArenaRef::Wide(a) => a[i],
+            ArenaRef::Narrow(a) => widen_point(&a[i]),
+        }
+    }
+
+    /// Number of arena places.
+    pub(crate) fn len(self) -> usize {
+        match self {
+            ArenaRef::Wide(a) => a.len(),
+            ArenaRef::Narrow(a) => a.len(),
+        }
+    }
+}
+
+/// Members of a cell as `f64` points, from either arena form.
+#[derive(Debug, Clone)]
+pub(crate) enum Members<'a, const D: usize> {
+    Wide(slice::Iter<'a, [f64; D]>),
+    Narrow(slice::Iter<'a, [f32; D]>),
+}
+
+impl<const D: usize> Iterator for Members<'_, D> {
+    type Item = [f64; D];
+
+    #[inline]
+    fn next(&mut self) -> Option<[f64; D]> {
+        match self {
+            Members::Wide(it) => it.next().copied(),
+            Members::Narrow(it) => it.next().map(widen_point),
+        }
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        match self {
+            Members::Wide(it) => it.size_hint(),
+            Members::Narrow(it) => it.size_hint(),
+        }
+    }
+}
+
+impl<const D: usize> ExactSizeIterator for Members<'_, D> {}
+
+/// `p` as `f64` (exact).
+#[inline]
+pub(crate) fn widen_point<const D: usize>(p: &[f32; D]) -> [f64; D] {
+    p.map(f64::from)
+}
+
+/// `p` as `f32` when that is exact (same value, bit for bit, back in `f64`).
+#[inline]
+pub(crate) fn narrow_point<const D: usize>(p: &[f64; D]) -> Option<[f32; D]> {
+    let q = p.map(|v| v as f32);
+    (0..D)
+        .all(|a| f64::from(q[a]).to_bits() == p[a].to_bits())
+        .then_some(q)
+}
+
+impl<const D: usize> DensityGrid<D> {
+    /// The member arena, in its current form.
+    #[inline]
+    pub(crate) fn arena(&self) -> ArenaRef<'_, D> {
+        match &self.narrow {
+            Some(n) => ArenaRef::Narrow(n),
+            None => ArenaRef::Wide(&self.points),
+        }
+    }
+
+    /// Switch the arena to `f64` (a no-op when it is already): before any change to members.
+    pub(crate) fn widen(&mut self) {
+        if let Some(n) = self.narrow.take() {
+            self.points = n.iter().map(widen_point).collect();
+        }
+    }
+
+    /// The members of slot `s`.
+    #[inline]
+    pub(crate) fn members_of(&self, s: usize) -> Members<'_, D> {
+        self.arena().members(self.slots[s].span())
+    }
+}
