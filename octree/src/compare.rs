@@ -94,7 +94,7 @@ impl OcTree {
         };
         let b = self.store.kids(n);
         let cd = n.depth + 1;
-        let vals = *self.store.child_vals(cd, b);
+        let vals = self.store.child_vals(cd, b);
         let kids = if cd < TREE_DEPTH {
             self.store.inner.blocks[b as usize].kids
         } else {

@@ -5,7 +5,8 @@
 //! does; [`OcTree`] stores log-odds per node under an [`OccupancyParams`] sensor model and
 //! reproduces OctoMap's `updateNode`, `prune`, `toMaxLikelihood` bit for bit; [`io`] reads and
 //! writes the two OctoMap file formats. Nodes live in arenas of 8-child blocks addressed by
-//! `u32` indices (about 8 bytes per node on real maps, against OctoMap's ~27).
+//! `u32` indices, voxels as `u16` indices into a per-tree palette of values (4-8 bytes per node
+//! on real maps, against OctoMap's ~27).
 //!
 //! ```
 //! use octoquant_octree::{io, OcTree, Update};
@@ -29,6 +30,7 @@ mod error;
 pub mod io;
 mod iter;
 mod key;
+mod leaves;
 mod node;
 mod params;
 mod tree;
@@ -40,5 +42,6 @@ pub use compare::{compare_classes, ClassComparison, VoxelClass};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
+pub use node::MemoryUsage;
 pub use params::{logodds, probability, OccupancyParams};
 pub use tree::{Counts, NodeInfo, OcTree, Update};

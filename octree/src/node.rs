@@ -2,11 +2,13 @@
 //!
 //! Children of one node live together in a block. Nodes at depths 1..=15 sit in 64-byte
 //! [`InnerBlock`]s (eight `f32` log-odds plus eight child-block indices, one cache line); nodes
-//! at depth 16 can have no children and sit in 32-byte [`LeafBlock`]s. A missing child is
-//! marked by a reserved NaN bit pattern in its value slot, a node without children by
-//! [`NO_BLOCK`]. On real maps this costs about 8 bytes per node, against OctoMap's ~27.
+//! at depth 16 can have no children and sit in 16-byte blocks of palette indices (see
+//! [`crate::leaves`]). A missing child is marked by a reserved NaN bit pattern in its value
+//! slot, a node without children by [`NO_BLOCK`]. On real maps this costs about 6-8 bytes per
+//! node, against OctoMap's ~27.
 
 use crate::key::Key;
+use crate::leaves::{Adder, Leaves, Outcome, PALETTE_LIMIT};
 
 /// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
 /// never stores, since NaN log-odds are rejected at the API).
@@ -26,7 +28,7 @@ pub(crate) fn present(v: f32) -> bool {
 /// a NaN, which `>` never picks, and strict `>` in child order keeps OctoMap's choice between
 /// equal values (+0.0 and -0.0).
 #[inline]
-fn max_present(vals: &[f32; 8]) -> f32 {
+pub(crate) fn max_present(vals: &[f32; 8]) -> f32 {
     let mut m = -f32::MAX;
     for &v in vals {
         if v > m {
@@ -44,18 +46,10 @@ pub(crate) struct InnerBlock {
     pub kids: [u32; 8],
 }
 
-/// Eight depth-16 children: log-odds only.
-#[derive(Clone, Copy)]
-#[repr(C, align(32))]
-pub(crate) struct LeafBlock {
-    pub vals: [f32; 8],
-}
-
 const EMPTY_INNER: InnerBlock = InnerBlock {
     vals: [ABSENT; 8],
     kids: [NO_BLOCK; 8],
 };
-const EMPTY_LEAF: LeafBlock = LeafBlock { vals: [ABSENT; 8] };
 
 /// A growable pool of blocks with a free list; freed blocks are reset to empty.
 #[derive(Clone)]
@@ -66,7 +60,7 @@ pub(crate) struct Arena<B: Copy> {
 }
 
 impl<B: Copy> Arena<B> {
-    fn new(empty: B) -> Self {
+    pub fn new(empty: B) -> Self {
         Arena {
             blocks: Vec::new(),
             free: Vec::new(),
@@ -100,14 +94,55 @@ impl<B: Copy> Arena<B> {
         self.free.clear();
     }
 
+    /// The same arena with every block converted by `f` (indices and free list kept).
+    pub fn map_blocks<C: Copy>(&self, empty: C, f: impl Fn(&B) -> C) -> Arena<C> {
+        Arena {
+            blocks: self.blocks.iter().map(f).collect(),
+            free: self.free.clone(),
+            empty,
+        }
+    }
+
     /// Blocks in use (allocated and not on the free list).
     pub fn live(&self) -> usize {
         self.blocks.len() - self.free.len()
     }
 
-    /// Bytes held by the blocks (including freed ones awaiting reuse) and the free list.
-    pub fn bytes(&self) -> usize {
-        self.blocks.len() * std::mem::size_of::<B>() + self.free.len() * 4
+    /// Bytes held by the blocks in use, and by the freed blocks awaiting reuse with the free
+    /// list.
+    pub fn split_bytes(&self) -> (usize, usize) {
+        let size = std::mem::size_of::<B>();
+        (self.live() * size, self.free.len() * (size + 4))
+    }
+}
+
+/// Where the bytes of [`crate::OcTree::memory_usage`] go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryUsage {
+    /// Blocks of eight depth 1..=15 children in use (64 bytes each).
+    pub inner_blocks: usize,
+    /// Blocks of eight depth-16 children in use.
+    pub leaf_blocks: usize,
+    /// Bytes of one depth-16 block: 16 (palette indices), or 32 (values) once the tree holds
+    /// more distinct voxel values than the palette takes.
+    pub leaf_block_bytes: usize,
+    /// Bytes of the blocks in use.
+    pub block_bytes: usize,
+    /// Bytes of blocks freed by pruning or deletion and kept for reuse, with their free
+    /// lists (0 after [`crate::OcTree::shrink_to_fit`]).
+    pub free_bytes: usize,
+    /// Bytes of the depth-16 value palette: values, hash index, update memos (0 when wide).
+    pub palette_bytes: usize,
+    /// Distinct depth-16 values in the palette (`None` when wide).
+    pub palette_values: Option<usize>,
+    /// The fixed part: the tree and storage structs.
+    pub fixed_bytes: usize,
+}
+
+impl MemoryUsage {
+    /// All bytes: what [`crate::OcTree::memory_usage`] returns.
+    pub fn total(&self) -> usize {
+        self.block_bytes + self.free_bytes + self.palette_bytes + self.fixed_bytes
     }
 }
 
@@ -115,7 +150,9 @@ impl<B: Copy> Arena<B> {
 #[derive(Clone)]
 pub(crate) struct NodeStore {
     pub inner: Arena<InnerBlock>,
-    pub leaf: Arena<LeafBlock>,
+    pub leaf: Leaves,
+    /// The most distinct leaf values narrow storage holds ([`PALETTE_LIMIT`] but in tests).
+    leaf_limit: usize,
     /// Root log-odds, or `None` for an empty tree.
     pub root_val: Option<f32>,
     /// The root's child block (in `inner`), or `NO_BLOCK`.
@@ -142,25 +179,33 @@ impl NodeStore {
     pub fn new() -> Self {
         NodeStore {
             inner: Arena::new(EMPTY_INNER),
-            leaf: Arena::new(EMPTY_LEAF),
+            leaf: Leaves::new(PALETTE_LIMIT),
+            leaf_limit: PALETTE_LIMIT,
             root_val: None,
             root_kids: NO_BLOCK,
         }
     }
 
+    /// A small palette limit, so that tests reach the wide fallback with few values.
+    #[cfg(test)]
+    pub fn set_leaf_limit(&mut self, limit: usize) {
+        self.leaf_limit = limit;
+        self.compact();
+    }
+
     pub fn clear(&mut self) {
         self.inner.clear();
-        self.leaf.clear();
+        self.leaf = Leaves::new(self.leaf_limit);
         self.root_val = None;
         self.root_kids = NO_BLOCK;
     }
 
     /// Value of an existing node.
-    #[inline]
+    #[inline(always)]
     pub fn value(&self, n: NodeRef) -> f32 {
         match n.depth {
             0 => self.root_val.unwrap_or(ABSENT),
-            16 => self.leaf.blocks[n.block as usize].vals[n.slot as usize],
+            16 => self.leaf.get(n.block, n.slot as usize),
             _ => self.inner.blocks[n.block as usize].vals[n.slot as usize],
         }
     }
@@ -169,7 +214,7 @@ impl NodeStore {
     pub fn set_value(&mut self, n: NodeRef, v: f32) {
         match n.depth {
             0 => self.root_val = Some(v),
-            16 => self.leaf.blocks[n.block as usize].vals[n.slot as usize] = v,
+            16 => self.leaf.set(n.block, n.slot as usize, v),
             _ => self.inner.blocks[n.block as usize].vals[n.slot as usize] = v,
         }
     }
@@ -201,12 +246,58 @@ impl NodeStore {
 
     /// The eight child values of a node with child block `b` at child depth `cd`.
     #[inline]
-    pub fn child_vals(&self, cd: u8, b: u32) -> &[f32; 8] {
+    pub fn child_vals(&self, cd: u8, b: u32) -> [f32; 8] {
         if cd == 16 {
-            &self.leaf.blocks[b as usize].vals
+            self.leaf.vals(b)
         } else {
-            &self.inner.blocks[b as usize].vals
+            self.inner.blocks[b as usize].vals
         }
+    }
+
+    /// Whether slot `pos` of child block `b` at child depth `cd` holds a node.
+    #[inline(always)]
+    pub fn child_present(&self, cd: u8, b: u32, pos: usize) -> bool {
+        if cd == 16 {
+            self.leaf.is_present(b, pos)
+        } else {
+            present(self.inner.blocks[b as usize].vals[pos])
+        }
+    }
+
+    /// Prepare voxel updates adding `delta` and clamping to `[cmin, cmax]`.
+    #[inline]
+    pub fn adder(&mut self, delta: f32, cmin: f32, cmax: f32) -> Adder {
+        self.leaf.adder(delta, cmin, cmax)
+    }
+
+    /// OctoMap's `updateNodeLogOdds` with its early exit on the depth-16 node `n`; an absent
+    /// slot becomes a new node, and a `fresh` node (just created) is updated from 0 without
+    /// the early exit.
+    /// `memo` is `add`'s transition memo, from [`NodeStore::take_memo`].
+    #[inline(always)]
+    pub fn update_leaf(
+        &mut self,
+        n: NodeRef,
+        add: &Adder,
+        fresh: bool,
+        memo: &mut Vec<u16>,
+    ) -> Outcome {
+        debug_assert_eq!(n.depth, 16);
+        self.leaf.update(n.block, n.slot as usize, add, fresh, memo)
+    }
+
+    /// Take `add`'s transition memo for a batch of [`NodeStore::update_leaf`] calls (held
+    /// by the caller so that the hot loop keeps it in registers); give it back with
+    /// [`NodeStore::put_memo`].
+    #[inline]
+    pub fn take_memo(&mut self, add: &Adder) -> Vec<u16> {
+        self.leaf.take_memo(add)
+    }
+
+    /// Give back the memo from [`NodeStore::take_memo`].
+    #[inline]
+    pub fn put_memo(&mut self, add: &Adder, memo: Vec<u16>) {
+        self.leaf.put_memo(add, memo)
     }
 
     /// Child `i` of `n`, if it exists.
@@ -217,7 +308,7 @@ impl NodeStore {
             return None;
         }
         let cd = n.depth + 1;
-        if present(self.child_vals(cd, b)[i]) {
+        if self.child_present(cd, b, i) {
             Some(NodeRef {
                 depth: cd,
                 slot: i as u8,
@@ -257,10 +348,29 @@ impl NodeStore {
         c
     }
 
+    /// [`NodeStore::create_child`] with value 0, the value of every node an update creates.
+    #[inline(always)]
+    pub fn create_child_zero(&mut self, n: NodeRef, i: usize) -> NodeRef {
+        let mut b = self.kids(n);
+        if b == NO_BLOCK {
+            b = self.alloc_kids(n);
+        }
+        if n.depth == 15 {
+            self.leaf.set_zero(b, i);
+        } else {
+            self.inner.blocks[b as usize].vals[i & 7] = 0.0;
+        }
+        NodeRef {
+            depth: n.depth + 1,
+            slot: i as u8,
+            block: b,
+        }
+    }
+
     /// Below `n` (childless, at depth < 16), create one child per level along `key` down to
     /// depth 16, each with value 0 (what OctoMap's `createNodeChild` does under a node it has
     /// just created); records the new nodes in `path[depth]` and returns the voxel's node.
-    #[inline]
+    #[inline(always)]
     pub fn create_chain(&mut self, mut n: NodeRef, key: Key, path: &mut [NodeRef]) -> NodeRef {
         debug_assert_eq!(self.kids(n), NO_BLOCK);
         let mut d = n.depth;
@@ -280,7 +390,7 @@ impl NodeStore {
         let b = self.leaf.alloc();
         self.set_kids(n, b);
         let pos = key.child_index(15);
-        self.leaf.blocks[b as usize].vals[pos] = 0.0;
+        self.leaf.set_zero(b, pos);
         n = NodeRef {
             depth: 16,
             slot: pos as u8,
@@ -296,7 +406,7 @@ impl NodeStore {
         let v = self.value(n);
         let b = self.alloc_kids(n);
         if n.depth == 15 {
-            self.leaf.blocks[b as usize].vals = [v; 8];
+            self.leaf.fill(b, v);
         } else {
             self.inner.blocks[b as usize].vals = [v; 8];
         }
@@ -317,27 +427,49 @@ impl NodeStore {
     /// equals a present value.
     #[inline]
     fn try_collapse(&mut self, n: NodeRef, b: u32) -> bool {
-        let (vals, leaves) = if n.depth == 15 {
-            (&self.leaf.blocks[b as usize].vals, true)
-        } else {
-            let blk = &self.inner.blocks[b as usize];
-            (
-                &blk.vals,
-                blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK,
-            )
-        };
-        let v0 = vals[0];
-        if !(leaves && present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0))) {
+        let Some(v0) = self.uniform_in(n.depth + 1, b) else {
             return false;
-        }
+        };
+        self.collapse(n, b, v0);
+        true
+    }
+
+    /// Free `n`'s child block `b` and give `n` the value `v0`.
+    #[inline(always)]
+    fn collapse(&mut self, n: NodeRef, b: u32, v0: f32) {
         if n.depth == 15 {
             self.leaf.release(b);
         } else {
             self.inner.release(b);
         }
         self.set_kids(n, NO_BLOCK);
-        self.set_value(n, v0);
-        true
+        self.set_branch_value(n, v0);
+    }
+
+    /// The value of child block `b` at child depth `cd` when its eight children are leaves
+    /// with values equal under float `==` (child 0's value); `None` otherwise. The
+    /// comparisons fold without short-circuit so they compile to a few vector compares; an
+    /// absent child (NaN) never equals a present value.
+    #[inline(always)]
+    fn uniform_in(&self, cd: u8, b: u32) -> Option<f32> {
+        if cd == 16 {
+            return self.leaf.uniform(b);
+        }
+        let blk = &self.inner.blocks[b as usize];
+        let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
+        let v0 = blk.vals[0];
+        (leaves && present(v0) && blk.vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
+    }
+
+    /// Set the value of a node at depth 0..=15 (cheaper than [`NodeStore::set_value`]).
+    #[inline(always)]
+    fn set_branch_value(&mut self, n: NodeRef, v: f32) {
+        debug_assert!(n.depth < 16);
+        if n.depth == 0 {
+            self.root_val = Some(v);
+        } else {
+            self.inner.blocks[n.block as usize].vals[n.slot as usize & 7] = v;
+        }
     }
 
     /// The per-ancestor step of `updateNodeRecurs` with one look-up of the child block:
@@ -349,11 +481,26 @@ impl NodeStore {
         if b == NO_BLOCK {
             return None;
         }
-        if self.try_collapse(n, b) {
+        let cd = n.depth + 1;
+        if cd == 16 {
+            // one look at the depth-16 block: equal children, else their max
+            return Some(match self.leaf.collapse_or_max(b) {
+                (true, v0) => {
+                    self.collapse(n, b, v0);
+                    true
+                }
+                (false, m) => {
+                    self.set_branch_value(n, m);
+                    false
+                }
+            });
+        }
+        if let Some(v0) = self.uniform_in(cd, b) {
+            self.collapse(n, b, v0);
             return Some(true);
         }
-        let m = max_present(self.child_vals(n.depth + 1, b));
-        self.set_value(n, m);
+        let m = max_present(&self.inner.blocks[b as usize].vals);
+        self.set_branch_value(n, m);
         Some(false)
     }
 
@@ -363,7 +510,17 @@ impl NodeStore {
     pub fn max_child(&self, n: NodeRef) -> f32 {
         let b = self.kids(n);
         debug_assert_ne!(b, NO_BLOCK);
-        max_present(self.child_vals(n.depth + 1, b))
+        self.max_in(n.depth + 1, b)
+    }
+
+    /// The largest present value of child block `b` at child depth `cd`.
+    #[inline]
+    fn max_in(&self, cd: u8, b: u32) -> f32 {
+        if cd == 16 {
+            self.leaf.max(b)
+        } else {
+            max_present(&self.inner.blocks[b as usize].vals)
+        }
     }
 
     /// Delete the subtree below `n` (not `n` itself); returns the number of nodes removed.
@@ -394,7 +551,7 @@ impl NodeStore {
         let removed = 1 + self.delete_children(c);
         self.set_value(c, ABSENT);
         let b = self.kids(n);
-        if !self.child_vals(n.depth + 1, b).iter().any(|&v| present(v)) {
+        if !(0..8).any(|i| self.child_present(n.depth + 1, b, i)) {
             if n.depth == 15 {
                 self.leaf.release(b);
             } else {
@@ -407,46 +564,75 @@ impl NodeStore {
 
     /// Copy the tree into fresh arenas in depth-first order, dropping the blocks that pruning
     /// freed and any spare capacity; indices change, the tree does not.
+    /// The leaf palette is rebuilt from the values in use (so values no voxel holds any more
+    /// are dropped), and wide leaf storage becomes narrow again when they fit.
     pub fn compact(&mut self) {
         let mut inner = Arena::new(EMPTY_INNER);
-        let mut leaf = Arena::new(EMPTY_LEAF);
+        let mut order = Vec::with_capacity(self.leaf.live());
         inner.blocks.reserve_exact(self.inner.live());
-        leaf.blocks.reserve_exact(self.leaf.live());
         if self.root_kids != NO_BLOCK {
-            self.root_kids = self.copy_block(1, self.root_kids, &mut inner, &mut leaf);
+            self.root_kids = self.copy_block(1, self.root_kids, &mut inner, &mut order);
         }
         self.inner = inner;
-        self.leaf = leaf;
+        self.leaf = self.leaf.compacted(&order, self.leaf_limit);
     }
 
     /// Copy block `b` (holding nodes at depth `cd`) and everything below it; returns its new
-    /// index.
+    /// index. Leaf blocks are only listed in `order` (old indices; new index = position).
     fn copy_block(
         &self,
         cd: u8,
         b: u32,
         inner: &mut Arena<InnerBlock>,
-        leaf: &mut Arena<LeafBlock>,
+        order: &mut Vec<u32>,
     ) -> u32 {
         if cd == 16 {
-            let i = leaf.blocks.len() as u32;
-            leaf.blocks.push(self.leaf.blocks[b as usize]);
-            return i;
+            order.push(b);
+            return order.len() as u32 - 1;
         }
         let blk = self.inner.blocks[b as usize];
         let i = inner.blocks.len();
         inner.blocks.push(blk);
         for (slot, &kid) in blk.kids.iter().enumerate() {
             if kid != NO_BLOCK {
-                let nb = self.copy_block(cd + 1, kid, inner, leaf);
+                let nb = self.copy_block(cd + 1, kid, inner, order);
                 inner.blocks[i].kids[slot] = nb;
             }
         }
         i as u32
     }
 
-    /// Bytes held by the node arenas (blocks in use and freed, plus free lists).
-    pub fn bytes(&self) -> usize {
-        self.inner.bytes() + self.leaf.bytes() + std::mem::size_of::<Self>()
+    /// Replace every node's value `v` by `f(v)` (`f` must not return NaN).
+    pub fn map_values(&mut self, f: impl Fn(f32) -> f32) {
+        // freed blocks hold only absent slots, so every arena slot can be converted directly
+        for b in &mut self.inner.blocks {
+            for v in &mut b.vals {
+                if present(*v) {
+                    *v = f(*v);
+                }
+            }
+        }
+        if let Some(v) = self.root_val.as_mut() {
+            *v = f(*v);
+        }
+        self.leaf.map_values(f);
+    }
+
+    /// Where the bytes of the node storage go (blocks in use and freed, free lists, the leaf
+    /// palette, this struct).
+    pub fn memory(&self) -> MemoryUsage {
+        let (inner_live, inner_free) = self.inner.split_bytes();
+        let (leaf_live, leaf_free, leaf_block_bytes, palette_bytes, palette_values) =
+            self.leaf.bytes();
+        MemoryUsage {
+            inner_blocks: self.inner.live(),
+            leaf_blocks: self.leaf.live(),
+            leaf_block_bytes,
+            block_bytes: inner_live + leaf_live,
+            free_bytes: inner_free + leaf_free,
+            palette_bytes,
+            palette_values,
+            fixed_bytes: std::mem::size_of::<Self>(),
+        }
     }
 }

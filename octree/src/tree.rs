@@ -2,7 +2,8 @@
 
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
-use crate::node::{present, NodeRef, NodeStore, NO_BLOCK};
+use crate::leaves::{Adder, Outcome};
+use crate::node::{MemoryUsage, NodeRef, NodeStore, NO_BLOCK};
 use crate::params::OccupancyParams;
 use nalgebra::Point3;
 
@@ -43,6 +44,15 @@ pub struct Counts {
     pub free_leaves: usize,
     /// Nodes (inner too) sitting at either clamp (OctoMap's "thresholded" count).
     pub at_threshold: usize,
+}
+
+/// What `descend_and_apply` does to the voxel.
+#[derive(Clone, Copy)]
+enum LeafOp {
+    /// Add a delta and clamp (`updateNode`).
+    Add(Adder),
+    /// Set a value (`setNodeValue`).
+    Set(f32),
 }
 
 /// OctoMap's `OcTree`: a probabilistic occupancy octree of depth 16 with log-odds nodes.
@@ -162,16 +172,8 @@ impl OcTree {
             return self.search(key, TREE_DEPTH).map_or(0.0, |n| n.value);
         }
         let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
-        self.descend_and_apply(key, lazy, |v| {
-            let v = v + delta;
-            if v < cmin {
-                cmin
-            } else if v > cmax {
-                cmax
-            } else {
-                v
-            }
-        })
+        let add = self.store.adder(delta, cmin, cmax);
+        self.descend_and_apply(key, lazy, LeafOp::Add(add))
     }
 
     /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
@@ -181,7 +183,7 @@ impl OcTree {
             return Err(OctreeError::NanValue);
         }
         let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
-        Ok(self.descend_and_apply(key, lazy, |_| v))
+        Ok(self.descend_and_apply(key, lazy, LeafOp::Set(v)))
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.
@@ -196,9 +198,9 @@ impl OcTree {
     }
 
     /// The shared descent of `updateNodeRecurs` / `setNodeValueRecurs`: create or expand the
-    /// path to `key`, apply `f` to the voxel, then (unless lazy) prune or refresh every
+    /// path to `key`, apply `op` to the voxel, then (unless lazy) prune or refresh every
     /// ancestor bottom-up, root included.
-    fn descend_and_apply(&mut self, key: Key, lazy: bool, f: impl FnOnce(f32) -> f32) -> f32 {
+    fn descend_and_apply(&mut self, key: Key, lazy: bool, op: LeafOp) -> f32 {
         let mut just_created = false;
         if self.store.root_val.is_none() {
             self.store.root_val = Some(0.0);
@@ -211,7 +213,7 @@ impl OcTree {
             path[depth as usize] = cur;
             let pos = key.child_index(depth);
             let b = self.store.kids(cur);
-            let exists = b != NO_BLOCK && present(self.store.child_vals(depth + 1, b)[pos]);
+            let exists = b != NO_BLOCK && self.store.child_present(depth + 1, b, pos);
             let created = if exists {
                 false
             } else if b == NO_BLOCK && !just_created {
@@ -220,7 +222,7 @@ impl OcTree {
                 self.size += 8;
                 false
             } else {
-                self.store.create_child(cur, pos, 0.0);
+                self.store.create_child_zero(cur, pos);
                 self.size += 1;
                 true
             };
@@ -232,8 +234,19 @@ impl OcTree {
             just_created = created;
         }
         let old = self.store.value(cur);
-        let v = f(old);
-        self.store.set_value(cur, v);
+        match op {
+            LeafOp::Add(add) => {
+                // the early exit was taken above, before anything was created
+                let mut memo = self.store.take_memo(&add);
+                let out = self.store.update_leaf(cur, &add, just_created, &mut memo);
+                self.store.put_memo(&add, memo);
+                if out == Outcome::Exit {
+                    return old;
+                }
+            }
+            LeafOp::Set(v) => self.store.set_value(cur, v),
+        }
+        let v = self.store.value(cur);
         self.record_change(key, old, v, just_created);
         if !lazy {
             for n in path.iter().rev() {
@@ -378,7 +391,7 @@ impl OcTree {
                 return Some(cur);
             }
             let pos = key.child_index(d);
-            if !present(self.store.child_vals(d + 1, b)[pos]) {
+            if !self.store.child_present(d + 1, b, pos) {
                 return None;
             }
             cur = NodeRef {
@@ -463,7 +476,15 @@ impl OcTree {
     /// The figure to compare with OctoMap's `memoryUsage()`, which counts 16 bytes per node
     /// plus 64 per inner node plus the tree object.
     pub fn memory_usage(&self) -> usize {
-        self.store.bytes() + std::mem::size_of::<Self>()
+        self.memory_breakdown().total()
+    }
+
+    /// [`OcTree::memory_usage`] item by item: blocks in use, freed blocks, the depth-16 value
+    /// palette.
+    pub fn memory_breakdown(&self) -> MemoryUsage {
+        let mut m = self.store.memory();
+        m.fixed_bytes += std::mem::size_of::<Self>() - std::mem::size_of::<NodeStore>();
+        m
     }
 
     /// OctoMap's `memoryUsage()` formula for the same tree on amd64:
@@ -480,7 +501,8 @@ impl OcTree {
         self.store.compact();
     }
 
-    /// Blocks in use: (inner blocks of 64 bytes, leaf blocks of 32 bytes).
+    /// Blocks in use: (inner blocks of 64 bytes, depth-16 blocks of 16 bytes, or 32 bytes
+    /// once the tree holds too many distinct voxel values for the palette).
     pub fn live_blocks(&self) -> (usize, usize) {
         (self.store.inner.live(), self.store.leaf.live())
     }

@@ -9,7 +9,8 @@
 //! walks; any order gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::leaves::{Adder, Outcome};
+use crate::node::{NodeRef, NO_BLOCK};
 use crate::tree::{OcTree, Update};
 
 impl OcTree {
@@ -19,11 +20,24 @@ impl OcTree {
     /// Much faster than single updates when keys are sorted by [`Key::morton`]. A NaN delta
     /// changes nothing.
     pub fn update_keys(&mut self, keys: &[Key], update: Update, lazy: bool) {
+        // change detection costs a value read before and after each update: compiled in
+        // only when it is on
+        if self.is_change_detection_enabled() {
+            self.update_keys_with::<true>(keys, update, lazy)
+        } else {
+            self.update_keys_with::<false>(keys, update, lazy)
+        }
+    }
+
+    /// [`OcTree::update_keys`], recording changes when `TRACK`.
+    fn update_keys_with<const TRACK: bool>(&mut self, keys: &[Key], update: Update, lazy: bool) {
         let delta = self.delta(update);
         if delta.is_nan() || keys.is_empty() {
             return;
         }
         let (cmin, cmax) = (self.params().clamp_min, self.params().clamp_max);
+        let add = self.store.adder(delta, cmin, cmax);
+        let mut memo = self.store.take_memo(&add);
         let mut path = [NodeRef::ROOT; TREE_DEPTH as usize + 1];
         // `valid` = number of leading path entries (depth 0..valid) known to match the previous
         // key's path and still exist; ancestors below that have been processed.
@@ -48,25 +62,21 @@ impl OcTree {
                     slot: pos as u8,
                     block,
                 };
-                let old = self.store.value(leaf);
-                let created = !present(old);
-                let old = if created {
-                    self.add_size(1);
-                    0.0
-                } else if (delta >= 0.0 && old >= cmax) || (delta <= 0.0 && old <= cmin) {
-                    // OctoMap's early exit at a voxel already at the clamp
-                    path[TREE_DEPTH as usize] = leaf;
-                    prev = Some(key);
-                    continue;
-                } else {
-                    old
-                };
-                let v = clamp_sum(old, delta, cmin, cmax);
-                self.store.set_value(leaf, v);
-                self.record_change(key, old, v, created);
+                let old = if TRACK { self.store.value(leaf) } else { 0.0 };
                 path[TREE_DEPTH as usize] = leaf;
-                dirty = TREE_DEPTH as usize + 1;
                 prev = Some(key);
+                let Outcome::Applied(created) =
+                    self.store.update_leaf(leaf, &add, false, &mut memo)
+                else {
+                    // OctoMap's early exit at a voxel already at the clamp
+                    continue;
+                };
+                self.add_size(usize::from(created));
+                if TRACK {
+                    let v = self.store.value(leaf);
+                    self.record_change(key, old, v, created);
+                }
+                dirty = TREE_DEPTH as usize + 1;
                 continue;
             }
             // leave the previous key's nodes below the common ancestor
@@ -81,14 +91,13 @@ impl OcTree {
                 self.store.root_val = Some(0.0);
                 self.add_size(1);
             }
-            let (v, applied) = self.apply_from(
+            let (v, applied) = self.apply_from::<TRACK>(
                 key,
                 &mut path,
                 if just_rooted { 0 } else { common },
                 just_rooted,
-                delta,
-                cmin,
-                cmax,
+                &add,
+                &mut memo,
             );
             valid = v;
             if applied {
@@ -101,6 +110,7 @@ impl OcTree {
                 self.refresh(path[d]);
             }
         }
+        self.store.put_memo(&add, memo);
     }
 
     /// Prune `n` or set it to the max of its children (the per-ancestor step of
@@ -116,17 +126,15 @@ impl OcTree {
     /// delta; returns how many path entries (from the root) are valid afterwards and whether
     /// the delta was applied (not OctoMap's early exit). Returns
     /// early, creating nothing, when OctoMap's clamp early-exit applies.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn apply_from(
+    fn apply_from<const TRACK: bool>(
         &mut self,
         key: Key,
         path: &mut [NodeRef; TREE_DEPTH as usize + 1],
         start: usize,
         root_just_created: bool,
-        delta: f32,
-        cmin: f32,
-        cmax: f32,
+        add: &Adder,
+        memo: &mut Vec<u16>,
     ) -> (usize, bool) {
         // read-only descent to the deepest existing node (OctoMap's `search`)
         let mut d = start;
@@ -138,7 +146,7 @@ impl OcTree {
                 break;
             }
             let pos = key.child_index(d as u8);
-            if !present(self.store.child_vals(d as u8 + 1, b)[pos]) {
+            if !self.store.child_present(d as u8 + 1, b, pos) {
                 missing_child = true;
                 break;
             }
@@ -150,11 +158,8 @@ impl OcTree {
             d += 1;
             path[d] = cur;
         }
-        if !missing_child && !root_just_created {
-            let v = self.store.value(cur);
-            if (delta >= 0.0 && v >= cmax) || (delta <= 0.0 && v <= cmin) {
-                return (d + 1, false);
-            }
+        if !missing_child && !root_just_created && add.exits_at(self.store.value(cur)) {
+            return (d + 1, false);
         }
         // create or expand the rest of the path
         let mut just_created = root_just_created;
@@ -165,7 +170,7 @@ impl OcTree {
                 self.add_size(8);
                 false
             } else {
-                self.store.create_child(cur, pos, 0.0);
+                self.store.create_child_zero(cur, pos);
                 self.add_size(1);
                 true
             };
@@ -184,24 +189,16 @@ impl OcTree {
                 d = TREE_DEPTH as usize;
             }
         }
-        let old = self.store.value(cur);
-        let v = clamp_sum(old, delta, cmin, cmax);
-        self.store.set_value(cur, v);
-        self.record_change(key, old, v, just_created);
+        let old = if TRACK { self.store.value(cur) } else { 0.0 };
+        // an existing voxel (or a pruned node expanded to it) passed the early-exit test above
+        if self.store.update_leaf(cur, add, just_created, memo) == Outcome::Exit {
+            return (TREE_DEPTH as usize + 1, false);
+        }
+        if TRACK {
+            let v = self.store.value(cur);
+            self.record_change(key, old, v, just_created);
+        }
         (TREE_DEPTH as usize + 1, true)
-    }
-}
-
-/// `old + delta` clamped to `[cmin, cmax]`, as `updateNodeLogOdds` computes it.
-#[inline(always)]
-fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
-    let v = old + delta;
-    if v < cmin {
-        cmin
-    } else if v > cmax {
-        cmax
-    } else {
-        v
     }
 }
 

@@ -1,7 +1,7 @@
 //! Whole-tree passes: prune, expand, max-likelihood conversion and inner-node refresh.
 
 use crate::key::TREE_DEPTH;
-use crate::node::{present, NodeRef};
+use crate::node::NodeRef;
 use crate::tree::OcTree;
 
 impl OcTree {
@@ -63,25 +63,13 @@ impl OcTree {
     /// clamp otherwise (OctoMap's `toMaxLikelihood()`). Does not prune.
     pub fn to_max_likelihood(&mut self) {
         let p = *self.params();
-        let ml = |v: &mut f32| {
-            if present(*v) {
-                *v = if p.is_occupied(*v) {
-                    p.clamp_max
-                } else {
-                    p.clamp_min
-                };
+        self.store.map_values(|v| {
+            if p.is_occupied(v) {
+                p.clamp_max
+            } else {
+                p.clamp_min
             }
-        };
-        // Freed blocks hold only absent slots, so every arena slot can be converted directly.
-        for b in &mut self.store.inner.blocks {
-            b.vals.iter_mut().for_each(ml);
-        }
-        for b in &mut self.store.leaf.blocks {
-            b.vals.iter_mut().for_each(ml);
-        }
-        if let Some(v) = self.store.root_val.as_mut() {
-            ml(v);
-        }
+        });
     }
 
     /// Set every inner node to the maximum of its children, bottom-up; needed after lazy

@@ -206,8 +206,22 @@ proptest! {
         prop_assert!(a == c, "compaction changed the tree");
         prop_assert!(batch.memory_usage() <= before);
         let (inner, leaf) = batch.live_blocks();
-        let empty = OcTree::new(0.1).unwrap().memory_usage();
-        prop_assert_eq!(batch.memory_usage(), inner * 64 + leaf * 32 + empty);
+        let m = batch.memory_breakdown();
+        prop_assert_eq!(m.total(), batch.memory_usage());
+        prop_assert_eq!((m.inner_blocks, m.leaf_blocks), (inner, leaf));
+        prop_assert_eq!(m.free_bytes, 0);
+        // few distinct values: 16-byte depth-16 blocks, and the palette holds each value
+        // still in use (and 0) once
+        prop_assert_eq!(m.leaf_block_bytes, 16);
+        prop_assert_eq!(m.block_bytes, inner * 64 + leaf * 16);
+        let distinct: std::collections::BTreeSet<u32> = batch
+            .nodes()
+            .filter(|n| n.depth == TREE_DEPTH)
+            .map(|n| n.value.to_bits())
+            .chain([0])
+            .collect();
+        prop_assert_eq!(m.palette_values, Some(distinct.len()));
+        prop_assert_eq!(m.fixed_bytes, OcTree::new(0.1).unwrap().memory_breakdown().fixed_bytes);
         let ca: Vec<_> = single.changed_keys().collect();
         let cb: Vec<_> = batch.changed_keys().collect();
         prop_assert_eq!(ca, cb);
