@@ -173,6 +173,9 @@ pub fn run(a: &Args) -> Result<()> {
     mapper.finish();
     let stats = *mapper.stats();
     let mut tree = mapper.into_tree();
+    // blocks freed by pruning are kept for reuse while mapping; measure (and write) the tree
+    // as it stands, as `bench` and `info` do
+    tree.shrink_to_fit();
     let full_nodes = tree.size();
     let bytes_per_node = if full_nodes > 0 {
         tree.memory_usage() as f64 / full_nodes as f64
