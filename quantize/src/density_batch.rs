@@ -90,7 +90,22 @@ impl<const D: usize> DensityGrid<D> {
         I: IntoIterator<Item = [f64; D]>,
         I::IntoIter: Clone,
     {
-        let (batch, rejected) = self.sort_batch(points.into_iter());
+        let points = points.into_iter();
+        // a batch that could take the grid past its capacity goes in point by point, so that
+        // exactly the points a one-by-one insertion would refuse are refused
+        let room = self.max_points - self.point_count();
+        let fits = match points.size_hint() {
+            (_, Some(upper)) => upper as u64 <= room,
+            (_, None) => points.clone().count() as u64 <= room,
+        };
+        if !fits {
+            let before = self.counts.rejected;
+            for p in points {
+                self.insert(p);
+            }
+            return self.counts.rejected - before;
+        }
+        let (batch, rejected) = self.sort_batch(points);
         self.counts.rejected += rejected;
         self.counts.inserted += batch.len as u64;
         if self.is_empty() {

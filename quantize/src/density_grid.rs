@@ -20,6 +20,9 @@ pub enum InsertOutcome {
     Member,
     /// NaN or infinite coordinate, or outside the index range: skipped and counted.
     Rejected,
+    /// The grid already holds [`DensityGrid::MAX_POINTS`] points: skipped and counted as
+    /// rejected.
+    Full,
 }
 
 /// Running counts of the input stage.
@@ -77,7 +80,9 @@ impl Cell {
     }
 }
 
-/// A member count or position as the `u32` a cell stores.
+/// A member count or position as the `u32` a cell stores. Never fails: a grid holds at most
+/// [`DensityGrid::MAX_POINTS`] (2^31 - 1) points, so a count, and a capacity of at most twice
+/// one, stays below 2^32.
 pub(crate) fn to_u32(n: usize) -> u32 {
     u32::try_from(n).expect("more than 2^32 - 1 points in one cell")
 }
@@ -192,6 +197,8 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) generation: u64,
     pub(crate) cycle: u64,
     pub(crate) counts: GridCounts,
+    /// Most points the grid holds at once ([`DensityGrid::MAX_POINTS`]; lower in tests).
+    pub(crate) max_points: u64,
 }
 
 impl<const D: usize> DensityGrid<D> {
@@ -219,6 +226,21 @@ impl<const D: usize> DensityGrid<D> {
             generation: 0,
             cycle: 0,
             counts: GridCounts::default(),
+            max_points: Self::MAX_POINTS,
+        }
+    }
+
+    /// Most points a grid holds at once (2^31 - 1): cells store member counts, capacities and
+    /// slots as `u32`, and a cell's capacity may double. Points beyond it are refused
+    /// ([`InsertOutcome::Full`]) instead of overflowing.
+    pub const MAX_POINTS: u64 = (1 << 31) - 1;
+
+    /// A grid that holds at most `max` points, to test the refusal without 2^31 of them.
+    #[cfg(test)]
+    pub(crate) fn with_max_points(spec: GridSpec<D>, max: u64) -> Self {
+        DensityGrid {
+            max_points: max.min(Self::MAX_POINTS),
+            ..Self::new(spec)
         }
     }
 
@@ -429,12 +451,17 @@ impl<const D: usize> DensityGrid<D> {
     /// Input stage: add one point.
     ///
     /// NaN/infinite coordinates and points beyond the index range are skipped and counted in
-    /// [`GridCounts::rejected`]. The result does not depend on insertion order.
+    /// [`GridCounts::rejected`], and so are points beyond [`DensityGrid::MAX_POINTS`]. The
+    /// result does not depend on insertion order.
     pub fn insert(&mut self, p: [f64; D]) -> InsertOutcome {
         let Some(index) = self.spec.cell_index(&p) else {
             self.counts.rejected += 1;
             return InsertOutcome::Rejected;
         };
+        if self.point_count() >= self.max_points {
+            self.counts.rejected += 1;
+            return InsertOutcome::Full;
+        }
         self.counts.inserted += 1;
         match self.slot_of(&index) {
             None => {
@@ -815,7 +842,9 @@ impl<const D: usize> DensityGrid<D> {
     }
 }
 
-/// Slot number `n` (slot `u32::MAX` is reserved for the hash index's empty bucket).
+/// Slot number `n` (slot `u32::MAX` is reserved for the hash index's empty bucket). Never
+/// fails: live cells, and a batch's distinct cells, number at most
+/// [`DensityGrid::MAX_POINTS`].
 pub(crate) fn new_slot(n: usize) -> u32 {
     match u32::try_from(n) {
         Ok(s) if s != u32::MAX => s,

@@ -577,3 +577,48 @@ fn narrow_arena_holds_the_same_points() {
     assert!(g.narrow.is_none());
     g.validate().unwrap();
 }
+
+/// A full grid refuses further points, one by one and in batches alike, and makes room again
+/// after deletions; a batch that crosses the limit keeps exactly the points that one-by-one
+/// insertion keeps.
+#[test]
+fn a_full_grid_refuses_points_as_one_by_one_insertion_would() {
+    let pts: Vec<[f64; 2]> = (0..15)
+        .map(|i| [(i * 5 % 23) as f64 * 3.1, (i * 7 % 11) as f64 * 6.3])
+        .collect();
+    let mut one = DensityGrid::with_max_points(grid_8_17(), 10);
+    let outcomes: Vec<InsertOutcome> = pts.iter().map(|p| one.insert(*p)).collect();
+    assert!(outcomes[..10].iter().all(|o| *o != InsertOutcome::Full));
+    assert!(outcomes[10..].iter().all(|o| *o == InsertOutcome::Full));
+    assert_eq!((one.point_count(), one.counts().rejected), (10, 5));
+
+    let mut batch = DensityGrid::with_max_points(grid_8_17(), 10);
+    assert_eq!(batch.extend(pts.iter().copied()), 5);
+    assert_eq!(batch.state(), one.state());
+    assert_eq!(batch.counts(), one.counts());
+
+    // deletions make room: of the next five, two fit
+    for p in &pts[..2] {
+        assert!(one.remove(p));
+        assert!(batch.remove(p));
+    }
+    let more: Vec<[f64; 2]> = (0..5).map(|i| [100.0 + i as f64, 40.0]).collect();
+    for p in &more {
+        one.insert(*p);
+    }
+    assert_eq!(batch.extend(more.iter().copied()), 3);
+    assert_eq!(batch.state(), one.state());
+    assert_eq!(one.point_count(), 10);
+    one.validate().unwrap();
+    batch.validate().unwrap();
+
+    // a batch within the limit takes the batch path and matches a grid without the limit
+    let mut roomy = DensityGrid::with_max_points(grid_8_17(), 15);
+    roomy.extend(pts.iter().copied());
+    let mut plain = DensityGrid::new(grid_8_17());
+    pts.iter().for_each(|p| {
+        plain.insert(*p);
+    });
+    assert_eq!(roomy.state(), plain.state());
+    assert_eq!(DensityGrid::<3>::MAX_POINTS, (1 << 31) - 1);
+}
