@@ -136,7 +136,6 @@ pub fn quantize_endpoints(
                 }
             });
             // emit in index order: each thread scans whole words of its own range
-            let words = grid.as_raw_slice();
             let per = words
                 .len()
                 .div_ceil(rayon::current_num_threads().max(1) * 4)

@@ -252,47 +252,9 @@ fn merge_into(acc: &mut Vec<(u64, u64)>, other: &[(u64, u64)], tmp: &mut Vec<(u6
     std::mem::swap(acc, tmp);
 }
 
-/// The ray and endpoint of one point, OctoMap's `computeUpdate` loop body (no bounding box).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn add_point(
-    conv: &KeyConverter,
-    p: &Point3<f32>,
-    origin: &Point3<f32>,
-    origin_key: Option<Key>,
-    max_range: f64,
-    free_set: &mut BrickSet,
-    occ_set: &mut BrickSet,
-    ray: &mut Vec<u64>,
-    stats: &mut ScanStats,
-    model: RayModel,
-) {
-    let diff = sub_f32(p, origin);
-    if max_range < 0.0 || norm_f32(diff) <= max_range {
-        if push_ray(conv, origin, origin_key, p, free_set, ray, model) {
-            stats.rays += 1;
-        } else {
-            stats.failed_rays += 1;
-        }
-        match key_of(conv, p) {
-            Some(k) => occ_set.insert(morton(k)),
-            None => stats.outside_map += 1,
-        }
-    } else {
-        stats.max_range_rays += 1;
-        if key_of(conv, p).is_none() {
-            stats.outside_map += 1;
-        }
-        let cut = cut_at_range(origin, diff, max_range);
-        if push_ray(conv, origin, origin_key, &cut, free_set, ray, model) {
-            stats.rays += 1;
-        } else {
-            stats.failed_rays += 1;
-        }
-    }
-}
-
-/// [`add_point`] for every finite point of `points`; non-finite ones are counted.
+/// OctoMap's `computeUpdate` loop body (no bounding box) for every finite point of `points`:
+/// its ray, cut at `max_range` when it is longer (and then without an occupied end), and its
+/// end point's voxel; non-finite points are counted.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_points(
@@ -312,9 +274,25 @@ fn add_points(
             stats.non_finite += 1;
             continue;
         }
-        add_point(
-            conv, p, origin, origin_key, max_range, free_set, occ_set, ray, stats, model,
-        );
+        let diff = sub_f32(p, origin);
+        let hit = key_of(conv, p);
+        if hit.is_none() {
+            stats.outside_map += 1;
+        }
+        let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
+            if let Some(k) = hit {
+                occ_set.insert(morton(k));
+            }
+            *p
+        } else {
+            stats.max_range_rays += 1;
+            cut_at_range(origin, diff, max_range)
+        };
+        if push_ray(conv, origin, origin_key, &end, free_set, ray, model) {
+            stats.rays += 1;
+        } else {
+            stats.failed_rays += 1;
+        }
     }
 }
 
