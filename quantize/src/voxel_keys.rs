@@ -70,31 +70,18 @@ pub fn quantize_endpoints(
         points: points.len(),
         ..QuantizeStats::default()
     };
-    let key_of = |p: &Point3<f32>| -> Option<Key> {
-        if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
-            Some(conv.point_to_key_unchecked(&p.cast::<f64>()))
-        } else {
-            None
-        }
-    };
-    // key bounding box (and the count of non-finite points), in parallel for large frames
-    let bounds = |pts: &[Point3<f32>]| -> KeyBounds {
-        let mut b = KeyBounds::EMPTY;
-        for p in pts {
-            match key_of(p) {
-                Some(k) => b.add(k),
-                None => b.non_finite += 1,
-            }
-        }
-        b
-    };
-    let b = if points.len() >= options.parallel_threshold {
+    // one pass converts every point to its key, packed as `zyx_code` (NO_KEY when not
+    // finite), and gathers the key box; marking then reads the packed keys
+    let par = points.len() >= options.parallel_threshold;
+    let mut codes = vec![0u64; points.len()];
+    let b = if par {
         points
-            .par_chunks(8192)
-            .map(bounds)
+            .par_chunks(CHUNK)
+            .zip(codes.par_chunks_mut(CHUNK))
+            .map(|(pts, out)| KeyBounds::pack(conv, pts, out))
             .reduce(|| KeyBounds::EMPTY, KeyBounds::union)
     } else {
-        bounds(points)
+        KeyBounds::pack(conv, points, &mut codes)
     };
     let (lo, hi) = (b.lo, b.hi);
     stats.non_finite = b.non_finite;
@@ -108,9 +95,17 @@ pub fn quantize_endpoints(
     if bits <= options.max_grid_bits && bits <= options.bits_per_point.saturating_mul(valid as u64)
     {
         stats.grid_bits = bits;
-        let index = |k: Key| -> usize {
-            (((k[2] - lo[2]) as u64 * dims[1] + (k[1] - lo[1]) as u64) * dims[0]
-                + (k[0] - lo[0]) as u64) as usize
+        // the grid index of a packed key: x fastest, then y, then z, like `zyx_code`
+        let (row, plane) = (dims[0] as usize, (dims[0] * dims[1]) as usize);
+        let base = (lo[2] as usize * dims[1] as usize + lo[1] as usize) * row + lo[0] as usize;
+        let index = |c: u64| -> usize {
+            let (x, y, z) = (
+                c as u16 as usize,
+                (c >> 16) as u16 as usize,
+                (c >> 32) as usize,
+            );
+            // wrapping: `base` folds the box's corner into one subtraction
+            (z * plane + y * row + x).wrapping_sub(base)
         };
         let key_at = |i: usize| -> Key {
             let i = i as u64;
@@ -119,15 +114,15 @@ pub fn quantize_endpoints(
             let z = i / (dims[0] * dims[1]);
             Key::new(lo[0] + x as u16, lo[1] + y as u16, lo[2] + z as u16)
         };
-        if points.len() >= options.parallel_threshold {
+        if par {
             let grid: BitVec<AtomicU64, Lsb0> = BitVec::repeat(false, bits as usize);
             let words = grid.as_raw_slice();
-            points.par_chunks(8192).for_each(|chunk| {
-                for p in chunk {
-                    if let Some(k) = key_of(p) {
+            codes.par_chunks(CHUNK).for_each(|chunk| {
+                for &c in chunk {
+                    if c != NO_KEY {
                         // most end points share a voxel with an earlier one: a plain load
                         // finds the bit set and skips the locked read-modify-write
-                        let i = index(k);
+                        let i = index(c);
                         let (w, bit) = (&words[i / 64], 1u64 << (i % 64));
                         if w.load(std::sync::atomic::Ordering::Relaxed) & bit == 0 {
                             w.fetch_or(bit, std::sync::atomic::Ordering::Relaxed);
@@ -161,20 +156,18 @@ pub fn quantize_endpoints(
             }
         } else {
             let mut grid: BitVec<u64, Lsb0> = BitVec::repeat(false, bits as usize);
-            for p in points {
-                if let Some(k) = key_of(p) {
-                    grid.set(index(k), true);
+            let words = grid.as_raw_mut_slice();
+            for &c in &codes {
+                if c != NO_KEY {
+                    let i = index(c);
+                    words[i / 64] |= 1u64 << (i % 64);
                 }
             }
             out.extend(grid.iter_ones().map(|i| centre(key_at(i))));
         }
     } else {
-        // sparse fallback: sort (z, y, x)-ordered codes so the order matches the grid's
-        let mut codes: Vec<u64> = if points.len() >= options.parallel_threshold {
-            points.par_iter().filter_map(key_of).map(zyx_code).collect()
-        } else {
-            points.iter().filter_map(key_of).map(zyx_code).collect()
-        };
+        // sparse fallback: sort the (z, y, x)-ordered codes so the order matches the grid's
+        codes.retain(|&c| c != NO_KEY);
         codes.par_sort_unstable();
         codes.dedup();
         out.extend(
@@ -186,6 +179,13 @@ pub fn quantize_endpoints(
     stats.voxels = out.len();
     stats
 }
+
+/// Points per parallel share of the key pass and of the marking.
+const CHUNK: usize = 8192;
+
+/// The packed code of a point without a key (a non-finite coordinate); no `zyx_code` has
+/// bits above 48.
+const NO_KEY: u64 = u64::MAX;
 
 /// Key bounding box of a share of the points, and how many of them were not finite.
 #[derive(Clone, Copy)]
@@ -201,6 +201,23 @@ impl KeyBounds {
         hi: [0; 3],
         non_finite: 0,
     };
+
+    /// Write each point's packed key (`zyx_code`, or [`NO_KEY`]) to `out` and return the
+    /// share's key box and non-finite count.
+    fn pack(conv: &KeyConverter, points: &[Point3<f32>], out: &mut [u64]) -> KeyBounds {
+        let mut b = KeyBounds::EMPTY;
+        for (p, o) in points.iter().zip(out.iter_mut()) {
+            if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
+                let k = conv.point_to_key_unchecked(&p.cast::<f64>());
+                b.add(k);
+                *o = zyx_code(k);
+            } else {
+                b.non_finite += 1;
+                *o = NO_KEY;
+            }
+        }
+        b
+    }
 
     #[inline]
     fn add(&mut self, k: Key) {
@@ -257,8 +274,20 @@ mod tests {
     #[test]
     fn dense_sparse_and_parallel_paths_agree_with_a_set() {
         let conv = KeyConverter::new(0.1).unwrap();
-        for (n, spread) in [(10, 1.0), (5000, 3.0), (50_000, 8.0), (40_000, 400.0)] {
-            let pts = cloud(n, spread, n as u64);
+        for (n, spread, far) in [
+            (10, 1.0, false),
+            (5000, 3.0, false),
+            (50_000, 8.0, false),
+            (40_000, 400.0, false),
+            (5000, 3.0, true),
+            (50_000, 8.0, true),
+        ] {
+            let mut pts = cloud(n, spread, n as u64);
+            if far {
+                // outside the map (+-3276.8 m at 0.1 m): their unchecked keys wrap around
+                pts.push(Point3::new(1.0, -5000.0, 0.5));
+                pts.push(Point3::new(3276.8, 0.0, 0.0));
+            }
             let want = naive(&conv, &pts);
             for opts in [
                 QuantizeOptions::default(),
@@ -277,7 +306,7 @@ mod tests {
             ] {
                 let mut out = Vec::new();
                 let st = quantize_endpoints(&conv, &pts, &opts, &mut out);
-                assert_eq!(out, want, "n={n} spread={spread} {opts:?}");
+                assert_eq!(out, want, "n={n} spread={spread} far={far} {opts:?}");
                 assert_eq!(st.non_finite, 2);
                 assert_eq!(st.voxels, want.len());
             }
