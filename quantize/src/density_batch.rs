@@ -13,7 +13,9 @@
 use crate::density::CellIndex;
 use crate::density_arena::narrow_point;
 use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
-use crate::density_index::{hash_index, radix_sort_bits, radix_sort_by_key, Packing, SlotTable};
+use crate::density_index::{
+    all_finite, hash_index, radix_sort_bits, sort_by_distance, Packing, SlotTable,
+};
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
 struct SortedBatch<const D: usize> {
@@ -37,7 +39,7 @@ enum Runs<const D: usize> {
         packing: Packing<D>,
         keys: Vec<u64>,
         order: Vec<u32>,
-        ends: Vec<usize>,
+        ends: Vec<u32>,
     },
     /// From the comparison sort: `(cell index, run end)`.
     Listed(Vec<(CellIndex<D>, usize)>),
@@ -63,7 +65,7 @@ impl<const D: usize> Runs<D> {
                 ends,
             } => {
                 let id = order[k] as usize;
-                (packing.unpack(keys[id]), ends[id])
+                (packing.unpack(keys[id]), ends[id] as usize)
             }
             Runs::Listed(v) => v[k],
         }
@@ -143,8 +145,10 @@ impl<const D: usize> DensityGrid<D> {
         let mut narrow = self.is_empty();
         for p in points.clone() {
             n += 1;
-            if p.iter().all(|v| v.is_finite()) {
-                narrow = narrow && narrow_point(&p).is_some();
+            if all_finite(&p) {
+                if narrow {
+                    narrow = narrow_point(&p).is_some();
+                }
                 for a in 0..D {
                     lo[a] = lo[a].min(p[a]);
                     hi[a] = hi[a].max(p[a]);
@@ -159,19 +163,24 @@ impl<const D: usize> DensityGrid<D> {
             return self.sort_general(points);
         };
         let mut ids: Vec<u32> = Vec::with_capacity(n);
-        let mut keys: Vec<u64> = Vec::new();
-        // Points per cell id; later the start, then the end, of each cell's run.
-        let mut counts: Vec<usize> = Vec::new();
         let mut table = KeyTable::new(n);
+        let mut keys: Vec<u64> = Vec::with_capacity(table.expected());
+        // Points per cell id; later the start, then the end, of each cell's run (a batch holds
+        // at most `MAX_POINTS` < 2^31 points, so these fit `u32`).
+        let mut counts: Vec<u32> = Vec::with_capacity(table.expected());
         let mut last = (u64::MAX, 0u32);
         let mut rejected = 0;
+        let (size, offset) = (self.spec.size(), self.spec.offset());
         for p in points.clone() {
-            let Some(index) = self.spec.cell_index(&p) else {
+            let Some(key) = packing.key_in_box(&p, size, offset) else {
                 rejected += 1;
                 ids.push(u32::MAX);
                 continue;
             };
-            let key = packing.pack(&index);
+            debug_assert_eq!(
+                self.spec.cell_index(&p).map(|i| packing.pack(&i)),
+                Some(key)
+            );
             let id = if key == last.0 {
                 last.1
             } else {
@@ -189,8 +198,8 @@ impl<const D: usize> DensityGrid<D> {
         let mut end = 0;
         for &id in &order {
             let c = &mut counts[id as usize];
-            let here = *c;
-            *c = end;
+            let here = *c as usize;
+            *c = to_u32(end);
             end += here;
         }
         let (sorted, sorted32) = if narrow {
@@ -295,16 +304,9 @@ impl<const D: usize> DensityGrid<D> {
             distance.push((rank.centre.to_bits(), slot));
             start = end;
         }
-        // Ascending distance, ties by index (= by slot here: the sort is stable and `distance`
-        // is in slot order). Distances are non-negative, so their bits sort as the values do.
-        let max = distance.iter().map(|e| e.0).max().unwrap_or(0);
-        radix_sort_by_key(
-            &mut distance,
-            &mut Vec::new(),
-            |e| e.0,
-            0,
-            u64::BITS - max.leading_zeros(),
-        );
+        // Ascending distance, ties by slot (= by index here). Distances are non-negative, so
+        // their bits sort as the values do.
+        sort_by_distance(&mut distance);
         // The ordered index is the slot order: both orders stay in this compact form until a
         // change needs the B-trees.
         self.built = Some(distance);
@@ -316,7 +318,7 @@ impl<const D: usize> DensityGrid<D> {
 fn scatter<const D: usize, T: Copy + Default>(
     points: impl Iterator<Item = [f64; D]>,
     ids: &[u32],
-    next: &mut [usize],
+    next: &mut [u32],
     len: usize,
     conv: impl Fn([f64; D]) -> [T; D],
 ) -> Vec<[T; D]> {
@@ -324,7 +326,7 @@ fn scatter<const D: usize, T: Copy + Default>(
     for (p, &id) in points.zip(ids) {
         if id != u32::MAX {
             let at = &mut next[id as usize];
-            sorted[*at] = conv(p);
+            sorted[*at as usize] = conv(p);
             *at += 1;
         }
     }
@@ -379,12 +381,20 @@ impl KeyTable {
     fn new(n: usize) -> Self {
         // `id_mask >= n + 1 > id`, so that no entry equals `FREE`.
         let id_bits = (u64::BITS - (n as u64).saturating_add(1).leading_zeros()).min(63);
+        // Room for n / 16 cells at first (real scans hold 5-30 % as many cells as points), so
+        // that the table rarely grows; between 2^10 and 2^22 buckets.
+        let log = (n / 8).next_power_of_two().trailing_zeros().clamp(10, 22);
         KeyTable {
-            buckets: vec![FREE; 1 << 10],
+            buckets: vec![FREE; 1 << log],
             len: 0,
-            shift: 64 - 10,
+            shift: 64 - log,
             id_mask: (1u64 << id_bits) - 1,
         }
+    }
+
+    /// Number of keys the table holds before it first grows.
+    fn expected(&self) -> usize {
+        self.buckets.len() / 2
     }
 
     #[inline]

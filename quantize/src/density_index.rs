@@ -208,6 +208,17 @@ pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
     (t.abs() <= limit).then_some(t)
 }
 
+/// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x - x` is 0 for a
+/// finite `x` and NaN otherwise.
+#[inline]
+pub(crate) fn all_finite<const D: usize>(p: &[f64; D]) -> bool {
+    let mut z = 0.0;
+    for v in p {
+        z += v - v;
+    }
+    z == 0.0
+}
+
 /// Packing of cell indexes within a box of cells into `u64` keys, axis 0 most significant, so
 /// that the integer order of keys is the lexicographic order of the indexes.
 #[derive(Debug, Clone, Copy)]
@@ -263,6 +274,38 @@ impl<const D: usize> Packing<D> {
             }
         }
         k
+    }
+
+    /// The key of the cell holding the finite point `p` (`None` for a NaN or infinite
+    /// coordinate), for a packing whose box holds the cells of every finite point of a batch
+    /// (`lo..=hi` the cells of the batch's coordinate-wise minimum and maximum, `bits < 64`).
+    ///
+    /// Same cell as [`GridSpec::cell_index`](crate::GridSpec::cell_index) then `pack`, without
+    /// the range checks: `(x - offset) / size` is monotone in `x`, so a finite coordinate's
+    /// quotient lies between those of the box's corners, whose floors are in range.
+    #[inline]
+    pub(crate) fn key_in_box(
+        &self,
+        p: &[f64; D],
+        size: &[f64; D],
+        offset: &[f64; D],
+    ) -> Option<u64> {
+        if !all_finite(p) {
+            return None;
+        }
+        let mut k = 0u64;
+        for a in 0..D {
+            let q = (p[a] - offset[a]) / size[a];
+            // Exact floor (|q| <= 2^53 + 1 here), as `floor_index`.
+            let mut t = q as i64;
+            if (t as f64) > q {
+                t -= 1;
+            }
+            // `t >= min[a]` by monotonicity, and `shift[a] < bits < 64`; a zero-width axis
+            // adds 0 (there `t == min[a]`). Wrapping keeps a violated assumption panic-free.
+            k |= (t.wrapping_sub(self.min[a]) as u64) << (self.shift[a] & 63);
+        }
+        Some(k)
     }
 
     /// The index of key `k`.
@@ -329,6 +372,67 @@ pub(crate) fn radix_sort_by_key<T: Copy>(
         }
         std::mem::swap(v, scratch);
     }
+}
+
+/// Sort `(distance bits, slot)` pairs ascending (by bits, then slot), where every bits value is
+/// that of a non-negative `f64` (so the bits order is the value order).
+///
+/// A bucket sort on the value: each pair goes to bucket `floor(value * scale)` (monotone in the
+/// value), the buckets are filled in one stable pass, and each bucket is then sorted on the full
+/// pair (insertion sort when small, else a comparison sort). About three passes over the pairs
+/// for any spread of distances; no quadratic case. The pairs are distinct when the slots are,
+/// so the result is the unique sorted order.
+pub(crate) fn sort_by_distance(v: &mut Vec<(u64, u32)>) {
+    let n = v.len();
+    if n < 2 {
+        return;
+    }
+    let max = v
+        .iter()
+        .map(|e| f64::from_bits(e.0))
+        .fold(0.0f64, |m, d| if d > m { d } else { m });
+    let buckets = n.min(1 << 20);
+    let top = (buckets - 1) as f64;
+    // `scale` is finite and non-negative (0 when every distance is 0 or `max` overflows), and
+    // `d * scale` is monotone in `d`; the saturating cast and the clamp keep the bucket in range.
+    let scale = if max > 0.0 && max.is_finite() {
+        top / max
+    } else {
+        0.0
+    };
+    let bucket_of = |bits: u64| -> usize {
+        let b = (f64::from_bits(bits) * scale) as usize;
+        b.min(buckets - 1)
+    };
+    let mut start = vec![0u32; buckets + 1];
+    for e in v.iter() {
+        start[bucket_of(e.0) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    let mut out = vec![(0u64, 0u32); n];
+    let mut next = start.clone();
+    for &e in v.iter() {
+        let at = &mut next[bucket_of(e.0)];
+        out[*at as usize] = e;
+        *at += 1;
+    }
+    for b in 0..buckets {
+        let run = &mut out[start[b] as usize..start[b + 1] as usize];
+        if run.len() <= 16 {
+            for i in 1..run.len() {
+                let mut j = i;
+                while j > 0 && run[j] < run[j - 1] {
+                    run.swap(j, j - 1);
+                    j -= 1;
+                }
+            }
+        } else {
+            run.sort_unstable();
+        }
+    }
+    *v = out;
 }
 
 #[cfg(test)]
@@ -441,5 +545,53 @@ mod tests {
         want.sort_by_key(|w| w >> 13);
         radix_sort_bits(&mut v, &mut Vec::new(), 13, 13 + 24);
         assert_eq!(v, want);
+    }
+
+    #[test]
+    fn distance_sort_matches_a_comparison_sort() {
+        let mut x = 777u64;
+        let mut next = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            x >> 11
+        };
+        let cases: Vec<Vec<f64>> = vec![
+            vec![],
+            vec![0.3],
+            vec![0.0; 100],
+            (0..5000).map(|_| (next() % 1000) as f64 / 1333.0).collect(),
+            (0..3000).map(|_| (next() % 7) as f64 * 0.1).collect(),
+            (0..2000)
+                .map(|i| {
+                    if i % 500 == 0 {
+                        f64::INFINITY
+                    } else {
+                        (next() % 100) as f64
+                    }
+                })
+                .collect(),
+            (0..2000)
+                .map(|i| {
+                    if i == 7 {
+                        1e300
+                    } else {
+                        (next() % 1000) as f64 * 1e-6
+                    }
+                })
+                .collect(),
+            (0..2000).map(|_| f64::from_bits(next() >> 2)).collect(),
+        ];
+        for d in cases {
+            let mut v: Vec<(u64, u32)> = d
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| (d.to_bits(), (i as u32).wrapping_mul(2654435761) % 100_000))
+                .collect();
+            let mut want = v.clone();
+            want.sort();
+            sort_by_distance(&mut v);
+            assert_eq!(v, want);
+        }
     }
 }
