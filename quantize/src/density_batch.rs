@@ -14,7 +14,7 @@ use crate::density::CellIndex;
 use crate::density_arena::narrow_point;
 use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
 use crate::density_index::{
-    all_finite, hash_index, radix_sort_bits, sort_by_distance, Packing, SlotTable,
+    all_finite, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
 };
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
@@ -279,8 +279,10 @@ impl<const D: usize> DensityGrid<D> {
         self.hot.reserve(cells);
         self.slots.reserve(cells);
         self.lookup = SlotTable::with_buffer(batch.spare, cells);
-        // Slots are created in index order, so slot order is index order.
-        let mut distance: Vec<(u64, u32)> = Vec::with_capacity(cells);
+        // Slots are created in index order, so slot order is index order. The distance order
+        // is counted here and placed from the cells' ranks below (no list of pairs in between);
+        // a representative lies in its cell, so its distance is at most about D / 4.
+        let mut distance = DistanceSort::new(cells, D as f64 / 4.0);
         let mut start = 0;
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
@@ -301,12 +303,17 @@ impl<const D: usize> DensityGrid<D> {
                 rank,
             });
             self.lookup.insert(hash_index(&index), slot);
-            distance.push((rank.centre.to_bits(), slot));
+            distance.count(rank.centre.to_bits());
             start = end;
         }
         // Ascending distance, ties by slot (= by index here). Distances are non-negative, so
         // their bits sort as the values do.
-        sort_by_distance(&mut distance);
+        let distance = distance.place(
+            self.slots
+                .iter()
+                .enumerate()
+                .map(|(s, c)| (c.rank.centre.to_bits(), s as u32)),
+        );
         // The ordered index is the slot order: both orders stay in this compact form until a
         // change needs the B-trees.
         self.built = Some(distance);
