@@ -10,9 +10,9 @@
 //! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
 //! [`DensityGrid::insert`], one look-up per cell.
 
-use crate::density::CellIndex;
-use crate::density_arena::narrow_point;
-use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
+use crate::density::{CellIndex, Selection};
+use crate::density_arena::{narrow_point, widen_point};
+use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot};
 use crate::density_index::{
     all_finite, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
 };
@@ -287,7 +287,15 @@ impl<const D: usize> DensityGrid<D> {
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
             let slot = new_slot(k);
-            let (sel, rank) = self.best_of(&index, self.arena().members(start..end));
+            let (sel, rank) = match (&self.selection, &self.narrow) {
+                // The usual case, without the arena form's dispatch per member.
+                (Selection::CentreClosest, Some(arena)) => centre_closest(
+                    &self.spec.cell_centre(&index),
+                    self.spec.size(),
+                    arena[start..end].iter().map(widen_point),
+                ),
+                _ => self.best_of(&index, self.arena().members(start..end)),
+            };
             self.generation += 1;
             self.hot.push(Hot {
                 index,

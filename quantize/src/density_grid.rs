@@ -534,25 +534,7 @@ impl<const D: usize> DensityGrid<D> {
     {
         let c = self.spec.cell_centre(index);
         if let Selection::CentreClosest = self.selection {
-            // The rank's primary criterion is the centre distance itself: one comparison of
-            // distances, then of coordinates (the same order as `Rank::cmp_with`).
-            let size = self.spec.size();
-            let mut best = (0, f64::INFINITY, c);
-            for (k, p) in members.enumerate() {
-                let d = scaled_distance(&p, &c, size);
-                if k == 0
-                    || d.total_cmp(&best.1)
-                        .then_with(|| cmp_points(&p, &best.2))
-                        .is_lt()
-                {
-                    best = (k, d, p);
-                }
-            }
-            let rank = Rank {
-                primary: best.1,
-                centre: best.1,
-            };
-            return (best.0, rank);
+            return centre_closest(&c, self.spec.size(), members);
         }
         let m = self
             .selection
@@ -840,6 +822,33 @@ impl<const D: usize> DensityGrid<D> {
         }
         Ok(())
     }
+}
+
+/// The [`Selection::CentreClosest`] choice among `members` (at least one; cell centre `c`,
+/// axes scaled by `size`): the rank's primary criterion is the centre distance itself, so one
+/// comparison of distances, then of coordinates (the same order as `Rank::cmp_with`).
+#[inline]
+pub(crate) fn centre_closest<const D: usize>(
+    c: &[f64; D],
+    size: &[f64; D],
+    members: impl Iterator<Item = [f64; D]>,
+) -> (usize, Rank) {
+    let mut best = (0, f64::INFINITY, *c);
+    for (k, p) in members.enumerate() {
+        let d = scaled_distance(&p, c, size);
+        if k == 0
+            || d.total_cmp(&best.1)
+                .then_with(|| cmp_points(&p, &best.2))
+                .is_lt()
+        {
+            best = (k, d, p);
+        }
+    }
+    let rank = Rank {
+        primary: best.1,
+        centre: best.1,
+    };
+    (best.0, rank)
 }
 
 /// Slot number `n` (slot `u32::MAX` is reserved for the hash index's empty bucket). Never
