@@ -10,7 +10,7 @@
 //! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
 //! [`DensityGrid::insert`], one look-up per cell.
 
-use crate::density::{CellIndex, Selection};
+use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
 use crate::density_arena::{narrow_point, widen_point};
 use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot};
 use crate::density_index::{
@@ -126,18 +126,26 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Counting sort of a batch by cell, dropping (and counting) the rejected points.
     ///
-    /// A first pass finds the bounding box of the finite points; the cell index is monotone in
-    /// each coordinate, so the cells of the box's corners bound every accepted point's cell,
-    /// and the cell indexes pack into `u64` keys relative to that box (integer order =
-    /// lexicographic order). A second pass gives each point a batch-local cell id through a
-    /// hash table keyed by the packed key (consecutive points often share a cell); only the
-    /// distinct cells are then sorted, and a last pass moves every point into its cell's run,
-    /// keeping the input order within a run. A batch whose box does not pack into 63 bits is
-    /// sorted by comparison instead.
+    /// Usually one pass gives each point a batch-local cell id through a hash table keyed by
+    /// the cell index packed into a `u64` (consecutive points often share a cell): indexes
+    /// relative to the first finite point's cell, `min(63 / D, 48)` bits per axis (see
+    /// [`Self::ids_in_window`]). The distinct cells' keys are then repacked relative to their
+    /// own box and sorted, and a last pass moves every point into its cell's run, keeping the
+    /// input order within a run. A batch reaching beyond that window is measured first
+    /// instead: its finite points' bounding box bounds its cells (the cell index is monotone in
+    /// each coordinate), whose indexes then pack relative to that box; a box that does not
+    /// pack into 63 bits is sorted by comparison.
     fn sort_batch<It>(&self, points: It) -> (SortedBatch<D>, u64)
     where
         It: Iterator<Item = [f64; D]> + Clone,
     {
+        let n_hint = match points.size_hint() {
+            (_, Some(upper)) => upper,
+            (lower, None) => lower,
+        };
+        if let Some(ids) = self.ids_in_window(points.clone(), n_hint) {
+            return self.finish_sort(points, ids);
+        }
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
         let mut n = 0;
@@ -162,38 +170,125 @@ impl<const D: usize> DensityGrid<D> {
         let Some(packing) = packing else {
             return self.sort_general(points);
         };
-        let mut ids: Vec<u32> = Vec::with_capacity(n);
-        let mut table = KeyTable::new(n);
-        let mut keys: Vec<u64> = Vec::with_capacity(table.expected());
-        // Points per cell id; later the start, then the end, of each cell's run (a batch holds
-        // at most `MAX_POINTS` < 2^31 points, so these fit `u32`).
-        let mut counts: Vec<u32> = Vec::with_capacity(table.expected());
-        let mut last = (u64::MAX, 0u32);
-        let mut rejected = 0;
+        let mut ids = CellIds::new(n, packing);
+        ids.narrow = narrow;
         let (size, offset) = (self.spec.size(), self.spec.offset());
         for p in points.clone() {
             let Some(key) = packing.key_in_box(&p, size, offset) else {
-                rejected += 1;
-                ids.push(u32::MAX);
+                ids.reject();
                 continue;
             };
             debug_assert_eq!(
                 self.spec.cell_index(&p).map(|i| packing.pack(&i)),
                 Some(key)
             );
-            let id = if key == last.0 {
-                last.1
-            } else {
-                let id = table.get_or_insert(key, &mut keys);
-                if id as usize == counts.len() {
-                    counts.push(0);
-                }
-                last = (key, id);
-                id
-            };
-            counts[id as usize] += 1;
-            ids.push(id);
+            ids.push(key);
         }
+        self.finish_sort(points, ids)
+    }
+
+    /// The cell ids of a batch whose finite points' cells all lie within `2^(W - 1)` cells of
+    /// the first finite point's cell on every axis (`W = min(63 / D, 48)` bits per axis), in one
+    /// pass;
+    /// `None` (work discarded) as soon as one does not, or when `D > 21`. Keys are packed
+    /// relative to the window first and repacked relative to the distinct cells' box at the
+    /// end (both keep the lexicographic order).
+    fn ids_in_window<It>(&self, points: It, n_hint: usize) -> Option<CellIds<D>>
+    where
+        It: Iterator<Item = [f64; D]> + Clone,
+    {
+        if D == 0 || D > 21 {
+            return None;
+        }
+        let w = (63 / D as u32).min(48);
+        let half = 1i64 << (w - 1);
+        let field = (1u64 << w) - 1;
+        let first = points.clone().find(all_finite)?;
+        let base = self.spec.cell_index(&first)?;
+        // Every index within the window is then within `MAX_CELL_INDEX`, as `cell_index` wants.
+        if base.iter().any(|b| b.abs() > MAX_CELL_INDEX - half) {
+            return None;
+        }
+        // Window position of axis `a`'s field in a key.
+        let shift = |a: usize| w * (D - 1 - a) as u32;
+        let wide = Packing::new(&base, &base)?;
+        let mut ids = CellIds::new(n_hint, wide);
+        ids.narrow = self.is_empty();
+        let (size, offset) = (self.spec.size(), self.spec.offset());
+        for p in points {
+            if !all_finite(&p) {
+                ids.reject();
+                continue;
+            }
+            if ids.narrow {
+                ids.narrow = narrow_point(&p).is_some();
+            }
+            let mut key = 0u64;
+            for a in 0..D {
+                let q = (p[a] - offset[a]) / size[a];
+                // Exact floor as `floor_index` within the window; beyond it the saturated
+                // value fails the window test.
+                let mut t = q as i64;
+                if (t as f64) > q {
+                    t = t.saturating_sub(1);
+                }
+                let f = t.wrapping_sub(base[a]).wrapping_add(half) as u64;
+                if f > field {
+                    return None;
+                }
+                key |= f << shift(a);
+            }
+            debug_assert_eq!(
+                self.spec.cell_index(&p),
+                Some(std::array::from_fn(
+                    |a| base[a] - half + ((key >> shift(a)) & field) as i64
+                ))
+            );
+            ids.push(key);
+        }
+        // Repack relative to the box of the distinct cells.
+        let mut lo = [u64::MAX; D];
+        let mut hi = [0u64; D];
+        for &k in &ids.keys {
+            for a in 0..D {
+                let f = (k >> shift(a)) & field;
+                lo[a] = lo[a].min(f);
+                hi[a] = hi[a].max(f);
+            }
+        }
+        if ids.keys.is_empty() {
+            lo = [half as u64; D];
+            hi = lo;
+        }
+        let index_of = |k: u64| -> CellIndex<D> {
+            std::array::from_fn(|a| base[a] - half + ((k >> shift(a)) & field) as i64)
+        };
+        let to_index = |f: &[u64; D]| -> CellIndex<D> {
+            std::array::from_fn(|a| base[a] - half + f[a] as i64)
+        };
+        let packing = Packing::new(&to_index(&lo), &to_index(&hi))?;
+        for k in ids.keys.iter_mut() {
+            *k = packing.pack(&index_of(*k));
+        }
+        ids.packing = packing;
+        Some(ids)
+    }
+
+    /// Sort the cells of `ids` by key and move `points` (the batch again) into their runs.
+    fn finish_sort<It>(&self, points: It, ids: CellIds<D>) -> (SortedBatch<D>, u64)
+    where
+        It: Iterator<Item = [f64; D]>,
+    {
+        let CellIds {
+            packing,
+            ids,
+            table,
+            keys,
+            mut counts,
+            rejected,
+            narrow,
+            ..
+        } = ids;
         let order = sort_keys(&keys);
         let mut end = 0;
         for &id in &order {
@@ -328,6 +423,63 @@ impl<const D: usize> DensityGrid<D> {
     }
 }
 
+/// A batch's points' cell ids being assigned: one per point (`u32::MAX` for a rejected point),
+/// ids numbered by first appearance, with each id's packed key and point count.
+struct CellIds<const D: usize> {
+    packing: Packing<D>,
+    ids: Vec<u32>,
+    table: KeyTable,
+    keys: Vec<u64>,
+    /// Points per cell id; later the start, then the end, of each cell's run (a batch holds
+    /// at most `MAX_POINTS` < 2^31 points, so these fit `u32`).
+    counts: Vec<u32>,
+    last: (u64, u32),
+    rejected: u64,
+    /// Whether every accepted point so far is exact in `f32` (and the batch builds a grid).
+    narrow: bool,
+}
+
+impl<const D: usize> CellIds<D> {
+    /// For a batch of about `n` points.
+    fn new(n: usize, packing: Packing<D>) -> Self {
+        let table = KeyTable::new(n);
+        CellIds {
+            packing,
+            ids: Vec::with_capacity(n),
+            keys: Vec::with_capacity(table.expected()),
+            counts: Vec::with_capacity(table.expected()),
+            table,
+            last: (u64::MAX, 0),
+            rejected: 0,
+            narrow: false,
+        }
+    }
+
+    /// The next point lies in the cell with packed key `key`.
+    #[inline]
+    fn push(&mut self, key: u64) {
+        let id = if key == self.last.0 {
+            self.last.1
+        } else {
+            let id = self.table.get_or_insert(key, &mut self.keys);
+            if id as usize == self.counts.len() {
+                self.counts.push(0);
+            }
+            self.last = (key, id);
+            id
+        };
+        self.counts[id as usize] += 1;
+        self.ids.push(id);
+    }
+
+    /// The next point is rejected.
+    #[inline]
+    fn reject(&mut self) {
+        self.rejected += 1;
+        self.ids.push(u32::MAX);
+    }
+}
+
 /// Move each point with a cell id (`ids`, `u32::MAX` for none) to its cell's run, converted by
 /// `conv`; `next[id]` holds the start of cell `id`'s run and ends at its end. `len` points.
 fn scatter<const D: usize, T: Copy + Default>(
@@ -392,10 +544,11 @@ struct KeyTable {
 const FREE: u64 = u64::MAX;
 
 impl KeyTable {
-    /// A table for the ids of a batch of `n` points (ids < n).
+    /// A table for the ids of a batch of about `n` points (`n` only sizes it).
     fn new(n: usize) -> Self {
-        // `id_mask >= n + 1 > id`, so that no entry equals `FREE`.
-        let id_bits = (u64::BITS - (n as u64).saturating_add(1).leading_zeros()).min(63);
+        // Ids are `u32` below `u32::MAX` (see `new_slot`), so `id < id_mask` and no entry
+        // equals `FREE`; 32 fingerprint bits remain.
+        let id_bits = 32;
         // Room for n / 16 cells at first (real scans hold 5-30 % as many cells as points), so
         // that the table rarely grows; between 2^10 and 2^22 buckets.
         let log = (n / 8).next_power_of_two().trailing_zeros().clamp(10, 22);

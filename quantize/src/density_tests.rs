@@ -313,6 +313,73 @@ fn very_wide_batch_matches_single_inserts() {
     assert_eq!(batch.output_cycle(), single.output_cycle());
 }
 
+/// Batches into an empty grid go through the one-pass window when every cell lies within
+/// 2^20 cells (D = 3) of the first finite point's cell, and through the bounding-box pass when
+/// one does not (just past the window's edge, a first point near the index limit, spreads in
+/// one and two dimensions); every path must give the store of one-by-one insertion.
+#[test]
+fn window_and_bounding_box_batches_match_single_inserts() {
+    fn check<const D: usize>(spec: GridSpec<D>, pts: &[[f64; D]]) {
+        let mut batch = DensityGrid::new(spec.clone());
+        let rejected = batch.extend(pts.iter().copied());
+        let mut single = DensityGrid::new(spec);
+        for p in pts.iter().rev() {
+            single.insert(*p);
+        }
+        batch.validate().unwrap();
+        single.validate().unwrap();
+        assert_eq!(rejected, single.counts().rejected);
+        assert_eq!(batch.state(), single.state());
+        assert_eq!(batch.counts(), single.counts());
+        assert_eq!(batch.output_cycle(), single.output_cycle());
+    }
+    let half = (1i64 << 20) as f64;
+    let mut x = 11;
+    let mut jitter = move || (lcg(&mut x) % 16) as f64 * 0.25;
+    for (first, spread) in [
+        (0.0, 3.0),
+        (0.0, half - 1.0),
+        (0.0, half),
+        (0.0, half + 0.5),
+        (-5.0, 4.0 * half),
+        (9.007_199_254e15, 2.0),
+        (-8.9e15, 2.0),
+    ] {
+        let spec = GridSpec::<3>::cubic(1.0).unwrap();
+        let mut pts = vec![[f64::NAN, 1.0, 2.0], [first, first, first]];
+        for k in 0..200 {
+            let far = if k % 7 == 0 { spread } else { 0.0 };
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            pts.push([
+                first + sign * far + jitter(),
+                first - sign * far + jitter(),
+                first + jitter(),
+            ]);
+        }
+        pts.push([f64::INFINITY, 0.0, 0.0]);
+        check(spec, &pts);
+    }
+    // Points on exact window edges at a cell size that is not a power of two.
+    let spec = GridSpec::<3>::new([0.3, 0.7, 1.1], [0.05, -0.2, 0.0]).unwrap();
+    let e = |i: f64, a: usize| [0.05, -0.2, 0.0][a] + i * [0.3, 0.7, 1.1][a];
+    let pts: Vec<[f64; 3]> = [0.0, -half, half - 1.0, half, -half - 1.0]
+        .iter()
+        .map(|&i| [e(i, 0), e(-i, 1), e(i, 2)])
+        .collect();
+    check(spec.clone(), &pts[..3]);
+    check(spec, &pts);
+    for spread in [3.0, 1e9, 1e13] {
+        let pts1: Vec<[f64; 1]> = (0..100)
+            .map(|k| [(k % 9) as f64 * spread + jitter()])
+            .collect();
+        check(GridSpec::<1>::cubic(0.5).unwrap(), &pts1);
+        let pts2: Vec<[f64; 2]> = (0..100)
+            .map(|k| [(k % 5) as f64 * spread, jitter() - (k % 3) as f64 * spread])
+            .collect();
+        check(GridSpec::<2>::cubic(0.5).unwrap(), &pts2);
+    }
+}
+
 /// Many single insertions into few cells in turn move spans to the arena's end (and
 /// compact it); deleting most points again compacts it; the store stays valid throughout and
 /// ends equal to a store that only ever saw the remaining points.
