@@ -405,7 +405,7 @@ impl<const D: usize> DensityGrid<D> {
                 selected: to_u32(sel),
                 rank,
             });
-            self.lookup.insert(hash_index(&index), slot);
+            self.lookup.insert_with_room(hash_index(&index), slot);
             distance.count(rank.centre.to_bits());
             start = end;
         }
@@ -538,6 +538,8 @@ struct KeyTable {
     len: usize,
     shift: u32,
     id_mask: u64,
+    /// About how many points the batch has (sizes the growth).
+    points: usize,
 }
 
 /// An empty [`KeyTable`] bucket: no id reaches `id_mask`, so no entry is all ones.
@@ -557,6 +559,7 @@ impl KeyTable {
             len: 0,
             shift: 64 - log,
             id_mask: (1u64 << id_bits) - 1,
+            points: n,
         }
     }
 
@@ -607,10 +610,17 @@ impl KeyTable {
         }
     }
 
+    /// Double the table, or quadruple it while it is small next to the batch (fewer rehashes
+    /// for batches with many cells per point).
     fn grow(&mut self, keys: &[u64]) {
-        let size = 2 * self.buckets.len();
+        let step = if self.buckets.len().saturating_mul(4) <= self.points && self.shift > 2 {
+            2
+        } else {
+            1
+        };
+        let size = self.buckets.len() << step;
         let old = std::mem::replace(&mut self.buckets, vec![FREE; size]);
-        self.shift -= 1;
+        self.shift -= step;
         let mask = size - 1;
         for e in old {
             if e != FREE {

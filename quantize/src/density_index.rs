@@ -140,6 +140,17 @@ impl SlotTable {
         self.buckets[i] = e;
     }
 
+    /// [`Self::insert`] when the table is known to have room (as sized by
+    /// [`Self::with_buffer`]); grows anyway if it has not.
+    #[inline]
+    pub(crate) fn insert_with_room(&mut self, h: u64, slot: u32) {
+        if 2 * (self.len + 1) > self.buckets.len() {
+            self.reserve(1);
+        }
+        self.place(((h as u32 as u64) << 32) | u64::from(slot));
+        self.len += 1;
+    }
+
     /// Add `slot` with hash `h` (the key must not be present).
     pub(crate) fn insert(&mut self, h: u64, slot: u32) {
         debug_assert_ne!(slot, u32::MAX);
