@@ -219,13 +219,13 @@ pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
     (t.abs() <= limit).then_some(t)
 }
 
-/// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x - x` is 0 for a
-/// finite `x` and NaN otherwise.
+/// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x * 0` is (a signed)
+/// 0 for a finite `x` and NaN otherwise.
 #[inline]
 pub(crate) fn all_finite<const D: usize>(p: &[f64; D]) -> bool {
     let mut z = 0.0;
     for v in p {
-        z += v - v;
+        z += v * 0.0;
     }
     z == 0.0
 }
@@ -522,6 +522,30 @@ mod tests {
             let f = q.floor();
             let want = (f.is_finite() && f.abs() <= limit as f64).then_some(f as i64);
             assert_eq!(floor_index(q, limit), want, "{q}");
+        }
+    }
+
+    #[test]
+    fn all_finite_is_is_finite_on_every_axis() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.5,
+            -1e300,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE / 4.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for &a in &vals {
+            for &b in &vals {
+                for &c in &vals {
+                    let p = [a, b, c];
+                    assert_eq!(all_finite(&p), p.iter().all(|v| v.is_finite()), "{p:?}");
+                }
+            }
         }
     }
 
