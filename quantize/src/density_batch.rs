@@ -12,7 +12,7 @@
 
 use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
 use crate::density_arena::{narrow_point, widen_point};
-use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot};
+use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
 use crate::density_index::{
     all_finite, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
 };
@@ -363,6 +363,7 @@ impl<const D: usize> DensityGrid<D> {
         debug_assert!(self.is_empty());
         self.hot.clear();
         self.slots.clear();
+        self.packed = None;
         self.free.clear();
         self.index.clear();
         self.by_distance.clear();
@@ -372,7 +373,13 @@ impl<const D: usize> DensityGrid<D> {
         self.reserved = batch.len;
         let cells = batch.runs.len();
         self.hot.reserve(cells);
-        self.slots.reserve(cells);
+        // Under the closest-to-centre rule the cells' records are kept packed (the rank's
+        // primary criterion is the centre distance; spans are back to back, without room).
+        let mut packed: Option<Vec<PackedCell>> =
+            matches!(self.selection, Selection::CentreClosest).then(|| Vec::with_capacity(cells));
+        if packed.is_none() {
+            self.slots.reserve(cells);
+        }
         self.lookup = SlotTable::with_buffer(batch.spare, cells);
         // Slots are created in index order, so slot order is index order. The distance order
         // is counted here and placed from the cells' ranks below (no list of pairs in between);
@@ -398,25 +405,41 @@ impl<const D: usize> DensityGrid<D> {
                 stamp: self.generation,
                 mark: 0,
             });
-            self.slots.push(Cell {
-                start,
-                len: to_u32(end - start),
-                cap: to_u32(end - start),
-                selected: to_u32(sel),
-                rank,
-            });
+            match &mut packed {
+                Some(packed) => packed.push(PackedCell {
+                    end: to_u32(end),
+                    selected: to_u32(sel),
+                    centre: rank.centre,
+                }),
+                None => self.slots.push(Cell {
+                    start,
+                    len: to_u32(end - start),
+                    cap: to_u32(end - start),
+                    selected: to_u32(sel),
+                    rank,
+                }),
+            }
             self.lookup.insert_with_room(hash_index(&index), slot);
             distance.count(rank.centre.to_bits());
             start = end;
         }
         // Ascending distance, ties by slot (= by index here). Distances are non-negative, so
         // their bits sort as the values do.
-        let distance = distance.place(
-            self.slots
-                .iter()
-                .enumerate()
-                .map(|(s, c)| (c.rank.centre.to_bits(), s as u32)),
-        );
+        let distance = match &packed {
+            Some(packed) => distance.place(
+                packed
+                    .iter()
+                    .enumerate()
+                    .map(|(s, c)| (c.centre.to_bits(), s as u32)),
+            ),
+            None => distance.place(
+                self.slots
+                    .iter()
+                    .enumerate()
+                    .map(|(s, c)| (c.rank.centre.to_bits(), s as u32)),
+            ),
+        };
+        self.packed = packed;
         // The ordered index is the slot order: both orders stay in this compact form until a
         // change needs the B-trees.
         self.built = Some(distance);

@@ -689,3 +689,52 @@ fn a_full_grid_refuses_points_as_one_by_one_insertion_would() {
     assert_eq!(roomy.state(), plain.state());
     assert_eq!(DensityGrid::<3>::MAX_POINTS, (1 << 31) - 1);
 }
+
+/// The packed cell records a batch into an empty grid leaves (closest-to-centre rule) against
+/// the same grid with its records unpacked: same views, same state, valid, and the same after
+/// further insertions, deletions and a read cycle.
+mod packed_records {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn lattice() -> impl Strategy<Value = f64> {
+        (-40i32..40).prop_map(|v| f64::from(v) / 8.0)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn packed_and_unpacked_records_agree(
+            pts in prop::collection::vec([lattice(), lattice(), lattice()], 1..200),
+            more in prop::collection::vec([lattice(), lattice(), lattice()], 0..20),
+            size in prop_oneof![Just(1.0), Just(0.75), 0.3f64..2.0],
+            drop in 0usize..200,
+        ) {
+            let mut packed = DensityGrid::new(GridSpec::<3>::cubic(size).unwrap());
+            packed.extend(pts.iter().copied());
+            prop_assert!(packed.packed.is_some());
+            let mut plain = packed.clone();
+            plain.unpack_cells();
+            prop_assert!(plain.packed.is_none());
+            packed.validate().unwrap();
+            plain.validate().unwrap();
+            for (a, b) in packed.cells().zip(plain.cells()) {
+                prop_assert_eq!(a.index(), b.index());
+                prop_assert_eq!(a.len(), b.len());
+                prop_assert_eq!(a.point(), b.point());
+                prop_assert_eq!(a.distance().to_bits(), b.distance().to_bits());
+                prop_assert_eq!(a.members().collect::<Vec<_>>(), b.members().collect::<Vec<_>>());
+            }
+            prop_assert_eq!(packed.state(), plain.state());
+            // Changes unpack the records first; both grids must stay equal.
+            for g in [&mut packed, &mut plain] {
+                g.extend(more.iter().copied());
+                let _ = g.remove(&pts[drop % pts.len()]);
+                g.validate().unwrap();
+            }
+            prop_assert_eq!(packed.state(), plain.state());
+            prop_assert_eq!(packed.output_cycle(), plain.output_cycle());
+        }
+    }
+}
