@@ -98,16 +98,18 @@ impl<const D: usize> DensityGrid<D> {
         }
     }
 
-    /// Switch the arena to `f64` (a no-op when it is already): before any change to members.
+    /// Switch the arena to `f64` (a no-op when it is already), and the cells' records out of
+    /// their packed form: before any change to members.
     pub(crate) fn widen(&mut self) {
         if let Some(n) = self.narrow.take() {
             self.points = n.iter().map(widen_point).collect();
         }
+        self.unpack_cells();
     }
 
     /// The members of slot `s`.
     #[inline]
     pub(crate) fn members_of(&self, s: usize) -> Members<'_, D> {
-        self.arena().members(self.slots[s].span())
+        self.arena().members(self.cell(s).span())
     }
 }

@@ -10,10 +10,12 @@
 //! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
 //! [`DensityGrid::insert`], one look-up per cell.
 
-use crate::density::CellIndex;
-use crate::density_arena::narrow_point;
-use crate::density_grid::{new_slot, to_u32, Cell, DensityGrid, Hot};
-use crate::density_index::{hash_index, radix_sort_bits, radix_sort_by_key, Packing, SlotTable};
+use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
+use crate::density_arena::{narrow_point, widen_point};
+use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
+use crate::density_index::{
+    all_finite, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
+};
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
 struct SortedBatch<const D: usize> {
@@ -37,7 +39,7 @@ enum Runs<const D: usize> {
         packing: Packing<D>,
         keys: Vec<u64>,
         order: Vec<u32>,
-        ends: Vec<usize>,
+        ends: Vec<u32>,
     },
     /// From the comparison sort: `(cell index, run end)`.
     Listed(Vec<(CellIndex<D>, usize)>),
@@ -63,7 +65,7 @@ impl<const D: usize> Runs<D> {
                 ends,
             } => {
                 let id = order[k] as usize;
-                (packing.unpack(keys[id]), ends[id])
+                (packing.unpack(keys[id]), ends[id] as usize)
             }
             Runs::Listed(v) => v[k],
         }
@@ -124,18 +126,26 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Counting sort of a batch by cell, dropping (and counting) the rejected points.
     ///
-    /// A first pass finds the bounding box of the finite points; the cell index is monotone in
-    /// each coordinate, so the cells of the box's corners bound every accepted point's cell,
-    /// and the cell indexes pack into `u64` keys relative to that box (integer order =
-    /// lexicographic order). A second pass gives each point a batch-local cell id through a
-    /// hash table keyed by the packed key (consecutive points often share a cell); only the
-    /// distinct cells are then sorted, and a last pass moves every point into its cell's run,
-    /// keeping the input order within a run. A batch whose box does not pack into 63 bits is
-    /// sorted by comparison instead.
+    /// Usually one pass gives each point a batch-local cell id through a hash table keyed by
+    /// the cell index packed into a `u64` (consecutive points often share a cell): indexes
+    /// relative to the first finite point's cell, `min(63 / D, 48)` bits per axis (see
+    /// [`Self::ids_in_window`]). The distinct cells' keys are then repacked relative to their
+    /// own box and sorted, and a last pass moves every point into its cell's run, keeping the
+    /// input order within a run. A batch reaching beyond that window is measured first
+    /// instead: its finite points' bounding box bounds its cells (the cell index is monotone in
+    /// each coordinate), whose indexes then pack relative to that box; a box that does not
+    /// pack into 63 bits is sorted by comparison.
     fn sort_batch<It>(&self, points: It) -> (SortedBatch<D>, u64)
     where
         It: Iterator<Item = [f64; D]> + Clone,
     {
+        let n_hint = match points.size_hint() {
+            (_, Some(upper)) => upper,
+            (lower, None) => lower,
+        };
+        if let Some(ids) = self.ids_in_window(points.clone(), n_hint) {
+            return self.finish_sort(points, ids);
+        }
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
         let mut n = 0;
@@ -143,8 +153,10 @@ impl<const D: usize> DensityGrid<D> {
         let mut narrow = self.is_empty();
         for p in points.clone() {
             n += 1;
-            if p.iter().all(|v| v.is_finite()) {
-                narrow = narrow && narrow_point(&p).is_some();
+            if all_finite(&p) {
+                if narrow {
+                    narrow = narrow_point(&p).is_some();
+                }
                 for a in 0..D {
                     lo[a] = lo[a].min(p[a]);
                     hi[a] = hi[a].max(p[a]);
@@ -158,39 +170,131 @@ impl<const D: usize> DensityGrid<D> {
         let Some(packing) = packing else {
             return self.sort_general(points);
         };
-        let mut ids: Vec<u32> = Vec::with_capacity(n);
-        let mut keys: Vec<u64> = Vec::new();
-        // Points per cell id; later the start, then the end, of each cell's run.
-        let mut counts: Vec<usize> = Vec::new();
-        let mut table = KeyTable::new(n);
-        let mut last = (u64::MAX, 0u32);
-        let mut rejected = 0;
+        let mut ids = CellIds::new(n, packing);
+        ids.narrow = narrow;
+        let (size, offset) = (self.spec.size(), self.spec.offset());
         for p in points.clone() {
-            let Some(index) = self.spec.cell_index(&p) else {
-                rejected += 1;
-                ids.push(u32::MAX);
+            let Some(key) = packing.key_in_box(&p, size, offset) else {
+                ids.reject();
                 continue;
             };
-            let key = packing.pack(&index);
-            let id = if key == last.0 {
-                last.1
-            } else {
-                let id = table.get_or_insert(key, &mut keys);
-                if id as usize == counts.len() {
-                    counts.push(0);
-                }
-                last = (key, id);
-                id
-            };
-            counts[id as usize] += 1;
-            ids.push(id);
+            debug_assert_eq!(
+                self.spec.cell_index(&p).map(|i| packing.pack(&i)),
+                Some(key)
+            );
+            ids.push(key);
         }
+        self.finish_sort(points, ids)
+    }
+
+    /// The cell ids of a batch whose finite points' cells all lie within `2^(W - 1)` cells of
+    /// the first finite point's cell on every axis (`W = min(63 / D, 48)` bits per axis), in one
+    /// pass;
+    /// `None` (work discarded) as soon as one does not, or when `D > 21`. Keys are packed
+    /// relative to the window first and repacked relative to the distinct cells' box at the
+    /// end (both keep the lexicographic order).
+    fn ids_in_window<It>(&self, points: It, n_hint: usize) -> Option<CellIds<D>>
+    where
+        It: Iterator<Item = [f64; D]> + Clone,
+    {
+        if D == 0 || D > 21 {
+            return None;
+        }
+        let w = (63 / D as u32).min(48);
+        let half = 1i64 << (w - 1);
+        let field = (1u64 << w) - 1;
+        let first = points.clone().find(all_finite)?;
+        let base = self.spec.cell_index(&first)?;
+        // Every index within the window is then within `MAX_CELL_INDEX`, as `cell_index` wants.
+        if base.iter().any(|b| b.abs() > MAX_CELL_INDEX - half) {
+            return None;
+        }
+        // Window position of axis `a`'s field in a key.
+        let shift = |a: usize| w * (D - 1 - a) as u32;
+        let wide = Packing::new(&base, &base)?;
+        let mut ids = CellIds::new(n_hint, wide);
+        ids.narrow = self.is_empty();
+        let (size, offset) = (self.spec.size(), self.spec.offset());
+        for p in points {
+            if !all_finite(&p) {
+                ids.reject();
+                continue;
+            }
+            if ids.narrow {
+                ids.narrow = narrow_point(&p).is_some();
+            }
+            let mut key = 0u64;
+            for a in 0..D {
+                let q = (p[a] - offset[a]) / size[a];
+                // Exact floor as `floor_index` within the window; beyond it the saturated
+                // value fails the window test.
+                let mut t = q as i64;
+                if (t as f64) > q {
+                    t = t.saturating_sub(1);
+                }
+                let f = t.wrapping_sub(base[a]).wrapping_add(half) as u64;
+                if f > field {
+                    return None;
+                }
+                key |= f << shift(a);
+            }
+            debug_assert_eq!(
+                self.spec.cell_index(&p),
+                Some(std::array::from_fn(
+                    |a| base[a] - half + ((key >> shift(a)) & field) as i64
+                ))
+            );
+            ids.push(key);
+        }
+        // Repack relative to the box of the distinct cells.
+        let mut lo = [u64::MAX; D];
+        let mut hi = [0u64; D];
+        for &k in &ids.keys {
+            for a in 0..D {
+                let f = (k >> shift(a)) & field;
+                lo[a] = lo[a].min(f);
+                hi[a] = hi[a].max(f);
+            }
+        }
+        if ids.keys.is_empty() {
+            lo = [half as u64; D];
+            hi = lo;
+        }
+        let index_of = |k: u64| -> CellIndex<D> {
+            std::array::from_fn(|a| base[a] - half + ((k >> shift(a)) & field) as i64)
+        };
+        let to_index = |f: &[u64; D]| -> CellIndex<D> {
+            std::array::from_fn(|a| base[a] - half + f[a] as i64)
+        };
+        let packing = Packing::new(&to_index(&lo), &to_index(&hi))?;
+        for k in ids.keys.iter_mut() {
+            *k = packing.pack(&index_of(*k));
+        }
+        ids.packing = packing;
+        Some(ids)
+    }
+
+    /// Sort the cells of `ids` by key and move `points` (the batch again) into their runs.
+    fn finish_sort<It>(&self, points: It, ids: CellIds<D>) -> (SortedBatch<D>, u64)
+    where
+        It: Iterator<Item = [f64; D]>,
+    {
+        let CellIds {
+            packing,
+            ids,
+            table,
+            keys,
+            mut counts,
+            rejected,
+            narrow,
+            ..
+        } = ids;
         let order = sort_keys(&keys);
         let mut end = 0;
         for &id in &order {
             let c = &mut counts[id as usize];
-            let here = *c;
-            *c = end;
+            let here = *c as usize;
+            *c = to_u32(end);
             end += here;
         }
         let (sorted, sorted32) = if narrow {
@@ -259,6 +363,7 @@ impl<const D: usize> DensityGrid<D> {
         debug_assert!(self.is_empty());
         self.hot.clear();
         self.slots.clear();
+        self.packed = None;
         self.free.clear();
         self.index.clear();
         self.by_distance.clear();
@@ -268,15 +373,31 @@ impl<const D: usize> DensityGrid<D> {
         self.reserved = batch.len;
         let cells = batch.runs.len();
         self.hot.reserve(cells);
-        self.slots.reserve(cells);
+        // Under the closest-to-centre rule the cells' records are kept packed (the rank's
+        // primary criterion is the centre distance; spans are back to back, without room).
+        let mut packed: Option<Vec<PackedCell>> =
+            matches!(self.selection, Selection::CentreClosest).then(|| Vec::with_capacity(cells));
+        if packed.is_none() {
+            self.slots.reserve(cells);
+        }
         self.lookup = SlotTable::with_buffer(batch.spare, cells);
-        // Slots are created in index order, so slot order is index order.
-        let mut distance: Vec<(u64, u32)> = Vec::with_capacity(cells);
+        // Slots are created in index order, so slot order is index order. The distance order
+        // is counted here and placed from the cells' ranks below (no list of pairs in between);
+        // a representative lies in its cell, so its distance is at most about D / 4.
+        let mut distance = DistanceSort::new(cells, D as f64 / 4.0);
         let mut start = 0;
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
             let slot = new_slot(k);
-            let (sel, rank) = self.best_of(&index, self.arena().members(start..end));
+            let (sel, rank) = match (&self.selection, &self.narrow) {
+                // The usual case, without the arena form's dispatch per member.
+                (Selection::CentreClosest, Some(arena)) => centre_closest(
+                    &self.spec.cell_centre(&index),
+                    self.spec.size(),
+                    arena[start..end].iter().map(widen_point),
+                ),
+                _ => self.best_of(&index, self.arena().members(start..end)),
+            };
             self.generation += 1;
             self.hot.push(Hot {
                 index,
@@ -284,30 +405,101 @@ impl<const D: usize> DensityGrid<D> {
                 stamp: self.generation,
                 mark: 0,
             });
-            self.slots.push(Cell {
-                start,
-                len: to_u32(end - start),
-                cap: to_u32(end - start),
-                selected: to_u32(sel),
-                rank,
-            });
-            self.lookup.insert(hash_index(&index), slot);
-            distance.push((rank.centre.to_bits(), slot));
+            match &mut packed {
+                Some(packed) => packed.push(PackedCell {
+                    end: to_u32(end),
+                    selected: to_u32(sel),
+                    centre: rank.centre,
+                }),
+                None => self.slots.push(Cell {
+                    start,
+                    len: to_u32(end - start),
+                    cap: to_u32(end - start),
+                    selected: to_u32(sel),
+                    rank,
+                }),
+            }
+            self.lookup.insert_with_room(hash_index(&index), slot);
+            distance.count(rank.centre.to_bits());
             start = end;
         }
-        // Ascending distance, ties by index (= by slot here: the sort is stable and `distance`
-        // is in slot order). Distances are non-negative, so their bits sort as the values do.
-        let max = distance.iter().map(|e| e.0).max().unwrap_or(0);
-        radix_sort_by_key(
-            &mut distance,
-            &mut Vec::new(),
-            |e| e.0,
-            0,
-            u64::BITS - max.leading_zeros(),
-        );
+        // Ascending distance, ties by slot (= by index here). Distances are non-negative, so
+        // their bits sort as the values do.
+        let distance = match &packed {
+            Some(packed) => distance.place(
+                packed
+                    .iter()
+                    .enumerate()
+                    .map(|(s, c)| (c.centre.to_bits(), s as u32)),
+            ),
+            None => distance.place(
+                self.slots
+                    .iter()
+                    .enumerate()
+                    .map(|(s, c)| (c.rank.centre.to_bits(), s as u32)),
+            ),
+        };
+        self.packed = packed;
         // The ordered index is the slot order: both orders stay in this compact form until a
         // change needs the B-trees.
         self.built = Some(distance);
+    }
+}
+
+/// A batch's points' cell ids being assigned: one per point (`u32::MAX` for a rejected point),
+/// ids numbered by first appearance, with each id's packed key and point count.
+struct CellIds<const D: usize> {
+    packing: Packing<D>,
+    ids: Vec<u32>,
+    table: KeyTable,
+    keys: Vec<u64>,
+    /// Points per cell id; later the start, then the end, of each cell's run (a batch holds
+    /// at most `MAX_POINTS` < 2^31 points, so these fit `u32`).
+    counts: Vec<u32>,
+    last: (u64, u32),
+    rejected: u64,
+    /// Whether every accepted point so far is exact in `f32` (and the batch builds a grid).
+    narrow: bool,
+}
+
+impl<const D: usize> CellIds<D> {
+    /// For a batch of about `n` points.
+    fn new(n: usize, packing: Packing<D>) -> Self {
+        let table = KeyTable::new(n);
+        CellIds {
+            packing,
+            ids: Vec::with_capacity(n),
+            keys: Vec::with_capacity(table.expected()),
+            counts: Vec::with_capacity(table.expected()),
+            table,
+            last: (u64::MAX, 0),
+            rejected: 0,
+            narrow: false,
+        }
+    }
+
+    /// The next point lies in the cell with packed key `key`.
+    #[inline]
+    fn push(&mut self, key: u64) {
+        let id = if key == self.last.0 {
+            self.last.1
+        } else {
+            let id = self.table.get_or_insert(key, &mut self.keys);
+            if id as usize == self.counts.len() {
+                self.counts.push(0);
+            }
+            self.last = (key, id);
+            id
+        };
+        self.counts[id as usize] += 1;
+        self.ids.push(id);
+    }
+
+    /// The next point is rejected.
+    #[inline]
+    fn reject(&mut self) {
+        self.rejected += 1;
+        self.ids.push(u32::MAX);
     }
 }
 
@@ -316,7 +508,7 @@ impl<const D: usize> DensityGrid<D> {
 fn scatter<const D: usize, T: Copy + Default>(
     points: impl Iterator<Item = [f64; D]>,
     ids: &[u32],
-    next: &mut [usize],
+    next: &mut [u32],
     len: usize,
     conv: impl Fn([f64; D]) -> [T; D],
 ) -> Vec<[T; D]> {
@@ -324,7 +516,7 @@ fn scatter<const D: usize, T: Copy + Default>(
     for (p, &id) in points.zip(ids) {
         if id != u32::MAX {
             let at = &mut next[id as usize];
-            sorted[*at] = conv(p);
+            sorted[*at as usize] = conv(p);
             *at += 1;
         }
     }
@@ -369,22 +561,34 @@ struct KeyTable {
     len: usize,
     shift: u32,
     id_mask: u64,
+    /// About how many points the batch has (sizes the growth).
+    points: usize,
 }
 
 /// An empty [`KeyTable`] bucket: no id reaches `id_mask`, so no entry is all ones.
 const FREE: u64 = u64::MAX;
 
 impl KeyTable {
-    /// A table for the ids of a batch of `n` points (ids < n).
+    /// A table for the ids of a batch of about `n` points (`n` only sizes it).
     fn new(n: usize) -> Self {
-        // `id_mask >= n + 1 > id`, so that no entry equals `FREE`.
-        let id_bits = (u64::BITS - (n as u64).saturating_add(1).leading_zeros()).min(63);
+        // Ids are `u32` below `u32::MAX` (see `new_slot`), so `id < id_mask` and no entry
+        // equals `FREE`; 32 fingerprint bits remain.
+        let id_bits = 32;
+        // Room for n / 16 cells at first (real scans hold 5-30 % as many cells as points), so
+        // that the table rarely grows; between 2^10 and 2^22 buckets.
+        let log = (n / 8).next_power_of_two().trailing_zeros().clamp(10, 22);
         KeyTable {
-            buckets: vec![FREE; 1 << 10],
+            buckets: vec![FREE; 1 << log],
             len: 0,
-            shift: 64 - 10,
+            shift: 64 - log,
             id_mask: (1u64 << id_bits) - 1,
+            points: n,
         }
+    }
+
+    /// Number of keys the table holds before it first grows.
+    fn expected(&self) -> usize {
+        self.buckets.len() / 2
     }
 
     #[inline]
@@ -429,10 +633,17 @@ impl KeyTable {
         }
     }
 
+    /// Double the table, or quadruple it while it is small next to the batch (fewer rehashes
+    /// for batches with many cells per point).
     fn grow(&mut self, keys: &[u64]) {
-        let size = 2 * self.buckets.len();
+        let step = if self.buckets.len().saturating_mul(4) <= self.points && self.shift > 2 {
+            2
+        } else {
+            1
+        };
+        let size = self.buckets.len() << step;
         let old = std::mem::replace(&mut self.buckets, vec![FREE; size]);
-        self.shift -= 1;
+        self.shift -= step;
         let mask = size - 1;
         for e in old {
             if e != FREE {

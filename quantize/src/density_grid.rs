@@ -52,7 +52,7 @@ pub(crate) struct Hot<const D: usize> {
 
 /// The rest of a cell. Its members live in the grid's member arena at `start..start + len`;
 /// the arena holds `cap >= len` places for it.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub(crate) struct Cell {
     /// First member in the arena.
     pub start: usize,
@@ -64,6 +64,20 @@ pub(crate) struct Cell {
     pub selected: u32,
     /// The representative's rank under the selection rule.
     pub rank: Rank,
+}
+
+/// A cell's record in the packed form that a batch into an empty grid leaves under the
+/// closest-to-centre rule (16 bytes instead of a [`Cell`]'s 40; see
+/// [`DensityGrid::cell`]): spans are back to back in slot order, each with no spare room, and
+/// the rank's primary criterion is the centre distance.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PackedCell {
+    /// End of the span (the next slot's start); below 2^31 as the arena holds one batch.
+    pub end: u32,
+    /// Position of the representative among the members.
+    pub selected: u32,
+    /// The representative's centre distance.
+    pub centre: f64,
 }
 
 impl Cell {
@@ -91,7 +105,7 @@ pub(crate) fn to_u32(n: usize) -> u32 {
 #[derive(Debug, Clone, Copy)]
 pub struct CellView<'a, const D: usize> {
     hot: &'a Hot<D>,
-    cell: &'a Cell,
+    cell: Cell,
     arena: ArenaRef<'a, D>,
 }
 
@@ -159,7 +173,9 @@ pub struct GridState<const D: usize> {
 ///   iteration in lexicographic order.
 /// * `lookup`: a hash index over the same cells, for the point look-ups of insertion, deletion
 ///   and the read cycle's neighbour checks.
-/// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest); the members
+/// * Slot `s` is `hot[s]` (what the read cycle reads) and `slots[s]` (the rest; after a batch
+///   into an empty grid under the closest-to-centre rule, `packed[s]` until the first change,
+///   see `DensityGrid::cell`); the members
 ///   of all cells share one arena, `points`, one contiguous span per cell (or `narrow`, the
 ///   same arena in `f32`, after a batch of `f32`-exact points into an empty grid; see
 ///   `density_arena.rs`).
@@ -181,6 +197,9 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) lookup: SlotTable,
     pub(crate) hot: Vec<Hot<D>>,
     pub(crate) slots: Vec<Cell>,
+    /// The cells' records in packed form, when `Some` (`slots` is then empty); see
+    /// [`DensityGrid::cell`].
+    pub(crate) packed: Option<Vec<PackedCell>>,
     pub(crate) free: Vec<u32>,
     /// Member arena: every cell's members, one contiguous span per cell.
     pub(crate) points: Vec<[f64; D]>,
@@ -216,6 +235,7 @@ impl<const D: usize> DensityGrid<D> {
             lookup: SlotTable::default(),
             hot: Vec::new(),
             slots: Vec::new(),
+            packed: None,
             free: Vec::new(),
             points: Vec::new(),
             narrow: None,
@@ -277,8 +297,49 @@ impl<const D: usize> DensityGrid<D> {
     fn view(&self, slot: u32) -> CellView<'_, D> {
         CellView {
             hot: &self.hot[slot as usize],
-            cell: &self.slots[slot as usize],
+            cell: self.cell(slot as usize),
             arena: self.arena(),
+        }
+    }
+
+    /// The record of slot `s`, from `slots` or derived from the packed form.
+    #[inline]
+    pub(crate) fn cell(&self, s: usize) -> Cell {
+        match &self.packed {
+            None => self.slots[s],
+            Some(packed) => {
+                let start = match s.checked_sub(1) {
+                    Some(prev) => packed[prev].end as usize,
+                    None => 0,
+                };
+                let c = &packed[s];
+                let len = c.end - start as u32;
+                Cell {
+                    start,
+                    len,
+                    cap: len,
+                    selected: c.selected,
+                    rank: Rank {
+                        primary: c.centre,
+                        centre: c.centre,
+                    },
+                }
+            }
+        }
+    }
+
+    /// The record of slot `s`, if the slot exists.
+    fn cell_opt(&self, s: usize) -> Option<Cell> {
+        (s < self.hot.len()).then(|| self.cell(s))
+    }
+
+    /// Switch the cells' records to `slots` (a no-op when already there): before any change to
+    /// a cell.
+    pub(crate) fn unpack_cells(&mut self) {
+        if self.packed.is_some() {
+            let cells = (0..self.hot.len()).map(|s| self.cell(s)).collect();
+            self.slots = cells;
+            self.packed = None;
         }
     }
 
@@ -511,7 +572,7 @@ impl<const D: usize> DensityGrid<D> {
                     return;
                 }
                 let (k, rank) = self.best_in(&index, run);
-                let base = self.slots[s].len as usize;
+                let base = self.cell(s).len as usize;
                 self.push_members(s, run);
                 let p = run[k];
                 if rank.cmp_with(&p, &self.slots[s].rank, &self.hot[s].point) == Ordering::Less {
@@ -534,25 +595,7 @@ impl<const D: usize> DensityGrid<D> {
     {
         let c = self.spec.cell_centre(index);
         if let Selection::CentreClosest = self.selection {
-            // The rank's primary criterion is the centre distance itself: one comparison of
-            // distances, then of coordinates (the same order as `Rank::cmp_with`).
-            let size = self.spec.size();
-            let mut best = (0, f64::INFINITY, c);
-            for (k, p) in members.enumerate() {
-                let d = scaled_distance(&p, &c, size);
-                if k == 0
-                    || d.total_cmp(&best.1)
-                        .then_with(|| cmp_points(&p, &best.2))
-                        .is_lt()
-                {
-                    best = (k, d, p);
-                }
-            }
-            let rank = Rank {
-                primary: best.1,
-                centre: best.1,
-            };
-            return (best.0, rank);
+            return centre_closest(&c, self.spec.size(), members);
         }
         let m = self
             .selection
@@ -576,6 +619,7 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Record member `sel` ranked `rank` as the representative of slot `s` (no bookkeeping).
     fn choose(&mut self, s: usize, sel: usize, rank: Rank) {
+        self.unpack_cells();
         let cell = &mut self.slots[s];
         cell.selected = to_u32(sel);
         cell.rank = rank;
@@ -585,6 +629,7 @@ impl<const D: usize> DensityGrid<D> {
 
     /// Make member `sel` the representative of slot `s`, keeping the distance order.
     fn set_selected(&mut self, s: usize, sel: usize, rank: Rank) {
+        self.unpack_cells();
         self.generation += 1;
         let index = self.hot[s].index;
         let old = (self.slots[s].rank.centre.to_bits(), index, s as u32);
@@ -607,7 +652,7 @@ impl<const D: usize> DensityGrid<D> {
     /// Returns `true` when the representative changed.
     fn reselect(&mut self, s: usize) -> bool {
         let (k, r) = self.best_member(s);
-        let cell = &self.slots[s];
+        let cell = self.cell(s);
         let changed = cmp_points(&self.arena().get(cell.start + k), &self.hot[s].point)
             != Ordering::Equal
             || r.centre.to_bits() != cell.rank.centre.to_bits();
@@ -736,12 +781,18 @@ impl<const D: usize> DensityGrid<D> {
         if self.narrow.is_some() && !self.points.is_empty() {
             return bad("both arena forms hold points".to_string());
         }
-        if self.hot.len() != self.slots.len() {
+        let slot_count = match &self.packed {
+            Some(p) => p.len(),
+            None => self.slots.len(),
+        };
+        if self.hot.len() != slot_count {
             return bad(format!(
-                "{} hot records for {} slots",
+                "{} hot records for {slot_count} slots",
                 self.hot.len(),
-                self.slots.len()
             ));
+        }
+        if self.packed.is_some() && !self.slots.is_empty() {
+            return bad("both cell record forms hold cells".to_string());
         }
         let mut points = 0u64;
         let mut reserved = 0usize;
@@ -758,7 +809,7 @@ impl<const D: usize> DensityGrid<D> {
         for (index, slot) in &entries {
             let (index, slot) = (index, *slot);
             let (Some(cell), Some(hot)) =
-                (self.slots.get(slot as usize), self.hot.get(slot as usize))
+                (self.cell_opt(slot as usize), self.hot.get(slot as usize))
             else {
                 return bad(format!("cell {index:?} points to missing slot {slot}"));
             };
@@ -806,7 +857,7 @@ impl<const D: usize> DensityGrid<D> {
             }
         }
         for &f in &self.free {
-            let free_ok = self.slots.get(f as usize).is_some_and(|c| c.len == 0)
+            let free_ok = self.cell_opt(f as usize).is_some_and(|c| c.len == 0)
                 && self
                     .hot
                     .get(f as usize)
@@ -815,11 +866,11 @@ impl<const D: usize> DensityGrid<D> {
                 return bad(format!("free slot {f} is in use or still matches a cell"));
             }
         }
-        if self.free.len() + cells != self.slots.len() {
+        if self.free.len() + cells != self.hot.len() {
             return bad(format!(
                 "{} free and {cells} used slots of {}",
                 self.free.len(),
-                self.slots.len()
+                self.hot.len()
             ));
         }
         spans.sort_unstable();
@@ -840,6 +891,33 @@ impl<const D: usize> DensityGrid<D> {
         }
         Ok(())
     }
+}
+
+/// The [`Selection::CentreClosest`] choice among `members` (at least one; cell centre `c`,
+/// axes scaled by `size`): the rank's primary criterion is the centre distance itself, so one
+/// comparison of distances, then of coordinates (the same order as `Rank::cmp_with`).
+#[inline]
+pub(crate) fn centre_closest<const D: usize>(
+    c: &[f64; D],
+    size: &[f64; D],
+    members: impl Iterator<Item = [f64; D]>,
+) -> (usize, Rank) {
+    let mut best = (0, f64::INFINITY, *c);
+    for (k, p) in members.enumerate() {
+        let d = scaled_distance(&p, c, size);
+        if k == 0
+            || d.total_cmp(&best.1)
+                .then_with(|| cmp_points(&p, &best.2))
+                .is_lt()
+        {
+            best = (k, d, p);
+        }
+    }
+    let rank = Rank {
+        primary: best.1,
+        centre: best.1,
+    };
+    (best.0, rank)
 }
 
 /// Slot number `n` (slot `u32::MAX` is reserved for the hash index's empty bucket). Never

@@ -140,6 +140,17 @@ impl SlotTable {
         self.buckets[i] = e;
     }
 
+    /// [`Self::insert`] when the table is known to have room (as sized by
+    /// [`Self::with_buffer`]); grows anyway if it has not.
+    #[inline]
+    pub(crate) fn insert_with_room(&mut self, h: u64, slot: u32) {
+        if 2 * (self.len + 1) > self.buckets.len() {
+            self.reserve(1);
+        }
+        self.place(((h as u32 as u64) << 32) | u64::from(slot));
+        self.len += 1;
+    }
+
     /// Add `slot` with hash `h` (the key must not be present).
     pub(crate) fn insert(&mut self, h: u64, slot: u32) {
         debug_assert_ne!(slot, u32::MAX);
@@ -208,6 +219,17 @@ pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
     (t.abs() <= limit).then_some(t)
 }
 
+/// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x * 0` is (a signed)
+/// 0 for a finite `x` and NaN otherwise.
+#[inline]
+pub(crate) fn all_finite<const D: usize>(p: &[f64; D]) -> bool {
+    let mut z = 0.0;
+    for v in p {
+        z += v * 0.0;
+    }
+    z == 0.0
+}
+
 /// Packing of cell indexes within a box of cells into `u64` keys, axis 0 most significant, so
 /// that the integer order of keys is the lexicographic order of the indexes.
 #[derive(Debug, Clone, Copy)]
@@ -263,6 +285,38 @@ impl<const D: usize> Packing<D> {
             }
         }
         k
+    }
+
+    /// The key of the cell holding the finite point `p` (`None` for a NaN or infinite
+    /// coordinate), for a packing whose box holds the cells of every finite point of a batch
+    /// (`lo..=hi` the cells of the batch's coordinate-wise minimum and maximum, `bits < 64`).
+    ///
+    /// Same cell as [`GridSpec::cell_index`](crate::GridSpec::cell_index) then `pack`, without
+    /// the range checks: `(x - offset) / size` is monotone in `x`, so a finite coordinate's
+    /// quotient lies between those of the box's corners, whose floors are in range.
+    #[inline]
+    pub(crate) fn key_in_box(
+        &self,
+        p: &[f64; D],
+        size: &[f64; D],
+        offset: &[f64; D],
+    ) -> Option<u64> {
+        if !all_finite(p) {
+            return None;
+        }
+        let mut k = 0u64;
+        for a in 0..D {
+            let q = (p[a] - offset[a]) / size[a];
+            // Exact floor (|q| <= 2^53 + 1 here), as `floor_index`.
+            let mut t = q as i64;
+            if (t as f64) > q {
+                t -= 1;
+            }
+            // `t >= min[a]` by monotonicity, and `shift[a] < bits < 64`; a zero-width axis
+            // adds 0 (there `t == min[a]`). Wrapping keeps a violated assumption panic-free.
+            k |= (t.wrapping_sub(self.min[a]) as u64) << (self.shift[a] & 63);
+        }
+        Some(k)
     }
 
     /// The index of key `k`.
@@ -331,6 +385,109 @@ pub(crate) fn radix_sort_by_key<T: Copy>(
     }
 }
 
+/// Sort `(distance bits, slot)` pairs ascending (by bits, then slot), where every bits value is
+/// that of a non-negative `f64` (so the bits order is the value order), with buckets spread
+/// over the data's own range. See [`DistanceSort`].
+#[cfg(test)]
+pub(crate) fn sort_by_distance(v: &mut Vec<(u64, u32)>) {
+    let max = v
+        .iter()
+        .map(|e| f64::from_bits(e.0))
+        .fold(0.0f64, |m, d| if d > m { d } else { m });
+    let mut sort = DistanceSort::new(v.len(), max);
+    for e in v.iter() {
+        sort.count(e.0);
+    }
+    *v = sort.place(v.iter().copied());
+}
+
+/// A bucket sort of `(distance bits, slot)` pairs on the distance value (bits of non-negative
+/// `f64`s), fed in two passes so that the caller need not hold the pairs in between: first
+/// [`DistanceSort::count`] every distance, then [`DistanceSort::place`] the pairs.
+///
+/// Each pair goes to bucket `floor(value * scale)` (monotone in the value; values beyond the
+/// expected maximum go to the last bucket), the buckets are filled in one pass, and each bucket
+/// is then sorted on the full pair (insertion sort when small, else a comparison sort). About
+/// three passes over the pairs for any spread of distances; no quadratic case. The pairs are
+/// distinct when the slots are, so the result is the unique sorted order.
+pub(crate) struct DistanceSort {
+    scale: f64,
+    /// Per bucket: the count, then (after `place`) the end of its run.
+    ends: Vec<u32>,
+}
+
+impl DistanceSort {
+    /// A sort of `n` pairs whose distances mostly lie in `0..=max`.
+    pub(crate) fn new(n: usize, max: f64) -> Self {
+        let buckets = n.clamp(1, 1 << 20);
+        let top = (buckets - 1) as f64;
+        // `scale` is finite and non-negative (0 when `max` is 0 or not finite), so
+        // `value * scale` is monotone in the value.
+        let scale = if max > 0.0 && max.is_finite() {
+            top / max
+        } else {
+            0.0
+        };
+        DistanceSort {
+            scale,
+            ends: vec![0; buckets],
+        }
+    }
+
+    #[inline]
+    fn bucket_of(&self, bits: u64) -> usize {
+        // The saturating cast maps NaN to 0 and the clamp keeps large values in range.
+        ((f64::from_bits(bits) * self.scale) as usize).min(self.ends.len() - 1)
+    }
+
+    /// First pass: count one pair's distance.
+    #[inline]
+    pub(crate) fn count(&mut self, bits: u64) {
+        let b = self.bucket_of(bits);
+        self.ends[b] += 1;
+    }
+
+    /// Second pass: the counted pairs (the same distances, in any order), sorted.
+    pub(crate) fn place(mut self, pairs: impl Iterator<Item = (u64, u32)>) -> Vec<(u64, u32)> {
+        // Counts become starts.
+        let mut sum = 0u32;
+        for e in self.ends.iter_mut() {
+            let here = *e;
+            *e = sum;
+            sum = sum.wrapping_add(here);
+        }
+        let n = sum as usize;
+        let mut out = vec![(0u64, 0u32); n];
+        for e in pairs {
+            let b = self.bucket_of(e.0);
+            let at = &mut self.ends[b];
+            if let Some(slot) = out.get_mut(*at as usize) {
+                *slot = e;
+            }
+            *at += 1;
+        }
+        // Starts have become ends; bucket b is `ends[b - 1]..ends[b]`.
+        let mut from = 0usize;
+        for &end in &self.ends {
+            let end = (end as usize).min(n);
+            let run = &mut out[from.min(end)..end];
+            from = end;
+            if run.len() <= 16 {
+                for i in 1..run.len() {
+                    let mut j = i;
+                    while j > 0 && run[j] < run[j - 1] {
+                        run.swap(j, j - 1);
+                        j -= 1;
+                    }
+                }
+            } else {
+                run.sort_unstable();
+            }
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -365,6 +522,30 @@ mod tests {
             let f = q.floor();
             let want = (f.is_finite() && f.abs() <= limit as f64).then_some(f as i64);
             assert_eq!(floor_index(q, limit), want, "{q}");
+        }
+    }
+
+    #[test]
+    fn all_finite_is_is_finite_on_every_axis() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.5,
+            -1e300,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE / 4.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for &a in &vals {
+            for &b in &vals {
+                for &c in &vals {
+                    let p = [a, b, c];
+                    assert_eq!(all_finite(&p), p.iter().all(|v| v.is_finite()), "{p:?}");
+                }
+            }
         }
     }
 
@@ -441,5 +622,61 @@ mod tests {
         want.sort_by_key(|w| w >> 13);
         radix_sort_bits(&mut v, &mut Vec::new(), 13, 13 + 24);
         assert_eq!(v, want);
+    }
+
+    #[test]
+    fn distance_sort_matches_a_comparison_sort() {
+        let mut x = 777u64;
+        let mut next = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            x >> 11
+        };
+        let cases: Vec<Vec<f64>> = vec![
+            vec![],
+            vec![0.3],
+            vec![0.0; 100],
+            (0..5000).map(|_| (next() % 1000) as f64 / 1333.0).collect(),
+            (0..3000).map(|_| (next() % 7) as f64 * 0.1).collect(),
+            (0..2000)
+                .map(|i| {
+                    if i % 500 == 0 {
+                        f64::INFINITY
+                    } else {
+                        (next() % 100) as f64
+                    }
+                })
+                .collect(),
+            (0..2000)
+                .map(|i| {
+                    if i == 7 {
+                        1e300
+                    } else {
+                        (next() % 1000) as f64 * 1e-6
+                    }
+                })
+                .collect(),
+            (0..2000).map(|_| f64::from_bits(next() >> 2)).collect(),
+        ];
+        for d in cases {
+            let mut v: Vec<(u64, u32)> = d
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| (d.to_bits(), (i as u32).wrapping_mul(2654435761) % 100_000))
+                .collect();
+            let mut want = v.clone();
+            want.sort();
+            // Buckets over a fixed range that may be far too small or too large.
+            for max in [0.75, 1e-9, 1e9] {
+                let mut sort = DistanceSort::new(v.len(), max);
+                for e in &v {
+                    sort.count(e.0);
+                }
+                assert_eq!(sort.place(v.iter().rev().copied()), want);
+            }
+            sort_by_distance(&mut v);
+            assert_eq!(v, want);
+        }
     }
 }

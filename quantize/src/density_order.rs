@@ -125,11 +125,11 @@ impl<const D: usize> DensityGrid<D> {
         if !self.index.is_empty() || !self.by_distance.is_empty() {
             return Err("compact order beside non-empty trees".to_string());
         }
-        if by_distance.len() != self.slots.len() || !self.free.is_empty() {
+        if by_distance.len() != self.hot.len() || !self.free.is_empty() {
             return Err(format!(
                 "compact order of {} cells over {} slots ({} free)",
                 by_distance.len(),
-                self.slots.len(),
+                self.hot.len(),
                 self.free.len()
             ));
         }

@@ -124,9 +124,24 @@ impl<const D: usize> DensityGrid<D> {
             // Neighbours that may hold a close point, with their hashes; then their first
             // buckets, all loaded before any is examined, so that the misses overlap.
             probes.clear();
-            for_each_lean_neighbour(&index, &up, &down, |n| {
-                probes.push((n, hash_index(&n), 0));
-            });
+            if (0..D).all(|a| up[a] != down[a]) && D < usize::BITS as usize {
+                // The usual case, one side per axis: the 2^D - 1 neighbours are the non-empty
+                // sets of axes to step along, each toward its side.
+                let step: [i64; D] = std::array::from_fn(|a| if up[a] { 1 } else { -1 });
+                for set in 1..1usize << D {
+                    let mut n = index;
+                    for a in 0..D {
+                        if set >> (D - 1 - a) & 1 == 1 {
+                            n[a] += step[a];
+                        }
+                    }
+                    probes.push((n, hash_index(&n), 0));
+                }
+            } else {
+                for_each_lean_neighbour(&index, &up, &down, |n| {
+                    probes.push((n, hash_index(&n), 0));
+                });
+            }
             for pr in probes.iter_mut() {
                 pr.2 = lookup.first_bucket(pr.1);
             }

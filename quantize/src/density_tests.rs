@@ -313,6 +313,73 @@ fn very_wide_batch_matches_single_inserts() {
     assert_eq!(batch.output_cycle(), single.output_cycle());
 }
 
+/// Batches into an empty grid go through the one-pass window when every cell lies within
+/// 2^20 cells (D = 3) of the first finite point's cell, and through the bounding-box pass when
+/// one does not (just past the window's edge, a first point near the index limit, spreads in
+/// one and two dimensions); every path must give the store of one-by-one insertion.
+#[test]
+fn window_and_bounding_box_batches_match_single_inserts() {
+    fn check<const D: usize>(spec: GridSpec<D>, pts: &[[f64; D]]) {
+        let mut batch = DensityGrid::new(spec.clone());
+        let rejected = batch.extend(pts.iter().copied());
+        let mut single = DensityGrid::new(spec);
+        for p in pts.iter().rev() {
+            single.insert(*p);
+        }
+        batch.validate().unwrap();
+        single.validate().unwrap();
+        assert_eq!(rejected, single.counts().rejected);
+        assert_eq!(batch.state(), single.state());
+        assert_eq!(batch.counts(), single.counts());
+        assert_eq!(batch.output_cycle(), single.output_cycle());
+    }
+    let half = (1i64 << 20) as f64;
+    let mut x = 11;
+    let mut jitter = move || (lcg(&mut x) % 16) as f64 * 0.25;
+    for (first, spread) in [
+        (0.0, 3.0),
+        (0.0, half - 1.0),
+        (0.0, half),
+        (0.0, half + 0.5),
+        (-5.0, 4.0 * half),
+        (9.007_199_254e15, 2.0),
+        (-8.9e15, 2.0),
+    ] {
+        let spec = GridSpec::<3>::cubic(1.0).unwrap();
+        let mut pts = vec![[f64::NAN, 1.0, 2.0], [first, first, first]];
+        for k in 0..200 {
+            let far = if k % 7 == 0 { spread } else { 0.0 };
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            pts.push([
+                first + sign * far + jitter(),
+                first - sign * far + jitter(),
+                first + jitter(),
+            ]);
+        }
+        pts.push([f64::INFINITY, 0.0, 0.0]);
+        check(spec, &pts);
+    }
+    // Points on exact window edges at a cell size that is not a power of two.
+    let spec = GridSpec::<3>::new([0.3, 0.7, 1.1], [0.05, -0.2, 0.0]).unwrap();
+    let e = |i: f64, a: usize| [0.05, -0.2, 0.0][a] + i * [0.3, 0.7, 1.1][a];
+    let pts: Vec<[f64; 3]> = [0.0, -half, half - 1.0, half, -half - 1.0]
+        .iter()
+        .map(|&i| [e(i, 0), e(-i, 1), e(i, 2)])
+        .collect();
+    check(spec.clone(), &pts[..3]);
+    check(spec, &pts);
+    for spread in [3.0, 1e9, 1e13] {
+        let pts1: Vec<[f64; 1]> = (0..100)
+            .map(|k| [(k % 9) as f64 * spread + jitter()])
+            .collect();
+        check(GridSpec::<1>::cubic(0.5).unwrap(), &pts1);
+        let pts2: Vec<[f64; 2]> = (0..100)
+            .map(|k| [(k % 5) as f64 * spread, jitter() - (k % 3) as f64 * spread])
+            .collect();
+        check(GridSpec::<2>::cubic(0.5).unwrap(), &pts2);
+    }
+}
+
 /// Many single insertions into few cells in turn move spans to the arena's end (and
 /// compact it); deleting most points again compacts it; the store stays valid throughout and
 /// ends equal to a store that only ever saw the remaining points.
@@ -621,4 +688,53 @@ fn a_full_grid_refuses_points_as_one_by_one_insertion_would() {
     });
     assert_eq!(roomy.state(), plain.state());
     assert_eq!(DensityGrid::<3>::MAX_POINTS, (1 << 31) - 1);
+}
+
+/// The packed cell records a batch into an empty grid leaves (closest-to-centre rule) against
+/// the same grid with its records unpacked: same views, same state, valid, and the same after
+/// further insertions, deletions and a read cycle.
+mod packed_records {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn lattice() -> impl Strategy<Value = f64> {
+        (-40i32..40).prop_map(|v| f64::from(v) / 8.0)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn packed_and_unpacked_records_agree(
+            pts in prop::collection::vec([lattice(), lattice(), lattice()], 1..200),
+            more in prop::collection::vec([lattice(), lattice(), lattice()], 0..20),
+            size in prop_oneof![Just(1.0), Just(0.75), 0.3f64..2.0],
+            drop in 0usize..200,
+        ) {
+            let mut packed = DensityGrid::new(GridSpec::<3>::cubic(size).unwrap());
+            packed.extend(pts.iter().copied());
+            prop_assert!(packed.packed.is_some());
+            let mut plain = packed.clone();
+            plain.unpack_cells();
+            prop_assert!(plain.packed.is_none());
+            packed.validate().unwrap();
+            plain.validate().unwrap();
+            for (a, b) in packed.cells().zip(plain.cells()) {
+                prop_assert_eq!(a.index(), b.index());
+                prop_assert_eq!(a.len(), b.len());
+                prop_assert_eq!(a.point(), b.point());
+                prop_assert_eq!(a.distance().to_bits(), b.distance().to_bits());
+                prop_assert_eq!(a.members().collect::<Vec<_>>(), b.members().collect::<Vec<_>>());
+            }
+            prop_assert_eq!(packed.state(), plain.state());
+            // Changes unpack the records first; both grids must stay equal.
+            for g in [&mut packed, &mut plain] {
+                g.extend(more.iter().copied());
+                let _ = g.remove(&pts[drop % pts.len()]);
+                g.validate().unwrap();
+            }
+            prop_assert_eq!(packed.state(), plain.state());
+            prop_assert_eq!(packed.output_cycle(), plain.output_cycle());
+        }
+    }
 }
