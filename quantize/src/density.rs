@@ -19,7 +19,7 @@
 //!
 //! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `density_grid.rs` the
 //! store, `density_batch.rs` batch insertion (counting sort by cell, one-pass build of an
-//! empty store), `density_index.rs` the hash index, key packing and radix sort,
+//! empty store), `density_index.rs` the hash index, key packing and the sorts,
 //! `density_order.rs` the ordered index and distance order (compact `Vec` form after a build,
 //! B-trees once changed), `density_arena.rs` the `f32` form of the member arena,
 //! `density_output.rs` the read cycles, `density_shared.rs` the two-thread wrapper and

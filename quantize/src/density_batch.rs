@@ -1,14 +1,16 @@
 //! The input stage for whole batches: sort the batch by cell, then fill each cell once.
 //!
-//! A counting sort. The bounding box of the batch's finite points bounds its cells, whose
-//! indexes therefore pack into `u64` keys relative to that box (integer order = lexicographic
-//! order). One pass gives each point a batch-local cell id through a hash table keyed by the
-//! packed key; the distinct cells alone are sorted (radix sort of their keys); a last pass
-//! moves each point into its cell's run. A batch whose box does not pack into 63 bits is
-//! sorted by comparison instead. Into an empty grid the runs build the store in one pass: the
-//! sorted batch becomes the member arena, slot order is index order (so the ordered index needs
-//! no tree), and the distance order is one radix-sorted `Vec`. Into a non-empty grid each run goes to its cell as in
-//! [`DensityGrid::insert`], one look-up per cell.
+//! A counting sort. One pass gives each point a batch-local cell id through a hash table keyed
+//! by the cell index packed into a `u64`, relative to the first finite point's cell (integer
+//! order = lexicographic order); the distinct cells' keys are repacked relative to their own
+//! box and alone sorted (radix sort); a last pass moves each point into its cell's run. A batch
+//! reaching beyond the first pass's window is measured first (its finite points' bounding box
+//! bounds its cells), and one whose box does not pack into 63 bits is sorted by comparison.
+//! Into an empty grid the runs build the store in one pass: the sorted batch becomes the member
+//! arena, slot order is index order (so the ordered index needs no tree), the distance order is
+//! one bucket-sorted `Vec`, and under the closest-to-centre rule the cells' records stay packed.
+//! Into a non-empty grid each run goes to its cell as in [`DensityGrid::insert`], one look-up
+//! per cell.
 
 use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
 use crate::density_arena::{narrow_point, widen_point};

@@ -1,8 +1,9 @@
 //! Fast building blocks of the density reducer's store: a compact hash index from cell index
 //! to slot (the look-ups of insertion, deletion and the read cycle's neighbour checks), an
 //! exact `floor` without a libm call, packing of cell indexes into one `u64` whose integer
-//! order is the lexicographic order, and an LSD radix sort on such keys (the sort of a batch's
-//! distinct cells).
+//! order is the lexicographic order, an LSD radix sort on such keys (the sort of a batch's
+//! distinct cells), and a bucket sort of `(distance, slot)` pairs (the distance order of a
+//! build).
 
 use crate::density::CellIndex;
 
