@@ -383,6 +383,13 @@ impl<const D: usize> DensityGrid<D> {
             self.slots.reserve(cells);
         }
         self.lookup = SlotTable::with_buffer(batch.spare, cells);
+        // Fill the hash index first, in its own pass, while its freshly cleared buckets are
+        // still in cache (the cell loop below streams the arena and the new records).
+        for k in 0..cells {
+            let (index, _) = batch.runs.get(k);
+            self.lookup
+                .insert_with_room(hash_index(&index), new_slot(k));
+        }
         // Slots are created in index order, so slot order is index order. The distance order
         // is counted here and placed from the cells' ranks below (no list of pairs in between);
         // a representative lies in its cell, so its distance is at most about D / 4.
@@ -390,7 +397,6 @@ impl<const D: usize> DensityGrid<D> {
         let mut start = 0;
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
-            let slot = new_slot(k);
             let (sel, rank) = match (&self.selection, &self.narrow) {
                 // The usual case, without the arena form's dispatch per member.
                 (Selection::CentreClosest, Some(arena)) => centre_closest(
@@ -421,7 +427,6 @@ impl<const D: usize> DensityGrid<D> {
                     rank,
                 }),
             }
-            self.lookup.insert_with_room(hash_index(&index), slot);
             distance.count(rank.centre.to_bits());
             start = end;
         }
