@@ -16,7 +16,7 @@ use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
 use crate::density_arena::{narrow_point, widen_point};
 use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
 use crate::density_index::{
-    all_finite, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
+    all_finite, floor_trunc, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
 };
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
@@ -213,6 +213,11 @@ impl<const D: usize> DensityGrid<D> {
         }
         // Window position of axis `a`'s field in a key.
         let shift = |a: usize| w * (D - 1 - a) as u32;
+        // The cell of window fields `f`, and of a window key.
+        let to_index = |f: &[u64; D]| -> CellIndex<D> {
+            std::array::from_fn(|a| base[a] - half + f[a] as i64)
+        };
+        let index_of = |k: u64| to_index(&std::array::from_fn(|a| (k >> shift(a)) & field));
         let wide = Packing::new(&base, &base)?;
         let mut ids = CellIds::new(n_hint, wide);
         ids.narrow = self.is_empty();
@@ -227,25 +232,16 @@ impl<const D: usize> DensityGrid<D> {
             }
             let mut key = 0u64;
             for a in 0..D {
-                let q = (p[a] - offset[a]) / size[a];
-                // Exact floor as `floor_index` within the window; beyond it the saturated
-                // value fails the window test.
-                let mut t = q as i64;
-                if (t as f64) > q {
-                    t = t.saturating_sub(1);
-                }
+                // Exact floor within the window; beyond it the saturated value fails the
+                // window test.
+                let t = floor_trunc((p[a] - offset[a]) / size[a]);
                 let f = t.wrapping_sub(base[a]).wrapping_add(half) as u64;
                 if f > field {
                     return None;
                 }
                 key |= f << shift(a);
             }
-            debug_assert_eq!(
-                self.spec.cell_index(&p),
-                Some(std::array::from_fn(
-                    |a| base[a] - half + ((key >> shift(a)) & field) as i64
-                ))
-            );
+            debug_assert_eq!(self.spec.cell_index(&p), Some(index_of(key)));
             ids.push(key);
         }
         // Repack relative to the box of the distinct cells.
@@ -262,12 +258,6 @@ impl<const D: usize> DensityGrid<D> {
             lo = [half as u64; D];
             hi = lo;
         }
-        let index_of = |k: u64| -> CellIndex<D> {
-            std::array::from_fn(|a| base[a] - half + ((k >> shift(a)) & field) as i64)
-        };
-        let to_index = |f: &[u64; D]| -> CellIndex<D> {
-            std::array::from_fn(|a| base[a] - half + f[a] as i64)
-        };
         let packing = Packing::new(&to_index(&lo), &to_index(&hi))?;
         for k in ids.keys.iter_mut() {
             *k = packing.pack(&index_of(*k));

@@ -211,13 +211,22 @@ pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
     if q.is_nan() || q.abs() >= 4_611_686_018_427_387_904.0 {
         return None;
     }
-    // Truncation toward zero is exact here; at or above 2^52 `q` is already an integer, below
-    // it `t` converts back exactly, so the comparison decides floor vs. truncation exactly.
-    let mut t = q as i64;
-    if (t as f64) > q {
-        t -= 1;
-    }
+    let t = floor_trunc(q);
     (t.abs() <= limit).then_some(t)
+}
+
+/// `floor(q)` as an `i64`, exact for `|q| < 2^63` (saturating beyond, 0 for NaN), inline.
+///
+/// Truncation toward zero is exact; at or above 2^52 `q` is already an integer, below it the
+/// truncation converts back exactly, so one comparison decides floor vs. truncation.
+#[inline(always)]
+pub(crate) fn floor_trunc(q: f64) -> i64 {
+    let t = q as i64;
+    if (t as f64) > q {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x * 0` is (a signed)
@@ -307,12 +316,8 @@ impl<const D: usize> Packing<D> {
         }
         let mut k = 0u64;
         for a in 0..D {
-            let q = (p[a] - offset[a]) / size[a];
-            // Exact floor (|q| <= 2^53 + 1 here), as `floor_index`.
-            let mut t = q as i64;
-            if (t as f64) > q {
-                t -= 1;
-            }
+            // Exact floor (|q| <= 2^53 + 1 here).
+            let t = floor_trunc((p[a] - offset[a]) / size[a]);
             // `t >= min[a]` by monotonicity, and `shift[a] < bits < 64`; a zero-width axis
             // adds 0 (there `t == min[a]`). Wrapping keeps a violated assumption panic-free.
             k |= (t.wrapping_sub(self.min[a]) as u64) << (self.shift[a] & 63);

@@ -170,11 +170,7 @@ pub fn quantize_endpoints(
         codes.retain(|&c| c != NO_KEY);
         codes.par_sort_unstable();
         codes.dedup();
-        out.extend(
-            codes
-                .into_iter()
-                .map(|c| centre(Key::new(c as u16, (c >> 16) as u16, (c >> 32) as u16))),
-        );
+        out.extend(codes.into_iter().map(|c| centre(zyx_key(c))));
     }
     stats.voxels = out.len();
     stats
@@ -241,6 +237,12 @@ fn zyx_code(k: Key) -> u64 {
     ((k[2] as u64) << 32) | ((k[1] as u64) << 16) | k[0] as u64
 }
 
+/// The key of a [`zyx_code`].
+#[inline]
+fn zyx_key(c: u64) -> Key {
+    Key::new(c as u16, (c >> 16) as u16, (c >> 32) as u16)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,7 +255,7 @@ mod tests {
             .map(|p| zyx_code(conv.point_to_key_unchecked(&p.cast())))
             .collect();
         keys.into_iter()
-            .map(|c| conv.key_to_point_f32(&Key::new(c as u16, (c >> 16) as u16, (c >> 32) as u16)))
+            .map(|c| conv.key_to_point_f32(&zyx_key(c)))
             .collect()
     }
 
