@@ -106,7 +106,7 @@ pub enum RayWalk {
 
 /// `std::min` as C++ defines it (`b < a ? b : a`), so NaN behaves as in OctoMap.
 #[inline(always)]
-fn cmin(a: f64, b: f64) -> f64 {
+pub(crate) fn cmin(a: f64, b: f64) -> f64 {
     if b < a {
         b
     } else {
@@ -155,17 +155,18 @@ pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
 
 /// The DDA state of one ray after OctoMap's set-up: both keys, per-axis step, `tMax`,
 /// `tDelta`, the `f32` length (as `f64`) and the iteration budget.
-struct RaySetup {
-    key_origin: Key,
-    key_end: Key,
-    step: [i32; 3],
-    t_max: [f64; 3],
-    t_delta: [f64; 3],
-    length: f64,
-    budget: u32,
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RaySetup {
+    pub(crate) key_origin: Key,
+    pub(crate) key_end: Key,
+    pub(crate) step: [i32; 3],
+    pub(crate) t_max: [f64; 3],
+    pub(crate) t_delta: [f64; 3],
+    pub(crate) length: f64,
+    pub(crate) budget: u32,
     /// The `f32` length is finite and positive and every direction component finite: the
     /// walk then provably ends within `budget` steps (see [`try_walk_ray_codes`]).
-    well_conditioned: bool,
+    pub(crate) well_conditioned: bool,
 }
 
 /// OctoMap's checks and set-up before the loop; `Err` is the outcome when no key is visited.
@@ -181,7 +182,7 @@ fn setup(
 /// [`setup`] with the origin's key already known (`key_of(conv, origin)`), for callers that
 /// cast many rays from one origin.
 #[inline(always)]
-fn setup_from(
+pub(crate) fn setup_from(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     origin_key: Option<Key>,
@@ -286,7 +287,7 @@ where
 }
 
 /// Bits of one axis in a [`Key::morton`] code.
-const AXIS_MASK: [u64; 3] = [
+pub(crate) const AXIS_MASK: [u64; 3] = [
     0x2492_4924_9249,
     0x2492_4924_9249 << 1,
     0x2492_4924_9249 << 2,
@@ -396,22 +397,24 @@ impl AxisStep {
 /// [`walk_ray_codes`] for set-building callers that cannot take keys back: `None` (nothing
 /// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
 /// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
-/// the brick's visited voxels (bit `code & 63`), gathered in registers while the walk stays in
-/// the brick: `flush` runs once per brick entered, not once per voxel. `origin_key` must be
-/// `key_of(conv, origin)`, computed once for all the rays of a scan.
+/// the brick's visited voxels (bit `code & 63`): `flush` runs once per brick entered, not once
+/// per voxel, after the walk (which records the bricks in `buf`, kept by the caller from ray
+/// to ray). `origin_key` must be `key_of(conv, origin)`, computed once for all the rays of a
+/// scan.
 ///
-/// Why it is safe to visit without buffering: with a finite positive length and finite
-/// direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its `tMax`
-/// passes the length, which is within two of the key distance on that axis, so the walk ends
-/// long before the budget of the Manhattan distance plus 16. Only ill-conditioned rays (a
+/// Why it is safe to visit without buffering the keys: with a finite positive length and
+/// finite direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its
+/// `tMax` passes the length, which is within two of the key distance on that axis, so the walk
+/// ends long before the budget of the Manhattan distance plus 16. Only ill-conditioned rays (a
 /// zero, infinite or NaN length) can degenerate, and those are the ones refused here, so
 /// [`RayWalk::Degenerate`] never follows a visit.
-#[inline]
+#[cfg(test)]
 pub(crate) fn try_walk_ray_bricks<F>(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     origin_key: Option<Key>,
     end: &Point3<f32>,
+    buf: &mut Vec<(u64, u64)>,
     mut flush: F,
 ) -> Option<RayWalk>
 where
@@ -424,48 +427,11 @@ where
     if !r.well_conditioned {
         return None;
     }
-    let mut code = r.key_origin.morton();
-    let end_code = r.key_end.morton();
-    let s0 = AxisStep::new(0, r.step[0] > 0);
-    let s1 = AxisStep::new(1, r.step[1] > 0);
-    let s2 = AxisStep::new(2, r.step[2] > 0);
-    let [mut t0, mut t1, mut t2] = r.t_max;
-    let [d0, d1, d2] = r.t_delta;
-    let len = r.length;
-    let mut brick = code >> 6;
-    let mut bits = 1u64 << (code & 63);
-    for _ in 0..r.budget {
-        // OctoMap's comparison chain (ties to z, then y); the smallest tMax after the step
-        // is the same comparison on the new values, taken in the same order as `cmin`
-        if t0 < t1 {
-            if t0 < t2 {
-                code = s0.apply(code);
-                t0 += d0;
-            } else {
-                code = s2.apply(code);
-                t2 += d2;
-            }
-        } else if t1 < t2 {
-            code = s1.apply(code);
-            t1 += d1;
-        } else {
-            code = s2.apply(code);
-            t2 += d2;
-        }
-        if code == end_code || cmin(cmin(t0, t1), t2) > len {
-            flush(brick, bits);
-            return Some(RayWalk::Complete);
-        }
-        if code >> 6 != brick {
-            flush(brick, bits);
-            brick = code >> 6;
-            bits = 0;
-        }
-        bits |= 1u64 << (code & 63);
+    let (walk, n) = crate::lanes::BrickWalk::start(&r, buf).finish(buf);
+    for &(brick, bits) in &buf[..n] {
+        flush(brick, bits);
     }
-    debug_assert!(false, "a well-conditioned ray exhausted its budget");
-    flush(brick, bits);
-    Some(RayWalk::Degenerate)
+    Some(walk)
 }
 
 /// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the

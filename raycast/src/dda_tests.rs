@@ -277,13 +277,21 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
     let w = walk_ray_codes(conv, &o, &e, |c| want.push(c));
     let mut got = Vec::new();
     let mut walked = Vec::new();
-    match try_walk_ray_bricks(conv, &o, key_of(conv, &o), &e, |brick, mut bits| {
-        got.push(brick);
-        while bits != 0 {
-            walked.push((brick << 6) | bits.trailing_zeros() as u64);
-            bits &= bits - 1;
-        }
-    }) {
+    let mut buf = Vec::new();
+    match try_walk_ray_bricks(
+        conv,
+        &o,
+        key_of(conv, &o),
+        &e,
+        &mut buf,
+        |brick, mut bits| {
+            got.push(brick);
+            while bits != 0 {
+                walked.push((brick << 6) | bits.trailing_zeros() as u64);
+                bits &= bits - 1;
+            }
+        },
+    ) {
         Some(t) => {
             // bricks are flushed as the walk leaves them: the same voxels, brick by brick
             let mut runs = want.iter().map(|c| c >> 6).collect::<Vec<_>>();

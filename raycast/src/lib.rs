@@ -45,6 +45,7 @@ mod brickset;
 mod cast;
 mod dda;
 mod insert;
+mod lanes;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;

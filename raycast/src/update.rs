@@ -9,7 +9,7 @@
 //! applying them touches the tree in a cache-friendly sweep.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{key_of, norm_f32, sub_f32, try_walk_ray_bricks, walk_ray_codes, RayWalk};
+use crate::dda::{key_of, norm_f32, setup_from, sub_f32, walk_ray_codes, RaySetup, RayWalk};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 
@@ -53,7 +53,7 @@ pub struct ScanUpdate {
     occupied: Vec<Key>,
     free_set: BrickSet,
     occ_set: BrickSet,
-    ray: Vec<u64>,
+    ray: RayScratch,
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
     bricks: Vec<(u64, u64)>,
@@ -104,12 +104,28 @@ pub enum RayModel {
 struct Worker {
     free_set: BrickSet,
     occ_set: BrickSet,
-    ray: Vec<u64>,
+    ray: RayScratch,
     stats: ScanStats,
     /// The worker's sets as sorted brick lists, for the merge.
     free_sorted: Vec<(u64, u64)>,
     occ_sorted: Vec<(u64, u64)>,
 }
+
+/// Per-thread buffers of one ray, reused from ray to ray.
+#[derive(Debug, Clone, Default)]
+struct RayScratch {
+    /// The codes of a ray that may degenerate (dropped whole if it does).
+    codes: Vec<u64>,
+    /// Well-conditioned DDA rays waiting to be walked together.
+    batch: Vec<RaySetup>,
+    /// The bricks of the walks in progress, one buffer per lane.
+    lanes: [Vec<(u64, u64)>; 2],
+    /// Queued walks that degenerated since the counts were last taken.
+    degenerate: usize,
+}
+
+/// DDA rays set up before their walks start together (see [`crate::lanes`]).
+const RAY_BATCH: usize = 64;
 
 /// Frames with at least this many points are split across the rayon threads.
 const PARALLEL_MIN_POINTS: usize = 4096;
@@ -151,13 +167,16 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
 
 /// Walk one ray and add its keys to `set`. Returns whether the ray could be computed; the keys
 /// of a degenerate ray (see [`RayWalk::Degenerate`]) are dropped, as OctoMap gets no ray.
+///
+/// Well-conditioned DDA rays are not walked here but queued in `scratch.batch`, counted as
+/// computed (they cannot degenerate), and walked by [`walk_batch`].
 fn push_ray(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     origin_key: Option<Key>,
     end: &Point3<f32>,
     set: &mut BrickSet,
-    scratch: &mut Vec<u64>,
+    scratch: &mut RayScratch,
     model: RayModel,
 ) -> bool {
     if model == RayModel::Bresenham {
@@ -167,31 +186,46 @@ fn push_ray(
         crate::bresenham::walk_bresenham_bricks(a, b, |brick, bits| set.insert_bits(brick, bits));
         return true;
     }
-    // Well-conditioned rays go straight into the set, brick by brick; the rare others are
-    // buffered so that a degenerate walk can be dropped whole.
-    let fast = try_walk_ray_bricks(conv, origin, origin_key, end, |brick, bits| {
-        set.insert_bits(brick, bits)
-    });
-    if let Some(walk) = fast {
-        return matches!(walk, RayWalk::Complete | RayWalk::SameVoxel);
+    match setup_from(conv, origin, origin_key, end) {
+        Err(walk) => return walk == RayWalk::SameVoxel,
+        Ok(r) if r.well_conditioned => {
+            scratch.batch.push(r);
+            if scratch.batch.len() >= RAY_BATCH {
+                walk_batch(set, scratch);
+            }
+            return true;
+        }
+        Ok(_) => {}
     }
-    scratch.clear();
+    // the rare others are buffered so that a degenerate walk can be dropped whole
+    let codes = &mut scratch.codes;
+    codes.clear();
     let walk = walk_ray_codes(conv, origin, end, |c| {
         // grows once to the longest ray, then never again
-        if scratch.len() == scratch.capacity() {
-            scratch.reserve(scratch.len().max(256));
+        if codes.len() == codes.capacity() {
+            codes.reserve(codes.len().max(256));
         }
-        scratch.push(c);
+        codes.push(c);
     });
     match walk {
         RayWalk::Complete | RayWalk::SameVoxel => {
-            for &c in scratch.iter() {
+            for &c in codes.iter() {
                 set.insert(c);
             }
             true
         }
         RayWalk::OutsideMap | RayWalk::Stopped | RayWalk::Degenerate => false,
     }
+}
+
+/// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
+/// walks that degenerated (none can: see [`crate::dda`]'s brick walk).
+fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
+    scratch.degenerate +=
+        crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, &mut |brick, bits| {
+            set.insert_bits(brick, bits)
+        });
+    scratch.batch.clear();
 }
 
 /// List both sets in Morton order, masking occupied voxels out of the free ones.
@@ -265,7 +299,7 @@ fn add_points(
     max_range: f64,
     free_set: &mut BrickSet,
     occ_set: &mut BrickSet,
-    ray: &mut Vec<u64>,
+    ray: &mut RayScratch,
     stats: &mut ScanStats,
     model: RayModel,
 ) {
@@ -294,6 +328,13 @@ fn add_points(
             stats.failed_rays += 1;
         }
     }
+    if !ray.batch.is_empty() {
+        walk_batch(free_set, ray);
+    }
+    // queued rays were counted as computed; one that degenerated was not
+    stats.rays -= ray.degenerate;
+    stats.failed_rays += ray.degenerate;
+    ray.degenerate = 0;
 }
 
 #[inline]

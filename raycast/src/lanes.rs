@@ -1,0 +1,395 @@
+//! Many DDA walks at once: the brick walk of [`crate::dda`] for a batch of rays, two rays side
+//! by side in the lanes of SSE2 registers.
+//!
+//! One walk's axis choice (OctoMap's `tMax` comparison chain) is a three-way branch the
+//! predictor misses about one step in two when neighbouring rays differ, and made with masks
+//! it is a chain of compare, mask and add that each step waits for. Two independent walks in
+//! one register pair share those instructions and overlap their chains. The comparisons,
+//! additions and tie rules are OctoMap's, lane by lane, so every walk visits exactly the voxels
+//! of [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes,
+//! and a set does not depend on it.
+//!
+//! Other targets walk the rays one after another with the same state machine.
+
+use crate::dda::{cmin, RaySetup, RayWalk, AXIS_MASK};
+
+/// Per axis (and a harmless fourth entry): the axis's bits of a Morton code, their
+/// complement and the axis's lowest bit; a step up is `((m | !mask) + low) & mask`.
+const MASK4: [u64; 4] = [AXIS_MASK[0], AXIS_MASK[1], AXIS_MASK[2], 0];
+const NOT_MASK4: [u64; 4] = [!AXIS_MASK[0], !AXIS_MASK[1], !AXIS_MASK[2], 0];
+const LOW4: [u64; 4] = [1, 2, 4, 0];
+
+/// One step up on axis `a` (0, 1 or 2) of a Morton code, wrapping within the axis, chosen by
+/// table rather than by branch.
+#[inline(always)]
+fn step_up(m: u64, a: usize) -> u64 {
+    let a = a & 3;
+    let mask = MASK4[a];
+    (((m | NOT_MASK4[a]).wrapping_add(LOW4[a])) & mask) | (m & !mask)
+}
+
+/// The state of one brick walk between two steps.
+///
+/// Axes stepped downwards are mirrored (their Morton bits inverted) so that every step is an
+/// increment; `m ^ flip` is the true code. Bricks are written to the walk's buffer as the walk
+/// leaves them: `(brick, bits)` for the bricks before `n`, and the current one in `brick` and
+/// `bits`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BrickWalk {
+    m: u64,
+    end: u64,
+    flip: u64,
+    t: [f64; 3],
+    d: [f64; 3],
+    len: f64,
+    brick: u64,
+    bits: u64,
+    n: usize,
+    budget: u32,
+}
+
+impl BrickWalk {
+    /// The walk of a well-conditioned ray at its origin voxel; `buf` is made long enough for
+    /// every brick the walk can enter (one per step, plus the origin's).
+    pub(crate) fn start(r: &RaySetup, buf: &mut Vec<(u64, u64)>) -> Self {
+        let need = r.budget as usize + 1;
+        if buf.len() < need {
+            buf.resize(need, (0, 0));
+        }
+        let mut flip = 0u64;
+        for (i, mask) in AXIS_MASK.iter().enumerate() {
+            if r.step[i] < 0 {
+                flip |= mask;
+            }
+        }
+        let code = r.key_origin.morton();
+        BrickWalk {
+            m: code ^ flip,
+            end: r.key_end.morton() ^ flip,
+            flip,
+            t: r.t_max,
+            d: r.t_delta,
+            len: r.length,
+            brick: code >> 6,
+            bits: 1u64 << (code & 63),
+            n: 0,
+            budget: r.budget,
+        }
+    }
+
+    /// Record the voxel just stepped into, without a branch: the current brick is written at
+    /// `n` every time and kept (`n` advanced) only when the walk left it.
+    #[inline(always)]
+    fn record(&mut self, out: &mut [(u64, u64)]) {
+        let code = self.m ^ self.flip;
+        let b = code >> 6;
+        let moved = b != self.brick;
+        if let Some(slot) = out.get_mut(self.n) {
+            *slot = (self.brick, self.bits);
+        }
+        self.n += moved as usize;
+        self.bits = (self.bits & (moved as u64).wrapping_sub(1)) | (1u64 << (code & 63));
+        self.brick = b;
+    }
+
+    /// Write the current brick and return the number of bricks in `out`.
+    #[inline(always)]
+    fn close(&mut self, out: &mut [(u64, u64)]) -> usize {
+        if let Some(slot) = out.get_mut(self.n) {
+            *slot = (self.brick, self.bits);
+            self.n += 1;
+        }
+        self.n
+    }
+
+    /// Walk to the end one step at a time (OctoMap's comparison chain as branches, which
+    /// costs little when the steps are predictable); returns the outcome and the bricks.
+    pub(crate) fn finish(&mut self, out: &mut [(u64, u64)]) -> (RayWalk, usize) {
+        let [mut t0, mut t1, mut t2] = self.t;
+        let [d0, d1, d2] = self.d;
+        let mut walk = RayWalk::Degenerate;
+        while self.budget > 0 {
+            self.budget -= 1;
+            let a = if t0 < t1 {
+                if t0 < t2 {
+                    t0 += d0;
+                    0
+                } else {
+                    t2 += d2;
+                    2
+                }
+            } else if t1 < t2 {
+                t1 += d1;
+                1
+            } else {
+                t2 += d2;
+                2
+            };
+            self.m = step_up(self.m, a);
+            if self.m == self.end || cmin(cmin(t0, t1), t2) > self.len {
+                walk = RayWalk::Complete;
+                break;
+            }
+            self.record(out);
+        }
+        self.t = [t0, t1, t2];
+        debug_assert!(
+            walk == RayWalk::Complete,
+            "a well-conditioned ray exhausted its budget"
+        );
+        (walk, self.close(out))
+    }
+}
+
+/// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
+/// `flush` as `(brick, bits)`; `bufs` are kept by the caller from batch to batch. Returns how
+/// many walks degenerated (none can; they are counted rather than trusted).
+pub(crate) fn walk_all<F>(
+    rays: &[RaySetup],
+    bufs: &mut [Vec<(u64, u64)>; 2],
+    flush: &mut F,
+) -> usize
+where
+    F: FnMut(u64, u64),
+{
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        sse2::walk_pairs(rays, bufs, flush)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        walk_each(rays, &mut bufs[0], flush)
+    }
+}
+
+/// [`walk_all`] one ray after another: the path of targets without SSE2 (and the tests').
+#[cfg_attr(
+    all(target_arch = "x86_64", target_feature = "sse2", not(test)),
+    allow(dead_code)
+)]
+fn walk_each<F>(rays: &[RaySetup], buf: &mut Vec<(u64, u64)>, flush: &mut F) -> usize
+where
+    F: FnMut(u64, u64),
+{
+    rays.iter()
+        .filter(|r| walk_one(r, buf, flush) != RayWalk::Complete)
+        .count()
+}
+
+/// One ray, scalar, start to end.
+fn walk_one<F>(r: &RaySetup, buf: &mut Vec<(u64, u64)>, flush: &mut F) -> RayWalk
+where
+    F: FnMut(u64, u64),
+{
+    let mut w = BrickWalk::start(r, buf);
+    let (walk, n) = w.finish(buf);
+    for &(b, m) in &buf[..n] {
+        flush(b, m);
+    }
+    walk
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+mod sse2 {
+    use super::{step_up, walk_one, BrickWalk};
+    use crate::dda::{RaySetup, RayWalk};
+    use safe_arch::{
+        add_m128d, bitand_m128d, bitandnot_m128d, bitor_m128d, cmp_eq_mask_m128d,
+        cmp_gt_mask_m128d, cmp_lt_mask_m128d, m128d, min_m128d, move_mask_m128d,
+    };
+
+    /// The lanes' `tMax` of one axis as a register.
+    #[inline(always)]
+    fn lanes(a: &BrickWalk, b: &BrickWalk, f: impl Fn(&BrickWalk) -> f64) -> m128d {
+        m128d::from_array([f(a), f(b)])
+    }
+
+    /// [`super::walk_all`] with two walks in the lanes of each register. A lane whose walk
+    /// ends is flushed and refilled with the next ray; the last walk finishes alone.
+    pub(super) fn walk_pairs<F>(
+        rays: &[RaySetup],
+        bufs: &mut [Vec<(u64, u64)>; 2],
+        flush: &mut F,
+    ) -> usize
+    where
+        F: FnMut(u64, u64),
+    {
+        let mut degenerate = 0;
+        let mut next = rays.iter();
+        let (Some(ra), Some(rb)) = (next.next(), next.next()) else {
+            for r in rays {
+                degenerate += (walk_one(r, &mut bufs[0], flush) != RayWalk::Complete) as usize;
+            }
+            return degenerate;
+        };
+        let [buf0, buf1] = bufs;
+        let mut w = [BrickWalk::start(ra, buf0), BrickWalk::start(rb, buf1)];
+        loop {
+            let mut t0 = lanes(&w[0], &w[1], |x| x.t[0]);
+            let mut t1 = lanes(&w[0], &w[1], |x| x.t[1]);
+            let mut t2 = lanes(&w[0], &w[1], |x| x.t[2]);
+            let d0 = lanes(&w[0], &w[1], |x| x.d[0]);
+            let d1 = lanes(&w[0], &w[1], |x| x.d[1]);
+            let d2 = lanes(&w[0], &w[1], |x| x.d[2]);
+            let len = lanes(&w[0], &w[1], |x| x.len);
+            // all bits set: x == x for the finite lengths of well-conditioned rays
+            let ones = cmp_eq_mask_m128d(len, len);
+            // the walks' integer state in locals (kept in registers); both lanes step
+            // together, so one counter stands for the smaller budget
+            let [mut a, mut b] = w;
+            let steps = a.budget.min(b.budget);
+            let mut left = steps;
+            let ended = loop {
+                // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2,
+                // else z (ties to z, then y)
+                let lt01 = cmp_lt_mask_m128d(t0, t1);
+                let s0 = bitand_m128d(lt01, cmp_lt_mask_m128d(t0, t2));
+                let s1 = bitandnot_m128d(lt01, cmp_lt_mask_m128d(t1, t2));
+                let s2 = bitandnot_m128d(bitor_m128d(s0, s1), ones);
+                t0 = add_m128d(t0, bitand_m128d(s0, d0));
+                t1 = add_m128d(t1, bitand_m128d(s1, d1));
+                t2 = add_m128d(t2, bitand_m128d(s2, d2));
+                let a1 = move_mask_m128d(s1) as usize;
+                let a2 = move_mask_m128d(s2) as usize;
+                a.m = step_up(a.m, (a1 & 1) | ((a2 & 1) << 1));
+                b.m = step_up(b.m, (a1 >> 1) | (a2 & 2));
+                left -= 1;
+                // the smallest tMax beyond the length, per lane (no lane holds a NaN)
+                let past =
+                    move_mask_m128d(cmp_gt_mask_m128d(min_m128d(min_m128d(t0, t1), t2), len));
+                let e0 = (a.m == a.end) | (past & 1 != 0);
+                let e1 = (b.m == b.end) | (past & 2 != 0);
+                if e0 | e1 | (left == 0) {
+                    break [e0, e1];
+                }
+                a.record(buf0);
+                b.record(buf1);
+            };
+            a.budget -= steps - left;
+            b.budget -= steps - left;
+            w = [a, b];
+            let [x0, x1] = [t0.to_array(), t1.to_array()];
+            let x2 = t2.to_array();
+            let mut live = [true, true];
+            for (l, (walk, buf)) in w.iter_mut().zip([&mut *buf0, &mut *buf1]).enumerate() {
+                walk.t = [x0[l], x1[l], x2[l]];
+                if !ended[l] {
+                    walk.record(buf);
+                    if walk.budget > 0 {
+                        continue;
+                    }
+                    debug_assert!(false, "a well-conditioned ray exhausted its budget");
+                    degenerate += 1;
+                }
+                let n = walk.close(buf);
+                for &(b, m) in &buf[..n] {
+                    flush(b, m);
+                }
+                match next.next() {
+                    Some(r) => *walk = BrickWalk::start(r, buf),
+                    None => live[l] = false,
+                }
+            }
+            match live {
+                [true, true] => continue,
+                [false, false] => return degenerate,
+                _ => {
+                    // the rays are used up: the remaining walk ends alone
+                    let l = if live[0] { 0 } else { 1 };
+                    let buf = if l == 0 { &mut *buf0 } else { &mut *buf1 };
+                    let (walk, n) = w[l].finish(buf);
+                    degenerate += (walk != RayWalk::Complete) as usize;
+                    for &(b, m) in &buf[..n] {
+                        flush(b, m);
+                    }
+                    return degenerate;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dda::{key_of, setup_from, walk_ray_codes};
+    use nalgebra::Point3;
+    use octoquant_octree::KeyConverter;
+    use proptest::prelude::*;
+    use std::collections::BTreeSet;
+
+    /// The keys of every ray by the reference walk, as a set.
+    fn want(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> BTreeSet<u64> {
+        let mut s = BTreeSet::new();
+        for e in ends {
+            walk_ray_codes(conv, o, e, |c| {
+                s.insert(c);
+            });
+        }
+        s
+    }
+
+    /// The well-conditioned set-ups of the rays `o -> e`.
+    fn setups(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> Vec<RaySetup> {
+        let ok = key_of(conv, o);
+        ends.iter()
+            .filter_map(|e| setup_from(conv, o, ok, e).ok())
+            .filter(|r| r.well_conditioned)
+            .collect()
+    }
+
+    /// The voxels [`walk_all`] and [`walk_each`] visit, as sets (both must report no
+    /// degenerate walk).
+    fn both_paths(rays: &[RaySetup]) -> (BTreeSet<u64>, BTreeSet<u64>) {
+        let mut bufs = [Vec::new(), Vec::new()];
+        let mut sets = (BTreeSet::new(), BTreeSet::new());
+        let add = |set: &mut BTreeSet<u64>, b: u64, mut m: u64| {
+            while m != 0 {
+                set.insert((b << 6) | m.trailing_zeros() as u64);
+                m &= m - 1;
+            }
+        };
+        assert_eq!(
+            walk_all(rays, &mut bufs, &mut |b, m| add(&mut sets.0, b, m)),
+            0
+        );
+        assert_eq!(
+            walk_each(rays, &mut bufs[0], &mut |b, m| add(&mut sets.1, b, m)),
+            0
+        );
+        sets
+    }
+
+    /// Rays from a voxel centre to voxel centres cross voxel corners and edges, where the
+    /// tie rules decide: every lane must follow them.
+    #[test]
+    fn lattice_rays_keep_the_tie_rules() {
+        let conv = KeyConverter::new(0.1).unwrap();
+        let o = Point3::new(0.05f32, 0.05, 0.05);
+        let c = |i: i32| i as f32 * 0.1 + 0.05;
+        let ends: Vec<Point3<f32>> = (-6..6)
+            .flat_map(|i| {
+                (-6..6).flat_map(move |j| (-6..6).map(move |k| Point3::new(c(i), c(j), c(k))))
+            })
+            .collect();
+        let want = want(&conv, &o, &ends);
+        assert!(want.len() > 1000);
+        assert_eq!(both_paths(&setups(&conv, &o, &ends)), (want.clone(), want));
+    }
+
+    proptest! {
+        #[test]
+        fn batches_visit_the_reference_voxels(
+            o in prop::array::uniform3(-3.0f32..3.0),
+            ends in prop::collection::vec(prop::array::uniform3(-6.0f32..6.0), 0..40),
+            res in prop::sample::select(vec![0.05, 0.1, 0.2]),
+        ) {
+            let conv = KeyConverter::new(res).unwrap();
+            let o = Point3::from(o);
+            let ends: Vec<Point3<f32>> = ends.into_iter().map(Point3::from).collect();
+            let setups = setups(&conv, &o, &ends);
+            let want = want(&conv, &o, &ends);
+            prop_assert_eq!(both_paths(&setups), (want.clone(), want));
+        }
+    }
+}
