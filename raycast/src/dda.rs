@@ -427,11 +427,7 @@ where
     if !r.well_conditioned {
         return None;
     }
-    let (walk, n) = crate::lanes::BrickWalk::start(&r, buf).finish(buf);
-    for &(brick, bits) in &buf[..n] {
-        flush(brick, bits);
-    }
-    Some(walk)
+    Some(crate::lanes::BrickWalk::start(&r, buf).finish_into(buf, &mut flush))
 }
 
 /// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the

@@ -139,6 +139,18 @@ impl BrickWalk {
         );
         (walk, self.close(out))
     }
+
+    /// [`BrickWalk::finish`], then hand every brick of the walk to `flush`.
+    pub(crate) fn finish_into<F>(&mut self, buf: &mut [(u64, u64)], flush: &mut F) -> RayWalk
+    where
+        F: FnMut(u64, u64),
+    {
+        let (walk, n) = self.finish(buf);
+        for &(b, m) in &buf[..n] {
+            flush(b, m);
+        }
+        walk
+    }
 }
 
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
@@ -162,36 +174,20 @@ where
     }
 }
 
-/// [`walk_all`] one ray after another: the path of targets without SSE2 (and the tests').
-#[cfg_attr(
-    all(target_arch = "x86_64", target_feature = "sse2", not(test)),
-    allow(dead_code)
-)]
+/// [`walk_all`] one ray after another: the path of targets without SSE2, and of batches of
+/// fewer than two rays.
 fn walk_each<F>(rays: &[RaySetup], buf: &mut Vec<(u64, u64)>, flush: &mut F) -> usize
 where
     F: FnMut(u64, u64),
 {
     rays.iter()
-        .filter(|r| walk_one(r, buf, flush) != RayWalk::Complete)
+        .filter(|r| BrickWalk::start(r, buf).finish_into(buf, flush) != RayWalk::Complete)
         .count()
-}
-
-/// One ray, scalar, start to end.
-fn walk_one<F>(r: &RaySetup, buf: &mut Vec<(u64, u64)>, flush: &mut F) -> RayWalk
-where
-    F: FnMut(u64, u64),
-{
-    let mut w = BrickWalk::start(r, buf);
-    let (walk, n) = w.finish(buf);
-    for &(b, m) in &buf[..n] {
-        flush(b, m);
-    }
-    walk
 }
 
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 mod sse2 {
-    use super::{step_up, walk_one, BrickWalk};
+    use super::{step_up, walk_each, BrickWalk};
     use crate::dda::{RaySetup, RayWalk};
     use safe_arch::{
         add_m128d, bitand_m128d, bitandnot_m128d, bitor_m128d, cmp_eq_mask_m128d,
@@ -217,10 +213,7 @@ mod sse2 {
         let mut degenerate = 0;
         let mut next = rays.iter();
         let (Some(ra), Some(rb)) = (next.next(), next.next()) else {
-            for r in rays {
-                degenerate += (walk_one(r, &mut bufs[0], flush) != RayWalk::Complete) as usize;
-            }
-            return degenerate;
+            return walk_each(rays, &mut bufs[0], flush);
         };
         let [buf0, buf1] = bufs;
         let mut w = [BrickWalk::start(ra, buf0), BrickWalk::start(rb, buf1)];
@@ -297,12 +290,8 @@ mod sse2 {
                     // the rays are used up: the remaining walk ends alone
                     let l = if live[0] { 0 } else { 1 };
                     let buf = if l == 0 { &mut *buf0 } else { &mut *buf1 };
-                    let (walk, n) = w[l].finish(buf);
-                    degenerate += (walk != RayWalk::Complete) as usize;
-                    for &(b, m) in &buf[..n] {
-                        flush(b, m);
-                    }
-                    return degenerate;
+                    let walk = w[l].finish_into(buf, flush);
+                    return degenerate + (walk != RayWalk::Complete) as usize;
                 }
             }
         }
