@@ -11,7 +11,8 @@
 //!
 //! Other targets walk the rays one after another with the same state machine.
 
-use crate::dda::{cmin, RaySetup, RayWalk, AXIS_MASK};
+pub(crate) use crate::dda::AXIS_MASK;
+use crate::dda::{cmin, RaySetup, RayWalk};
 
 /// Per axis (and a harmless fourth entry): the axis's bits of a Morton code, their
 /// complement and the axis's lowest bit; a step up is `((m | !mask) + low) & mask`.
@@ -26,6 +27,20 @@ fn step_up(m: u64, a: usize) -> u64 {
     let a = a & 3;
     let mask = MASK4[a];
     (((m | NOT_MASK4[a]).wrapping_add(LOW4[a])) & mask) | (m & !mask)
+}
+
+/// A walk's mirrored Morton code at its origin, its end's, and the mirror: the Morton bits of
+/// the axes stepped downwards (`m ^ flip` is the true code).
+#[inline]
+pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
+    let mut flip = 0u64;
+    for (i, mask) in AXIS_MASK.iter().enumerate() {
+        if r.step[i] < 0 {
+            flip |= mask;
+        }
+    }
+    let code = r.key_origin.morton();
+    (code ^ flip, r.key_end.morton() ^ flip, flip)
 }
 
 /// The state of one brick walk between two steps.
@@ -56,22 +71,16 @@ impl BrickWalk {
         if buf.len() < need {
             buf.resize(need, (0, 0));
         }
-        let mut flip = 0u64;
-        for (i, mask) in AXIS_MASK.iter().enumerate() {
-            if r.step[i] < 0 {
-                flip |= mask;
-            }
-        }
-        let code = r.key_origin.morton();
+        let (m, end, flip) = lane_start(r);
         BrickWalk {
-            m: code ^ flip,
-            end: r.key_end.morton() ^ flip,
+            m,
+            end,
             flip,
             t: r.t_max,
             d: r.t_delta,
             len: r.length,
-            brick: code >> 6,
-            bits: 1u64 << (code & 63),
+            brick: (m ^ flip) >> 6,
+            bits: 1u64 << ((m ^ flip) & 63),
             n: 0,
             budget: r.budget,
         }
@@ -153,14 +162,33 @@ impl BrickWalk {
     }
 }
 
+/// Per-thread buffers of the lane walks, kept from batch to batch.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LaneScratch {
+    /// The bricks of the walks in progress, one buffer per SSE2 lane (the first also serves
+    /// the scalar walk).
+    bufs: [Vec<(u64, u64)>; 2],
+    #[cfg(target_arch = "x86_64")]
+    quad: crate::lanes_avx2::QuadScratch,
+}
+
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
-/// `flush` as `(brick, bits)`; `bufs` are kept by the caller from batch to batch. Returns how
-/// many walks degenerated (none can; they are counted rather than trusted).
-pub(crate) fn walk_all<F>(
-    rays: &[RaySetup],
-    bufs: &mut [Vec<(u64, u64)>; 2],
-    flush: &mut F,
-) -> usize
+/// `flush` as `(brick, bits)`: four at a time where the CPU has AVX2, else two at a time with
+/// SSE2, else one after another. Returns how many walks degenerated (none can; they are
+/// counted rather than trusted).
+pub(crate) fn walk_all<F>(rays: &[RaySetup], scratch: &mut LaneScratch, flush: &mut F) -> usize
+where
+    F: FnMut(u64, u64),
+{
+    #[cfg(target_arch = "x86_64")]
+    if let Some(degenerate) = crate::lanes_avx2::walk_quads(rays, &mut scratch.quad, flush) {
+        return degenerate;
+    }
+    walk_pairs_or_each(rays, &mut scratch.bufs, flush)
+}
+
+/// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.
+fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<(u64, u64)>; 2], flush: &mut F) -> usize
 where
     F: FnMut(u64, u64),
 {
@@ -327,25 +355,47 @@ mod tests {
             .collect()
     }
 
-    /// The voxels [`walk_all`] and [`walk_each`] visit, as sets (both must report no
-    /// degenerate walk).
-    fn both_paths(rays: &[RaySetup]) -> (BTreeSet<u64>, BTreeSet<u64>) {
-        let mut bufs = [Vec::new(), Vec::new()];
-        let mut sets = (BTreeSet::new(), BTreeSet::new());
-        let add = |set: &mut BTreeSet<u64>, b: u64, mut m: u64| {
+    /// The voxels each way of walking a batch visits, as sets: [`walk_all`] (the fastest path
+    /// the CPU has), the AVX2 lanes where the CPU has them, the SSE2 lanes and [`walk_each`];
+    /// none may report a degenerate walk.
+    fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
+        fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
             while m != 0 {
                 set.insert((b << 6) | m.trailing_zeros() as u64);
                 m &= m - 1;
             }
-        };
+        }
+        let mut sets = Vec::new();
+        let mut scratch = LaneScratch::default();
+        let mut s = BTreeSet::new();
         assert_eq!(
-            walk_all(rays, &mut bufs, &mut |b, m| add(&mut sets.0, b, m)),
+            walk_all(rays, &mut scratch, &mut |b, m| add(&mut s, b, m)),
             0
         );
+        sets.push(s);
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut s = BTreeSet::new();
+            let mut quad = crate::lanes_avx2::QuadScratch::default();
+            if let Some(d) =
+                crate::lanes_avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+        }
+        let mut s = BTreeSet::new();
         assert_eq!(
-            walk_each(rays, &mut bufs[0], &mut |b, m| add(&mut sets.1, b, m)),
+            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b, m| add(&mut s, b, m)),
             0
         );
+        sets.push(s);
+        let mut s = BTreeSet::new();
+        assert_eq!(
+            walk_each(rays, &mut scratch.bufs[0], &mut |b, m| add(&mut s, b, m)),
+            0
+        );
+        sets.push(s);
         sets
     }
 
@@ -363,7 +413,9 @@ mod tests {
             .collect();
         let want = want(&conv, &o, &ends);
         assert!(want.len() > 1000);
-        assert_eq!(both_paths(&setups(&conv, &o, &ends)), (want.clone(), want));
+        for got in all_paths(&setups(&conv, &o, &ends)) {
+            assert_eq!(got, want);
+        }
     }
 
     proptest! {
@@ -378,7 +430,9 @@ mod tests {
             let ends: Vec<Point3<f32>> = ends.into_iter().map(Point3::from).collect();
             let setups = setups(&conv, &o, &ends);
             let want = want(&conv, &o, &ends);
-            prop_assert_eq!(both_paths(&setups), (want.clone(), want));
+            for got in all_paths(&setups) {
+                prop_assert_eq!(&got, &want);
+            }
         }
     }
 }

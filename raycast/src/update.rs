@@ -118,8 +118,8 @@ struct RayScratch {
     codes: Vec<u64>,
     /// Well-conditioned DDA rays waiting to be walked together.
     batch: Vec<RaySetup>,
-    /// The bricks of the walks in progress, one buffer per lane.
-    lanes: [Vec<(u64, u64)>; 2],
+    /// The buffers of the lane walks.
+    lanes: crate::lanes::LaneScratch,
     /// Queued walks that degenerated since the counts were last taken.
     degenerate: usize,
 }
