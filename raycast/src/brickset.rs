@@ -60,6 +60,13 @@ impl BrickSet {
             self.slots[self.last].1 |= bit;
             return;
         }
+        self.insert_bits_hashed(brick, bit);
+    }
+
+    /// [`BrickSet::insert_bits`] without the check of the brick touched last, for callers
+    /// whose bricks rarely repeat one after another.
+    #[inline(always)]
+    pub fn insert_bits_hashed(&mut self, brick: u64, bit: u64) {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
         loop {

@@ -5,9 +5,9 @@
 //! made beside the comparisons and picked by mask so that the chain carried from step to step
 //! stays short; the step of the mirrored Morton code as integer masks (the chosen axis's bits
 //! and their lowest bit); the end tests; and the brick bookkeeping. Each lane's open brick and
-//! the voxels met in it stay in registers, and one row per step records every lane's brick
-//! before the step and whether the lane left it. The bricks left are gathered from the rows
-//! without a branch and handed on.
+//! the voxels met in it stay in registers; the bricks the lanes leave at a step are moved to
+//! the front of a register by a permutation looked up by the set of lanes, appended with one
+//! store, and handed on in runs.
 //!
 //! A lane whose walk ends starts the next ray in the same step, its origin voxel standing in
 //! for the step's voxel (a walk's first voxel is free too); when the rays run out, the lane
@@ -23,43 +23,52 @@ use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,
     _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_cmp_pd, _mm256_cmpeq_epi64, _mm256_min_pd,
-    _mm256_movemask_pd, _mm256_or_pd, _mm256_or_si256, _mm256_set1_epi64x, _mm256_set1_pd,
-    _mm256_setzero_si256, _mm256_sllv_epi64, _mm256_srli_epi64, _mm256_sub_epi64, _mm256_xor_si256,
-    _CMP_GT_OQ, _CMP_LT_OQ,
+    _mm256_movemask_pd, _mm256_or_pd, _mm256_or_si256, _mm256_permutevar8x32_epi32,
+    _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setzero_si256, _mm256_sllv_epi64, _mm256_srli_epi64,
+    _mm256_sub_epi64, _mm256_xor_si256, _CMP_GT_OQ, _CMP_LT_OQ,
 };
 
-/// Steps recorded before their bricks are gathered (16 KiB of rows, still in the first-level
-/// cache when they are read back).
-const CHUNK: usize = 256;
+/// Bricks left by the lanes that are collected before they are handed on.
+const LEFT: usize = 1024;
 
-/// The per-thread buffers of the four-lane walk, kept from batch to batch.
+/// The per-thread buffers of the four-lane walk, kept from batch to batch: the bricks the
+/// lanes left and their voxels, side by side, with room for one more step's four.
 #[derive(Debug, Clone)]
 pub(crate) struct QuadScratch {
-    /// Per step, the brick each lane was in before the step, and its voxels.
-    rows: Box<[Row; CHUNK]>,
-    /// Per step, the lanes that left their brick (bit `l` for lane `l`).
-    moved: Box<[u8; CHUNK]>,
-    /// The bricks left during a chunk, gathered from the rows.
-    bricks: Vec<(u64, u64)>,
-}
-
-/// One step of the four lanes: each lane's brick before the step and the voxels it had met
-/// in it.
-#[derive(Debug, Clone, Copy, Default)]
-struct Row {
-    brick: U4,
-    bits: U4,
+    bricks: Vec<u64>,
+    bits: Vec<u64>,
 }
 
 impl Default for QuadScratch {
     fn default() -> Self {
         QuadScratch {
-            rows: Box::new([Row::default(); CHUNK]),
-            moved: Box::new([0; CHUNK]),
-            bricks: vec![(0, 0); 4 * CHUNK],
+            bricks: vec![0; LEFT + 4],
+            bits: vec![0; LEFT + 4],
         }
     }
 }
+
+/// For each set of lanes (bit `l` for lane `l`), the 32-bit lane indices that move those
+/// 64-bit lanes to the front, in order, and their number.
+static COMPRESS: [([u32; 8], usize); 16] = {
+    let mut t = [([0u32; 8], 0usize); 16];
+    let mut set = 0;
+    while set < 16 {
+        let mut k = 0;
+        let mut l = 0;
+        while l < 4 {
+            if set & (1 << l) != 0 {
+                t[set].0[2 * k] = 2 * l as u32;
+                t[set].0[2 * k + 1] = 2 * l as u32 + 1;
+                k += 1;
+            }
+            l += 1;
+        }
+        t[set].1 = k;
+        set += 1;
+    }
+    t
+};
 
 /// Walk `rays` four at a time when this CPU has AVX2 and return the number of degenerate walks,
 /// or `None` (nothing done) on CPUs without it.
@@ -221,7 +230,7 @@ where
     let mut brick = _mm256_srli_epi64::<6>(first);
     let mut bits = _mm256_sllv_epi64(one, _mm256_and_si256(first, c63));
     let mut degenerate = 0;
-    let mut row = 0;
+    let mut left = 0;
     loop {
         let [d0, d1, d2] = q.d;
         // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z;
@@ -301,23 +310,33 @@ where
             codes = bytemuck::cast(written);
             finished = live == 0;
         }
-        // the voxel entered joins its lane's open brick, or closes it and opens the next
+        // the voxel entered joins its lane's open brick, or the lane leaves that brick,
+        // which is appended to the bricks left (the lanes that left moved to the front)
         let b = _mm256_srli_epi64::<6>(codes);
         let same = _mm256_cmpeq_epi64(b, brick);
-        scratch.rows[row] = Row {
-            brick: bytemuck::cast(brick),
-            bits: bytemuck::cast(bits),
-        };
-        scratch.moved[row] = (_mm256_movemask_pd(_mm256_castsi256_pd(same)) ^ 0xF) as u8;
+        let (order, count) =
+            COMPRESS[(_mm256_movemask_pd(_mm256_castsi256_pd(same)) ^ 0xF) as usize];
+        let order: __m256i = bytemuck::cast(order);
+        let left_b: U4 = bytemuck::cast(_mm256_permutevar8x32_epi32(brick, order));
+        let left_m: U4 = bytemuck::cast(_mm256_permutevar8x32_epi32(bits, order));
+        if let (Some(db), Some(dm)) = (
+            scratch.bricks.get_mut(left..left + 4),
+            scratch.bits.get_mut(left..left + 4),
+        ) {
+            db.copy_from_slice(&left_b);
+            dm.copy_from_slice(&left_m);
+        }
+        left += count;
         bits = _mm256_or_si256(
             _mm256_and_si256(bits, same),
             _mm256_sllv_epi64(one, _mm256_and_si256(codes, c63)),
         );
         brick = b;
-        row += 1;
-        if finished || row == CHUNK {
-            gather(scratch, row, flush);
-            row = 0;
+        if finished || left >= LEFT {
+            for (&b, &m) in scratch.bricks[..left].iter().zip(&scratch.bits[..left]) {
+                flush(b, m);
+            }
+            left = 0;
         }
         if finished {
             let (brick, bits): (U4, U4) = (bytemuck::cast(brick), bytemuck::cast(bits));
@@ -326,31 +345,5 @@ where
             }
             return degenerate;
         }
-    }
-}
-
-/// Hand to `flush` every brick that a lane left during the first `rows` steps of the chunk
-/// (gathered without a branch, then flushed).
-#[inline(always)]
-fn gather<F>(scratch: &mut QuadScratch, rows: usize, flush: &mut F)
-where
-    F: FnMut(u64, u64),
-{
-    let QuadScratch {
-        rows: r,
-        moved,
-        bricks,
-    } = scratch;
-    let mut n = 0;
-    for (row, &mv) in r[..rows].iter().zip(&moved[..rows]) {
-        for l in 0..4 {
-            if let Some(slot) = bricks.get_mut(n) {
-                *slot = (row.brick[l], row.bits[l]);
-            }
-            n += (mv as usize >> l) & 1;
-        }
-    }
-    for &(b, m) in &bricks[..n] {
-        flush(b, m);
     }
 }

@@ -223,7 +223,7 @@ fn push_ray(
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.degenerate +=
         crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, &mut |brick, bits| {
-            set.insert_bits(brick, bits)
+            set.insert_bits_hashed(brick, bits)
         });
     scratch.batch.clear();
 }
