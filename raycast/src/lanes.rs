@@ -43,6 +43,97 @@ pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
     (code ^ flip, r.key_end.morton() ^ flip, flip)
 }
 
+/// One walk's state as scalars, for starting a SIMD lane on a new ray.
+pub(crate) struct LaneInit {
+    pub(crate) t: [f64; 3],
+    pub(crate) d: [f64; 3],
+    pub(crate) len: f64,
+    pub(crate) m: u64,
+    pub(crate) end: u64,
+    pub(crate) flip: u64,
+    pub(crate) budget: i64,
+    /// The code of the voxel the walk starts in.
+    pub(crate) origin: u64,
+}
+
+impl LaneInit {
+    /// The walk of `r` at its origin voxel.
+    pub(crate) fn new(r: &RaySetup) -> Self {
+        let (m, end, flip) = lane_start(r);
+        LaneInit {
+            t: r.t_max,
+            d: r.t_delta,
+            len: r.length,
+            m,
+            end,
+            flip,
+            budget: r.budget as i64,
+            origin: m ^ flip,
+        }
+    }
+
+    /// A lane without a ray: it never moves (its step mask is cleared by `active`), never
+    /// ends, and keeps writing `code`, a voxel already recorded.
+    pub(crate) fn idle(code: u64) -> Self {
+        LaneInit {
+            t: [0.0; 3],
+            d: [0.0; 3],
+            len: f64::INFINITY,
+            m: code,
+            end: !code,
+            flip: 0,
+            budget: i64::MAX,
+            origin: code,
+        }
+    }
+}
+
+/// Restart the lanes whose walks stopped at this step (bit `l` of `stopped` for lane `l`) on
+/// the next rays of `next`, through `set(lane, state, active)`: a lane's code becomes its new
+/// walk's origin voxel, or `idle_code` (a voxel already recorded) when the rays are used up, and
+/// `live` counts down. A walk that stopped without being done (bit clear in `done`) ran out of
+/// budget: the voxel it just entered is handed to `flush` and it is counted as degenerate.
+/// Returns that count.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn restart<F, S>(
+    codes: &mut [u64],
+    stopped: u32,
+    done: u32,
+    next: &mut std::slice::Iter<'_, RaySetup>,
+    idle_code: u64,
+    live: &mut usize,
+    flush: &mut F,
+    mut set: S,
+) -> usize
+where
+    F: FnMut(u64, u64),
+    S: FnMut(usize, &LaneInit, bool),
+{
+    let mut degenerate = 0;
+    for (l, code) in codes.iter_mut().enumerate() {
+        if stopped & (1 << l) == 0 {
+            continue;
+        }
+        if done & (1 << l) == 0 {
+            flush(*code >> 6, 1u64 << (*code & 63));
+            degenerate += 1;
+        }
+        match next.next() {
+            Some(r) => {
+                let s = LaneInit::new(r);
+                *code = s.origin;
+                set(l, &s, true);
+            }
+            None => {
+                *code = idle_code;
+                set(l, &LaneInit::idle(idle_code), false);
+                *live -= 1;
+            }
+        }
+    }
+    degenerate
+}
+
 /// The state of one brick walk between two steps.
 ///
 /// Axes stepped downwards are mirrored (their Morton bits inverted) so that every step is an
@@ -170,19 +261,26 @@ pub(crate) struct LaneScratch {
     bufs: [Vec<(u64, u64)>; 2],
     #[cfg(target_arch = "x86_64")]
     quad: crate::lanes_avx2::QuadScratch,
+    #[cfg(target_arch = "x86_64")]
+    oct: crate::lanes_avx512::OctScratch,
 }
 
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
-/// `flush` as `(brick, bits)`: four at a time where the CPU has AVX2, else two at a time with
-/// SSE2, else one after another. Returns how many walks degenerated (none can; they are
+/// `flush` as `(brick, bits)`: eight at a time where the CPU has AVX-512, four with AVX2, two
+/// with SSE2, else one after another. Returns how many walks degenerated (none can; they are
 /// counted rather than trusted).
 pub(crate) fn walk_all<F>(rays: &[RaySetup], scratch: &mut LaneScratch, flush: &mut F) -> usize
 where
     F: FnMut(u64, u64),
 {
     #[cfg(target_arch = "x86_64")]
-    if let Some(degenerate) = crate::lanes_avx2::walk_quads(rays, &mut scratch.quad, flush) {
-        return degenerate;
+    {
+        if let Some(degenerate) = crate::lanes_avx512::walk_octs(rays, &mut scratch.oct, flush) {
+            return degenerate;
+        }
+        if let Some(degenerate) = crate::lanes_avx2::walk_quads(rays, &mut scratch.quad, flush) {
+            return degenerate;
+        }
     }
     walk_pairs_or_each(rays, &mut scratch.bufs, flush)
 }
@@ -356,7 +454,8 @@ mod tests {
     }
 
     /// The voxels each way of walking a batch visits, as sets: [`walk_all`] (the fastest path
-    /// the CPU has), the AVX2 lanes where the CPU has them, the SSE2 lanes and [`walk_each`];
+    /// the CPU has), the AVX2 and AVX-512 lanes where the CPU has them, the SSE2 lanes and
+    /// [`walk_each`];
     /// none may report a degenerate walk.
     fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
         fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
@@ -379,6 +478,14 @@ mod tests {
             let mut quad = crate::lanes_avx2::QuadScratch::default();
             if let Some(d) =
                 crate::lanes_avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+            let mut s = BTreeSet::new();
+            let mut oct = crate::lanes_avx512::OctScratch::default();
+            if let Some(d) =
+                crate::lanes_avx512::walk_octs(rays, &mut oct, &mut |b, m| add(&mut s, b, m))
             {
                 assert_eq!(d, 0);
                 sets.push(s);

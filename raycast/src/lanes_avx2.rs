@@ -18,7 +18,7 @@
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
 use crate::dda::RaySetup;
-use crate::lanes::{lane_start, AXIS_MASK};
+use crate::lanes::{restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,
@@ -90,50 +90,6 @@ where
     Some(degenerate)
 }
 
-/// One lane's walk state as scalars, for starting a lane on a new ray.
-struct LaneInit {
-    t: [f64; 3],
-    d: [f64; 3],
-    len: f64,
-    m: u64,
-    end: u64,
-    flip: u64,
-    budget: i64,
-    /// The code of the voxel the walk starts in.
-    origin: u64,
-}
-
-impl LaneInit {
-    fn new(r: &RaySetup) -> Self {
-        let (m, end, flip) = lane_start(r);
-        LaneInit {
-            t: r.t_max,
-            d: r.t_delta,
-            len: r.length,
-            m,
-            end,
-            flip,
-            budget: r.budget as i64,
-            origin: m ^ flip,
-        }
-    }
-
-    /// A lane without a ray: it never moves (its step mask is cleared by `active`), never
-    /// ends, and keeps writing `code`, a voxel already recorded.
-    fn idle(code: u64) -> Self {
-        LaneInit {
-            t: [0.0; 3],
-            d: [0.0; 3],
-            len: f64::INFINITY,
-            m: code,
-            end: !code,
-            flip: 0,
-            budget: i64::MAX,
-            origin: code,
-        }
-    }
-}
-
 /// The four lanes' registers.
 struct Lanes {
     t: [__m256d; 3],
@@ -197,7 +153,6 @@ where
     // every column starts as an open brick holding its first walk's origin voxel; idle lanes
     // repeat the first walk's origin voxel, which is recorded
     let idle_code = LaneInit::new(first).origin;
-    let mut first_code = [idle_code; 4];
     let lane: [__m256i; 4] = core::array::from_fn(|l| {
         bytemuck::cast(core::array::from_fn::<u64, 4, _>(|k| {
             if k == l {
@@ -207,18 +162,18 @@ where
             }
         }))
     });
-    let mut live = 0;
-    for (l, code) in first_code.iter_mut().enumerate() {
-        match next.next() {
-            Some(r) => {
-                let s = LaneInit::new(r);
-                *code = s.origin;
-                q.set(&lane, l, &s, true);
-                live += 1;
-            }
-            None => q.set(&lane, l, &LaneInit::idle(idle_code), false),
-        }
-    }
+    let mut first_code = [idle_code; 4];
+    let mut live = 4;
+    restart(
+        &mut first_code,
+        0xF,
+        0xF,
+        &mut next,
+        idle_code,
+        &mut live,
+        flush,
+        |l, s, a| q.set(&lane, l, s, a),
+    );
     let ones_f = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     let ones_i = _mm256_set1_epi64x(-1);
     let one = _mm256_set1_epi64x(1);
@@ -284,28 +239,16 @@ where
             let done = _mm256_movemask_pd(done);
             let mut written: U4 = bytemuck::cast(codes);
             q.t = [t0, t1, t2];
-            for (l, code) in written.iter_mut().enumerate() {
-                if stopped & (1 << l) == 0 {
-                    continue;
-                }
-                if done & (1 << l) == 0 {
-                    // out of budget: the voxel just entered is visited, then the walk stops
-                    flush(*code >> 6, 1u64 << (*code & 63));
-                    degenerate += 1;
-                }
-                match next.next() {
-                    Some(r) => {
-                        let s = LaneInit::new(r);
-                        *code = s.origin;
-                        q.set(&lane, l, &s, true);
-                    }
-                    None => {
-                        *code = idle_code;
-                        q.set(&lane, l, &LaneInit::idle(idle_code), false);
-                        live -= 1;
-                    }
-                }
-            }
+            degenerate += restart(
+                &mut written,
+                stopped as u32,
+                done as u32,
+                &mut next,
+                idle_code,
+                &mut live,
+                flush,
+                |l, s, a| q.set(&lane, l, s, a),
+            );
             [t0, t1, t2] = q.t;
             codes = bytemuck::cast(written);
             finished = live == 0;

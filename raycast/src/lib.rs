@@ -38,8 +38,9 @@
 //! assert_eq!(hit.end, Some(Point3::new(2.05, 0.05, 0.05)));
 //! ```
 #![deny(missing_docs)]
-// One audited exception: the call into the AVX2 ray walk after the run-time check that the CPU
-// has AVX2 (`lanes_avx2::walk_quads`). Everything else is safe code.
+// Two audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
+// that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`). Everything else
+// is safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;
@@ -50,6 +51,8 @@ mod insert;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx2;
+#[cfg(target_arch = "x86_64")]
+mod lanes_avx512;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;
