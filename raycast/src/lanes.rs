@@ -1,15 +1,15 @@
-//! Many DDA walks at once: the brick walk of [`crate::dda`] for a batch of rays, two rays side
-//! by side in the lanes of SSE2 registers.
+//! Many DDA walks at once: the brick walk of [`crate::dda`] for a batch of rays, as many rays
+//! side by side as the CPU has lanes for.
 //!
 //! One walk's axis choice (OctoMap's `tMax` comparison chain) is a three-way branch the
 //! predictor misses about one step in two when neighbouring rays differ, and made with masks
-//! it is a chain of compare, mask and add that each step waits for. Two independent walks in
-//! one register pair share those instructions and overlap their chains. The comparisons,
-//! additions and tie rules are OctoMap's, lane by lane, so every walk visits exactly the voxels
-//! of [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes,
-//! and a set does not depend on it.
-//!
-//! Other targets walk the rays one after another with the same state machine.
+//! it is a chain of compare, mask and add that each step waits for. Independent walks in the
+//! lanes of one register share those instructions and overlap their chains. [`walk_all`] picks
+//! at run time the widest path the CPU has: eight lanes with AVX-512 ([`crate::lanes_avx512`]),
+//! four with AVX2 ([`crate::lanes_avx2`]), two with SSE2 (here, through `safe_arch`), or one
+//! walk after another. The comparisons, additions and tie rules are OctoMap's, lane by lane,
+//! so every walk visits exactly the voxels of [`crate::dda::walk_ray_codes`]; only the order in
+//! which bricks reach the set changes, and a set does not depend on it.
 
 pub(crate) use crate::dda::AXIS_MASK;
 use crate::dda::{cmin, RaySetup, RayWalk};
