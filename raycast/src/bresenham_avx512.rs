@@ -9,42 +9,24 @@
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
 use crate::dda::AXIS_MASK;
+use crate::lanes_avx512::{Bricks8, OctScratch};
+
+/// Eight lanes' codes as an array.
+type U8 = [u64; 8];
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
-    _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_cmpneq_epu64_mask,
-    _mm512_mask_mov_epi64, _mm512_mask_sub_epi64, _mm512_maskz_compress_epi64,
+    _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
     _mm512_maskz_mov_epi64, _mm512_or_si512, _mm512_set1_epi64, _mm512_setzero_si512,
-    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
+    _mm512_sub_epi64, _mm512_xor_si512,
 };
 use octoquant_octree::Key;
-
-/// Bricks left by the lanes that are collected before they are handed on.
-const LEFT: usize = 1024;
-
-type U8 = [u64; 8];
-
-/// The per-thread buffers of the eight-lane lines, kept from batch to batch.
-#[derive(Debug, Clone)]
-pub(crate) struct LineScratch {
-    bricks: Vec<u64>,
-    bits: Vec<u64>,
-}
-
-impl Default for LineScratch {
-    fn default() -> Self {
-        LineScratch {
-            bricks: vec![0; LEFT + 8],
-            bits: vec![0; LEFT + 8],
-        }
-    }
-}
 
 /// Walk the lines `start -> end` of `lines` (each with at least one voxel) eight at a time
 /// when this CPU has AVX-512, handing each brick they enter to `flush`; `None` (nothing done)
 /// on CPUs without it.
 pub(crate) fn walk_lines<F>(
     lines: &[(Key, Key)],
-    scratch: &mut LineScratch,
+    scratch: &mut OctScratch,
     flush: &mut F,
 ) -> Option<()>
 where
@@ -177,7 +159,7 @@ fn step_up(m: __m512i, mask: __m512i) -> __m512i {
 
 /// [`walk_lines`] once AVX-512 is known to be there.
 #[target_feature(enable = "avx512f")]
-fn walk_lines_avx512<F>(lines: &[(Key, Key)], scratch: &mut LineScratch, flush: &mut F)
+fn walk_lines_avx512<F>(lines: &[(Key, Key)], scratch: &mut OctScratch, flush: &mut F)
 where
     F: FnMut(u64, u64),
 {
@@ -212,11 +194,7 @@ where
         q.set(l, &s);
     }
     let one = _mm512_set1_epi64(1);
-    let c63 = _mm512_set1_epi64(63);
-    let first: __m512i = bytemuck::cast(codes);
-    let mut brick = _mm512_srli_epi64::<6>(first);
-    let mut bits = _mm512_sllv_epi64(one, _mm512_and_si512(first, c63));
-    let mut left = 0;
+    let mut bricks = Bricks8::new(bytemuck::cast(codes), scratch);
     loop {
         // the minor axes whose error term is positive step, then the main axis
         let k1 = _mm512_cmpgt_epi64_mask(q.err[0], zero);
@@ -257,36 +235,9 @@ where
             codes = bytemuck::cast(written);
             finished = live == 0;
         }
-        // the voxel entered joins its lane's open brick, or the lane leaves that brick, which
-        // is appended to the bricks left
-        let b = _mm512_srli_epi64::<6>(codes);
-        let moved = _mm512_cmpneq_epu64_mask(b, brick);
-        let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, brick));
-        let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, bits));
-        if let (Some(db), Some(dm)) = (
-            scratch.bricks.get_mut(left..left + 8),
-            scratch.bits.get_mut(left..left + 8),
-        ) {
-            db.copy_from_slice(&left_b);
-            dm.copy_from_slice(&left_m);
-        }
-        left += moved.count_ones() as usize;
-        bits = _mm512_or_si512(
-            _mm512_maskz_mov_epi64(!moved, bits),
-            _mm512_sllv_epi64(one, _mm512_and_si512(codes, c63)),
-        );
-        brick = b;
-        if finished || left >= LEFT {
-            for (&b, &m) in scratch.bricks[..left].iter().zip(&scratch.bits[..left]) {
-                flush(b, m);
-            }
-            left = 0;
-        }
+        bricks.push(codes, flush);
         if finished {
-            let (brick, bits): (U8, U8) = (bytemuck::cast(brick), bytemuck::cast(bits));
-            for (b, m) in brick.into_iter().zip(bits) {
-                flush(b, m);
-            }
+            bricks.finish(flush);
             return;
         }
     }
@@ -325,7 +276,7 @@ mod tests {
                 crate::bresenham::walk_bresenham_bricks(a, b, |b, m| add(&mut want, b, m));
             }
             let mut got = BTreeSet::new();
-            let mut scratch = LineScratch::default();
+            let mut scratch = OctScratch::default();
             if walk_lines(&lines, &mut scratch, &mut |b, m| add(&mut got, b, m)).is_some() {
                 prop_assert_eq!(got, want);
             }

@@ -22,8 +22,9 @@ const LEFT: usize = 1024;
 
 type U8 = [u64; 8];
 
-/// The per-thread buffers of the eight-lane walk, kept from batch to batch: the bricks the
-/// lanes left and their voxels, side by side, with room for one more step's eight.
+/// The per-thread buffers of the eight-lane walks (DDA and Bresenham), kept from batch to
+/// batch: the bricks the lanes left and their voxels, side by side, with room for one more
+/// step's eight.
 #[derive(Debug, Clone)]
 pub(crate) struct OctScratch {
     bricks: Vec<u64>,
@@ -35,6 +36,80 @@ impl Default for OctScratch {
         OctScratch {
             bricks: vec![0; LEFT + 8],
             bits: vec![0; LEFT + 8],
+        }
+    }
+}
+
+/// The eight lanes' open bricks and the voxels met in them, and the bricks the lanes left,
+/// collected in the scratch buffers until they are handed on.
+pub(crate) struct Bricks8<'a> {
+    brick: __m512i,
+    bits: __m512i,
+    left: usize,
+    scratch: &'a mut OctScratch,
+}
+
+impl<'a> Bricks8<'a> {
+    /// Each lane's open brick holding the voxel of `first` (one code per lane).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn new(first: __m512i, scratch: &'a mut OctScratch) -> Self {
+        Bricks8 {
+            brick: _mm512_srli_epi64::<6>(first),
+            bits: _mm512_sllv_epi64(
+                _mm512_set1_epi64(1),
+                _mm512_and_si512(first, _mm512_set1_epi64(63)),
+            ),
+            left: 0,
+            scratch,
+        }
+    }
+
+    /// Add each lane's voxel `codes`: it joins the lane's open brick, or the lane leaves that
+    /// brick, which is compressed to the front with the others left (`vpcompressq`) and
+    /// appended with one store; full buffers go to `flush`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn push<F: FnMut(u64, u64)>(&mut self, codes: __m512i, flush: &mut F) {
+        let b = _mm512_srli_epi64::<6>(codes);
+        let moved = _mm512_cmpneq_epu64_mask(b, self.brick);
+        let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.brick));
+        let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.bits));
+        let (i, s) = (self.left, &mut *self.scratch);
+        if let (Some(db), Some(dm)) = (s.bricks.get_mut(i..i + 8), s.bits.get_mut(i..i + 8)) {
+            db.copy_from_slice(&left_b);
+            dm.copy_from_slice(&left_m);
+        }
+        self.left += moved.count_ones() as usize;
+        self.bits = _mm512_or_si512(
+            _mm512_maskz_mov_epi64(!moved, self.bits),
+            _mm512_sllv_epi64(
+                _mm512_set1_epi64(1),
+                _mm512_and_si512(codes, _mm512_set1_epi64(63)),
+            ),
+        );
+        self.brick = b;
+        if self.left >= LEFT {
+            self.hand_on(flush);
+        }
+    }
+
+    /// Hand the bricks left so far to `flush`.
+    fn hand_on<F: FnMut(u64, u64)>(&mut self, flush: &mut F) {
+        let s = &*self.scratch;
+        for (&b, &m) in s.bricks[..self.left].iter().zip(&s.bits[..self.left]) {
+            flush(b, m);
+        }
+        self.left = 0;
+    }
+
+    /// Hand every brick to `flush`: those left, then the open ones.
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn finish<F: FnMut(u64, u64)>(mut self, flush: &mut F) {
+        self.hand_on(flush);
+        let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
+        for (b, m) in brick.into_iter().zip(bits) {
+            flush(b, m);
         }
     }
 }
@@ -132,15 +207,11 @@ where
     );
     let ones_i = _mm512_set1_epi64(-1);
     let one = _mm512_set1_epi64(1);
-    let c63 = _mm512_set1_epi64(63);
     let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
     let [mut t0, mut t1, mut t2] = q.t;
-    // each lane's open brick and the voxels met in it, starting with its origin voxel
-    let first: __m512i = bytemuck::cast(first_code);
-    let mut brick = _mm512_srli_epi64::<6>(first);
-    let mut bits = _mm512_sllv_epi64(one, _mm512_and_si512(first, c63));
+    // each lane's open brick starts with its origin voxel
+    let mut bricks = Bricks8::new(bytemuck::cast(first_code), scratch);
     let mut degenerate = 0;
-    let mut left = 0;
     loop {
         let [d0, d1, d2] = q.d;
         // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z
@@ -192,36 +263,9 @@ where
             codes = bytemuck::cast(written);
             finished = live == 0;
         }
-        // the voxel entered joins its lane's open brick, or the lane leaves that brick, which
-        // is appended to the bricks left
-        let b = _mm512_srli_epi64::<6>(codes);
-        let moved = _mm512_cmpneq_epu64_mask(b, brick);
-        let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, brick));
-        let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, bits));
-        if let (Some(db), Some(dm)) = (
-            scratch.bricks.get_mut(left..left + 8),
-            scratch.bits.get_mut(left..left + 8),
-        ) {
-            db.copy_from_slice(&left_b);
-            dm.copy_from_slice(&left_m);
-        }
-        left += moved.count_ones() as usize;
-        bits = _mm512_or_si512(
-            _mm512_maskz_mov_epi64(!moved, bits),
-            _mm512_sllv_epi64(one, _mm512_and_si512(codes, c63)),
-        );
-        brick = b;
-        if finished || left >= LEFT {
-            for (&b, &m) in scratch.bricks[..left].iter().zip(&scratch.bits[..left]) {
-                flush(b, m);
-            }
-            left = 0;
-        }
+        bricks.push(codes, flush);
         if finished {
-            let (brick, bits): (U8, U8) = (bytemuck::cast(brick), bytemuck::cast(bits));
-            for (b, m) in brick.into_iter().zip(bits) {
-                flush(b, m);
-            }
+            bricks.finish(flush);
             return degenerate;
         }
     }

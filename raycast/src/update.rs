@@ -126,7 +126,7 @@ struct RayScratch {
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
     #[cfg(target_arch = "x86_64")]
-    line_lanes: crate::bresenham_avx512::LineScratch,
+    line_lanes: crate::lanes_avx512::OctScratch,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
