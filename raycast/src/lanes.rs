@@ -44,6 +44,7 @@ pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
 }
 
 /// One walk's state as scalars, for starting a SIMD lane on a new ray.
+#[cfg(target_arch = "x86_64")]
 pub(crate) struct LaneInit {
     pub(crate) t: [f64; 3],
     pub(crate) d: [f64; 3],
@@ -56,6 +57,7 @@ pub(crate) struct LaneInit {
     pub(crate) origin: u64,
 }
 
+#[cfg(target_arch = "x86_64")]
 impl LaneInit {
     /// The walk of `r` at its origin voxel.
     pub(crate) fn new(r: &RaySetup) -> Self {
@@ -94,6 +96,7 @@ impl LaneInit {
 /// `live` counts down. A walk that stopped without being done (bit clear in `done`) ran out of
 /// budget: the voxel it just entered is handed to `flush` and it is counted as degenerate.
 /// Returns that count.
+#[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn restart<F, S>(
     codes: &mut [u64],
