@@ -31,7 +31,7 @@ fn random_tree(rng: &mut Rng) -> OcTree {
     for _ in 0..400 {
         let p = Point3::new(rng.f(-1.0, 1.0), rng.f(-1.0, 1.0), rng.f(-1.0, 1.0));
         let k = tree.converter().point_to_key(&p).unwrap();
-        let u = if rng.next() % 3 == 0 {
+        let u = if rng.next().is_multiple_of(3) {
             Update::Hit
         } else {
             Update::Miss

@@ -176,6 +176,13 @@ impl KeyConverter {
         self.resolution
     }
 
+    /// `1 / resolution`, the factor a coordinate is scaled by before it is floored to a key
+    /// (OctoMap's `resolution_factor`), for callers that convert many coordinates at once.
+    #[inline]
+    pub fn resolution_factor(&self) -> f64 {
+        self.factor
+    }
+
     /// Edge length of a node at `depth` (0 = root, 16 = leaf): `resolution * 2^(16-depth)`.
     #[inline]
     pub fn node_size(&self, depth: u8) -> f64 {

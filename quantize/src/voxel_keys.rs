@@ -184,7 +184,7 @@ const CHUNK: usize = 8192;
 const NO_KEY: u64 = u64::MAX;
 
 /// Key bounding box of a share of the points, and how many of them were not finite.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct KeyBounds {
     lo: [u16; 3],
     hi: [u16; 3],
@@ -199,8 +199,17 @@ impl KeyBounds {
     };
 
     /// Write each point's packed key (`zyx_code`, or [`NO_KEY`]) to `out` and return the
-    /// share's key box and non-finite count.
+    /// share's key box and non-finite count: four points at a time where the CPU has AVX2.
     fn pack(conv: &KeyConverter, points: &[Point3<f32>], out: &mut [u64]) -> KeyBounds {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(b) = avx2::pack(conv, points, out) {
+            return b;
+        }
+        KeyBounds::pack_scalar(conv, points, out)
+    }
+
+    /// [`KeyBounds::pack`] one point after another.
+    fn pack_scalar(conv: &KeyConverter, points: &[Point3<f32>], out: &mut [u64]) -> KeyBounds {
         let mut b = KeyBounds::EMPTY;
         for (p, o) in points.iter().zip(out.iter_mut()) {
             if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
@@ -232,6 +241,10 @@ impl KeyBounds {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[path = "voxel_keys_avx2.rs"]
+mod avx2;
+
 #[inline]
 fn zyx_code(k: Key) -> u64 {
     ((k[2] as u64) << 32) | ((k[1] as u64) << 16) | k[0] as u64
@@ -246,7 +259,41 @@ fn zyx_key(c: u64) -> Key {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
     use std::collections::BTreeSet;
+
+    /// Coordinates that exercise the key pass: ordinary values, voxel borders, the edges of
+    /// the map and of `i32`, and the non-finite values.
+    fn coordinate() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            4 => -50.0f32..50.0,
+            2 => (-2000i32..2000).prop_map(|i| i as f32 * 0.05),
+            1 => prop::sample::select(vec![
+                0.0, -0.0, 1638.4, -1638.4, 1638.35, -1638.45, 3276.8, -3276.8,
+                1.0e9, -1.0e9, 1.1e8, -1.1e8, f32::MAX, f32::MIN, f32::MIN_POSITIVE,
+                -f32::MIN_POSITIVE, f32::INFINITY, f32::NEG_INFINITY, f32::NAN,
+            ]),
+            1 => any::<f32>(),
+        ]
+    }
+
+    proptest! {
+        /// The key pass (four at a time where the CPU has AVX2) writes the scalar pass's codes
+        /// and returns its box and count, for any length (the tail is scalar).
+        #[test]
+        fn key_pass_matches_the_scalar_pass(
+            pts in prop::collection::vec(prop::array::uniform3(coordinate()), 0..70),
+            res in prop::sample::select(vec![0.05, 0.1, 0.2, 1.0]),
+        ) {
+            let conv = KeyConverter::new(res).unwrap();
+            let pts: Vec<Point3<f32>> = pts.into_iter().map(Point3::from).collect();
+            let (mut a, mut b) = (vec![0; pts.len()], vec![1; pts.len()]);
+            let got = KeyBounds::pack(&conv, &pts, &mut a);
+            let want = KeyBounds::pack_scalar(&conv, &pts, &mut b);
+            prop_assert_eq!(a, b);
+            prop_assert_eq!(got, want);
+        }
+    }
 
     fn naive(conv: &KeyConverter, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
         let keys: BTreeSet<u64> = points

@@ -60,6 +60,13 @@ impl BrickSet {
             self.slots[self.last].1 |= bit;
             return;
         }
+        self.insert_bits_hashed(brick, bit);
+    }
+
+    /// [`BrickSet::insert_bits`] without the check of the brick touched last, for callers
+    /// whose bricks rarely repeat one after another.
+    #[inline(always)]
+    pub fn insert_bits_hashed(&mut self, brick: u64, bit: u64) {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
         loop {
@@ -124,13 +131,33 @@ impl BrickSet {
     }
 }
 
-/// Append the keys of a brick's set bits, in Morton order.
+/// Per bit of a brick (its voxels' Morton order), the voxel's offset from the brick's first
+/// voxel on each axis.
+const BRICK_OFFSET: [[u16; 3]; 64] = {
+    let mut t = [[0u16; 3]; 64];
+    let mut b = 0;
+    while b < 64 {
+        let mut a = 0;
+        while a < 3 {
+            t[b][a] = (((b >> a) & 1) | (((b >> (a + 3)) & 1) << 1)) as u16;
+            a += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+/// Append the keys of a brick's set bits, in Morton order: the brick's first key decoded once,
+/// each voxel's offset inside the brick (0 to 3 per axis) looked up.
 #[inline]
 pub(crate) fn push_brick_keys(brick: u64, mut bits: u64, out: &mut Vec<Key>) {
+    let base = Key::from_morton(brick << 6);
+    out.reserve(bits.count_ones() as usize);
     while bits != 0 {
-        let b = bits.trailing_zeros() as u64;
+        let o = BRICK_OFFSET[bits.trailing_zeros() as usize];
         bits &= bits - 1;
-        out.push(Key::from_morton((brick << 6) | b));
+        // the brick's first key is a multiple of 4 on every axis, so the offsets add no carry
+        out.push(Key::new(base[0] | o[0], base[1] | o[1], base[2] | o[2]));
     }
 }
 

@@ -1,17 +1,18 @@
-//! Many DDA walks at once: the brick walk of [`crate::dda`] for a batch of rays, two rays side
-//! by side in the lanes of SSE2 registers.
+//! Many DDA walks at once: the brick walk of [`crate::dda`] for a batch of rays, as many rays
+//! side by side as the CPU has lanes for.
 //!
 //! One walk's axis choice (OctoMap's `tMax` comparison chain) is a three-way branch the
 //! predictor misses about one step in two when neighbouring rays differ, and made with masks
-//! it is a chain of compare, mask and add that each step waits for. Two independent walks in
-//! one register pair share those instructions and overlap their chains. The comparisons,
-//! additions and tie rules are OctoMap's, lane by lane, so every walk visits exactly the voxels
-//! of [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes,
-//! and a set does not depend on it.
-//!
-//! Other targets walk the rays one after another with the same state machine.
+//! it is a chain of compare, mask and add that each step waits for. Independent walks in the
+//! lanes of one register share those instructions and overlap their chains. [`walk_all`] picks
+//! at run time the widest path the CPU has: eight lanes with AVX-512 ([`crate::lanes_avx512`]),
+//! four with AVX2 ([`crate::lanes_avx2`]), two with SSE2 (here, through `safe_arch`), or one
+//! walk after another. The comparisons, additions and tie rules are OctoMap's, lane by lane,
+//! so every walk visits exactly the voxels of [`crate::dda::walk_ray_codes`]; only the order in
+//! which bricks reach the set changes, and a set does not depend on it.
 
-use crate::dda::{cmin, RaySetup, RayWalk, AXIS_MASK};
+pub(crate) use crate::dda::AXIS_MASK;
+use crate::dda::{cmin, RaySetup, RayWalk};
 
 /// Per axis (and a harmless fourth entry): the axis's bits of a Morton code, their
 /// complement and the axis's lowest bit; a step up is `((m | !mask) + low) & mask`.
@@ -26,6 +27,114 @@ fn step_up(m: u64, a: usize) -> u64 {
     let a = a & 3;
     let mask = MASK4[a];
     (((m | NOT_MASK4[a]).wrapping_add(LOW4[a])) & mask) | (m & !mask)
+}
+
+/// A walk's mirrored Morton code at its origin, its end's, and the mirror: the Morton bits of
+/// the axes stepped downwards (`m ^ flip` is the true code).
+#[inline]
+pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
+    let mut flip = 0u64;
+    for (i, mask) in AXIS_MASK.iter().enumerate() {
+        if r.step[i] < 0 {
+            flip |= mask;
+        }
+    }
+    let code = r.key_origin.morton();
+    (code ^ flip, r.key_end.morton() ^ flip, flip)
+}
+
+/// One walk's state as scalars, for starting a SIMD lane on a new ray.
+#[cfg(target_arch = "x86_64")]
+pub(crate) struct LaneInit {
+    pub(crate) t: [f64; 3],
+    pub(crate) d: [f64; 3],
+    pub(crate) len: f64,
+    pub(crate) m: u64,
+    pub(crate) end: u64,
+    pub(crate) flip: u64,
+    pub(crate) budget: i64,
+    /// The code of the voxel the walk starts in.
+    pub(crate) origin: u64,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl LaneInit {
+    /// The walk of `r` at its origin voxel.
+    pub(crate) fn new(r: &RaySetup) -> Self {
+        let (m, end, flip) = lane_start(r);
+        LaneInit {
+            t: r.t_max,
+            d: r.t_delta,
+            len: r.length,
+            m,
+            end,
+            flip,
+            budget: r.budget as i64,
+            origin: m ^ flip,
+        }
+    }
+
+    /// A lane without a ray: it never moves (its step mask is cleared by `active`), never
+    /// ends, and keeps writing `code`, a voxel already recorded.
+    pub(crate) fn idle(code: u64) -> Self {
+        LaneInit {
+            t: [0.0; 3],
+            d: [0.0; 3],
+            len: f64::INFINITY,
+            m: code,
+            end: !code,
+            flip: 0,
+            budget: i64::MAX,
+            origin: code,
+        }
+    }
+}
+
+/// Restart the lanes whose walks stopped at this step (bit `l` of `stopped` for lane `l`) on
+/// the next rays of `next`, through `set(lane, state, active)`: a lane's code becomes its new
+/// walk's origin voxel, or `idle_code` (a voxel already recorded) when the rays are used up, and
+/// `live` counts down. A walk that stopped without being done (bit clear in `done`) ran out of
+/// budget: the voxel it just entered is handed to `flush` and it is counted as degenerate.
+/// Returns that count.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn restart<F, S>(
+    codes: &mut [u64],
+    stopped: u32,
+    done: u32,
+    next: &mut std::slice::Iter<'_, RaySetup>,
+    idle_code: u64,
+    live: &mut usize,
+    flush: &mut F,
+    mut set: S,
+) -> usize
+where
+    F: FnMut(u64, u64),
+    S: FnMut(usize, &LaneInit, bool),
+{
+    let mut degenerate = 0;
+    for (l, code) in codes.iter_mut().enumerate() {
+        if stopped & (1 << l) == 0 {
+            continue;
+        }
+        if done & (1 << l) == 0 {
+            flush(*code >> 6, 1u64 << (*code & 63));
+            degenerate += 1;
+        }
+        match next.next() {
+            Some(r) => {
+                let s = LaneInit::new(r);
+                *code = s.origin;
+                set(l, &s, true);
+            }
+            None => {
+                *code = idle_code;
+                set(l, &LaneInit::idle(idle_code), false);
+                *live -= 1;
+            }
+        }
+    }
+    degenerate
 }
 
 /// The state of one brick walk between two steps.
@@ -56,22 +165,16 @@ impl BrickWalk {
         if buf.len() < need {
             buf.resize(need, (0, 0));
         }
-        let mut flip = 0u64;
-        for (i, mask) in AXIS_MASK.iter().enumerate() {
-            if r.step[i] < 0 {
-                flip |= mask;
-            }
-        }
-        let code = r.key_origin.morton();
+        let (m, end, flip) = lane_start(r);
         BrickWalk {
-            m: code ^ flip,
-            end: r.key_end.morton() ^ flip,
+            m,
+            end,
             flip,
             t: r.t_max,
             d: r.t_delta,
             len: r.length,
-            brick: code >> 6,
-            bits: 1u64 << (code & 63),
+            brick: (m ^ flip) >> 6,
+            bits: 1u64 << ((m ^ flip) & 63),
             n: 0,
             budget: r.budget,
         }
@@ -153,14 +256,40 @@ impl BrickWalk {
     }
 }
 
+/// Per-thread buffers of the lane walks, kept from batch to batch.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LaneScratch {
+    /// The bricks of the walks in progress, one buffer per SSE2 lane (the first also serves
+    /// the scalar walk).
+    bufs: [Vec<(u64, u64)>; 2],
+    #[cfg(target_arch = "x86_64")]
+    quad: crate::lanes_avx2::QuadScratch,
+    #[cfg(target_arch = "x86_64")]
+    oct: crate::lanes_avx512::OctScratch,
+}
+
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
-/// `flush` as `(brick, bits)`; `bufs` are kept by the caller from batch to batch. Returns how
-/// many walks degenerated (none can; they are counted rather than trusted).
-pub(crate) fn walk_all<F>(
-    rays: &[RaySetup],
-    bufs: &mut [Vec<(u64, u64)>; 2],
-    flush: &mut F,
-) -> usize
+/// `flush` as `(brick, bits)`: eight at a time where the CPU has AVX-512, four with AVX2, two
+/// with SSE2, else one after another. Returns how many walks degenerated (none can; they are
+/// counted rather than trusted).
+pub(crate) fn walk_all<F>(rays: &[RaySetup], scratch: &mut LaneScratch, flush: &mut F) -> usize
+where
+    F: FnMut(u64, u64),
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if let Some(degenerate) = crate::lanes_avx512::walk_octs(rays, &mut scratch.oct, flush) {
+            return degenerate;
+        }
+        if let Some(degenerate) = crate::lanes_avx2::walk_quads(rays, &mut scratch.quad, flush) {
+            return degenerate;
+        }
+    }
+    walk_pairs_or_each(rays, &mut scratch.bufs, flush)
+}
+
+/// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.
+fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<(u64, u64)>; 2], flush: &mut F) -> usize
 where
     F: FnMut(u64, u64),
 {
@@ -327,25 +456,56 @@ mod tests {
             .collect()
     }
 
-    /// The voxels [`walk_all`] and [`walk_each`] visit, as sets (both must report no
-    /// degenerate walk).
-    fn both_paths(rays: &[RaySetup]) -> (BTreeSet<u64>, BTreeSet<u64>) {
-        let mut bufs = [Vec::new(), Vec::new()];
-        let mut sets = (BTreeSet::new(), BTreeSet::new());
-        let add = |set: &mut BTreeSet<u64>, b: u64, mut m: u64| {
+    /// The voxels each way of walking a batch visits, as sets: [`walk_all`] (the fastest path
+    /// the CPU has), the AVX2 and AVX-512 lanes where the CPU has them, the SSE2 lanes and
+    /// [`walk_each`];
+    /// none may report a degenerate walk.
+    fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
+        fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
             while m != 0 {
                 set.insert((b << 6) | m.trailing_zeros() as u64);
                 m &= m - 1;
             }
-        };
+        }
+        let mut sets = Vec::new();
+        let mut scratch = LaneScratch::default();
+        let mut s = BTreeSet::new();
         assert_eq!(
-            walk_all(rays, &mut bufs, &mut |b, m| add(&mut sets.0, b, m)),
+            walk_all(rays, &mut scratch, &mut |b, m| add(&mut s, b, m)),
             0
         );
+        sets.push(s);
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut s = BTreeSet::new();
+            let mut quad = crate::lanes_avx2::QuadScratch::default();
+            if let Some(d) =
+                crate::lanes_avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+            let mut s = BTreeSet::new();
+            let mut oct = crate::lanes_avx512::OctScratch::default();
+            if let Some(d) =
+                crate::lanes_avx512::walk_octs(rays, &mut oct, &mut |b, m| add(&mut s, b, m))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+        }
+        let mut s = BTreeSet::new();
         assert_eq!(
-            walk_each(rays, &mut bufs[0], &mut |b, m| add(&mut sets.1, b, m)),
+            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b, m| add(&mut s, b, m)),
             0
         );
+        sets.push(s);
+        let mut s = BTreeSet::new();
+        assert_eq!(
+            walk_each(rays, &mut scratch.bufs[0], &mut |b, m| add(&mut s, b, m)),
+            0
+        );
+        sets.push(s);
         sets
     }
 
@@ -363,7 +523,9 @@ mod tests {
             .collect();
         let want = want(&conv, &o, &ends);
         assert!(want.len() > 1000);
-        assert_eq!(both_paths(&setups(&conv, &o, &ends)), (want.clone(), want));
+        for got in all_paths(&setups(&conv, &o, &ends)) {
+            assert_eq!(got, want);
+        }
     }
 
     proptest! {
@@ -378,7 +540,9 @@ mod tests {
             let ends: Vec<Point3<f32>> = ends.into_iter().map(Point3::from).collect();
             let setups = setups(&conv, &o, &ends);
             let want = want(&conv, &o, &ends);
-            prop_assert_eq!(both_paths(&setups), (want.clone(), want));
+            for got in all_paths(&setups) {
+                prop_assert_eq!(&got, &want);
+            }
         }
     }
 }

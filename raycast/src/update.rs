@@ -118,10 +118,15 @@ struct RayScratch {
     codes: Vec<u64>,
     /// Well-conditioned DDA rays waiting to be walked together.
     batch: Vec<RaySetup>,
-    /// The bricks of the walks in progress, one buffer per lane.
-    lanes: [Vec<(u64, u64)>; 2],
+    /// The buffers of the lane walks.
+    lanes: crate::lanes::LaneScratch,
     /// Queued walks that degenerated since the counts were last taken.
     degenerate: usize,
+    /// Bresenham lines (start and end keys, distinct) waiting to be walked together.
+    lines: Vec<(Key, Key)>,
+    /// The buffers of the Bresenham lanes.
+    #[cfg(target_arch = "x86_64")]
+    line_lanes: crate::lanes_avx512::OctScratch,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
@@ -183,7 +188,12 @@ fn push_ray(
         let (Some(a), Some(b)) = (origin_key, key_of(conv, end)) else {
             return false;
         };
-        crate::bresenham::walk_bresenham_bricks(a, b, |brick, bits| set.insert_bits(brick, bits));
+        if a != b {
+            scratch.lines.push((a, b));
+            if scratch.lines.len() >= RAY_BATCH {
+                walk_lines(set, scratch);
+            }
+        }
         return true;
     }
     match setup_from(conv, origin, origin_key, end) {
@@ -223,9 +233,26 @@ fn push_ray(
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.degenerate +=
         crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, &mut |brick, bits| {
-            set.insert_bits(brick, bits)
+            set.insert_bits_hashed(brick, bits)
         });
     scratch.batch.clear();
+}
+
+/// Walk the queued Bresenham lines into `set` and empty the queue: eight at a time where the
+/// CPU has AVX-512, else one after another.
+fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
+    let flush = &mut |brick, bits| set.insert_bits_hashed(brick, bits);
+    #[cfg(target_arch = "x86_64")]
+    let done = crate::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, flush)
+        .is_some();
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = false;
+    if !done {
+        for &(a, b) in &scratch.lines {
+            crate::bresenham::walk_bresenham_bricks(a, b, &mut *flush);
+        }
+    }
+    scratch.lines.clear();
 }
 
 /// List both sets in Morton order, masking occupied voxels out of the free ones.
@@ -330,6 +357,9 @@ fn add_points(
     }
     if !ray.batch.is_empty() {
         walk_batch(free_set, ray);
+    }
+    if !ray.lines.is_empty() {
+        walk_lines(free_set, ray);
     }
     // queued rays were counted as computed; one that degenerated was not
     stats.rays -= ray.degenerate;

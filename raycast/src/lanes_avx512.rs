@@ -1,0 +1,272 @@
+//! Eight DDA brick walks at once in the 512-bit registers of AVX-512, chosen at run time: the
+//! walk of [`crate::lanes_avx2`] with twice the lanes, where comparisons give mask registers,
+//! a masked move picks each lane's new `tMax`, and the bricks the lanes leave are compressed to
+//! the front of a register by the CPU (`vpcompressq`) instead of by a permutation table.
+//!
+//! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
+//! exactly the voxels of [`crate::dda::walk_ray_codes`].
+
+use crate::dda::RaySetup;
+use crate::lanes::{restart, LaneInit, AXIS_MASK};
+use core::arch::x86_64::{
+    __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512,
+    _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmpneq_epu64_mask,
+    _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64,
+    _mm512_min_pd, _mm512_or_si512, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
+    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
+    _CMP_LT_OQ,
+};
+
+/// Bricks left by the lanes that are collected before they are handed on.
+const LEFT: usize = 1024;
+
+type U8 = [u64; 8];
+
+/// The per-thread buffers of the eight-lane walks (DDA and Bresenham), kept from batch to
+/// batch: the bricks the lanes left and their voxels, side by side, with room for one more
+/// step's eight.
+#[derive(Debug, Clone)]
+pub(crate) struct OctScratch {
+    bricks: Vec<u64>,
+    bits: Vec<u64>,
+}
+
+impl Default for OctScratch {
+    fn default() -> Self {
+        OctScratch {
+            bricks: vec![0; LEFT + 8],
+            bits: vec![0; LEFT + 8],
+        }
+    }
+}
+
+/// The eight lanes' open bricks and the voxels met in them, and the bricks the lanes left,
+/// collected in the scratch buffers until they are handed on.
+pub(crate) struct Bricks8<'a> {
+    brick: __m512i,
+    bits: __m512i,
+    left: usize,
+    scratch: &'a mut OctScratch,
+}
+
+impl<'a> Bricks8<'a> {
+    /// Each lane's open brick holding the voxel of `first` (one code per lane).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn new(first: __m512i, scratch: &'a mut OctScratch) -> Self {
+        Bricks8 {
+            brick: _mm512_srli_epi64::<6>(first),
+            bits: _mm512_sllv_epi64(
+                _mm512_set1_epi64(1),
+                _mm512_and_si512(first, _mm512_set1_epi64(63)),
+            ),
+            left: 0,
+            scratch,
+        }
+    }
+
+    /// Add each lane's voxel `codes`: it joins the lane's open brick, or the lane leaves that
+    /// brick, which is compressed to the front with the others left (`vpcompressq`) and
+    /// appended with one store; full buffers go to `flush`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn push<F: FnMut(u64, u64)>(&mut self, codes: __m512i, flush: &mut F) {
+        let b = _mm512_srli_epi64::<6>(codes);
+        let moved = _mm512_cmpneq_epu64_mask(b, self.brick);
+        let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.brick));
+        let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.bits));
+        let (i, s) = (self.left, &mut *self.scratch);
+        if let (Some(db), Some(dm)) = (s.bricks.get_mut(i..i + 8), s.bits.get_mut(i..i + 8)) {
+            db.copy_from_slice(&left_b);
+            dm.copy_from_slice(&left_m);
+        }
+        self.left += moved.count_ones() as usize;
+        self.bits = _mm512_or_si512(
+            _mm512_maskz_mov_epi64(!moved, self.bits),
+            _mm512_sllv_epi64(
+                _mm512_set1_epi64(1),
+                _mm512_and_si512(codes, _mm512_set1_epi64(63)),
+            ),
+        );
+        self.brick = b;
+        if self.left >= LEFT {
+            self.hand_on(flush);
+        }
+    }
+
+    /// Hand the bricks left so far to `flush`.
+    fn hand_on<F: FnMut(u64, u64)>(&mut self, flush: &mut F) {
+        let s = &*self.scratch;
+        for (&b, &m) in s.bricks[..self.left].iter().zip(&s.bits[..self.left]) {
+            flush(b, m);
+        }
+        self.left = 0;
+    }
+
+    /// Hand every brick to `flush`: those left, then the open ones.
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn finish<F: FnMut(u64, u64)>(mut self, flush: &mut F) {
+        self.hand_on(flush);
+        let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
+        for (b, m) in brick.into_iter().zip(bits) {
+            flush(b, m);
+        }
+    }
+}
+
+/// Walk `rays` eight at a time when this CPU has AVX-512 and return the number of degenerate
+/// walks, or `None` (nothing done) on CPUs without it.
+pub(crate) fn walk_octs<F>(
+    rays: &[RaySetup],
+    scratch: &mut OctScratch,
+    flush: &mut F,
+) -> Option<usize>
+where
+    F: FnMut(u64, u64),
+{
+    if !std::arch::is_x86_feature_detected!("avx512f") {
+        return None;
+    }
+    // SAFETY: `walk_octs_avx512` needs AVX-512 Foundation, and the CPU has been found to
+    // support it just above. Nothing else in it is unsafe.
+    #[allow(unsafe_code)]
+    let degenerate = unsafe { walk_octs_avx512(rays, scratch, flush) };
+    Some(degenerate)
+}
+
+/// The eight lanes' registers.
+struct Lanes {
+    t: [__m512d; 3],
+    d: [__m512d; 3],
+    len: __m512d,
+    m: __m512i,
+    end: __m512i,
+    flip: __m512i,
+    budget: __m512i,
+    /// The lanes that walk a ray (bit `l` for lane `l`); the others idle.
+    active: __mmask8,
+}
+
+impl Lanes {
+    /// Overwrite lane `l` with `s` (once per walk) by masked moves of broadcasts.
+    #[target_feature(enable = "avx512f")]
+    fn set(&mut self, l: usize, s: &LaneInit, active: bool) {
+        let k: __mmask8 = 1 << (l & 7);
+        let put_f = |v: &mut __m512d, x: f64| *v = _mm512_mask_mov_pd(*v, k, _mm512_set1_pd(x));
+        let put_u = |v: &mut __m512i, x: u64| {
+            *v = _mm512_mask_mov_epi64(*v, k, _mm512_set1_epi64(x as i64))
+        };
+        for i in 0..3 {
+            put_f(&mut self.t[i], s.t[i]);
+            put_f(&mut self.d[i], s.d[i]);
+        }
+        put_f(&mut self.len, s.len);
+        put_u(&mut self.m, s.m);
+        put_u(&mut self.end, s.end);
+        put_u(&mut self.flip, s.flip);
+        put_u(&mut self.budget, s.budget as u64);
+        self.active = (self.active & !k) | if active { k } else { 0 };
+    }
+}
+
+/// [`walk_octs`] once AVX-512 is known to be there.
+#[target_feature(enable = "avx512f")]
+fn walk_octs_avx512<F>(rays: &[RaySetup], scratch: &mut OctScratch, flush: &mut F) -> usize
+where
+    F: FnMut(u64, u64),
+{
+    let Some(first) = rays.first() else {
+        return 0;
+    };
+    let mut next = rays.iter();
+    let zero_f = _mm512_set1_pd(0.0);
+    let zero_i = _mm512_setzero_si512();
+    let mut q = Lanes {
+        t: [zero_f; 3],
+        d: [zero_f; 3],
+        len: zero_f,
+        m: zero_i,
+        end: zero_i,
+        flip: zero_i,
+        budget: zero_i,
+        active: 0,
+    };
+    // idle lanes repeat the first walk's origin voxel, which is recorded
+    let idle_code = LaneInit::new(first).origin;
+    let mut first_code = [idle_code; 8];
+    let mut live = 8;
+    restart(
+        &mut first_code,
+        0xFF,
+        0xFF,
+        &mut next,
+        idle_code,
+        &mut live,
+        flush,
+        |l, s, a| q.set(l, s, a),
+    );
+    let ones_i = _mm512_set1_epi64(-1);
+    let one = _mm512_set1_epi64(1);
+    let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
+    let [mut t0, mut t1, mut t2] = q.t;
+    // each lane's open brick starts with its origin voxel
+    let mut bricks = Bricks8::new(bytemuck::cast(first_code), scratch);
+    let mut degenerate = 0;
+    loop {
+        let [d0, d1, d2] = q.d;
+        // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z
+        let (n0, n1, n2) = (
+            _mm512_add_pd(t0, d0),
+            _mm512_add_pd(t1, d1),
+            _mm512_add_pd(t2, d2),
+        );
+        let lt01 = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t1);
+        let s0 = lt01 & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t2);
+        let s1 = !lt01 & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t1, t2);
+        let s01 = s0 | s1;
+        t0 = _mm512_mask_mov_pd(t0, s0, n0);
+        t1 = _mm512_mask_mov_pd(t1, s1, n1);
+        t2 = _mm512_mask_mov_pd(n2, s01, t2);
+        // the chosen axis's Morton bits (none in idle lanes), and their lowest bit: a step up
+        // is `((m | !mask) + low) & mask` on those bits, the others kept
+        let mask = _mm512_maskz_mov_epi64(
+            q.active,
+            _mm512_mask_mov_epi64(_mm512_mask_mov_epi64(axis[2], s1, axis[1]), s0, axis[0]),
+        );
+        let low = _mm512_and_si512(mask, _mm512_sub_epi64(zero_i, mask));
+        let up = _mm512_add_epi64(_mm512_or_si512(q.m, _mm512_xor_si512(mask, ones_i)), low);
+        q.m = _mm512_or_si512(_mm512_and_si512(up, mask), _mm512_andnot_si512(mask, q.m));
+        q.budget = _mm512_sub_epi64(q.budget, one);
+        // a walk is over on its end voxel or once the smallest tMax passes the length (no
+        // lane holds a NaN); it is cut off (degenerate) when its budget runs out
+        let tmin = _mm512_min_pd(_mm512_min_pd(t0, t1), t2);
+        let done =
+            _mm512_cmpeq_epu64_mask(q.m, q.end) | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(tmin, q.len);
+        let stopped = done | _mm512_cmpeq_epu64_mask(q.budget, zero_i);
+        let mut codes = _mm512_xor_si512(q.m, q.flip);
+        let mut finished = false;
+        if stopped != 0 {
+            // the rare step where walks end: restart those lanes on the next rays
+            let mut written: U8 = bytemuck::cast(codes);
+            q.t = [t0, t1, t2];
+            degenerate += restart(
+                &mut written,
+                stopped as u32,
+                done as u32,
+                &mut next,
+                idle_code,
+                &mut live,
+                flush,
+                |l, s, a| q.set(l, s, a),
+            );
+            [t0, t1, t2] = q.t;
+            codes = bytemuck::cast(written);
+            finished = live == 0;
+        }
+        bricks.push(codes, flush);
+        if finished {
+            bricks.finish(flush);
+            return degenerate;
+        }
+    }
+}
