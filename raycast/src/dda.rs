@@ -188,7 +188,20 @@ pub(crate) fn setup_from(
     origin_key: Option<Key>,
     end: &Point3<f32>,
 ) -> Result<RaySetup, RayWalk> {
-    let (Some(key_origin), Some(key_end)) = (origin_key, key_of(conv, end)) else {
+    setup_with_keys(conv, origin, origin_key, end, key_of(conv, end))
+}
+
+/// [`setup_from`] with the end's key also known (`key_of(conv, end)`), for callers that
+/// computed it already.
+#[inline(always)]
+pub(crate) fn setup_with_keys(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    origin_key: Option<Key>,
+    end: &Point3<f32>,
+    end_key: Option<Key>,
+) -> Result<RaySetup, RayWalk> {
+    let (Some(key_origin), Some(key_end)) = (origin_key, end_key) else {
         return Err(RayWalk::OutsideMap);
     };
     if key_origin == key_end {

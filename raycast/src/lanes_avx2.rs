@@ -150,8 +150,7 @@ where
         budget: zero_i,
         active: zero_i,
     };
-    // every column starts as an open brick holding its first walk's origin voxel; idle lanes
-    // repeat the first walk's origin voxel, which is recorded
+    // idle lanes repeat the first walk's origin voxel, which is recorded
     let idle_code = LaneInit::new(first).origin;
     let lane: [__m256i; 4] = core::array::from_fn(|l| {
         bytemuck::cast(core::array::from_fn::<u64, 4, _>(|k| {

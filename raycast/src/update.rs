@@ -9,7 +9,7 @@
 //! applying them touches the tree in a cache-friendly sweep.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{key_of, norm_f32, setup_from, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::dda::{key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 
@@ -174,18 +174,21 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
 /// of a degenerate ray (see [`RayWalk::Degenerate`]) are dropped, as OctoMap gets no ray.
 ///
 /// Well-conditioned DDA rays are not walked here but queued in `scratch.batch`, counted as
-/// computed (they cannot degenerate), and walked by [`walk_batch`].
+/// computed (they cannot degenerate), and walked by [`walk_batch`]. `end_key` is
+/// `key_of(conv, end)`, which the caller has computed already.
+#[allow(clippy::too_many_arguments)]
 fn push_ray(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     origin_key: Option<Key>,
     end: &Point3<f32>,
+    end_key: Option<Key>,
     set: &mut BrickSet,
     scratch: &mut RayScratch,
     model: RayModel,
 ) -> bool {
     if model == RayModel::Bresenham {
-        let (Some(a), Some(b)) = (origin_key, key_of(conv, end)) else {
+        let (Some(a), Some(b)) = (origin_key, end_key) else {
             return false;
         };
         if a != b {
@@ -196,7 +199,7 @@ fn push_ray(
         }
         return true;
     }
-    match setup_from(conv, origin, origin_key, end) {
+    match setup_with_keys(conv, origin, origin_key, end, end_key) {
         Err(walk) => return walk == RayWalk::SameVoxel,
         Ok(r) if r.well_conditioned => {
             scratch.batch.push(r);
@@ -340,16 +343,17 @@ fn add_points(
         if hit.is_none() {
             stats.outside_map += 1;
         }
-        let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
+        let (end, end_key) = if max_range < 0.0 || norm_f32(diff) <= max_range {
             if let Some(k) = hit {
                 occ_set.insert(morton(k));
             }
-            *p
+            (*p, hit)
         } else {
             stats.max_range_rays += 1;
-            cut_at_range(origin, diff, max_range)
+            let e = cut_at_range(origin, diff, max_range);
+            (e, key_of(conv, &e))
         };
-        if push_ray(conv, origin, origin_key, &end, free_set, ray, model) {
+        if push_ray(conv, origin, origin_key, &end, end_key, free_set, ray, model) {
             stats.rays += 1;
         } else {
             stats.failed_rays += 1;
