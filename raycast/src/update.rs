@@ -353,7 +353,9 @@ fn add_points(
             let e = cut_at_range(origin, diff, max_range);
             (e, key_of(conv, &e))
         };
-        if push_ray(conv, origin, origin_key, &end, end_key, free_set, ray, model) {
+        if push_ray(
+            conv, origin, origin_key, &end, end_key, free_set, ray, model,
+        ) {
             stats.rays += 1;
         } else {
             stats.failed_rays += 1;
