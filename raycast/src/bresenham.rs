@@ -11,6 +11,19 @@
 use crate::dda::AxisStep;
 use octoquant_octree::Key;
 
+/// The axis a line steps every time: the one with the largest key distance `ad`, ties to x,
+/// then y.
+#[inline]
+pub(crate) fn main_axis<T: PartialOrd>(ad: [T; 3]) -> usize {
+    if ad[0] >= ad[1] && ad[0] >= ad[2] {
+        0
+    } else if ad[1] >= ad[2] {
+        1
+    } else {
+        2
+    }
+}
+
 /// Visit the keys of the Bresenham line from `start` to `end`, `start` included, `end`
 /// excluded (nothing when they are equal). Returns the number of keys visited.
 #[inline]
@@ -18,13 +31,7 @@ pub fn walk_bresenham_keys(start: Key, end: Key, mut visit: impl FnMut(Key)) -> 
     let d = [0, 1, 2].map(|a| end[a] as i32 - start[a] as i32);
     let ad = d.map(i32::abs);
     let s = d.map(i32::signum);
-    let main = if ad[0] >= ad[1] && ad[0] >= ad[2] {
-        0
-    } else if ad[1] >= ad[2] {
-        1
-    } else {
-        2
-    };
+    let main = main_axis(ad);
     let (a1, a2) = ((main + 1) % 3, (main + 2) % 3);
     let n = ad[main];
     let mut cur = [start[0] as i32, start[1] as i32, start[2] as i32];
@@ -54,13 +61,7 @@ pub fn walk_bresenham_keys(start: Key, end: Key, mut visit: impl FnMut(Key)) -> 
 pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, mut flush: impl FnMut(u64, u64)) -> u32 {
     let d = [0, 1, 2].map(|a| end[a] as i32 - start[a] as i32);
     let ad = d.map(i32::abs);
-    let main = if ad[0] >= ad[1] && ad[0] >= ad[2] {
-        0
-    } else if ad[1] >= ad[2] {
-        1
-    } else {
-        2
-    };
+    let main = main_axis(ad);
     let (a1, a2) = ((main + 1) % 3, (main + 2) % 3);
     let n = ad[main];
     let sm = AxisStep::new(main, d[main] > 0);

@@ -8,11 +8,8 @@
 //! scalar walk's integers. Bricks are kept and handed on as in the DDA lanes; a lane whose line
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
-use crate::dda::AXIS_MASK;
+use crate::dda::{mirror_mask, AXIS_MASK};
 use crate::lanes_avx512::{Bricks8, OctScratch};
-
-/// Eight lanes' codes as an array.
-type U8 = [u64; 8];
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
@@ -20,6 +17,9 @@ use core::arch::x86_64::{
     _mm512_sub_epi64, _mm512_xor_si512,
 };
 use octoquant_octree::Key;
+
+/// Eight lanes' codes as an array.
+type U8 = [u64; 8];
 
 /// Walk the lines `start -> end` of `lines` (each with at least one voxel) eight at a time
 /// when this CPU has AVX-512, handing each brick they enter to `flush`; `None` (nothing done)
@@ -67,21 +67,10 @@ impl LineInit {
     fn new(start: Key, end: Key) -> Self {
         let d = [0, 1, 2].map(|a| end[a] as i64 - start[a] as i64);
         let ad = d.map(i64::abs);
-        let main = if ad[0] >= ad[1] && ad[0] >= ad[2] {
-            0
-        } else if ad[1] >= ad[2] {
-            1
-        } else {
-            2
-        };
+        let main = crate::bresenham::main_axis(ad);
         let (a1, a2) = ((main + 1) % 3, (main + 2) % 3);
         let n = ad[main];
-        let mut flip = 0;
-        for (a, mask) in AXIS_MASK.iter().enumerate() {
-            if d[a] < 0 {
-                flip |= mask;
-            }
-        }
+        let flip = mirror_mask(d.map(|x| x < 0));
         let code = start.morton();
         LineInit {
             m: code ^ flip,

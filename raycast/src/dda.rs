@@ -306,6 +306,16 @@ pub(crate) const AXIS_MASK: [u64; 3] = [
     0x2492_4924_9249 << 2,
 ];
 
+/// The Morton bits of the axes marked `down`: a code XOR-ed with it is mirrored on those
+/// axes, so that walking them downwards becomes stepping up.
+#[inline]
+pub(crate) fn mirror_mask(down: [bool; 3]) -> u64 {
+    (0..3)
+        .filter(|&a| down[a])
+        .map(|a| AXIS_MASK[a])
+        .fold(0, |m, b| m | b)
+}
+
 /// [`walk_ray_keys`] that hands out the keys' [`Key::morton`] codes instead of keys: the
 /// same voxels in the same order, but the walk steps the code directly (dilated integer
 /// arithmetic), which is what set-building callers want. Never stops early.

@@ -12,7 +12,7 @@
 //! which bricks reach the set changes, and a set does not depend on it.
 
 pub(crate) use crate::dda::AXIS_MASK;
-use crate::dda::{cmin, RaySetup, RayWalk};
+use crate::dda::{cmin, mirror_mask, RaySetup, RayWalk};
 
 /// Per axis (and a harmless fourth entry): the axis's bits of a Morton code, their
 /// complement and the axis's lowest bit; a step up is `((m | !mask) + low) & mask`.
@@ -33,12 +33,7 @@ fn step_up(m: u64, a: usize) -> u64 {
 /// the axes stepped downwards (`m ^ flip` is the true code).
 #[inline]
 pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
-    let mut flip = 0u64;
-    for (i, mask) in AXIS_MASK.iter().enumerate() {
-        if r.step[i] < 0 {
-            flip |= mask;
-        }
-    }
+    let flip = mirror_mask(r.step.map(|s| s < 0));
     let code = r.key_origin.morton();
     (code ^ flip, r.key_end.morton() ^ flip, flip)
 }
