@@ -7,7 +7,6 @@
 //! slot, a node without children by [`NO_BLOCK`]. On real maps this costs about 6-8 bytes per
 //! node, against OctoMap's ~27.
 
-use crate::key::Key;
 use crate::leaves::{Adder, Leaves, Outcome, PALETTE_LIMIT};
 
 /// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
@@ -365,39 +364,6 @@ impl NodeStore {
             slot: i as u8,
             block: b,
         }
-    }
-
-    /// Below `n` (childless, at depth < 16), create one child per level along `key` down to
-    /// depth 16, each with value 0 (what OctoMap's `createNodeChild` does under a node it has
-    /// just created); records the new nodes in `path[depth]` and returns the voxel's node.
-    #[inline(always)]
-    pub fn create_chain(&mut self, mut n: NodeRef, key: Key, path: &mut [NodeRef]) -> NodeRef {
-        debug_assert_eq!(self.kids(n), NO_BLOCK);
-        let mut d = n.depth;
-        while d < 15 {
-            let b = self.inner.alloc();
-            self.set_kids(n, b);
-            let pos = key.child_index(d);
-            self.inner.blocks[b as usize].vals[pos] = 0.0;
-            d += 1;
-            n = NodeRef {
-                depth: d,
-                slot: pos as u8,
-                block: b,
-            };
-            path[d as usize] = n;
-        }
-        let b = self.leaf.alloc();
-        self.set_kids(n, b);
-        let pos = key.child_index(15);
-        self.leaf.set_zero(b, pos);
-        n = NodeRef {
-            depth: 16,
-            slot: pos as u8,
-            block: b,
-        };
-        path[16] = n;
-        n
     }
 
     /// Give a childless node all eight children, each a copy of its value (`expandNode`).
