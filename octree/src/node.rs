@@ -470,6 +470,22 @@ impl NodeStore {
         Some(false)
     }
 
+    /// [`NodeStore::prune_or_refresh`] for the depth-15 node in slot `j` of inner block `kb`,
+    /// whose child block `lb` (depth 16) is known: the batched walk's step after updating
+    /// voxels below it, without a look-up of the node or a dispatch on its depth. Returns
+    /// whether it pruned.
+    #[inline(always)]
+    pub fn refresh_voxel_parent(&mut self, kb: u32, j: usize, lb: u32) -> bool {
+        let (pruned, v) = self.leaf.collapse_or_max(lb);
+        let blk = &mut self.inner.blocks[kb as usize];
+        blk.vals[j & 7] = v;
+        if pruned {
+            blk.kids[j & 7] = NO_BLOCK;
+            self.leaf.release(lb);
+        }
+        pruned
+    }
+
     /// Maximum log-odds over the existing children of a node that has children
     /// (`getMaxChildLogOdds`).
     #[inline]

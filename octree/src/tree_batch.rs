@@ -338,8 +338,8 @@ impl Walk {
                 t.record_change(key, old, v, created);
             }
         }
-        if applied && !self.lazy {
-            t.refresh(node);
+        if applied && !self.lazy && t.store.refresh_voxel_parent(kb, j, lb) {
+            t.sub_size(8);
         }
         applied
     }

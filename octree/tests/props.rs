@@ -300,6 +300,13 @@ proptest! {
             write_ot(t, &mut b).unwrap();
             b
         };
+        // no block leaks: the blocks in use are those of the nodes with children
+        for t in [&single, &by_keys, &by_bricks] {
+            let parents = |inner: bool| {
+                t.nodes().filter(|n| n.has_children && (n.depth < TREE_DEPTH - 1) == inner).count()
+            };
+            prop_assert_eq!(t.live_blocks(), (parents(true), parents(false)));
+        }
         let a = ot(&single);
         prop_assert!(a == ot(&by_keys), "update_keys differs");
         prop_assert!(a == ot(&by_bricks), "update_bricks differs");
