@@ -1,5 +1,5 @@
-//! Tree updates: one `update_node` per key (OctoMap's loop) against the batched `update_keys`,
-//! on the free and occupied keys of a real scan.
+//! Tree updates: one `update_node` per key (OctoMap's loop) against the batched `update_keys`
+//! and `update_bricks`, on the free and occupied voxels of a real scan.
 
 mod common;
 
@@ -43,6 +43,17 @@ fn update(c: &mut Criterion) {
             |mut t| {
                 t.update_keys(up.free(), Update::Miss, false);
                 t.update_keys(up.occupied(), Update::Hit, false);
+                t
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.bench_function("update_bricks/scan_dat", |b| {
+        b.iter_batched(
+            || tree.clone(),
+            |mut t| {
+                t.update_bricks(up.free_bricks(), Update::Miss, false);
+                t.update_bricks(up.occupied_bricks(), Update::Hit, false);
                 t
             },
             BatchSize::LargeInput,

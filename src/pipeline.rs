@@ -375,8 +375,8 @@ fn prepare(
     st.non_finite += scan.non_finite;
     st.outside_map = scan.outside_map;
     st.rays = scan.rays;
-    st.free = update.free().len();
-    st.occupied = update.occupied().len();
+    st.free = scan.free;
+    st.occupied = scan.occupied;
     st
 }
 
@@ -384,7 +384,7 @@ fn prepare(
 /// seconds it took.
 fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
     let start = Instant::now();
-    tree.update_keys(update.free(), Update::Miss, lazy);
-    tree.update_keys(update.occupied(), Update::Hit, lazy);
+    tree.update_bricks(update.free_bricks(), Update::Miss, lazy);
+    tree.update_bricks(update.occupied_bricks(), Update::Hit, lazy);
     start.elapsed().as_secs_f64()
 }

@@ -7,7 +7,6 @@
 //! slot, a node without children by [`NO_BLOCK`]. On real maps this costs about 6-8 bytes per
 //! node, against OctoMap's ~27.
 
-use crate::key::Key;
 use crate::leaves::{Adder, Leaves, Outcome, PALETTE_LIMIT};
 
 /// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
@@ -367,39 +366,6 @@ impl NodeStore {
         }
     }
 
-    /// Below `n` (childless, at depth < 16), create one child per level along `key` down to
-    /// depth 16, each with value 0 (what OctoMap's `createNodeChild` does under a node it has
-    /// just created); records the new nodes in `path[depth]` and returns the voxel's node.
-    #[inline(always)]
-    pub fn create_chain(&mut self, mut n: NodeRef, key: Key, path: &mut [NodeRef]) -> NodeRef {
-        debug_assert_eq!(self.kids(n), NO_BLOCK);
-        let mut d = n.depth;
-        while d < 15 {
-            let b = self.inner.alloc();
-            self.set_kids(n, b);
-            let pos = key.child_index(d);
-            self.inner.blocks[b as usize].vals[pos] = 0.0;
-            d += 1;
-            n = NodeRef {
-                depth: d,
-                slot: pos as u8,
-                block: b,
-            };
-            path[d as usize] = n;
-        }
-        let b = self.leaf.alloc();
-        self.set_kids(n, b);
-        let pos = key.child_index(15);
-        self.leaf.set_zero(b, pos);
-        n = NodeRef {
-            depth: 16,
-            slot: pos as u8,
-            block: b,
-        };
-        path[16] = n;
-        n
-    }
-
     /// Give a childless node all eight children, each a copy of its value (`expandNode`).
     #[inline]
     pub fn expand_node(&mut self, n: NodeRef) -> u32 {
@@ -502,6 +468,22 @@ impl NodeStore {
         let m = max_present(&self.inner.blocks[b as usize].vals);
         self.set_branch_value(n, m);
         Some(false)
+    }
+
+    /// [`NodeStore::prune_or_refresh`] for the depth-15 node in slot `j` of inner block `kb`,
+    /// whose child block `lb` (depth 16) is known: the batched walk's step after updating
+    /// voxels below it, without a look-up of the node or a dispatch on its depth. Returns
+    /// whether it pruned.
+    #[inline(always)]
+    pub fn refresh_voxel_parent(&mut self, kb: u32, j: usize, lb: u32) -> bool {
+        let (pruned, v) = self.leaf.collapse_or_max(lb);
+        let blk = &mut self.inner.blocks[kb as usize];
+        blk.vals[j & 7] = v;
+        if pruned {
+            blk.kids[j & 7] = NO_BLOCK;
+            self.leaf.release(lb);
+        }
+        pruned
     }
 
     /// Maximum log-odds over the existing children of a node that has children

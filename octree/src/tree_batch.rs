@@ -1,17 +1,43 @@
-//! Batched updates: many keys in one walk, same result as one `update_node` call per key.
+//! Batched updates: many voxels in one walk, same result as one `update_node` call per voxel.
 //!
-//! Consecutive keys share their path from the root down to their deepest common ancestor, so
-//! the walk only re-descends below it. Ancestors are pruned or refreshed (max of children)
-//! once, when the walk leaves them, instead of after every key. That is equivalent to
-//! OctoMap's per-key ascent: pruning never changes a voxel's value, a pruned node that is
-//! expanded again gets back the same eight equal leaves, and every ancestor is still
-//! processed after the last update below it. Keys sorted by [`Key::morton`] give the shortest
-//! walks; any order gives the same tree.
+//! The walk takes voxels a brick at a time: the (up to) 64 voxels of one depth-14 node, given
+//! as a 64-bit mask in Morton order. Consecutive bricks share their path from the root down to
+//! their deepest common ancestor, so the walk only re-descends below it; inside a brick each
+//! depth-15 node with voxels to update is reached once, its voxels updated together, and then
+//! it is pruned or refreshed once. Ancestors are pruned or refreshed (max of children) once,
+//! when the walk leaves them, instead of after every voxel.
+//!
+//! That is equivalent to OctoMap's per-voxel ascent: pruning never changes a voxel's value, a
+//! pruned node that is expanded again gets back the same eight equal leaves, every ancestor is
+//! still processed after the last update below it, and a voxel's early exit (it already sits
+//! at the clamp the update pushes towards) reads the same value whether or not an ancestor
+//! has been pruned meanwhile. Bricks sorted by Morton code give the shortest walks; any order
+//! gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
 use crate::leaves::{Adder, Outcome};
-use crate::node::{NodeRef, NO_BLOCK};
+use crate::node::{present, NodeRef, NO_BLOCK};
 use crate::tree::{OcTree, Update};
+
+/// Depth of the nodes a brick covers: 4x4x4 voxels below each.
+const BRICK_DEPTH: usize = TREE_DEPTH as usize - 2;
+/// The bits of a brick code: three per level from the root to [`BRICK_DEPTH`].
+const BRICK_CODE_MASK: u64 = (1 << (3 * BRICK_DEPTH)) - 1;
+
+/// The brick of `key` (the Morton code of its depth-14 node, `key.morton() >> 6`) and the
+/// voxel's bit in the brick's mask.
+#[inline]
+pub(crate) fn brick_of(key: Key) -> (u64, u64) {
+    let code = Key::new(key.x() >> 2, key.y() >> 2, key.z() >> 2).morton();
+    (code, 1 << brick_bit(key))
+}
+
+/// Index of `key`'s bit in its brick's mask: its Morton offset inside the 4x4x4 brick.
+#[inline]
+fn brick_bit(key: Key) -> u32 {
+    let spread = |v: u16| u32::from(v & 1) | (u32::from(v & 2) << 2);
+    spread(key.x()) | (spread(key.y()) << 1) | (spread(key.z()) << 2)
+}
 
 impl OcTree {
     /// Apply `update` to every key in `keys`, in order; the tree ends exactly as after calling
@@ -20,96 +46,61 @@ impl OcTree {
     /// Much faster than single updates when keys are sorted by [`Key::morton`]. A NaN delta
     /// changes nothing.
     pub fn update_keys(&mut self, keys: &[Key], update: Update, lazy: bool) {
-        // change detection costs a value read before and after each update: compiled in
-        // only when it is on
-        if self.is_change_detection_enabled() {
-            self.update_keys_with::<true>(keys, update, lazy)
-        } else {
-            self.update_keys_with::<false>(keys, update, lazy)
-        }
+        // consecutive keys of one brick go down together; a key already in the pending
+        // brick (a duplicate) starts a new one, so that it is updated twice
+        let bricks = Coalesce::new(keys.iter().map(|&k| brick_of(k)));
+        self.update_brick_iter(bricks, update, lazy)
     }
 
-    /// [`OcTree::update_keys`], recording changes when `TRACK`.
-    fn update_keys_with<const TRACK: bool>(&mut self, keys: &[Key], update: Update, lazy: bool) {
+    /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each entry is a brick's code
+    /// (the Morton code of its depth-14 node, i.e. `key.morton() >> 6` of any voxel in it;
+    /// bits above the 42nd are ignored) and a mask whose bit `i` selects the voxel at Morton
+    /// offset `i` inside the brick (`key.morton() & 63`). The tree ends exactly as after
+    /// [`OcTree::update_node`] on every selected voxel, brick by brick, in mask-bit order.
+    ///
+    /// This is the fastest way to apply a scan's key sets: bricks sorted by code visit the
+    /// tree in one depth-first sweep, and each depth-15 node is reached once per brick. A NaN
+    /// delta changes nothing.
+    pub fn update_bricks(&mut self, bricks: &[(u64, u64)], update: Update, lazy: bool) {
+        self.update_brick_iter(bricks.iter().copied(), update, lazy)
+    }
+
+    /// [`OcTree::update_bricks`] over any sequence of bricks.
+    fn update_brick_iter(
+        &mut self,
+        bricks: impl Iterator<Item = (u64, u64)>,
+        update: Update,
+        lazy: bool,
+    ) {
         let delta = self.delta(update);
-        if delta.is_nan() || keys.is_empty() {
+        if delta.is_nan() {
             return;
         }
         let (cmin, cmax) = (self.params().clamp_min, self.params().clamp_max);
         let add = self.store.adder(delta, cmin, cmax);
-        let mut memo = self.store.take_memo(&add);
-        let mut path = [NodeRef::ROOT; TREE_DEPTH as usize + 1];
-        // `valid` = number of leading path entries (depth 0..valid) known to match the previous
-        // key's path and still exist; ancestors below that have been processed.
-        let mut valid = 0usize;
-        // `dirty` = number of leading path entries with an applied update below them since
-        // they were last refreshed; a key that takes OctoMap's early exit dirties nothing, as
-        // `updateNode` then refreshes no ancestor
-        let mut dirty = 0usize;
-        let mut prev: Option<Key> = None;
-        for &key in keys {
-            let common = match prev {
-                Some(p) => common_depth(p, key).min(valid.saturating_sub(1)),
-                None => 0,
-            };
-            if common == TREE_DEPTH as usize - 1 && valid == TREE_DEPTH as usize + 1 {
-                // a sibling of the previous voxel, whose whole path exists: only the leaf
-                // block is touched (the previous leaf needs no refresh)
-                let block = path[TREE_DEPTH as usize].block;
-                let pos = key.child_index(TREE_DEPTH - 1);
-                let leaf = NodeRef {
-                    depth: TREE_DEPTH,
-                    slot: pos as u8,
-                    block,
-                };
-                let old = if TRACK { self.store.value(leaf) } else { 0.0 };
-                path[TREE_DEPTH as usize] = leaf;
-                prev = Some(key);
-                let Outcome::Applied(created) =
-                    self.store.update_leaf(leaf, &add, false, &mut memo)
-                else {
-                    // OctoMap's early exit at a voxel already at the clamp
-                    continue;
-                };
-                self.add_size(usize::from(created));
-                if TRACK {
-                    let v = self.store.value(leaf);
-                    self.record_change(key, old, v, created);
-                }
-                dirty = TREE_DEPTH as usize + 1;
-                continue;
+        let memo = self.store.take_memo(&add);
+        let mut walk = Walk {
+            add,
+            memo,
+            path: [NodeRef::ROOT; BRICK_DEPTH + 1],
+            valid: 0,
+            dirty: 0,
+            prev: 0,
+            lazy,
+        };
+        // change detection costs a value read before and after each update: compiled in
+        // only when it is on
+        if self.is_change_detection_enabled() {
+            for (code, mask) in bricks {
+                walk.brick::<true>(self, code & BRICK_CODE_MASK, mask);
             }
-            // leave the previous key's nodes below the common ancestor
-            if !lazy {
-                for d in (common + 1..valid.min(dirty)).rev() {
-                    self.refresh(path[d]);
-                }
-            }
-            dirty = dirty.min(common + 1);
-            let just_rooted = self.store.root_val.is_none();
-            if just_rooted {
-                self.store.root_val = Some(0.0);
-                self.add_size(1);
-            }
-            let (v, applied) = self.apply_from::<TRACK>(
-                key,
-                &mut path,
-                if just_rooted { 0 } else { common },
-                just_rooted,
-                &add,
-                &mut memo,
-            );
-            valid = v;
-            if applied {
-                dirty = valid;
-            }
-            prev = Some(key);
-        }
-        if !lazy {
-            for d in (0..valid).rev() {
-                self.refresh(path[d]);
+        } else {
+            for (code, mask) in bricks {
+                walk.brick::<false>(self, code & BRICK_CODE_MASK, mask);
             }
         }
+        walk.leave(self, 0);
+        let Walk { add, memo, .. } = walk;
         self.store.put_memo(&add, memo);
     }
 
@@ -121,32 +112,105 @@ impl OcTree {
             self.sub_size(8);
         }
     }
+}
 
-    /// Walk from `path[start]` to `key`'s voxel, creating or expanding nodes, and apply the
-    /// delta; returns how many path entries (from the root) are valid afterwards and whether
-    /// the delta was applied (not OctoMap's early exit). Returns
-    /// early, creating nothing, when OctoMap's clamp early-exit applies.
+/// Groups a sequence of single-voxel bricks into runs: consecutive voxels of one brick become
+/// one mask, and a voxel already in the pending mask closes it (so duplicates stay separate
+/// updates, in order).
+struct Coalesce<I> {
+    inner: I,
+    pending: Option<(u64, u64)>,
+}
+
+impl<I> Coalesce<I> {
+    fn new(inner: I) -> Self {
+        Coalesce {
+            inner,
+            pending: None,
+        }
+    }
+}
+
+impl<I: Iterator<Item = (u64, u64)>> Iterator for Coalesce<I> {
+    type Item = (u64, u64);
+
+    fn next(&mut self) -> Option<(u64, u64)> {
+        for (code, bit) in self.inner.by_ref() {
+            match &mut self.pending {
+                Some((c, m)) if *c == code && *m & bit == 0 => *m |= bit,
+                p => {
+                    if let Some(done) = p.replace((code, bit)) {
+                        return Some(done);
+                    }
+                }
+            }
+        }
+        self.pending.take()
+    }
+}
+
+/// The state of one batched walk: the path of the previous brick and what is known about it.
+struct Walk {
+    add: Adder,
+    /// `add`'s transition memo, held here so that the hot loop keeps it at hand.
+    memo: Vec<u16>,
+    /// The previous brick's path, depths 0 to [`BRICK_DEPTH`].
+    path: [NodeRef; BRICK_DEPTH + 1],
+    /// Leading path entries (depths `0..valid`) that exist and lie on the previous brick's
+    /// path; the nodes below them have been processed.
+    valid: usize,
+    /// Leading path entries with an applied update below them since they were last
+    /// refreshed; a voxel that takes OctoMap's early exit dirties nothing, as `updateNode`
+    /// then refreshes no ancestor.
+    dirty: usize,
+    /// The previous brick's code.
+    prev: u64,
+    lazy: bool,
+}
+
+impl Walk {
+    /// Refresh the dirty path entries deeper than `keep` (bottom-up), as OctoMap does when
+    /// its recursion returns through them; afterwards at most `keep` entries are dirty.
     #[inline]
-    fn apply_from<const TRACK: bool>(
-        &mut self,
-        key: Key,
-        path: &mut [NodeRef; TREE_DEPTH as usize + 1],
-        start: usize,
-        root_just_created: bool,
-        add: &Adder,
-        memo: &mut Vec<u16>,
-    ) -> (usize, bool) {
+    fn leave(&mut self, t: &mut OcTree, keep: usize) {
+        if !self.lazy {
+            for d in (keep..self.valid.min(self.dirty)).rev() {
+                t.refresh(self.path[d]);
+            }
+        }
+        self.dirty = self.dirty.min(keep);
+    }
+
+    /// Update the voxels of `mask` in brick `code` (42 bits).
+    #[inline]
+    fn brick<const TRACK: bool>(&mut self, t: &mut OcTree, code: u64, mask: u64) {
+        if mask == 0 {
+            return;
+        }
+        let common = if self.valid == 0 {
+            0
+        } else {
+            common_depth(self.prev, code).min(self.valid - 1)
+        };
+        self.leave(t, common + 1);
+        self.prev = code;
+        let just_rooted = t.store.root_val.is_none();
+        if just_rooted {
+            t.store.root_val = Some(0.0);
+            t.add_size(1);
+        }
         // read-only descent to the deepest existing node (OctoMap's `search`)
-        let mut d = start;
+        let path = &mut self.path;
+        let mut d = if just_rooted { 0 } else { common };
         let mut cur = path[d];
         let mut missing_child = false;
-        while d < TREE_DEPTH as usize {
-            let b = self.store.kids(cur);
+        while d < BRICK_DEPTH {
+            let b = t.store.kids(cur);
             if b == NO_BLOCK {
                 break;
             }
-            let pos = key.child_index(d as u8);
-            if !self.store.child_present(d as u8 + 1, b, pos) {
+            let pos = child_at(code, d);
+            if !present(t.store.inner.blocks[b as usize].vals[pos]) {
                 missing_child = true;
                 break;
             }
@@ -158,53 +222,177 @@ impl OcTree {
             d += 1;
             path[d] = cur;
         }
-        if !missing_child && !root_just_created && add.exits_at(self.store.value(cur)) {
-            return (d + 1, false);
+        // a childless node above the voxels: every voxel's search ends there, so all take
+        // the same early exit or none does
+        if !missing_child
+            && !just_rooted
+            && t.store.kids(cur) == NO_BLOCK
+            && self.add.exits_at(t.store.value(cur))
+        {
+            self.valid = d + 1;
+            return;
         }
-        // create or expand the rest of the path
-        let mut just_created = root_just_created;
-        while d < TREE_DEPTH as usize {
-            let pos = key.child_index(d as u8);
-            let created = if self.store.kids(cur) == NO_BLOCK && !just_created {
-                self.store.expand_node(cur);
-                self.add_size(8);
+        // create or expand the rest of the path; `fresh`: `cur` was just created (value 0,
+        // no children), so everything below it is created rather than expanded
+        let mut fresh = just_rooted;
+        while d < BRICK_DEPTH {
+            let pos = child_at(code, d);
+            let created = if t.store.kids(cur) == NO_BLOCK && !fresh {
+                t.store.expand_node(cur);
+                t.add_size(8);
                 false
             } else {
-                self.store.create_child_zero(cur, pos);
-                self.add_size(1);
+                t.store.create_child_zero(cur, pos);
+                t.add_size(1);
                 true
             };
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,
-                block: self.store.kids(cur),
+                block: t.store.kids(cur),
             };
             d += 1;
             path[d] = cur;
-            just_created = created;
-            if created && d < TREE_DEPTH as usize {
-                // everything below a new node is new: one block per level, no checks
-                cur = self.store.create_chain(cur, key, path);
-                self.add_size(TREE_DEPTH as usize - d);
-                d = TREE_DEPTH as usize;
+            fresh = created;
+        }
+        self.valid = BRICK_DEPTH + 1;
+        // the brick's node: its child block holds the depth-15 nodes
+        let mut kb = t.store.kids(cur);
+        if kb == NO_BLOCK {
+            kb = if fresh {
+                t.store.alloc_kids(cur)
+            } else {
+                // a childless existing node that passed the early-exit test above
+                t.add_size(8);
+                t.store.expand_node(cur)
+            };
+        }
+        let mut applied = false;
+        let mut rest = mask;
+        while rest != 0 {
+            let j = rest.trailing_zeros() as usize / 8;
+            let byte = (rest >> (8 * j)) as u8;
+            rest &= !(0xff << (8 * j));
+            applied |= self.leaf_group::<TRACK>(t, code, kb, j, byte);
+        }
+        if applied {
+            if !self.lazy {
+                t.refresh(cur);
+            }
+            // the brick's node is refreshed; its ancestors wait until the walk leaves them
+            self.dirty = BRICK_DEPTH;
+        }
+    }
+
+    /// Update the voxels `byte` (bit = slot) below the depth-15 node in slot `j` of block
+    /// `kb`, creating or expanding that node as needed, then prune or refresh it; returns
+    /// whether any update was applied.
+    #[inline(always)]
+    fn leaf_group<const TRACK: bool>(
+        &mut self,
+        t: &mut OcTree,
+        code: u64,
+        kb: u32,
+        j: usize,
+        byte: u8,
+    ) -> bool {
+        let node = NodeRef {
+            depth: TREE_DEPTH - 1,
+            slot: j as u8,
+            block: kb,
+        };
+        let blk = &mut t.store.inner.blocks[kb as usize];
+        let v = blk.vals[j];
+        let mut lb = blk.kids[j];
+        if !present(v) {
+            // a new node: every voxel below it is new (an empty block holds absent slots,
+            // which an update treats as new voxels)
+            blk.vals[j] = 0.0;
+            t.add_size(1);
+            lb = t.store.alloc_kids(node);
+        } else if lb == NO_BLOCK {
+            // a pruned node: its voxels' searches end here
+            if self.add.exits_at(v) {
+                return false;
+            }
+            t.add_size(8);
+            lb = t.store.expand_node(node);
+        }
+        let mut applied = false;
+        let mut bits = byte;
+        while bits != 0 {
+            let s = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let old = if TRACK { t.store.leaf.get(lb, s) } else { 0.0 };
+            let Outcome::Applied(created) =
+                t.store.leaf.update(lb, s, &self.add, false, &mut self.memo)
+            else {
+                // OctoMap's early exit at a voxel already at the clamp
+                continue;
+            };
+            t.add_size(usize::from(created));
+            applied = true;
+            if TRACK {
+                let key = Key::from_morton((code << 6) | ((j as u64) << 3) | s as u64);
+                let v = t.store.leaf.get(lb, s);
+                t.record_change(key, old, v, created);
             }
         }
-        let old = if TRACK { self.store.value(cur) } else { 0.0 };
-        // an existing voxel (or a pruned node expanded to it) passed the early-exit test above
-        if self.store.update_leaf(cur, add, just_created, memo) == Outcome::Exit {
-            return (TREE_DEPTH as usize + 1, false);
+        if applied && !self.lazy && t.store.refresh_voxel_parent(kb, j, lb) {
+            t.sub_size(8);
         }
-        if TRACK {
-            let v = self.store.value(cur);
-            self.record_change(key, old, v, just_created);
-        }
-        (TREE_DEPTH as usize + 1, true)
+        applied
     }
 }
 
-/// Depth of the deepest node containing both keys (16 when equal, 0 when only the root does).
+/// The child slot, at depth `d + 1`, on the way from depth `d` to brick `code`.
+#[inline(always)]
+fn child_at(code: u64, d: usize) -> usize {
+    ((code >> (3 * (BRICK_DEPTH - 1 - d))) & 7) as usize
+}
+
+/// Depth of the deepest node containing both bricks (14 when equal, 0 when only the root
+/// does).
 #[inline]
-fn common_depth(a: Key, b: Key) -> usize {
-    let diff = (a.x() ^ b.x()) | (a.y() ^ b.y()) | (a.z() ^ b.z());
-    diff.leading_zeros() as usize
+fn common_depth(a: u64, b: u64) -> usize {
+    let diff = a ^ b;
+    if diff == 0 {
+        return BRICK_DEPTH;
+    }
+    // the highest differing bit's level, counted from the brick's parent upwards
+    let level = (63 - diff.leading_zeros() as usize) / 3;
+    BRICK_DEPTH - 1 - level
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn brick_of_matches_the_morton_code() {
+        for k in [
+            Key::new(0, 0, 0),
+            Key::new(1, 2, 3),
+            Key::new(32767, 32768, 65535),
+            Key::new(65535, 65535, 65535),
+            Key::new(4, 9, 14),
+        ] {
+            let (code, bit) = brick_of(k);
+            assert_eq!(code, k.morton() >> 6);
+            assert_eq!(bit, 1 << (k.morton() & 63));
+        }
+    }
+
+    #[test]
+    fn common_depth_of_bricks() {
+        let code = |x, y, z| Key::new(x, y, z).morton();
+        assert_eq!(common_depth(code(5, 5, 5), code(5, 5, 5)), 14);
+        assert_eq!(common_depth(code(4, 5, 5), code(5, 5, 5)), 13);
+        assert_eq!(common_depth(code(3, 5, 5), code(4, 5, 5)), 11);
+        assert_eq!(common_depth(code(0, 0, 0), code(0, 0, 1 << 13)), 0);
+        // the child slots on the way to a brick spell its code
+        let c = code(0x1234, 0x0fed, 0x2bcd);
+        let rebuilt = (0..14).fold(0, |acc, d| (acc << 3) | child_at(c, d) as u64);
+        assert_eq!(rebuilt, c);
+    }
 }

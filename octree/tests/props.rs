@@ -170,6 +170,152 @@ fn batch_ops() -> impl Strategy<Value = Vec<(Vec<Key>, bool, bool)>> {
     )
 }
 
+/// Batches that drive whole regions to the clamps: each is the keys of an aligned cube (4, 8
+/// or 16 voxels wide), all of them or a seeded subset, updated `1..7` times in a row with one
+/// kind of update; so nodes are pruned at the clamp and later updates take OctoMap's early
+/// exit at pruned nodes of every depth.
+fn saturating_ops() -> impl Strategy<Value = Vec<(u8, u64, bool, bool, u8)>> {
+    prop::collection::vec(
+        (
+            0u8..3,
+            any::<u64>(),
+            any::<bool>(),
+            prop::bool::weighted(0.3),
+            1u8..7,
+        ),
+        1..12,
+    )
+}
+
+/// The keys of a saturating batch: cube `size` (4 << region) at a base aligned to it, all
+/// keys when `seed` is even, else about half of them, in Morton order or reversed.
+fn cube_keys(region: u8, seed: u64) -> Vec<Key> {
+    let size = 4u16 << region;
+    let base = 32768 - size;
+    let mut ks = Vec::new();
+    for x in 0..size {
+        for y in 0..size {
+            for z in 0..size {
+                let k = Key::new(base + x, base + y, base + z);
+                let h = (k.morton() ^ seed).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                if seed.is_multiple_of(2) || h >> 63 == 1 {
+                    ks.push(k);
+                }
+            }
+        }
+    }
+    ks.sort_by_key(|k| k.morton());
+    if seed % 4 == 3 {
+        ks.reverse();
+    }
+    ks
+}
+
+/// `keys` as bricks for [`OcTree::update_bricks`]: consecutive keys of one brick in one mask.
+fn bricks_of(keys: &[Key]) -> Vec<(u64, u64)> {
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for k in keys {
+        let (code, bit) = (k.morton() >> 6, 1u64 << (k.morton() & 63));
+        match out.last_mut() {
+            Some((c, m)) if *c == code && *m & bit == 0 => *m |= bit,
+            _ => out.push((code, bit)),
+        }
+    }
+    out
+}
+
+/// After lazy updates leave inner values stale, a batch in which every voxel takes OctoMap's
+/// early exit refreshes nothing (OctoMap's `updateNode` returns before its ascent), so the
+/// stale inner values stay, in the batched walks too.
+#[test]
+fn all_exit_batch_after_lazy_refreshes_nothing() {
+    let ks = cube_keys(1, 0);
+    let bricks = bricks_of(&ks);
+    let mut trees = [
+        OcTree::new(0.1).unwrap(),
+        OcTree::new(0.1).unwrap(),
+        OcTree::new(0.1).unwrap(),
+    ];
+    for t in &mut trees {
+        for _ in 0..6 {
+            t.update_keys(&ks, Update::Hit, true);
+        }
+    }
+    let stale = trees[0].search(ks[0], 10).map(|n| n.value);
+    assert_eq!(
+        stale,
+        Some(0.0),
+        "lazy updates leave inner nodes at their first value"
+    );
+    for k in &ks[..100] {
+        trees[0].update_node(*k, Update::Hit, false);
+    }
+    trees[1].update_keys(&ks[..100], Update::Hit, false);
+    let first = bricks_of(&ks[..100]);
+    trees[2].update_bricks(&first, Update::Hit, false);
+    assert!(first.len() < bricks.len());
+    let ot: Vec<Vec<u8>> = trees
+        .iter()
+        .map(|t| {
+            let mut b = Vec::new();
+            write_ot(t, &mut b).unwrap();
+            b
+        })
+        .collect();
+    assert_eq!(trees[0].search(ks[0], 10).map(|n| n.value), stale);
+    assert!(ot[0] == ot[1], "update_keys refreshed a node");
+    assert!(ot[0] == ot[2], "update_bricks refreshed a node");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 120, ..ProptestConfig::default() })]
+
+    /// `update_keys` and `update_bricks` equal one `update_node` per key (full `.ot` bytes,
+    /// size, changed keys) on batches that saturate and prune whole regions, so that early
+    /// exits at pruned nodes, refreshes after lazy batches and re-expansion all happen.
+    #[test]
+    fn batch_updates_at_the_clamps(ops in saturating_ops()) {
+        let mut single = OcTree::new(0.1).unwrap();
+        let mut by_keys = OcTree::new(0.1).unwrap();
+        let mut by_bricks = OcTree::new(0.1).unwrap();
+        for t in [&mut single, &mut by_keys, &mut by_bricks] {
+            t.enable_change_detection(true);
+        }
+        for (region, seed, hit, lazy, reps) in ops {
+            let ks = cube_keys(region, seed);
+            let bricks = bricks_of(&ks);
+            let u = if hit { Update::Hit } else { Update::Miss };
+            for _ in 0..reps {
+                for k in &ks {
+                    single.update_node(*k, u, lazy);
+                }
+                by_keys.update_keys(&ks, u, lazy);
+                by_bricks.update_bricks(&bricks, u, lazy);
+            }
+            prop_assert_eq!(single.size(), by_keys.size());
+            prop_assert_eq!(single.size(), by_bricks.size());
+        }
+        let ot = |t: &OcTree| {
+            let mut b = Vec::new();
+            write_ot(t, &mut b).unwrap();
+            b
+        };
+        // no block leaks: the blocks in use are those of the nodes with children
+        for t in [&single, &by_keys, &by_bricks] {
+            let parents = |inner: bool| {
+                t.nodes().filter(|n| n.has_children && (n.depth < TREE_DEPTH - 1) == inner).count()
+            };
+            prop_assert_eq!(t.live_blocks(), (parents(true), parents(false)));
+        }
+        let a = ot(&single);
+        prop_assert!(a == ot(&by_keys), "update_keys differs");
+        prop_assert!(a == ot(&by_bricks), "update_bricks differs");
+        let ca: Vec<_> = single.changed_keys().collect();
+        prop_assert_eq!(&ca, &by_keys.changed_keys().collect::<Vec<_>>());
+        prop_assert_eq!(&ca, &by_bricks.changed_keys().collect::<Vec<_>>());
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
 

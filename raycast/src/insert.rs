@@ -26,15 +26,16 @@ pub struct InsertOptions {
     pub lazy: bool,
 }
 
-/// Apply a computed scan update: one miss per free key, then one hit per occupied key, both in
-/// Morton order, through the tree's batched [`OcTree::update_keys`].
+/// Apply a computed scan update: one miss per free voxel, then one hit per occupied voxel,
+/// both in Morton order, through the tree's batched [`OcTree::update_bricks`].
 ///
-/// The order differs from OctoMap's hash-set order, but within one scan the keys are disjoint
-/// and each is updated once, so the final tree is the same.
+/// The order differs from OctoMap's hash-set order, but within one scan the voxels are
+/// disjoint and each is updated once, so the final tree is the same.
 pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) {
-    // batched: consecutive keys share their path from the root, which Morton order maximises
-    tree.update_keys(update.free(), Update::Miss, lazy);
-    tree.update_keys(update.occupied(), Update::Hit, lazy);
+    // batched by brick: consecutive bricks share their path from the root, which Morton
+    // order maximises
+    tree.update_bricks(update.free_bricks(), Update::Miss, lazy);
+    tree.update_bricks(update.occupied_bricks(), Update::Hit, lazy);
 }
 
 /// OctoMap's `insertPointCloud(scan, sensor_origin, maxrange, lazy_eval, discretize)`: compute

@@ -4,14 +4,16 @@
 //! A scan's update is two disjoint key sets: the voxels the rays cross (free) and the endpoint
 //! voxels (occupied). OctoMap collects them in `std::unordered_set`s; here both go into
 //! [`BrickSet`]s, one 64-bit mask per 4x4x4 brick of voxels, hashed by the brick's Morton
-//! code. The bricks are then listed in order, the occupied bits masked out of the free ones,
-//! and the keys emitted in Morton order, which is the tree's own depth-first order, so
-//! applying them touches the tree in a cache-friendly sweep.
+//! code. The bricks are then sorted and the occupied bits masked out of the free ones; the
+//! tree takes the sorted bricks as they are ([`octoquant_octree::OcTree::update_bricks`]), in
+//! Morton order, which is its own depth-first order, so applying them touches the tree in one
+//! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
 use crate::dda::{key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
+use std::sync::OnceLock;
 
 /// Counts gathered while turning a scan into key sets (and while inserting it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -44,19 +46,23 @@ pub struct ScanStats {
 /// The free and occupied keys of one scan, plus reusable scratch space.
 ///
 /// Fill it with [`compute_update`] or [`compute_discrete_update`]; both clear it first. Keep
-/// one per thread and reuse it from scan to scan to avoid allocations. Both key lists are
-/// sorted in Morton order (the tree's depth-first child order), hold each key once, and are
-/// disjoint.
+/// one per thread and reuse it from scan to scan to avoid allocations. Both voxel sets are
+/// sorted in Morton order (the tree's depth-first child order), hold each voxel once, and are
+/// disjoint; they are kept as bricks of 4x4x4 voxels, and listed as keys on request.
 #[derive(Debug, Clone, Default)]
 pub struct ScanUpdate {
-    free: Vec<Key>,
-    occupied: Vec<Key>,
+    /// The free voxels as keys, listed from `bricks` on first request.
+    free: OnceLock<Vec<Key>>,
+    /// The occupied voxels as keys, listed from `occ_bricks` on first request.
+    occupied: OnceLock<Vec<Key>>,
     free_set: BrickSet,
     occ_set: BrickSet,
     ray: RayScratch,
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
+    /// The free voxels: sorted bricks, occupied voxels masked out, no empty mask.
     bricks: Vec<(u64, u64)>,
+    /// The occupied voxels: sorted bricks.
     occ_bricks: Vec<(u64, u64)>,
     merge_tmp: Vec<(u64, u64)>,
     centres: Vec<Point3<f32>>,
@@ -69,20 +75,37 @@ impl ScanUpdate {
         Self::default()
     }
 
-    /// Voxels to update as misses: each once, none occupied, in Morton order.
+    /// Voxels to update as misses: each once, none occupied, in Morton order. Listed from
+    /// [`ScanUpdate::free_bricks`] on the first call.
     pub fn free(&self) -> &[Key] {
-        &self.free
+        self.free.get_or_init(|| brick_keys(&self.bricks))
     }
 
-    /// Voxels to update as hits: each once, in Morton order.
+    /// Voxels to update as hits: each once, in Morton order. Listed from
+    /// [`ScanUpdate::occupied_bricks`] on the first call.
     pub fn occupied(&self) -> &[Key] {
-        &self.occupied
+        self.occupied.get_or_init(|| brick_keys(&self.occ_bricks))
     }
 
-    /// Empty both key lists, keeping every allocation.
+    /// The free voxels as bricks of 4x4x4 voxels, sorted by code, for
+    /// [`octoquant_octree::OcTree::update_bricks`]: the same voxels as [`ScanUpdate::free`]
+    /// without listing them one by one.
+    pub fn free_bricks(&self) -> &[(u64, u64)] {
+        &self.bricks
+    }
+
+    /// The occupied voxels as bricks of 4x4x4 voxels, sorted by code (see
+    /// [`ScanUpdate::free_bricks`]).
+    pub fn occupied_bricks(&self) -> &[(u64, u64)] {
+        &self.occ_bricks
+    }
+
+    /// Empty both voxel sets, keeping the allocations of the sets.
     pub fn clear(&mut self) {
-        self.free.clear();
-        self.occupied.clear();
+        self.free = OnceLock::new();
+        self.occupied = OnceLock::new();
+        self.bricks.clear();
+        self.occ_bricks.clear();
         self.free_set.clear();
         self.occ_set.clear();
     }
@@ -265,30 +288,33 @@ fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
     emit(out, stats);
 }
 
-/// Turn the sorted brick lists `out.bricks` (free) and `out.occ_bricks` (occupied) into the
-/// key lists: occupied as they are, free with the occupied bits masked out (occupied wins),
-/// found by walking both sorted lists side by side.
+/// Mask the occupied voxels out of the sorted free bricks `out.bricks` (occupied wins),
+/// walking both sorted lists side by side and dropping bricks left empty, and count both
+/// sets.
 fn emit(out: &mut ScanUpdate, stats: &mut ScanStats) {
-    out.free.clear();
-    out.occupied.clear();
-    for &(b, m) in &out.occ_bricks {
-        push_brick_keys(b, m, &mut out.occupied);
-    }
     let occ = &out.occ_bricks;
     let mut j = 0;
-    for &(b, m) in &out.bricks {
-        while j < occ.len() && occ[j].0 < b {
+    out.bricks.retain_mut(|(b, m)| {
+        while j < occ.len() && occ[j].0 < *b {
             j += 1;
         }
-        let taken = if j < occ.len() && occ[j].0 == b {
-            occ[j].1
-        } else {
-            0
-        };
-        push_brick_keys(b, m & !taken, &mut out.free);
+        if j < occ.len() && occ[j].0 == *b {
+            *m &= !occ[j].1;
+        }
+        *m != 0
+    });
+    let count = |bricks: &[(u64, u64)]| bricks.iter().map(|b| b.1.count_ones() as usize).sum();
+    stats.free = count(&out.bricks);
+    stats.occupied = count(&out.occ_bricks);
+}
+
+/// The keys of sorted bricks, in Morton order.
+fn brick_keys(bricks: &[(u64, u64)]) -> Vec<Key> {
+    let mut keys = Vec::new();
+    for &(b, m) in bricks {
+        push_brick_keys(b, m, &mut keys);
     }
-    stats.free = out.free.len();
-    stats.occupied = out.occupied.len();
+    keys
 }
 
 /// `acc := acc ∪ other` for brick lists sorted by brick (each brick once), OR-ing the bits of

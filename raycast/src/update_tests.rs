@@ -207,6 +207,7 @@ proptest! {
         let origin = Point3::from(o);
         let mut out = ScanUpdate::new();
         let m = if max_range < 0.0 { None } else { Some(max_range) };
+        let counts;
         let (free, occ) = if discrete {
             let s = compute_discrete_update(&c, &pts, &origin, m, &mut out);
             let mut centres = Vec::new();
@@ -222,14 +223,30 @@ proptest! {
                 .collect();
             prop_assert_eq!(&centres, &naive);
             prop_assert_eq!(s.duplicates + naive.len() + s.non_finite, pts.len());
+            counts = (s.free, s.occupied);
             naive_update(&c, &naive, &origin, max_range)
         } else {
             let s = compute_update(&c, &pts, &origin, m, &mut out);
             prop_assert_eq!(s.points, pts.len());
+            counts = (s.free, s.occupied);
             naive_update(&c, &pts, &origin, max_range)
         };
         prop_assert!(sorted_by_morton(out.free()));
         prop_assert!(sorted_by_morton(out.occupied()));
+        // the bricks the tree takes: strictly sorted, none empty, the keys' bricks
+        for bricks in [out.free_bricks(), out.occupied_bricks()] {
+            prop_assert!(bricks.windows(2).all(|w| w[0].0 < w[1].0));
+            prop_assert!(bricks.iter().all(|b| b.1 != 0));
+        }
+        for (bricks, keys) in [(out.free_bricks(), out.free()), (out.occupied_bricks(), out.occupied())] {
+            let n: u32 = bricks.iter().map(|b| b.1.count_ones()).sum();
+            prop_assert_eq!(n as usize, keys.len());
+            for k in keys {
+                let code = morton(*k);
+                prop_assert!(bricks.iter().any(|b| b.0 == code >> 6 && b.1 >> (code & 63) & 1 == 1));
+            }
+        }
+        prop_assert_eq!((counts.0, counts.1), (out.free().len(), out.occupied().len()));
         let f: HashSet<Key> = out.free().iter().copied().collect();
         let oc: HashSet<Key> = out.occupied().iter().copied().collect();
         prop_assert_eq!(f, free);
