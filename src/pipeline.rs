@@ -7,10 +7,11 @@
 
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3};
-use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError, Update};
+use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
-    compute_discrete_update, compute_update, compute_update_with, RayModel, ScanStats, ScanUpdate,
+    apply_update, compute_discrete_update, compute_update, compute_update_with, RayModel,
+    ScanStats, ScanUpdate,
 };
 use std::time::Instant;
 
@@ -384,7 +385,6 @@ fn prepare(
 /// seconds it took.
 fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
     let start = Instant::now();
-    tree.update_bricks(update.free_bricks(), Update::Miss, lazy);
-    tree.update_bricks(update.occupied_bricks(), Update::Hit, lazy);
+    apply_update(tree, update, lazy);
     start.elapsed().as_secs_f64()
 }
