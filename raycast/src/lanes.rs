@@ -34,8 +34,7 @@ fn step_up(m: u64, a: usize) -> u64 {
 #[inline]
 pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
     let flip = mirror_mask(r.step.map(|s| s < 0));
-    let code = r.key_origin.morton();
-    (code ^ flip, r.key_end.morton() ^ flip, flip)
+    (r.code_origin ^ flip, r.code_end ^ flip, flip)
 }
 
 /// Hand the bricks `(bricks[i], bits[i])` left by lanes to `flush`, each run of one brick
