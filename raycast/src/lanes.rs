@@ -141,10 +141,15 @@ where
     S: FnMut(usize, &LaneInit, bool),
 {
     let mut degenerate = 0;
-    for (l, code) in codes.iter_mut().enumerate() {
-        if stopped & (1 << l) == 0 {
-            continue;
-        }
+    // only the stopped lanes, lowest first: a test of every lane's bit would be a branch
+    // the predictor misses whenever neighbouring walks end at different steps
+    let mut left = stopped;
+    while left != 0 {
+        let l = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let Some(code) = codes.get_mut(l) else {
+            break;
+        };
         if done & (1 << l) == 0 {
             flush(*code >> 6, 1u64 << (*code & 63));
             degenerate += 1;
