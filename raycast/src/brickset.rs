@@ -13,7 +13,11 @@ const EMPTY: u64 = u64::MAX;
 
 /// The key set. `clear` keeps the allocation for the next frame.
 ///
-/// Each slot holds `(brick, bits)` side by side, so a probe touches one cache line.
+/// Each slot holds `(brick, bits)` side by side, so a probe touches one cache line. A small
+/// table is kept at most a quarter full (see [`fill_limit`]), so that a brick already in it almost always sits in one of
+/// its first two slots, which are looked at without a branch: on dense depth images the
+/// lookups repeat the same few thousand bricks millions of times, and a mispredicted probe
+/// loop cost more there than the larger table.
 #[derive(Debug, Clone)]
 pub(crate) struct BrickSet {
     slots: Vec<(u64, u64)>,
@@ -31,6 +35,22 @@ impl Default for BrickSet {
         }
     }
 }
+
+/// The inverse of the largest share of a table of `slots` that may be filled before it
+/// grows: a quarter while the table fits in L2 (the dense depth images, whose lookups repeat
+/// the same bricks), half beyond (LiDAR frames, where a sparser table costs more in cache
+/// misses than it saves in probes).
+#[inline(always)]
+fn fill_limit(slots: usize) -> usize {
+    if slots < SPARSE_UP_TO {
+        4
+    } else {
+        2
+    }
+}
+
+/// Tables with fewer slots than this (1 MiB) are kept at most a quarter full.
+const SPARSE_UP_TO: usize = 1 << 16;
 
 #[inline(always)]
 fn hash(brick: u64, mask: usize) -> usize {
@@ -69,6 +89,14 @@ impl BrickSet {
     pub fn insert_bits_hashed(&mut self, brick: u64, bit: u64) {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
+        // the brick's first two slots without a branch: a brick already in the set is
+        // almost always in one of them, and which one is data, not a guess
+        let j = (i + (self.slots[i].0 != brick) as usize) & mask;
+        if self.slots[j].0 == brick {
+            self.slots[j].1 |= bit;
+            self.last = j;
+            return;
+        }
         loop {
             let slot = &mut self.slots[i];
             if slot.0 == brick {
@@ -80,7 +108,7 @@ impl BrickSet {
                 *slot = (brick, bit);
                 self.len += 1;
                 self.last = i;
-                if self.len * 2 > self.slots.len() {
+                if self.len * fill_limit(self.slots.len()) > self.slots.len() {
                     self.grow();
                 }
                 return;

@@ -159,6 +159,9 @@ pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
 pub(crate) struct RaySetup {
     pub(crate) key_origin: Key,
     pub(crate) key_end: Key,
+    /// [`Key::morton`] of `key_origin` and of `key_end`, computed once by the caller.
+    pub(crate) code_origin: u64,
+    pub(crate) code_end: u64,
     pub(crate) step: [i32; 3],
     pub(crate) t_max: [f64; 3],
     pub(crate) t_delta: [f64; 3],
@@ -179,6 +182,13 @@ fn setup(
     setup_from(conv, origin, key_of(conv, origin), end)
 }
 
+/// A key with its [`Key::morton`] code, for callers that need both and should compute the
+/// code once.
+#[inline(always)]
+pub(crate) fn coded(key: Key) -> (Key, u64) {
+    (key, key.morton())
+}
+
 /// [`setup`] with the origin's key already known (`key_of(conv, origin)`), for callers that
 /// cast many rays from one origin.
 #[inline(always)]
@@ -188,20 +198,27 @@ pub(crate) fn setup_from(
     origin_key: Option<Key>,
     end: &Point3<f32>,
 ) -> Result<RaySetup, RayWalk> {
-    setup_with_keys(conv, origin, origin_key, end, key_of(conv, end))
+    setup_with_keys(
+        conv,
+        origin,
+        origin_key.map(coded),
+        end,
+        key_of(conv, end).map(coded),
+    )
 }
 
-/// [`setup_from`] with the end's key also known (`key_of(conv, end)`), for callers that
-/// computed it already.
+/// [`setup_from`] with both keys and their Morton codes already known (`key_of(..)` and
+/// [`coded`]), for callers that computed them already: a scan's origin once for all its rays,
+/// each end point once for its occupied voxel and its ray.
 #[inline(always)]
 pub(crate) fn setup_with_keys(
     conv: &KeyConverter,
     origin: &Point3<f32>,
-    origin_key: Option<Key>,
+    origin_key: Option<(Key, u64)>,
     end: &Point3<f32>,
-    end_key: Option<Key>,
+    end_key: Option<(Key, u64)>,
 ) -> Result<RaySetup, RayWalk> {
-    let (Some(key_origin), Some(key_end)) = (origin_key, end_key) else {
+    let (Some((key_origin, code_origin)), Some((key_end, code_end))) = (origin_key, end_key) else {
         return Err(RayWalk::OutsideMap);
     };
     if key_origin == key_end {
@@ -241,6 +258,8 @@ pub(crate) fn setup_with_keys(
     Ok(RaySetup {
         key_origin,
         key_end,
+        code_origin,
+        code_end,
         step,
         t_max,
         t_delta,
@@ -333,8 +352,8 @@ where
         Ok(r) => r,
         Err(w) => return w,
     };
-    let mut code = r.key_origin.morton();
-    let end_code = r.key_end.morton();
+    let mut code = r.code_origin;
+    let end_code = r.code_end;
     visit(code);
     // The state lives in scalars (not arrays indexed by the axis) so it stays in registers;
     // the comparisons are OctoMap's, in the same order.

@@ -18,7 +18,7 @@
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
 use crate::dda::RaySetup;
-use crate::lanes::{restart, LaneInit, AXIS_MASK};
+use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,
@@ -275,9 +275,11 @@ where
         );
         brick = b;
         if finished || left >= LEFT {
-            for (&b, &m) in scratch.bricks[..left].iter().zip(&scratch.bits[..left]) {
-                flush(b, m);
-            }
+            hand_on_runs(
+                &mut scratch.bricks[..left],
+                &mut scratch.bits[..left],
+                flush,
+            );
             left = 0;
         }
         if finished {

@@ -7,7 +7,7 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`].
 
 use crate::dda::RaySetup;
-use crate::lanes::{restart, LaneInit, AXIS_MASK};
+use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512,
     _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmpneq_epu64_mask,
@@ -96,10 +96,8 @@ impl<'a> Bricks8<'a> {
 
     /// Hand the bricks left so far to `flush`.
     fn hand_on<F: FnMut(u64, u64)>(&mut self, flush: &mut F) {
-        let s = &*self.scratch;
-        for (&b, &m) in s.bricks[..self.left].iter().zip(&s.bits[..self.left]) {
-            flush(b, m);
-        }
+        let (s, n) = (&mut *self.scratch, self.left);
+        hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
         self.left = 0;
     }
 

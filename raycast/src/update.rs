@@ -10,7 +10,9 @@
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::dda::{
+    coded, key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk,
+};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 use std::sync::OnceLock;
@@ -203,15 +205,15 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
 fn push_ray(
     conv: &KeyConverter,
     origin: &Point3<f32>,
-    origin_key: Option<Key>,
+    origin_key: Option<(Key, u64)>,
     end: &Point3<f32>,
-    end_key: Option<Key>,
+    end_key: Option<(Key, u64)>,
     set: &mut BrickSet,
     scratch: &mut RayScratch,
     model: RayModel,
 ) -> bool {
     if model == RayModel::Bresenham {
-        let (Some(a), Some(b)) = (origin_key, end_key) else {
+        let (Some((a, _)), Some((b, _))) = (origin_key, end_key) else {
             return false;
         };
         if a != b {
@@ -351,7 +353,7 @@ fn add_points(
     conv: &KeyConverter,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
-    origin_key: Option<Key>,
+    origin_key: Option<(Key, u64)>,
     max_range: f64,
     free_set: &mut BrickSet,
     occ_set: &mut BrickSet,
@@ -365,19 +367,19 @@ fn add_points(
             continue;
         }
         let diff = sub_f32(p, origin);
-        let hit = key_of(conv, p);
+        let hit = key_of(conv, p).map(coded);
         if hit.is_none() {
             stats.outside_map += 1;
         }
         let (end, end_key) = if max_range < 0.0 || norm_f32(diff) <= max_range {
-            if let Some(k) = hit {
-                occ_set.insert(morton(k));
+            if let Some((_, code)) = hit {
+                occ_set.insert(code);
             }
             (*p, hit)
         } else {
             stats.max_range_rays += 1;
             let e = cut_at_range(origin, diff, max_range);
-            (e, key_of(conv, &e))
+            (e, key_of(conv, &e).map(coded))
         };
         if push_ray(
             conv, origin, origin_key, &end, end_key, free_set, ray, model,
@@ -448,7 +450,7 @@ pub fn compute_update_with(
         ..ScanStats::default()
     };
     let m = max_range.unwrap_or(-1.0);
-    let origin_key = key_of(conv, origin);
+    let origin_key = key_of(conv, origin).map(coded);
     let threads = rayon::current_num_threads();
     if threads > 1 && points.len() >= PARALLEL_MIN_POINTS {
         // each thread casts a contiguous share of the rays into its own sets; the union is
