@@ -8,6 +8,7 @@
 //! DDA's path are not cleared, and voxels are chosen by the line between voxel *centres*, not
 //! by the exact segment. Maps differ from OctoMap's only in those free voxels.
 
+use crate::brickset::BrickSink;
 use crate::dda::AxisStep;
 use octoquant_octree::Key;
 
@@ -58,7 +59,7 @@ pub fn walk_bresenham_keys(start: Key, end: Key, mut visit: impl FnMut(Key)) -> 
 /// handed out per 4x4x4 brick (`code >> 6`) with the mask of the brick's visited voxels (bit
 /// `code & 63`); `flush` runs once per brick the line enters. Returns the number of voxels.
 #[inline]
-pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, mut flush: impl FnMut(u64, u64)) -> u32 {
+pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, flush: &mut impl BrickSink) -> u32 {
     let d = [0, 1, 2].map(|a| end[a] as i32 - start[a] as i32);
     let ad = d.map(i32::abs);
     let main = main_axis(ad);
@@ -73,7 +74,7 @@ pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, mut flush: impl FnMut(
     let mut bits = 0u64;
     for _ in 0..n {
         if code >> 6 != brick {
-            flush(brick, bits);
+            flush.put(brick, bits);
             brick = code >> 6;
             bits = 0;
         }
@@ -91,7 +92,7 @@ pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, mut flush: impl FnMut(
         code = sm.apply(code);
     }
     if bits != 0 {
-        flush(brick, bits);
+        flush.put(brick, bits);
     }
     n as u32
 }
@@ -137,7 +138,7 @@ mod tests {
                 }
             }
             let mut got = Vec::new();
-            let n = walk_bresenham_bricks(start, end, |b, m| got.push((b, m)));
+            let n = walk_bresenham_bricks(start, end, &mut |b, m| got.push((b, m)));
             prop_assert_eq!(n as usize, keys.len());
             prop_assert_eq!(got, want);
         }

@@ -8,6 +8,7 @@
 //! scalar walk's integers. Bricks are kept and handed on as in the DDA lanes; a lane whose line
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
+use crate::brickset::BrickSink;
 use crate::dda::{mirror_mask, AXIS_MASK};
 use crate::lanes_avx512::{Bricks8, OctScratch};
 use core::arch::x86_64::{
@@ -30,7 +31,7 @@ pub(crate) fn walk_lines<F>(
     flush: &mut F,
 ) -> Option<()>
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     if !std::arch::is_x86_feature_detected!("avx512f") {
         return None;
@@ -150,7 +151,7 @@ fn step_up(m: __m512i, mask: __m512i) -> __m512i {
 #[target_feature(enable = "avx512f")]
 fn walk_lines_avx512<F>(lines: &[(Key, Key)], scratch: &mut OctScratch, flush: &mut F)
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     let Some(&(s0, e0)) = lines.first() else {
         return;
@@ -262,7 +263,7 @@ mod tests {
             prop_assume!(!lines.is_empty());
             let mut want = BTreeSet::new();
             for &(a, b) in &lines {
-                crate::bresenham::walk_bresenham_bricks(a, b, |b, m| add(&mut want, b, m));
+                crate::bresenham::walk_bresenham_bricks(a, b, &mut |b, m| add(&mut want, b, m));
             }
             let mut got = BTreeSet::new();
             let mut scratch = OctScratch::default();

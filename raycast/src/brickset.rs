@@ -159,6 +159,62 @@ impl BrickSet {
     }
 }
 
+/// Where walks hand the bricks they entered, as `(brick, bits)`: one at a time, or a batch at
+/// once. Any `FnMut(u64, u64)` is a sink (tests collect into their own sets); the brick set is
+/// one with a batch insert that keeps the table's address and size in registers.
+pub(crate) trait BrickSink {
+    /// Add the voxels `bits` of brick `brick`.
+    fn put(&mut self, brick: u64, bits: u64);
+
+    /// Add `(bricks[i], bits[i])` for every `i`.
+    #[inline]
+    fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
+        for (&b, &m) in bricks.iter().zip(bits) {
+            self.put(b, m);
+        }
+    }
+}
+
+impl<F: FnMut(u64, u64)> BrickSink for F {
+    #[inline(always)]
+    fn put(&mut self, brick: u64, bits: u64) {
+        self(brick, bits)
+    }
+}
+
+impl BrickSink for BrickSet {
+    #[inline(always)]
+    fn put(&mut self, brick: u64, bits: u64) {
+        self.insert_bits_hashed(brick, bits)
+    }
+
+    /// Bricks already in the set, found in one of their first two slots, are added in a
+    /// tight loop; anything else (a new brick, a longer probe, growth) goes through
+    /// [`BrickSet::insert_bits_hashed`] and the loop resumes.
+    #[inline]
+    fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
+        let n = bricks.len().min(bits.len());
+        let mut i = 0;
+        while i < n {
+            let slots = self.slots.as_mut_slice();
+            let mask = slots.len() - 1;
+            while let (Some(&b), Some(&m)) = (bricks.get(i), bits.get(i)) {
+                let h = hash(b, mask);
+                let j = (h + (slots[h].0 != b) as usize) & mask;
+                if slots[j].0 != b {
+                    break;
+                }
+                slots[j].1 |= m;
+                i += 1;
+            }
+            if let (Some(&b), Some(&m)) = (bricks.get(i), bits.get(i)) {
+                self.insert_bits_hashed(b, m);
+                i += 1;
+            }
+        }
+    }
+}
+
 /// Per bit of a brick (its voxels' Morton order), the voxel's offset from the brick's first
 /// voxel on each axis.
 const BRICK_OFFSET: [[u16; 3]; 64] = {
@@ -225,5 +281,38 @@ mod tests {
             assert_eq!(keys, want);
         }
         assert_eq!(set.get(u64::MAX >> 6), 0);
+    }
+
+    /// The batch insert gives the set of one insert at a time, through growth, repeats, and
+    /// bricks that collide in their first slots.
+    #[test]
+    fn batches_match_single_inserts() {
+        let mut batched = BrickSet::default();
+        let mut single = BrickSet::default();
+        let mut naive = std::collections::BTreeMap::new();
+        let mut s = 0x9E37_79B9u64;
+        for round in 0..40 {
+            let n = 1 + (round * 97) % 700;
+            let (mut bricks, mut bits) = (Vec::new(), Vec::new());
+            for _ in 0..n {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                // few distinct bricks early (repeats), many later (growth)
+                let b = s % (16 + round as u64 * 300);
+                let m = 1u64 << (s >> 58);
+                bricks.push(b);
+                bits.push(m);
+                single.insert_bits_hashed(b, m);
+                *naive.entry(b).or_insert(0u64) |= m;
+            }
+            batched.put_all(&bricks, &bits);
+        }
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        batched.sorted(&mut a);
+        single.sorted(&mut b);
+        assert_eq!(a, b);
+        assert_eq!(a, naive.into_iter().collect::<Vec<_>>());
+        assert!(batched.slots.len() > 1024, "the set grew");
     }
 }

@@ -460,7 +460,7 @@ pub(crate) fn try_walk_ray_bricks<F>(
     mut flush: F,
 ) -> Option<RayWalk>
 where
-    F: FnMut(u64, u64),
+    F: crate::brickset::BrickSink,
 {
     let r = match setup_from(conv, origin, origin_key, end) {
         Ok(r) => r,

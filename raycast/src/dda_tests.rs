@@ -284,7 +284,7 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
         key_of(conv, &o),
         &e,
         &mut buf,
-        |brick, mut bits| {
+        |brick: u64, mut bits: u64| {
             got.push(brick);
             while bits != 0 {
                 walked.push((brick << 6) | bits.trailing_zeros() as u64);

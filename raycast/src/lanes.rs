@@ -11,6 +11,7 @@
 //! so every walk visits exactly the voxels of [`crate::dda::walk_ray_codes`]; only the order in
 //! which bricks reach the set changes, and a set does not depend on it.
 
+use crate::brickset::BrickSink;
 pub(crate) use crate::dda::AXIS_MASK;
 use crate::dda::{cmin, mirror_mask, RaySetup, RayWalk};
 
@@ -43,11 +44,7 @@ pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
 /// queue behind each other's update of one table slot.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-pub(crate) fn hand_on_runs<F: FnMut(u64, u64)>(
-    bricks: &mut [u64],
-    bits: &mut [u64],
-    flush: &mut F,
-) {
+pub(crate) fn hand_on_runs<F: BrickSink>(bricks: &mut [u64], bits: &mut [u64], flush: &mut F) {
     let n = bricks.len().min(bits.len());
     let (bricks, bits) = (&mut bricks[..n], &mut bits[..n]);
     let (Some(&b0), Some(&m0)) = (bricks.first(), bits.first()) else {
@@ -66,9 +63,7 @@ pub(crate) fn hand_on_runs<F: FnMut(u64, u64)>(
     }
     bricks[k] = cb;
     bits[k] = cm;
-    for (&b, &m) in bricks[..=k].iter().zip(&bits[..=k]) {
-        flush(b, m);
-    }
+    flush.put_all(&bricks[..=k], &bits[..=k]);
 }
 
 /// One walk's state as scalars, for starting a SIMD lane on a new ray.
@@ -137,7 +132,7 @@ pub(crate) fn restart<F, S>(
     mut set: S,
 ) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
     S: FnMut(usize, &LaneInit, bool),
 {
     let mut degenerate = 0;
@@ -151,7 +146,7 @@ where
             break;
         };
         if done & (1 << l) == 0 {
-            flush(*code >> 6, 1u64 << (*code & 63));
+            flush.put(*code >> 6, 1u64 << (*code & 63));
             degenerate += 1;
         }
         match next.next() {
@@ -279,11 +274,11 @@ impl BrickWalk {
     /// [`BrickWalk::finish`], then hand every brick of the walk to `flush`.
     pub(crate) fn finish_into<F>(&mut self, buf: &mut [(u64, u64)], flush: &mut F) -> RayWalk
     where
-        F: FnMut(u64, u64),
+        F: BrickSink,
     {
         let (walk, n) = self.finish(buf);
         for &(b, m) in &buf[..n] {
-            flush(b, m);
+            flush.put(b, m);
         }
         walk
     }
@@ -307,7 +302,7 @@ pub(crate) struct LaneScratch {
 /// counted rather than trusted).
 pub(crate) fn walk_all<F>(rays: &[RaySetup], scratch: &mut LaneScratch, flush: &mut F) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     #[cfg(target_arch = "x86_64")]
     {
@@ -324,7 +319,7 @@ where
 /// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.
 fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<(u64, u64)>; 2], flush: &mut F) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     {
@@ -340,7 +335,7 @@ where
 /// fewer than two rays.
 fn walk_each<F>(rays: &[RaySetup], buf: &mut Vec<(u64, u64)>, flush: &mut F) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     rays.iter()
         .filter(|r| BrickWalk::start(r, buf).finish_into(buf, flush) != RayWalk::Complete)
@@ -349,7 +344,7 @@ where
 
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 mod sse2 {
-    use super::{step_up, walk_each, BrickWalk};
+    use super::{step_up, walk_each, BrickSink, BrickWalk};
     use crate::dda::{RaySetup, RayWalk};
     use safe_arch::{
         add_m128d, bitand_m128d, bitandnot_m128d, bitor_m128d, cmp_eq_mask_m128d,
@@ -370,7 +365,7 @@ mod sse2 {
         flush: &mut F,
     ) -> usize
     where
-        F: FnMut(u64, u64),
+        F: BrickSink,
     {
         let mut degenerate = 0;
         let mut next = rays.iter();
@@ -438,7 +433,7 @@ mod sse2 {
                 }
                 let n = walk.close(buf);
                 for &(b, m) in &buf[..n] {
-                    flush(b, m);
+                    flush.put(b, m);
                 }
                 match next.next() {
                     Some(r) => *walk = BrickWalk::start(r, buf),

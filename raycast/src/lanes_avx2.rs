@@ -17,6 +17,7 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`]. The module's one `unsafe` is the call
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
+use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
 use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
@@ -78,7 +79,7 @@ pub(crate) fn walk_quads<F>(
     flush: &mut F,
 ) -> Option<usize>
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     if !std::arch::is_x86_feature_detected!("avx2") {
         return None;
@@ -132,7 +133,7 @@ impl Lanes {
 #[target_feature(enable = "avx2")]
 fn walk_quads_avx2<F>(rays: &[RaySetup], scratch: &mut QuadScratch, flush: &mut F) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     let Some(first) = rays.first() else {
         return 0;
@@ -285,7 +286,7 @@ where
         if finished {
             let (brick, bits): (U4, U4) = (bytemuck::cast(brick), bytemuck::cast(bits));
             for (b, m) in brick.into_iter().zip(bits) {
-                flush(b, m);
+                flush.put(b, m);
             }
             return degenerate;
         }

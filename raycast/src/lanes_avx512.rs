@@ -6,6 +6,7 @@
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
 //! exactly the voxels of [`crate::dda::walk_ray_codes`].
 
+use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
 use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
@@ -70,7 +71,7 @@ impl<'a> Bricks8<'a> {
     /// appended with one store; full buffers go to `flush`.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    pub(crate) fn push<F: FnMut(u64, u64)>(&mut self, codes: __m512i, flush: &mut F) {
+    pub(crate) fn push<F: BrickSink>(&mut self, codes: __m512i, flush: &mut F) {
         let b = _mm512_srli_epi64::<6>(codes);
         let moved = _mm512_cmpneq_epu64_mask(b, self.brick);
         let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.brick));
@@ -95,7 +96,7 @@ impl<'a> Bricks8<'a> {
     }
 
     /// Hand the bricks left so far to `flush`.
-    fn hand_on<F: FnMut(u64, u64)>(&mut self, flush: &mut F) {
+    fn hand_on<F: BrickSink>(&mut self, flush: &mut F) {
         let (s, n) = (&mut *self.scratch, self.left);
         hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
         self.left = 0;
@@ -103,11 +104,11 @@ impl<'a> Bricks8<'a> {
 
     /// Hand every brick to `flush`: those left, then the open ones.
     #[target_feature(enable = "avx512f")]
-    pub(crate) fn finish<F: FnMut(u64, u64)>(mut self, flush: &mut F) {
+    pub(crate) fn finish<F: BrickSink>(mut self, flush: &mut F) {
         self.hand_on(flush);
         let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
         for (b, m) in brick.into_iter().zip(bits) {
-            flush(b, m);
+            flush.put(b, m);
         }
     }
 }
@@ -120,7 +121,7 @@ pub(crate) fn walk_octs<F>(
     flush: &mut F,
 ) -> Option<usize>
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     if !std::arch::is_x86_feature_detected!("avx512f") {
         return None;
@@ -171,7 +172,7 @@ impl Lanes {
 #[target_feature(enable = "avx512f")]
 fn walk_octs_avx512<F>(rays: &[RaySetup], scratch: &mut OctScratch, flush: &mut F) -> usize
 where
-    F: FnMut(u64, u64),
+    F: BrickSink,
 {
     let Some(first) = rays.first() else {
         return 0;

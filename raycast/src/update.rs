@@ -259,17 +259,14 @@ fn push_ray(
 /// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
 /// walks that degenerated (none can: see [`crate::dda`]'s brick walk).
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
-    scratch.degenerate +=
-        crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, &mut |brick, bits| {
-            set.insert_bits_hashed(brick, bits)
-        });
+    scratch.degenerate += crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, set);
     scratch.batch.clear();
 }
 
 /// Walk the queued Bresenham lines into `set` and empty the queue: eight at a time where the
 /// CPU has AVX-512, else one after another.
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
-    let flush = &mut |brick, bits| set.insert_bits_hashed(brick, bits);
+    let flush = set;
     #[cfg(target_arch = "x86_64")]
     let done = crate::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, flush)
         .is_some();
