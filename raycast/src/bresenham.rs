@@ -57,7 +57,7 @@ pub fn walk_bresenham_keys(start: Key, end: Key, mut visit: impl FnMut(Key)) -> 
 
 /// [`walk_bresenham_keys`] for set builders: the same voxels, stepped as Morton codes and
 /// handed out per 4x4x4 brick (`code >> 6`) with the mask of the brick's visited voxels (bit
-/// `code & 63`); `flush` runs once per brick the line enters. Returns the number of voxels.
+/// `code & 63`), one `flush.put` per brick the line enters. Returns the number of voxels.
 #[inline]
 pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, flush: &mut impl BrickSink) -> u32 {
     let d = [0, 1, 2].map(|a| end[a] as i32 - start[a] as i32);
