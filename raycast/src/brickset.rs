@@ -14,10 +14,10 @@ const EMPTY: u64 = u64::MAX;
 /// The key set. `clear` keeps the allocation for the next frame.
 ///
 /// Each slot holds `(brick, bits)` side by side, so a probe touches one cache line. A small
-/// table is kept at most a quarter full (see [`fill_limit`]), so that a brick already in it almost always sits in one of
-/// its first two slots, which are looked at without a branch: on dense depth images the
-/// lookups repeat the same few thousand bricks millions of times, and a mispredicted probe
-/// loop cost more there than the larger table.
+/// table is kept at most a quarter full (see [`fill_limit`]), so that a brick already in it
+/// almost always sits in one of its first two slots, which are looked at without a branch
+/// ([`near_slot`]): on dense depth images the lookups repeat the same few thousand bricks
+/// millions of times, and a mispredicted probe loop cost more there than the larger table.
 #[derive(Debug, Clone)]
 pub(crate) struct BrickSet {
     slots: Vec<(u64, u64)>,
@@ -51,6 +51,15 @@ fn fill_limit(slots: usize) -> usize {
 
 /// Tables with fewer slots than this (1 MiB) are kept at most a quarter full.
 const SPARSE_UP_TO: usize = 1 << 16;
+
+/// The slot of `brick` when it sits in one of its first two slots (`h`, the brick's hash, or
+/// the next), found without a branch: which of the two is data, not a guess.
+#[inline(always)]
+fn near_slot(slots: &[(u64, u64)], brick: u64, h: usize) -> Option<usize> {
+    let mask = slots.len() - 1;
+    let j = (h + (slots[h].0 != brick) as usize) & mask;
+    (slots[j].0 == brick).then_some(j)
+}
 
 #[inline(always)]
 fn hash(brick: u64, mask: usize) -> usize {
@@ -89,10 +98,7 @@ impl BrickSet {
     pub fn insert_bits_hashed(&mut self, brick: u64, bit: u64) {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
-        // the brick's first two slots without a branch: a brick already in the set is
-        // almost always in one of them, and which one is data, not a guess
-        let j = (i + (self.slots[i].0 != brick) as usize) & mask;
-        if self.slots[j].0 == brick {
+        if let Some(j) = near_slot(&self.slots, brick, i) {
             self.slots[j].1 |= bit;
             self.last = j;
             return;
@@ -199,11 +205,9 @@ impl BrickSink for BrickSet {
             let slots = self.slots.as_mut_slice();
             let mask = slots.len() - 1;
             while let (Some(&b), Some(&m)) = (bricks.get(i), bits.get(i)) {
-                let h = hash(b, mask);
-                let j = (h + (slots[h].0 != b) as usize) & mask;
-                if slots[j].0 != b {
+                let Some(j) = near_slot(slots, b, hash(b, mask)) else {
                     break;
-                }
+                };
                 slots[j].1 |= m;
                 i += 1;
             }
