@@ -556,6 +556,31 @@ mod tests {
         }
     }
 
+    /// Rays that stop on their length three steps before the Manhattan distance (the
+    /// diagonal across the map through voxel corners, at each resolution), next to rays that
+    /// stop on their end voxel: every lane must stop where the reference does, although the
+    /// eight lanes skip their end checks until shortly before.
+    #[test]
+    fn lanes_stop_where_the_reference_stops() {
+        for res in [0.01, 0.1, 1.0] {
+            let conv = KeyConverter::new(res).unwrap();
+            let edge = (32767.0 * res) as f32;
+            let o = Point3::new(-edge, -edge, -edge);
+            let mut ends = vec![Point3::new(edge, edge, edge)];
+            for i in 1..12 {
+                let f = edge * (i as f32 / 12.0);
+                ends.push(Point3::new(f, f, f));
+                ends.push(Point3::new(f, -f * 0.5, f * 0.25));
+            }
+            let rays = setups(&conv, &o, &ends);
+            assert_eq!(rays.len(), ends.len());
+            let want = want(&conv, &o, &ends);
+            for got in all_paths(&rays) {
+                assert_eq!(got, want);
+            }
+        }
+    }
+
     proptest! {
         /// Merging runs keeps every brick's voxels and leaves no run of one brick.
         #[test]
