@@ -7,8 +7,8 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`].
 
 use crate::brickset::BrickSink;
-use crate::dda::{RaySetup, STEP_MARGIN};
-use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::dda::RaySetup;
+use crate::lanes::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512,
     _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmpneq_epu64_mask,
@@ -183,21 +183,6 @@ impl Lanes {
         let due: U8 = bytemuck::cast(self.due);
         due.into_iter().min().unwrap_or(u64::MAX)
     }
-}
-
-/// The first step at which a walk can stop, given the first step `due` at which one runs out
-/// of budget (the Manhattan key distance plus [`STEP_MARGIN`] after its start).
-///
-/// A walk's key moves by one on one axis per step, so it reaches its end voxel no earlier than
-/// the Manhattan distance. Its smallest `tMax` (where it leaves the current voxel) passes the
-/// length only when the end point is within float error of that voxel; four steps or more
-/// before that distance the voxel is at least two voxels from the end voxel on some axis, so
-/// the ray still has a voxel's width of length ahead (the `f32` direction and length err by
-/// at most 2 % of a voxel, at the map's edge). A ray along the diagonal through voxel corners
-/// does stop three steps early. Until the returned step no lane needs its end checks; one
-/// step of margin is kept. Tested in `dda_tests` (every walk) and `lanes` (the diagonals).
-fn first_stop(due: u64) -> u64 {
-    due.saturating_sub(STEP_MARGIN as u64 + 4)
 }
 
 /// [`walk_octs`] once AVX-512 is known to be there.
