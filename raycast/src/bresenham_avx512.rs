@@ -10,7 +10,7 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::{mirror_mask, AXIS_MASK};
-use crate::lanes_avx512::{Bricks8, OctScratch};
+use crate::lanes_avx512::{has_lanes, Bricks8, OctScratch};
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
@@ -33,11 +33,11 @@ pub(crate) fn walk_lines<F>(
 where
     F: BrickSink,
 {
-    if !std::arch::is_x86_feature_detected!("avx512f") {
+    if !has_lanes() {
         return None;
     }
-    // SAFETY: `walk_lines_avx512` needs AVX-512 Foundation, and the CPU has been found to
-    // support it just above. Nothing else in it is unsafe.
+    // SAFETY: `walk_lines_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been
+    // found to support both just above. Nothing else in it is unsafe.
     #[allow(unsafe_code)]
     unsafe {
         walk_lines_avx512(lines, scratch, flush)
@@ -148,7 +148,7 @@ fn step_up(m: __m512i, mask: __m512i) -> __m512i {
 }
 
 /// [`walk_lines`] once AVX-512 is known to be there.
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 fn walk_lines_avx512<F>(lines: &[(Key, Key)], scratch: &mut OctScratch, flush: &mut F)
 where
     F: BrickSink,

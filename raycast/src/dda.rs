@@ -21,7 +21,7 @@ pub const OCTOMAP_KEY_RAY_CAPACITY: usize = 100_000;
 /// Extra iterations beyond the Manhattan key distance that a walk may take before it is
 /// declared degenerate. A well-conditioned walk overshoots each axis by at most one voxel, so
 /// it needs at most `manhattan + 3`; the margin only matters for rays OctoMap never finishes.
-const STEP_MARGIN: u32 = 16;
+pub(crate) const STEP_MARGIN: u32 = 16;
 
 /// A caller-owned, reusable list of ray keys (OctoMap's `KeyRay`).
 ///

@@ -310,6 +310,17 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
             if t == RayWalk::Degenerate {
                 return Err(format!("{o:?} -> {e:?}: accepted but degenerate"));
             }
+            // the eight-lane walk skips its end checks until three steps before the Manhattan
+            // distance (`lanes_avx512::first_stop`): no accepted walk may stop earlier
+            if let Ok(r) = setup_from(conv, &o, key_of(conv, &o), &e) {
+                let manhattan = (r.budget - STEP_MARGIN) as usize;
+                if want.len() + 3 < manhattan {
+                    return Err(format!(
+                        "{o:?} -> {e:?}: stopped after {} of {manhattan} steps",
+                        want.len()
+                    ));
+                }
+            }
         }
         None => {
             if !got.is_empty() {

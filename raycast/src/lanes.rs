@@ -113,6 +113,22 @@ impl LaneInit {
     }
 }
 
+/// The first step at which a walk can stop, given the first step `due` at which one runs out
+/// of budget (the Manhattan key distance plus [`crate::dda::STEP_MARGIN`] after its start).
+///
+/// A walk's key moves by one on one axis per step, so it reaches its end voxel no earlier than
+/// the Manhattan distance. Its smallest `tMax` (where it leaves the current voxel) passes the
+/// length only when the end point is within float error of that voxel; four steps or more
+/// before that distance the voxel is at least two voxels from the end voxel on some axis, so
+/// the ray still has a voxel's width of length ahead (the `f32` direction and length err by
+/// at most 2 % of a voxel, at the map's edge). A ray along the diagonal through voxel corners
+/// does stop three steps early. Until the returned step no lane needs its end checks; one
+/// step of margin is kept. Tested in `dda_tests` (every walk) and `lanes` (the diagonals).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn first_stop(due: u64) -> u64 {
+    due.saturating_sub(crate::dda::STEP_MARGIN as u64 + 4)
+}
+
 /// Restart the lanes whose walks stopped at this step (bit `l` of `stopped` for lane `l`) on
 /// the next rays of `next`, through `set(lane, state, active)`: a lane's code becomes its new
 /// walk's origin voxel, or `idle_code` (a voxel already recorded) when the rays are used up, and
@@ -553,6 +569,31 @@ mod tests {
         assert!(want.len() > 1000);
         for got in all_paths(&setups(&conv, &o, &ends)) {
             assert_eq!(got, want);
+        }
+    }
+
+    /// Rays that stop on their length three steps before the Manhattan distance (the
+    /// diagonal across the map through voxel corners, at each resolution), next to rays that
+    /// stop on their end voxel: every lane must stop where the reference does, although the
+    /// eight lanes skip their end checks until shortly before.
+    #[test]
+    fn lanes_stop_where_the_reference_stops() {
+        for res in [0.01, 0.1, 1.0] {
+            let conv = KeyConverter::new(res).unwrap();
+            let edge = (32767.0 * res) as f32;
+            let o = Point3::new(-edge, -edge, -edge);
+            let mut ends = vec![Point3::new(edge, edge, edge)];
+            for i in 1..12 {
+                let f = edge * (i as f32 / 12.0);
+                ends.push(Point3::new(f, f, f));
+                ends.push(Point3::new(f, -f * 0.5, f * 0.25));
+            }
+            let rays = setups(&conv, &o, &ends);
+            assert_eq!(rays.len(), ends.len());
+            let want = want(&conv, &o, &ends);
+            for got in all_paths(&rays) {
+                assert_eq!(got, want);
+            }
         }
     }
 

@@ -19,7 +19,7 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
-use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::lanes::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,
@@ -99,7 +99,8 @@ struct Lanes {
     m: __m256i,
     end: __m256i,
     flip: __m256i,
-    budget: __m256i,
+    /// The step at which each lane's walk runs out of budget (`u64::MAX`: never).
+    due: __m256i,
     /// All ones in a lane that walks a ray, zero in an idle lane.
     active: __m256i,
 }
@@ -107,10 +108,10 @@ struct Lanes {
 type U4 = [u64; 4];
 
 impl Lanes {
-    /// Overwrite lane `l` with `s` (once per walk), by blending broadcasts under the lane's
-    /// mask `lane[l]` (all ones in lane `l` only).
+    /// Overwrite lane `l` with `s` (once per walk, at step `now`), by blending broadcasts
+    /// under the lane's mask `lane[l]` (all ones in lane `l` only).
     #[target_feature(enable = "avx2")]
-    fn set(&mut self, lane: &[__m256i; 4], l: usize, s: &LaneInit, active: bool) {
+    fn set(&mut self, lane: &[__m256i; 4], l: usize, s: &LaneInit, active: bool, now: u64) {
         let mi = lane[l & 3];
         let mf = _mm256_castsi256_pd(mi);
         let put_f = |v: &mut __m256d, x: f64| *v = _mm256_blendv_pd(*v, _mm256_set1_pd(x), mf);
@@ -124,8 +125,14 @@ impl Lanes {
         put_u(&mut self.m, s.m);
         put_u(&mut self.end, s.end);
         put_u(&mut self.flip, s.flip);
-        put_u(&mut self.budget, s.budget as u64);
+        put_u(&mut self.due, now.saturating_add(s.budget.max(0) as u64));
         put_u(&mut self.active, if active { u64::MAX } else { 0 });
+    }
+
+    /// The first step at which some lane runs out of budget.
+    fn next_due(&self) -> u64 {
+        let due: U4 = bytemuck::cast(self.due);
+        due.into_iter().min().unwrap_or(u64::MAX)
     }
 }
 
@@ -148,7 +155,7 @@ where
         m: zero_i,
         end: zero_i,
         flip: zero_i,
-        budget: zero_i,
+        due: zero_i,
         active: zero_i,
     };
     // idle lanes repeat the first walk's origin voxel, which is recorded
@@ -164,6 +171,9 @@ where
     });
     let mut first_code = [idle_code; 4];
     let mut live = 4;
+    // the steps taken so far; a lane whose walk starts after step `now` runs out of budget
+    // at step `now + budget`, as a per-lane countdown from `budget` would
+    let mut now = 0u64;
     restart(
         &mut first_code,
         0xF,
@@ -172,8 +182,10 @@ where
         idle_code,
         &mut live,
         flush,
-        |l, s, a| q.set(&lane, l, s, a),
+        |l, s, a| q.set(&lane, l, s, a, 0),
     );
+    let mut due = q.next_due();
+    let mut near = first_stop(due);
     let ones_f = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     let ones_i = _mm256_set1_epi64x(-1);
     let one = _mm256_set1_epi64x(1);
@@ -187,6 +199,7 @@ where
     let mut degenerate = 0;
     let mut left = 0;
     loop {
+        now += 1;
         let [d0, d1, d2] = q.d;
         // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z;
         // the sums are made beside the comparisons and picked by mask, which keeps the chain
@@ -219,39 +232,41 @@ where
         let low = _mm256_and_si256(mask, _mm256_sub_epi64(zero_i, mask));
         let up = _mm256_add_epi64(_mm256_or_si256(q.m, _mm256_xor_si256(mask, ones_i)), low);
         q.m = _mm256_or_si256(_mm256_and_si256(up, mask), _mm256_andnot_si256(mask, q.m));
-        q.budget = _mm256_sub_epi64(q.budget, one);
-        // a walk is over on its end voxel or once the smallest tMax passes the length (no
-        // lane holds a NaN); it is cut off (degenerate) when its budget runs out
-        let tmin = _mm256_min_pd(_mm256_min_pd(t0, t1), t2);
-        let done = _mm256_or_pd(
-            _mm256_castsi256_pd(_mm256_cmpeq_epi64(q.m, q.end)),
-            _mm256_cmp_pd::<_CMP_GT_OQ>(tmin, q.len),
-        );
-        let stop = _mm256_or_pd(
-            done,
-            _mm256_castsi256_pd(_mm256_cmpeq_epi64(q.budget, zero_i)),
-        );
         let mut codes = _mm256_xor_si256(q.m, q.flip);
-        let stopped = _mm256_movemask_pd(stop);
         let mut finished = false;
-        if stopped != 0 {
-            // the rare step where walks end: restart those lanes on the next rays
-            let done = _mm256_movemask_pd(done);
-            let mut written: U4 = bytemuck::cast(codes);
-            q.t = [t0, t1, t2];
-            degenerate += restart(
-                &mut written,
-                stopped as u32,
-                done as u32,
-                &mut next,
-                idle_code,
-                &mut live,
-                flush,
-                |l, s, a| q.set(&lane, l, s, a),
+        // no walk can stop before step `near` (see `first_stop`)
+        if now >= near {
+            // a walk is over on its end voxel or once the smallest tMax passes the length (no
+            // lane holds a NaN); it is cut off (degenerate) when its budget runs out
+            let tmin = _mm256_min_pd(_mm256_min_pd(t0, t1), t2);
+            let done = _mm256_or_pd(
+                _mm256_castsi256_pd(_mm256_cmpeq_epi64(q.m, q.end)),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(tmin, q.len),
             );
-            [t0, t1, t2] = q.t;
-            codes = bytemuck::cast(written);
-            finished = live == 0;
+            let out_of_budget = _mm256_cmpeq_epi64(q.due, _mm256_set1_epi64x(now as i64));
+            let stopped =
+                _mm256_movemask_pd(_mm256_or_pd(done, _mm256_castsi256_pd(out_of_budget)));
+            if stopped != 0 {
+                // the rare step where walks end: restart those lanes on the next rays
+                let done = _mm256_movemask_pd(done);
+                let mut written: U4 = bytemuck::cast(codes);
+                q.t = [t0, t1, t2];
+                degenerate += restart(
+                    &mut written,
+                    stopped as u32,
+                    done as u32,
+                    &mut next,
+                    idle_code,
+                    &mut live,
+                    flush,
+                    |l, s, a| q.set(&lane, l, s, a, now),
+                );
+                due = q.next_due();
+                near = first_stop(due);
+                [t0, t1, t2] = q.t;
+                codes = bytemuck::cast(written);
+                finished = live == 0;
+            }
         }
         // the voxel entered joins its lane's open brick, or the lane leaves that brick,
         // which is appended to the bricks left (the lanes that left moved to the front)

@@ -8,14 +8,14 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
-use crate::lanes::{hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::lanes::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512,
     _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmpneq_epu64_mask,
-    _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64,
-    _mm512_min_pd, _mm512_or_si512, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
-    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
-    _CMP_LT_OQ,
+    _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64, _mm512_maskz_compress_epi64,
+    _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512, _mm512_set1_epi64, _mm512_set1_pd,
+    _mm512_setzero_si512, _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
+    _CMP_GT_OQ, _CMP_LT_OQ,
 };
 
 /// Bricks left by the lanes that are collected before they are handed on.
@@ -25,24 +25,27 @@ type U8 = [u64; 8];
 
 /// The per-thread buffers of the eight-lane walks (DDA and Bresenham), kept from batch to
 /// batch: the bricks the lanes left and their voxels, side by side, with room for one more
-/// step's eight.
+/// step's eight. Fixed-size, so a step's store needs no bounds check.
 #[derive(Debug, Clone)]
 pub(crate) struct OctScratch {
-    bricks: Vec<u64>,
-    bits: Vec<u64>,
+    bricks: Box<[u64; LEFT + 8]>,
+    bits: Box<[u64; LEFT + 8]>,
 }
 
 impl Default for OctScratch {
     fn default() -> Self {
         OctScratch {
-            bricks: vec![0; LEFT + 8],
-            bits: vec![0; LEFT + 8],
+            bricks: Box::new([0; LEFT + 8]),
+            bits: Box::new([0; LEFT + 8]),
         }
     }
 }
 
 /// The eight lanes' open bricks and the voxels met in them, and the bricks the lanes left,
 /// collected in the scratch buffers until they are handed on.
+///
+/// Nothing takes its address in the step loop (the hand-on gets its fields), so the open
+/// bricks stay in registers from step to step.
 pub(crate) struct Bricks8<'a> {
     brick: __m512i,
     bits: __m512i,
@@ -70,47 +73,52 @@ impl<'a> Bricks8<'a> {
     /// brick, which is compressed to the front with the others left (`vpcompressq`) and
     /// appended with one store; full buffers go to `flush`.
     #[inline]
-    #[target_feature(enable = "avx512f")]
+    #[target_feature(enable = "avx512f,popcnt")]
     pub(crate) fn push<F: BrickSink>(&mut self, codes: __m512i, flush: &mut F) {
         let b = _mm512_srli_epi64::<6>(codes);
         let moved = _mm512_cmpneq_epu64_mask(b, self.brick);
         let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.brick));
         let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.bits));
-        let (i, s) = (self.left, &mut *self.scratch);
-        if let (Some(db), Some(dm)) = (s.bricks.get_mut(i..i + 8), s.bits.get_mut(i..i + 8)) {
-            db.copy_from_slice(&left_b);
-            dm.copy_from_slice(&left_m);
-        }
-        self.left += moved.count_ones() as usize;
-        self.bits = _mm512_or_si512(
-            _mm512_maskz_mov_epi64(!moved, self.bits),
-            _mm512_sllv_epi64(
-                _mm512_set1_epi64(1),
-                _mm512_and_si512(codes, _mm512_set1_epi64(63)),
-            ),
+        // `left` stays below LEFT between steps; the `min` lets the compiler see it
+        let i = self.left.min(LEFT);
+        let s = &mut *self.scratch;
+        s.bricks[i..i + 8].copy_from_slice(&left_b);
+        s.bits[i..i + 8].copy_from_slice(&left_m);
+        self.left = i + moved.count_ones() as usize;
+        let voxel = _mm512_sllv_epi64(
+            _mm512_set1_epi64(1),
+            _mm512_and_si512(codes, _mm512_set1_epi64(63)),
         );
+        // a lane that stayed adds its voxel to the open brick's; one that moved starts anew
+        self.bits = _mm512_mask_or_epi64(voxel, !moved, self.bits, voxel);
         self.brick = b;
         if self.left >= LEFT {
-            self.hand_on(flush);
+            hand_on(self.scratch, self.left, flush);
+            self.left = 0;
         }
-    }
-
-    /// Hand the bricks left so far to `flush`.
-    fn hand_on<F: BrickSink>(&mut self, flush: &mut F) {
-        let (s, n) = (&mut *self.scratch, self.left);
-        hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
-        self.left = 0;
     }
 
     /// Hand every brick to `flush`: those left, then the open ones.
     #[target_feature(enable = "avx512f")]
-    pub(crate) fn finish<F: BrickSink>(mut self, flush: &mut F) {
-        self.hand_on(flush);
+    pub(crate) fn finish<F: BrickSink>(self, flush: &mut F) {
+        hand_on(self.scratch, self.left, flush);
         let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
         for (b, m) in brick.into_iter().zip(bits) {
             flush.put(b, m);
         }
     }
+}
+
+/// Hand the first `n` bricks left in `s` to `flush`.
+fn hand_on<F: BrickSink>(s: &mut OctScratch, n: usize, flush: &mut F) {
+    let n = n.min(LEFT + 8);
+    hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
+}
+
+/// Whether this CPU runs the eight-lane walks: AVX-512 Foundation, and `popcnt` (which every
+/// such CPU has) for counting the bricks a step leaves.
+pub(crate) fn has_lanes() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("popcnt")
 }
 
 /// Walk `rays` eight at a time when this CPU has AVX-512 and return the number of degenerate
@@ -123,17 +131,18 @@ pub(crate) fn walk_octs<F>(
 where
     F: BrickSink,
 {
-    if !std::arch::is_x86_feature_detected!("avx512f") {
+    if !has_lanes() {
         return None;
     }
-    // SAFETY: `walk_octs_avx512` needs AVX-512 Foundation, and the CPU has been found to
-    // support it just above. Nothing else in it is unsafe.
+    // SAFETY: `walk_octs_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been
+    // found to support both just above. Nothing else in it is unsafe.
     #[allow(unsafe_code)]
     let degenerate = unsafe { walk_octs_avx512(rays, scratch, flush) };
     Some(degenerate)
 }
 
-/// The eight lanes' registers.
+/// The eight lanes' registers, in memory only while lanes restart: the step loop keeps them
+/// in registers and writes back what it changed (`t`, `m`) before a restart.
 struct Lanes {
     t: [__m512d; 3],
     d: [__m512d; 3],
@@ -141,15 +150,17 @@ struct Lanes {
     m: __m512i,
     end: __m512i,
     flip: __m512i,
-    budget: __m512i,
+    /// The step at which each lane's walk runs out of budget (`u64::MAX`: never).
+    due: __m512i,
     /// The lanes that walk a ray (bit `l` for lane `l`); the others idle.
     active: __mmask8,
 }
 
 impl Lanes {
-    /// Overwrite lane `l` with `s` (once per walk) by masked moves of broadcasts.
+    /// Overwrite lane `l` with `s` (once per walk, at step `now`) by masked moves of
+    /// broadcasts.
     #[target_feature(enable = "avx512f")]
-    fn set(&mut self, l: usize, s: &LaneInit, active: bool) {
+    fn set(&mut self, l: usize, s: &LaneInit, active: bool, now: u64) {
         let k: __mmask8 = 1 << (l & 7);
         let put_f = |v: &mut __m512d, x: f64| *v = _mm512_mask_mov_pd(*v, k, _mm512_set1_pd(x));
         let put_u = |v: &mut __m512i, x: u64| {
@@ -163,13 +174,19 @@ impl Lanes {
         put_u(&mut self.m, s.m);
         put_u(&mut self.end, s.end);
         put_u(&mut self.flip, s.flip);
-        put_u(&mut self.budget, s.budget as u64);
+        put_u(&mut self.due, now.saturating_add(s.budget.max(0) as u64));
         self.active = (self.active & !k) | if active { k } else { 0 };
+    }
+
+    /// The first step at which some lane runs out of budget.
+    fn next_due(&self) -> u64 {
+        let due: U8 = bytemuck::cast(self.due);
+        due.into_iter().min().unwrap_or(u64::MAX)
     }
 }
 
 /// [`walk_octs`] once AVX-512 is known to be there.
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 fn walk_octs_avx512<F>(rays: &[RaySetup], scratch: &mut OctScratch, flush: &mut F) -> usize
 where
     F: BrickSink,
@@ -187,13 +204,16 @@ where
         m: zero_i,
         end: zero_i,
         flip: zero_i,
-        budget: zero_i,
+        due: zero_i,
         active: 0,
     };
     // idle lanes repeat the first walk's origin voxel, which is recorded
     let idle_code = LaneInit::new(first).origin;
     let mut first_code = [idle_code; 8];
     let mut live = 8;
+    // the steps taken so far; a lane whose walk starts after step `now` runs out of budget
+    // at step `now + budget`, as a per-lane countdown from `budget` would
+    let mut now = 0u64;
     restart(
         &mut first_code,
         0xFF,
@@ -202,17 +222,20 @@ where
         idle_code,
         &mut live,
         flush,
-        |l, s, a| q.set(l, s, a),
+        |l, s, a| q.set(l, s, a, 0),
     );
+    let mut due = q.next_due();
+    let mut near = first_stop(due);
     let ones_i = _mm512_set1_epi64(-1);
-    let one = _mm512_set1_epi64(1);
     let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
     let [mut t0, mut t1, mut t2] = q.t;
+    let [mut d0, mut d1, mut d2] = q.d;
+    let (mut len, mut m, mut end, mut flip, mut active) = (q.len, q.m, q.end, q.flip, q.active);
     // each lane's open brick starts with its origin voxel
     let mut bricks = Bricks8::new(bytemuck::cast(first_code), scratch);
     let mut degenerate = 0;
     loop {
-        let [d0, d1, d2] = q.d;
+        now += 1;
         // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z
         let (n0, n1, n2) = (
             _mm512_add_pd(t0, d0),
@@ -229,25 +252,28 @@ where
         // the chosen axis's Morton bits (none in idle lanes), and their lowest bit: a step up
         // is `((m | !mask) + low) & mask` on those bits, the others kept
         let mask = _mm512_maskz_mov_epi64(
-            q.active,
+            active,
             _mm512_mask_mov_epi64(_mm512_mask_mov_epi64(axis[2], s1, axis[1]), s0, axis[0]),
         );
         let low = _mm512_and_si512(mask, _mm512_sub_epi64(zero_i, mask));
-        let up = _mm512_add_epi64(_mm512_or_si512(q.m, _mm512_xor_si512(mask, ones_i)), low);
-        q.m = _mm512_or_si512(_mm512_and_si512(up, mask), _mm512_andnot_si512(mask, q.m));
-        q.budget = _mm512_sub_epi64(q.budget, one);
+        let up = _mm512_add_epi64(_mm512_or_si512(m, _mm512_xor_si512(mask, ones_i)), low);
+        m = _mm512_or_si512(_mm512_and_si512(up, mask), _mm512_andnot_si512(mask, m));
         // a walk is over on its end voxel or once the smallest tMax passes the length (no
         // lane holds a NaN); it is cut off (degenerate) when its budget runs out
-        let tmin = _mm512_min_pd(_mm512_min_pd(t0, t1), t2);
-        let done =
-            _mm512_cmpeq_epu64_mask(q.m, q.end) | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(tmin, q.len);
-        let stopped = done | _mm512_cmpeq_epu64_mask(q.budget, zero_i);
-        let mut codes = _mm512_xor_si512(q.m, q.flip);
+        let mut codes = _mm512_xor_si512(m, flip);
         let mut finished = false;
-        if stopped != 0 {
+        if now < near {
+            // no walk can stop yet (see `first_stop`)
+            bricks.push(codes, flush);
+            continue;
+        }
+        let tmin = _mm512_min_pd(_mm512_min_pd(t0, t1), t2);
+        let done = _mm512_cmpeq_epu64_mask(m, end) | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(tmin, len);
+        if done != 0 || now == due {
             // the rare step where walks end: restart those lanes on the next rays
+            let stopped = done | _mm512_cmpeq_epu64_mask(q.due, _mm512_set1_epi64(now as i64));
             let mut written: U8 = bytemuck::cast(codes);
-            q.t = [t0, t1, t2];
+            (q.t, q.m) = ([t0, t1, t2], m);
             degenerate += restart(
                 &mut written,
                 stopped as u32,
@@ -256,9 +282,13 @@ where
                 idle_code,
                 &mut live,
                 flush,
-                |l, s, a| q.set(l, s, a),
+                |l, s, a| q.set(l, s, a, now),
             );
+            due = q.next_due();
+            near = first_stop(due);
             [t0, t1, t2] = q.t;
+            [d0, d1, d2] = q.d;
+            (len, m, end, flip, active) = (q.len, q.m, q.end, q.flip, q.active);
             codes = bytemuck::cast(written);
             finished = live == 0;
         }
