@@ -97,6 +97,12 @@ impl LaneInit {
         }
     }
 
+    /// The step at which this walk runs out of budget when it starts after step `now`, as a
+    /// countdown from `budget` would (`u64::MAX` for idle lanes, in effect never).
+    pub(crate) fn due(&self, now: u64) -> u64 {
+        now.saturating_add(self.budget.max(0) as u64)
+    }
+
     /// A lane without a ray: it never moves (its step mask is cleared by `active`), never
     /// ends, and keeps writing `code`, a voxel already recorded.
     pub(crate) fn idle(code: u64) -> Self {

@@ -125,7 +125,7 @@ impl Lanes {
         put_u(&mut self.m, s.m);
         put_u(&mut self.end, s.end);
         put_u(&mut self.flip, s.flip);
-        put_u(&mut self.due, now.saturating_add(s.budget.max(0) as u64));
+        put_u(&mut self.due, s.due(now));
         put_u(&mut self.active, if active { u64::MAX } else { 0 });
     }
 
@@ -171,8 +171,7 @@ where
     });
     let mut first_code = [idle_code; 4];
     let mut live = 4;
-    // the steps taken so far; a lane whose walk starts after step `now` runs out of budget
-    // at step `now + budget`, as a per-lane countdown from `budget` would
+    // the steps taken so far; each lane's budget is the step it runs out at (`LaneInit::due`)
     let mut now = 0u64;
     restart(
         &mut first_code,

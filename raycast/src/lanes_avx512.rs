@@ -174,7 +174,7 @@ impl Lanes {
         put_u(&mut self.m, s.m);
         put_u(&mut self.end, s.end);
         put_u(&mut self.flip, s.flip);
-        put_u(&mut self.due, now.saturating_add(s.budget.max(0) as u64));
+        put_u(&mut self.due, s.due(now));
         self.active = (self.active & !k) | if active { k } else { 0 };
     }
 
@@ -211,8 +211,7 @@ where
     let idle_code = LaneInit::new(first).origin;
     let mut first_code = [idle_code; 8];
     let mut live = 8;
-    // the steps taken so far; a lane whose walk starts after step `now` runs out of budget
-    // at step `now + budget`, as a per-lane countdown from `budget` would
+    // the steps taken so far; each lane's budget is the step it runs out at (`LaneInit::due`)
     let mut now = 0u64;
     restart(
         &mut first_code,

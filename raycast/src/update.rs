@@ -266,15 +266,14 @@ fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
 /// Walk the queued Bresenham lines into `set` and empty the queue: eight at a time where the
 /// CPU has AVX-512, else one after another.
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
-    let flush = set;
     #[cfg(target_arch = "x86_64")]
-    let done = crate::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, flush)
-        .is_some();
+    let done =
+        crate::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, set).is_some();
     #[cfg(not(target_arch = "x86_64"))]
     let done = false;
     if !done {
         for &(a, b) in &scratch.lines {
-            crate::bresenham::walk_bresenham_bricks(a, b, &mut *flush);
+            crate::bresenham::walk_bresenham_bricks(a, b, &mut *set);
         }
     }
     scratch.lines.clear();
