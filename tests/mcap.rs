@@ -235,9 +235,13 @@ struct Msg<'a> {
 }
 
 fn write_mcap(path: &Path, messages: &[Msg]) {
+    write_mcap_with(path, messages, Some(::mcap::Compression::Zstd));
+}
+
+fn write_mcap_with(path: &Path, messages: &[Msg], compression: Option<::mcap::Compression>) {
     let mut w = ::mcap::WriteOptions::new()
         .profile("ros2")
-        .compression(Some(::mcap::Compression::Zstd))
+        .compression(compression)
         .create(Cursor::new(Vec::new()))
         .unwrap();
     let mut channels: BTreeMap<&str, u16> = BTreeMap::new();
@@ -414,4 +418,100 @@ fn unknown_encoding_and_missing_field_are_named() {
         )
         .is_err());
     }
+}
+
+/// The top-level records of an MCAP file as (offset, opcode, content offset, content length),
+/// up to the footer.
+fn records(bytes: &[u8]) -> Vec<(usize, u8, usize, usize)> {
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    let mut out = Vec::new();
+    let mut pos = 8;
+    while pos + 9 <= bytes.len() {
+        let (op, len) = (bytes[pos], u64_at(pos + 1));
+        out.push((pos, op, pos + 9, len));
+        if op == 0x02 {
+            break;
+        }
+        pos += 9 + len;
+    }
+    out
+}
+
+fn put_u64(bytes: &mut [u8], at: usize, v: u64) {
+    bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
+}
+
+#[test]
+fn damaged_length_fields_are_errors_not_aborts() {
+    // The mcap crate allocates a declared length before reading it; a damaged field of 2^59
+    // bytes used to abort the whole process.
+    let dir = common::scratch("mcap_damaged_lengths");
+    let pts = [[1.0, 2.0, 3.0]; 6];
+    let msgs = [Msg {
+        topic: "/cloud",
+        schema: "sensor_msgs/msg/PointCloud2",
+        encoding: "cdr",
+        data: cloud_message(false, false, &pts, &["x", "y", "z"]),
+    }];
+    let huge = 1u64 << 59;
+
+    // a zstd chunk whose header declares 2^59 bytes decompressed
+    let zstd = dir.join("zstd.mcap");
+    write_mcap(&zstd, &msgs);
+    let mut bytes = std::fs::read(&zstd).unwrap();
+    assert!(read_mcap(&zstd, &McapOptions::default()).is_ok());
+    let (pos, _, content, _) = *records(&bytes)
+        .iter()
+        .find(|r| r.1 == 0x06)
+        .expect("a chunk");
+    put_u64(&mut bytes, content + 16, huge);
+    std::fs::write(&zstd, &bytes).unwrap();
+    let e = read_mcap(&zstd, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("zstd.mcap") && e.contains(&format!("byte {pos}")) && e.contains("chunk"),
+        "{e}"
+    );
+
+    // an uncompressed chunk holding a message record that declares 2^59 bytes
+    let plain = dir.join("plain.mcap");
+    write_mcap_with(&plain, &msgs, None);
+    let mut bytes = std::fs::read(&plain).unwrap();
+    assert!(read_mcap(&plain, &McapOptions::default()).is_ok());
+    let (_, _, content, _) = *records(&bytes)
+        .iter()
+        .find(|r| r.1 == 0x06)
+        .expect("a chunk");
+    let name_len = u32::from_le_bytes(bytes[content + 28..content + 32].try_into().unwrap());
+    assert_eq!(name_len, 0, "the chunk is not compressed");
+    // the chunk's records: opcode, u64 length, content, ...; the first message is changed
+    let mut at = content + 32 + 8;
+    while bytes[at] != 0x05 {
+        at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+    }
+    put_u64(&mut bytes, at + 1, huge);
+    std::fs::write(&plain, &bytes).unwrap();
+    let e = read_mcap(&plain, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("plain.mcap") && e.contains("exceeds limit"),
+        "{e}"
+    );
+
+    // the real recording with two bytes of compressed data changed (found by fuzzing): the
+    // decompressed records then declare absurd lengths
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[1_772_533] = 141;
+    bytes[3_573_271] = 253;
+    let damaged = dir.join("ouster_damaged.mcap");
+    std::fs::write(&damaged, &bytes).unwrap();
+    let e = read_mcap(&damaged, &McapOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("ouster_damaged.mcap"), "{e}");
 }

@@ -489,6 +489,120 @@ fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
     std::fs::read(path).map_err(|e| FormatError::io(path, Location::File, e))
 }
 
+/// Every message of an MCAP file in file order, with its channel, through `visit`.
+///
+/// The `mcap` crate's `MessageStream` sets no limit on the length a record inside a chunk may
+/// declare, and allocates (and zero-fills) that length before reading it: one damaged length
+/// field (say 2^59 bytes) aborts the process. So the chunk headers are checked first
+/// ([`check_chunk_sizes`]), and the messages are read with the crate's `MessageReader` under a
+/// record length limit: the file's size or the largest chunk's decompressed size, whichever
+/// is larger. No record can be longer than that in a valid file.
+fn for_each_message<F>(path: &Path, bytes: &[u8], mut visit: F) -> Result<(), FormatError>
+where
+    F: FnMut(usize, &mcap::Message<'static>) -> Result<(), FormatError>,
+{
+    let largest_chunk = check_chunk_sizes(path, bytes)?;
+    let limit = usize::try_from(largest_chunk)
+        .unwrap_or(usize::MAX)
+        .max(bytes.len());
+    let mut reader = mcap::sans_io::MessageReader::new_with_options(
+        mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
+    );
+    let mut rest = bytes;
+    let mut index = 0;
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| mcap_err(path, e))? {
+            mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
+                let n = need.min(rest.len());
+                reader.insert(n).copy_from_slice(&rest[..n]);
+                reader.notify_read(n);
+                rest = &rest[n..];
+            }
+            mcap::sans_io::MessageReadEvent::Message(m) => {
+                visit(index, &m)?;
+                index += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The largest decompressed size a chunk may declare, given its compressed size: 1024 times
+/// that (real sensor data compresses two- to tenfold) and at least 64 MiB.
+fn chunk_size_limit(compressed: u64) -> u64 {
+    compressed.saturating_mul(1024).max(64 << 20)
+}
+
+/// Refuse chunks whose header declares an absurd decompressed size, and return the largest
+/// size declared (0 without chunks). The `mcap` crate allocates (and zero-fills) that size
+/// before decompressing, so a damaged size field would abort the process instead of failing.
+/// Walks the records (opcode, `u64` length, content) from the leading magic to the footer;
+/// anything else malformed is left for the crate to report.
+fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
+    const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    const OP_FOOTER: u8 = 0x02;
+    const OP_CHUNK: u8 = 0x06;
+    let mut largest = 0;
+    if !bytes.starts_with(MAGIC) {
+        return Ok(largest);
+    }
+    let u64_at = |at: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(
+            bytes.get(at..at.checked_add(8)?)?.try_into().ok()?,
+        ))
+    };
+    let u32_at = |at: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(
+            bytes.get(at..at.checked_add(4)?)?.try_into().ok()?,
+        ))
+    };
+    let mut pos = MAGIC.len();
+    while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(pos + 1)) {
+        let start = pos + 9;
+        let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)) else {
+            break;
+        };
+        if end > bytes.len() || op == OP_FOOTER {
+            break;
+        }
+        if op == OP_CHUNK {
+            // start time, end time, uncompressed size, uncompressed CRC, compression string,
+            // then the compressed records with their u64 length
+            let declared = u64_at(start + 16);
+            let name_len = u32_at(start + 28).map(|n| n as usize);
+            let records = name_len.and_then(|n| u64_at(start + 32 + n));
+            let compression = name_len.and_then(|n| bytes.get(start + 32..start + 32 + n));
+            if let (Some(declared), Some(records), Some(compression)) =
+                (declared, records, compression)
+            {
+                let absurd = if compression.is_empty() {
+                    declared != records
+                } else {
+                    declared > chunk_size_limit(records)
+                };
+                if absurd {
+                    return Err(FormatError::syntax(
+                        path,
+                        Location::Byte(pos as u64),
+                        format!(
+                            "chunk declares {declared} bytes decompressed from {records} \
+                             ({}); the size field is damaged",
+                            if compression.is_empty() {
+                                "uncompressed".to_string()
+                            } else {
+                                String::from_utf8_lossy(compression).into_owned()
+                            }
+                        ),
+                    ));
+                }
+                largest = largest.max(declared);
+            }
+        }
+        pos = end;
+    }
+    Ok(largest)
+}
+
 fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
     let mut map: BTreeMap<String, TopicInfo> = BTreeMap::new();
     let mut add = |c: &mcap::Channel| {
@@ -509,9 +623,10 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
             }
         }
         _ => {
-            for m in mcap::MessageStream::new(bytes).map_err(|e| mcap_err(path, e))? {
-                add(&m.map_err(|e| mcap_err(path, e))?.channel);
-            }
+            for_each_message(path, bytes, |_, m| {
+                add(&m.channel);
+                Ok(())
+            })?;
         }
     }
     Ok(map.into_values().collect())
@@ -681,17 +796,13 @@ pub fn read_mcap(
 
     let mut tf = TfTree::default();
     let mut clouds: Vec<(u64, PointCloud2)> = Vec::new();
-    for (index, m) in mcap::MessageStream::new(&bytes)
-        .map_err(|e| mcap_err(path, e))?
-        .enumerate()
-    {
-        let m = m.map_err(|e| mcap_err(path, e))?;
+    for_each_message(path, &bytes, |index, m| {
         let ch = &m.channel;
         let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
         let is_cloud = ch.topic == topic;
         let is_tf = TF_SCHEMAS.contains(&schema) && (ch.topic == "/tf" || ch.topic == "/tf_static");
         if !is_cloud && !is_tf {
-            continue;
+            return Ok(());
         }
         let encoding = Encoding::from_mcap(&ch.message_encoding).ok_or_else(|| {
             FormatError::unsupported(
@@ -720,7 +831,8 @@ pub fn read_mcap(
                 tf.add(t, m.log_time, ch.topic == "/tf_static");
             }
         }
-    }
+        Ok(())
+    })?;
 
     let world = options.sensor_pose.unwrap_or_else(Isometry3::identity);
     let mut frames = Vec::with_capacity(clouds.len());
