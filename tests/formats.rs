@@ -564,6 +564,21 @@ fn damaged_binary_files_give_errors_naming_the_file() {
     let huge = dir.join("huge.frames");
     std::fs::write(&huge, &fb).unwrap_or_default();
     expect_error_naming_file(&huge, &opts);
+    // A depth PNG whose header (with a valid CRC) declares 60000 x 60000 pixels: refused
+    // before the 7 GB of pixels are allocated, with the declared size in the message.
+    let mut pb = std::fs::read(&png).unwrap_or_default();
+    if pb.len() > 33 && &pb[12..16] == b"IHDR" {
+        pb[16..20].copy_from_slice(&60_000u32.to_be_bytes());
+        pb[20..24].copy_from_slice(&60_000u32.to_be_bytes());
+        let crc = crc32(&pb[12..29]);
+        pb[29..33].copy_from_slice(&crc.to_be_bytes());
+        let huge = dir.join("huge.png");
+        std::fs::write(&huge, &pb).unwrap_or_default();
+        let e = read_frames(&huge, &opts).unwrap_err().to_string();
+        assert!(e.contains("huge.png") && e.contains("60000 x 60000"), "{e}");
+    } else {
+        panic!("{} is not a PNG with an IHDR first", png.display());
+    }
     // A wrong element tag inside the graph points.
     let mut bytes = std::fs::read(&g).unwrap_or_default();
     bytes[8..12].copy_from_slice(&5i32.to_le_bytes());
@@ -758,4 +773,20 @@ proptest! {
         let r = graph::rotate(&q, &v);
         prop_assert!((r.norm() - v.norm()).abs() <= 1e-4 * (1.0 + v.norm()));
     }
+}
+
+/// PNG's CRC-32 (the reflected polynomial 0xEDB88320), bit by bit.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
 }

@@ -98,12 +98,28 @@ pub struct DepthImage {
     pub data: Vec<u16>,
 }
 
+/// The most pixels a depth image may have: 64 Mi, sixty times a 1280 x 720 depth camera.
+pub const MAX_DEPTH_PIXELS: u64 = 1 << 26;
+
 /// Decode a 16-bit grayscale PNG depth image.
 pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
     let png_err = |e: png::DecodingError| FormatError::syntax(path, Location::File, e.to_string());
     let mut decoder = png::Decoder::new(open(path)?);
     decoder.set_transformations(png::Transformations::IDENTITY);
     let mut reader = decoder.read_info().map_err(png_err)?;
+    // the header's size is checked before the pixels are allocated: a damaged header could
+    // otherwise ask for gigabytes (the png crate's own limit applies to its inner buffers)
+    let (w, h) = (reader.info().width, reader.info().height);
+    if w as u64 * h as u64 > MAX_DEPTH_PIXELS {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            format!(
+                "depth image header declares {w} x {h} pixels, more than the \
+                 {MAX_DEPTH_PIXELS} this reader accepts"
+            ),
+        ));
+    }
     let mut buf = vec![0u8; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(png_err)?;
     // Read up to IEND so that a cut-off file is an error even when the pixels are complete.
