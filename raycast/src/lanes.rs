@@ -45,13 +45,37 @@ pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub(crate) fn hand_on_runs<F: BrickSink>(bricks: &mut [u64], bits: &mut [u64], flush: &mut F) {
+    let k = merge_runs(bricks, bits);
+    flush.put_all(&bricks[..k], &bits[..k]);
+}
+
+/// Merge each run of one brick in `(bricks[i], bits[i])` into one entry (the union of its
+/// bits), in place at the front, and return how many entries there are then.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
     let n = bricks.len().min(bits.len());
     let (bricks, bits) = (&mut bricks[..n], &mut bits[..n]);
     let (Some(&b0), Some(&m0)) = (bricks.first(), bits.first()) else {
-        return;
+        return 0;
     };
-    let (mut cb, mut cm, mut k) = (b0, m0, 0);
-    for i in 1..n {
+    merge_runs_from(bricks, bits, 1, 0, b0, m0)
+}
+
+/// [`merge_runs`] from entry `from` on, with `k` entries merged before it and the run of
+/// brick `cb` (bits `cm`) still open.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn merge_runs_from(
+    bricks: &mut [u64],
+    bits: &mut [u64],
+    from: usize,
+    mut k: usize,
+    mut cb: u64,
+    mut cm: u64,
+) -> usize {
+    let n = bricks.len().min(bits.len());
+    for i in from..n {
         let (b, m) = (bricks[i], bits[i]);
         let same = b == cb;
         // the open run is written at `k` every time and kept once the next entry differs
@@ -63,7 +87,7 @@ pub(crate) fn hand_on_runs<F: BrickSink>(bricks: &mut [u64], bits: &mut [u64], f
     }
     bricks[k] = cb;
     bits[k] = cm;
-    flush.put_all(&bricks[..=k], &bits[..=k]);
+    k + 1
 }
 
 /// One walk's state as scalars, for starting a SIMD lane on a new ray.
@@ -624,6 +648,27 @@ mod tests {
             prop_assert_eq!(union(&got), union(&entries));
             let runs = 1 + entries.windows(2).filter(|w| w[0].0 != w[1].0).count();
             prop_assert_eq!(got.len(), if entries.is_empty() { 0 } else { runs });
+        }
+    }
+
+    proptest! {
+        /// The eight-lane merge gives the scalar merge's entries, in order.
+        #[test]
+        #[cfg(target_arch = "x86_64")]
+        fn wide_merge_matches_the_scalar_merge(
+            entries in prop::collection::vec((0u64..3, any::<u64>()), 0..80),
+        ) {
+            let (mut b1, mut m1): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
+            let (mut b2, mut m2) = (b1.clone(), m1.clone());
+            let k1 = merge_runs(&mut b1, &mut m1);
+            match crate::lanes_avx512::merge_runs_wide(&mut b2, &mut m2) {
+                Some(k2) => {
+                    prop_assert_eq!(k2, k1);
+                    prop_assert_eq!(&b2[..k2], &b1[..k1]);
+                    prop_assert_eq!(&m2[..k2], &m1[..k1]);
+                }
+                None => prop_assert!(!crate::lanes_avx512::has_lanes()),
+            }
         }
     }
 

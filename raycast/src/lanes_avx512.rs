@@ -8,14 +8,15 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
-use crate::lanes::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::lanes::{first_stop, merge_runs_from, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
-    __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512,
-    _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmpneq_epu64_mask,
-    _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64, _mm512_maskz_compress_epi64,
-    _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512, _mm512_set1_epi64, _mm512_set1_pd,
-    _mm512_setzero_si512, _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
-    _CMP_GT_OQ, _CMP_LT_OQ,
+    __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_alignr_epi64,
+    _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask,
+    _mm512_cmpneq_epu64_mask, _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64,
+    _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512,
+    _mm512_permutexvar_epi64, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
+    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
+    _CMP_LT_OQ,
 };
 
 /// Bricks left by the lanes that are collected before they are handed on.
@@ -99,7 +100,7 @@ impl<'a> Bricks8<'a> {
     }
 
     /// Hand every brick to `flush`: those left, then the open ones.
-    #[target_feature(enable = "avx512f")]
+    #[target_feature(enable = "avx512f,popcnt")]
     pub(crate) fn finish<F: BrickSink>(self, flush: &mut F) {
         hand_on(self.scratch, self.left, flush);
         let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
@@ -109,10 +110,81 @@ impl<'a> Bricks8<'a> {
     }
 }
 
-/// Hand the first `n` bricks left in `s` to `flush`.
+/// Hand the first `n` bricks left in `s` to `flush`, each run of one brick merged first
+/// ([`merge_runs`]).
+#[target_feature(enable = "avx512f,popcnt")]
 fn hand_on<F: BrickSink>(s: &mut OctScratch, n: usize, flush: &mut F) {
     let n = n.min(LEFT + 8);
-    hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
+    let k = merge_runs(&mut s.bricks[..n], &mut s.bits[..n]);
+    flush.put_all(&s.bricks[..k], &s.bits[..k]);
+}
+
+/// [`crate::lanes::merge_runs`] eight entries at a time: a segmented OR scan over each
+/// register of entries (three shifted ORs, each under the mask of lanes whose run reaches that
+/// far back) and one compressed store of the runs that end in it. The run still open at a
+/// register's last lane is carried into the next; the last few entries go through the scalar
+/// merge.
+#[target_feature(enable = "avx512f,popcnt")]
+fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
+    let n = bricks.len().min(bits.len());
+    let (Some(&first), true) = (bricks.first(), n > 0) else {
+        return 0;
+    };
+    // the open run: a register whose last lane is its brick, and its bits in every lane (kept
+    // in registers, so a register's scan does not wait for the previous one's)
+    let mut prev = _mm512_set1_epi64(first as i64);
+    let mut open = _mm512_setzero_si512();
+    let last = _mm512_set1_epi64(7);
+    let zero = _mm512_setzero_si512();
+    let mut k = 0;
+    let mut i = 0;
+    while i + 8 <= n {
+        let b: __m512i = bytemuck::cast(<U8>::try_from(&bricks[i..i + 8]).unwrap_or_default());
+        let mut m: __m512i = bytemuck::cast(<U8>::try_from(&bits[i..i + 8]).unwrap_or_default());
+        // lane j continues the run of lane j - 1 (lane 0: the open run)
+        let same = _mm512_cmpeq_epu64_mask(b, _mm512_alignr_epi64::<7>(b, prev));
+        // the open run ends before this register when lane 0 starts a new one; it is
+        // written at `k` either way (below every entry not yet read) and kept only then
+        let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
+        bricks[k] = pb[7];
+        bits[k] = om[0];
+        k += (same & 1 == 0) as usize;
+        // OR within runs: lane j takes lane j - d where its run reaches d lanes back
+        let c1 = same & 0xfe;
+        m = _mm512_mask_or_epi64(m, c1, m, _mm512_alignr_epi64::<7>(m, zero));
+        let c2 = c1 & (c1 << 1);
+        m = _mm512_mask_or_epi64(m, c2, m, _mm512_alignr_epi64::<6>(m, zero));
+        let c4 = c2 & (c2 << 2);
+        m = _mm512_mask_or_epi64(m, c4, m, _mm512_alignr_epi64::<4>(m, zero));
+        // the leading lanes that continue the open run take its bits
+        let joined = ((1u32 << (!same).trailing_zeros()) - 1) as __mmask8;
+        m = _mm512_mask_or_epi64(m, joined, m, open);
+        // lanes 0..7 whose next lane starts a new run end theirs here
+        let ends = !(same >> 1) & 0x7f;
+        let eb: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, b));
+        let em: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, m));
+        // k + 8 <= i + 8: the store covers only this register's entries, already read
+        bricks[k..k + 8].copy_from_slice(&eb);
+        bits[k..k + 8].copy_from_slice(&em);
+        k += ends.count_ones() as usize;
+        open = _mm512_permutexvar_epi64(last, m);
+        prev = b;
+        i += 8;
+    }
+    let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
+    let (cb, cm) = (pb[7], om[0]);
+    merge_runs_from(bricks, bits, i, k, cb, cm)
+}
+
+/// [`merge_runs`] where the CPU has the eight-lane walks, for tests against the scalar merge.
+#[cfg(test)]
+pub(crate) fn merge_runs_wide(bricks: &mut [u64], bits: &mut [u64]) -> Option<usize> {
+    if !has_lanes() {
+        return None;
+    }
+    // SAFETY: `merge_runs` needs AVX-512 Foundation and `popcnt`, found just above.
+    #[allow(unsafe_code)]
+    Some(unsafe { merge_runs(bricks, bits) })
 }
 
 /// Whether this CPU runs the eight-lane walks: AVX-512 Foundation, and `popcnt` (which every
