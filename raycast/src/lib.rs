@@ -38,9 +38,10 @@
 //! assert_eq!(hit.end, Some(Point3::new(2.05, 0.05, 0.05)));
 //! ```
 #![deny(missing_docs)]
-// Three audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time
-// checks that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
-// `bresenham_avx512::walk_lines`). Everything else is safe code.
+// Audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
+// that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
+// `bresenham_avx512::walk_lines`), and in tests the call of the AVX-512 run merge after the
+// same check (`lanes_avx512::merge_runs_wide`). Everything else is safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;

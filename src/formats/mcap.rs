@@ -533,8 +533,9 @@ fn chunk_size_limit(compressed: u64) -> u64 {
     compressed.saturating_mul(1024).max(64 << 20)
 }
 
-/// Refuse chunks whose header declares an absurd decompressed size, and return the largest
-/// size declared (0 without chunks). The `mcap` crate allocates (and zero-fills) that size
+/// Refuse compressed chunks whose header declares an absurd decompressed size (see
+/// [`chunk_size_limit`]), and return the largest size a chunk's records take decompressed (0
+/// without chunks). The `mcap` crate allocates (and zero-fills) that size
 /// before decompressing, so a damaged size field would abort the process instead of failing.
 /// Walks the records (opcode, `u64` length, content) from the leading magic to the footer;
 /// anything else malformed is left for the crate to report.
@@ -575,23 +576,21 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             if let (Some(declared), Some(records), Some(compression)) =
                 (declared, records, compression)
             {
-                let absurd = if compression.is_empty() {
-                    declared != records
-                } else {
-                    declared > chunk_size_limit(records)
-                };
-                if absurd {
+                // an uncompressed chunk's records are read as they lie in the file, whatever
+                // size its header declares
+                if compression.is_empty() {
+                    largest = largest.max(records);
+                    pos = end;
+                    continue;
+                }
+                if declared > chunk_size_limit(records) {
                     return Err(FormatError::syntax(
                         path,
                         Location::Byte(pos as u64),
                         format!(
-                            "chunk declares {declared} bytes decompressed from {records} \
-                             ({}); the size field is damaged",
-                            if compression.is_empty() {
-                                "uncompressed".to_string()
-                            } else {
-                                String::from_utf8_lossy(compression).into_owned()
-                            }
+                            "chunk declares {declared} bytes decompressed from {records} ({}); \
+                             the size field is damaged",
+                            String::from_utf8_lossy(compression)
                         ),
                     ));
                 }
