@@ -280,6 +280,47 @@ fn cli_map_on_real_files() {
     assert!(!dir.join("x.bt").exists());
 }
 
+/// A failing command prints the error and each cause once, on one line, naming the file.
+#[test]
+fn cli_errors_name_each_cause_once() {
+    let dir = common::scratch("cli_errors");
+    for args in [
+        vec!["info".to_string(), "/nonexistent/map.bt".to_string()],
+        vec![
+            "map".to_string(),
+            "/nonexistent/scan.graph".to_string(),
+            "-o".to_string(),
+            dir.join("x.bt").display().to_string(),
+        ],
+        // the built-in scene, written where no directory is
+        vec![
+            "map".to_string(),
+            "--res".to_string(),
+            "0.5".to_string(),
+            "-o".to_string(),
+            "/nonexistent/dir/map.bt".to_string(),
+        ],
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let errors: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("octoquant: error:"))
+            .collect();
+        assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
+        assert!(errors[0].contains("/nonexistent/"), "{args:?}: {stderr}");
+        assert_eq!(
+            errors[0].matches("(os error 2)").count(),
+            1,
+            "{args:?}: {stderr}"
+        );
+    }
+}
+
 /// `octoquant map bag.mcap --topic T` works like any other input: the real Ouster recording
 /// gives two frames holding the non-zero returns of its two clouds.
 #[test]
