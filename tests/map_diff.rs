@@ -321,6 +321,38 @@ fn cli_errors_name_each_cause_once() {
     }
 }
 
+/// Output into a pipe whose reader has gone (`octoquant info m.bt | head -0`) ends the program
+/// quietly with SIGPIPE's status, 141, instead of a panic.
+#[test]
+fn cli_output_into_a_closed_pipe_is_not_a_panic() {
+    let dir = common::scratch("cli_closed_pipe");
+    let map = dir.join("m.bt");
+    let made = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .args(["map", "--res", "0.5", "-o"])
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    for args in [vec!["info"], vec!["info", "--json"]] {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .args(&args)
+            .arg(&map)
+            .stdout(writer)
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(141), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}
+
 /// `octoquant map bag.mcap --topic T` works like any other input: the real Ouster recording
 /// gives two frames holding the non-zero returns of its two clouds.
 #[test]

@@ -307,25 +307,25 @@ pub fn run(a: &Args) -> Result<()> {
             ));
         }
         s.push('}');
-        println!("{s}");
+        outln!("{s}")?;
         return Ok(());
     }
-    println!(
+    outln!(
         "{} frames, {} points, res {} m, max range {}, {} repetitions (medians over all)",
         frames.len(),
         points,
         a.res,
         a.max_range.map_or("off".into(), |m| format!("{m} m")),
         a.repeat.max(1)
-    );
+    )?;
     if let Some(((e, _), (d, _))) = &reference {
-        println!(
+        outln!(
             "OctoMap 1.9.7 (reference program): insertPointCloud median {:.1} ms/frame, discretize {:.1} ms/frame",
             median(e),
             median(d)
-        );
+        )?;
     }
-    println!(
+    outln!(
         "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9} {:>8} {:>8}",
         "mode",
         "threads",
@@ -340,9 +340,9 @@ pub fn run(a: &Args) -> Result<()> {
         "same .bt",
         "agree %",
         "agree q%"
-    );
+    )?;
     for (r, med, total_s, vs, classes, vs_q) in &rows {
-        println!(
+        outln!(
             "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9} {:>8.3} {:>8.3}",
             r.name,
             r.threads,
@@ -361,13 +361,13 @@ pub fn run(a: &Args) -> Result<()> {
             }),
             100.0 * classes.agreement(),
             100.0 * vs_q.agreement(),
-        );
+        )?;
     }
-    println!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)");
+    outln!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)")?;
     // where the Bresenham map's classes differ from the exact one's
     if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.name == "quant+bres") {
         use octoquant::octree::VoxelClass::{Free, Occupied, Unknown};
-        println!(
+        outln!(
             "quant+bres vs exact ({} thread): voxels free in exact but unknown {} / occupied {}; occupied in exact but unknown {} / free {}; unknown in exact but free {} / occupied {}",
             r.threads,
             c.count(Free, Unknown),
@@ -376,7 +376,7 @@ pub fn run(a: &Args) -> Result<()> {
             c.count(Occupied, Free),
             c.count(Unknown, Free),
             c.count(Unknown, Occupied),
-        );
+        )?;
     }
     Ok(())
 }

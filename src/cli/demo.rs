@@ -113,7 +113,7 @@ pub fn run(a: &Args) -> Result<()> {
     let rays: usize = stats.iter().map(|s| s.rays).sum();
     let hits: usize = stats.iter().map(|s| s.hits).sum();
     let misses: usize = stats.iter().map(|s| s.misses).sum();
-    println!(
+    outln!(
         "scene: {} shapes; {} frames, {} rays, {} hits, {} misses ({})",
         scene.len(),
         frames.len(),
@@ -125,9 +125,9 @@ pub fn run(a: &Args) -> Result<()> {
         } else {
             "dropped; --carve-misses to carve free space with them".to_string()
         }
-    );
+    )?;
     for (name, n, s) in &scan_rows {
-        println!("  simulated {name:<12} {n:>4} frames in {s:>7.3} s");
+        outln!("  simulated {name:<12} {n:>4} frames in {s:>7.3} s")?;
     }
 
     let modes: [(&str, InsertMode, bool); 5] = [
@@ -158,15 +158,21 @@ pub fn run(a: &Args) -> Result<()> {
         });
     }
 
-    println!();
-    println!(
+    outln!()?;
+    outln!(
         "{:<16} {:>9} {:>12} {:>9} {:>11} {:>10} {:>10}",
-        "mode", "seconds", "points/s", "vs exact", "nodes", "leaves", "occupied"
-    );
+        "mode",
+        "seconds",
+        "points/s",
+        "vs exact",
+        "nodes",
+        "leaves",
+        "occupied"
+    )?;
     let exact_s = rows[0].seconds;
     for r in &rows {
         let c = r.tree.counts();
-        println!(
+        outln!(
             "{:<16} {:>9.3} {:>12.0} {:>8.2}x {:>11} {:>10} {:>10}",
             r.mode,
             r.seconds,
@@ -175,7 +181,7 @@ pub fn run(a: &Args) -> Result<()> {
             c.nodes,
             c.leaves,
             c.occupied_leaves
-        );
+        )?;
     }
 
     let mut tree = rows.swap_remove(0).tree;
@@ -187,13 +193,13 @@ pub fn run(a: &Args) -> Result<()> {
     let t = Instant::now();
     let image = render_png_file(&tree, &png, &RenderOptions::default())?;
     let t_png = t.elapsed().as_secs_f64();
-    println!();
-    println!("wrote {} ({t_bt:.3} s, exact mode)", bt.display());
-    println!(
+    outln!()?;
+    outln!("wrote {} ({t_bt:.3} s, exact mode)", bt.display())?;
+    outln!(
         "wrote {} ({} × {} px, {t_png:.3} s)",
         png.display(),
         image.width,
         image.height
-    );
+    )?;
     Ok(())
 }

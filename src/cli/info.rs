@@ -38,7 +38,7 @@ pub fn run(a: &Args) -> Result<()> {
             ),
             None => "null".into(),
         };
-        println!(
+        outln!(
             "{{\"file\":{:?},\"resolution\":{},\"nodes\":{},\"inner\":{},\"leaves\":{},\"occupied_leaves\":{},\"free_leaves\":{},\"bounds\":{},\"memory_bytes\":{},\"bytes_per_node\":{:.3},\"octomap_memory_bytes\":{},\"octomap_bytes_per_node\":{:.3}}}",
             a.file.display().to_string(),
             tree.resolution(),
@@ -52,24 +52,31 @@ pub fn run(a: &Args) -> Result<()> {
             bpn,
             octomap_mem,
             octomap_bpn
-        );
+        )?;
     } else {
-        println!("file:            {}", a.file.display());
-        println!("resolution:      {} m", tree.resolution());
-        println!("nodes:           {} ({} inner)", c.nodes, c.inner);
-        println!(
+        outln!("file:            {}", a.file.display())?;
+        outln!("resolution:      {:?} m", tree.resolution())?;
+        outln!("nodes:           {} ({} inner)", c.nodes, c.inner)?;
+        outln!(
             "leaves:          {} ({} occupied, {} free)",
-            c.leaves, c.occupied_leaves, c.free_leaves
-        );
+            c.leaves,
+            c.occupied_leaves,
+            c.free_leaves
+        )?;
         match bounds {
-            Some((lo, hi)) => println!(
+            Some((lo, hi)) => outln!(
                 "bounds:          ({:.3}, {:.3}, {:.3}) .. ({:.3}, {:.3}, {:.3}) m",
-                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-            ),
-            None => println!("bounds:          (empty tree)"),
+                lo.x,
+                lo.y,
+                lo.z,
+                hi.x,
+                hi.y,
+                hi.z
+            )?,
+            None => outln!("bounds:          (empty tree)")?,
         }
-        println!("memory:          {mem} bytes, {bpn:.2} bytes/node");
-        println!("OctoMap formula: {octomap_mem} bytes, {octomap_bpn:.2} bytes/node");
+        outln!("memory:          {mem} bytes, {bpn:.2} bytes/node")?;
+        outln!("OctoMap formula: {octomap_mem} bytes, {octomap_bpn:.2} bytes/node")?;
     }
     Ok(())
 }

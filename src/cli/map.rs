@@ -193,30 +193,35 @@ pub fn run(a: &Args) -> Result<()> {
         0.0
     };
     if a.json {
-        println!(
+        outln!(
             "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
             stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.free, t.occupied,
             load_s, t.seconds, pps, full_nodes, bytes_per_node, tree.size(),
             a.output.display().to_string()
-        );
+        )?;
     } else {
-        println!("frames:          {}", stats.frames);
-        println!(
+        outln!("frames:          {}", stats.frames)?;
+        outln!(
             "points:          {} ({} non-finite and {} outside the map skipped)",
-            t.points, t.non_finite, t.outside_map
-        );
-        println!("loading:         {load_s:.3} s");
-        println!(
+            t.points,
+            t.non_finite,
+            t.outside_map
+        )?;
+        outln!("loading:         {load_s:.3} s")?;
+        outln!(
             "insertion:       {:.3} s, {:.0} points/s (rays {:.3} s, tree {:.3} s)",
-            t.seconds, pps, t.ray_seconds, t.tree_seconds
-        );
-        println!(
+            t.seconds,
+            pps,
+            t.ray_seconds,
+            t.tree_seconds
+        )?;
+        outln!(
             "tree:            {} nodes, {:.2} bytes/node ({} nodes in the .bt after ML + prune)",
             full_nodes,
             bytes_per_node,
             tree.size()
-        );
-        println!("wrote:           {}", a.output.display());
+        )?;
+        outln!("wrote:           {}", a.output.display())?;
     }
     Ok(())
 }

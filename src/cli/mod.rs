@@ -1,5 +1,15 @@
 //! Command-line parsing (clap) and dispatch; one file per subcommand.
 
+/// `println!` that returns the write's `io::Result` instead of panicking: a reader that
+/// closes the pipe early (`octoquant info map.bt | head -2`) must not make the program panic.
+/// See [`main`], which then ends quietly with status 141.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
 mod bench;
 mod convert;
 mod demo;
@@ -58,6 +68,9 @@ pub fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // the reader of the output went away (a pipe into `head`): stop quietly with the
+        // status of a C tool that SIGPIPE ended (128 + 13), since the work may be unfinished
+        Err(e) if closed_pipe(&e) => std::process::ExitCode::from(141),
         Err(e) => {
             eprintln!("octoquant: error: {}", describe(&e));
             std::process::ExitCode::FAILURE
@@ -81,4 +94,12 @@ fn describe(e: &anyhow::Error) -> String {
         line.push_str(&text);
     }
     line
+}
+
+/// Whether `e` comes from writing to a pipe whose reader has closed it.
+fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }

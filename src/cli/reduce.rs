@@ -89,7 +89,7 @@ pub fn run(a: &Args) -> Result<()> {
     write_ply_file(&a.output, &out, encoding)?;
 
     if a.json {
-        println!(
+        outln!(
             "{{\"input\":{:?},\"output\":{:?},\"cell\":[{},{},{}],\"points\":{},\"rejected\":{},\"grid\":{},\"eliminated\":{},\"reduced\":{},\"seconds\":{{\"read\":{:.6},\"grid\":{:.6},\"output\":{:.6}}}}}",
             a.input.display().to_string(),
             a.output.display().to_string(),
@@ -104,28 +104,28 @@ pub fn run(a: &Args) -> Result<()> {
             t_read,
             t_grid,
             t_output
-        );
+        )?;
     } else {
         let rate = |n: usize, t: f64| if t > 0.0 { n as f64 / t / 1e6 } else { 0.0 };
-        println!(
+        outln!(
             "input:       {} points from {}",
             points.len(),
             a.input.display()
-        );
-        println!("rejected:    {} (NaN/inf or out of range)", counts.rejected);
-        println!(
+        )?;
+        outln!("rejected:    {} (NaN/inf or out of range)", counts.rejected)?;
+        outln!(
             "grid stage:  {cells} points ({} cells), {:.1} ms, {:.1} M pts/s",
             cells,
             t_grid * 1e3,
             rate(points.len(), t_grid)
-        );
-        println!(
+        )?;
+        outln!(
             "elimination: {} points ({} eliminated), {:.1} ms",
             out.len(),
             cycle.eliminated,
             t_output * 1e3
-        );
-        println!("output:      {}", a.output.display());
+        )?;
+        outln!("output:      {}", a.output.display())?;
     }
     Ok(())
 }

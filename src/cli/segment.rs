@@ -73,11 +73,16 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(png) = &a.png {
         draw_png(png, &points, &seg)?;
     }
-    print_scan(a, &scan, &points, &seg, ms);
-    Ok(())
+    print_scan(a, &scan, &points, &seg, ms)
 }
 
-fn print_scan(a: &Args, scan: &LaserScan, points: &[[f64; 2]], seg: &Segmentation, ms: f64) {
+fn print_scan(
+    a: &Args,
+    scan: &LaserScan,
+    points: &[[f64; 2]],
+    seg: &Segmentation,
+    ms: f64,
+) -> Result<()> {
     let inliers = seg.labels().iter().filter(|&&l| l != NOISE).count();
     if a.json {
         let lines: Vec<String> = seg
@@ -91,7 +96,7 @@ fn print_scan(a: &Args, scan: &LaserScan, points: &[[f64; 2]], seg: &Segmentatio
                 )
             })
             .collect();
-        println!(
+        outln!(
             "{{\"file\":{:?},\"scan\":{},\"line\":{},\"kind\":\"{:?}\",\"readings\":{},\"valid\":{},\"on_lines\":{},\"laser_pose\":[{},{},{}],\"ms\":{:.4},\"lines\":[{}]}}",
             a.log.display().to_string(),
             a.scan,
@@ -105,27 +110,30 @@ fn print_scan(a: &Args, scan: &LaserScan, points: &[[f64; 2]], seg: &Segmentatio
             scan.laser_pose.theta,
             ms,
             lines.join(",")
-        );
-        return;
+        )?;
+        return Ok(());
     }
-    println!("file:        {}", a.log.display());
-    println!(
+    outln!("file:        {}", a.log.display())?;
+    outln!(
         "scan:        {} ({:?}, line {})",
-        a.scan, scan.kind, scan.line
-    );
+        a.scan,
+        scan.kind,
+        scan.line
+    )?;
     let p = scan.laser_pose;
-    println!("laser pose:  ({:.3}, {:.3}, {:.4} rad)", p.x, p.y, p.theta);
-    println!(
+    outln!("laser pose:  ({:.3}, {:.3}, {:.4} rad)", p.x, p.y, p.theta)?;
+    outln!(
         "readings:    {} ({} valid, {} on lines)",
         scan.ranges.len(),
         points.len(),
         inliers
-    );
-    println!("time:        {ms:.3} ms");
-    println!("lines:       {}", seg.lines().len());
+    )?;
+    outln!("time:        {ms:.3} ms")?;
+    outln!("lines:       {}", seg.lines().len())?;
     for (k, l) in seg.lines().iter().enumerate() {
-        println!("  {k:3}: {}", describe(l));
+        outln!("  {k:3}: {}", describe(l))?;
     }
+    Ok(())
 }
 
 fn describe(l: &Line) -> String {
@@ -172,17 +180,17 @@ fn run_all(a: &Args, reader: &mut CarmenReader, params: &LineParams) -> Result<(
     let (m50, m95, mmax) = stats(&mut ms);
     let on_lines = inliers as f64 / valid.max(1) as f64;
     if a.json {
-        println!(
+        outln!(
             "{{\"file\":{:?},\"scans\":{n},\"lines_per_scan\":{{\"mean\":{mean_lines:.3},\"median\":{l50},\"p95\":{l95},\"max\":{lmax}}},\"ms_per_scan\":{{\"median\":{m50:.4},\"p95\":{m95:.4},\"max\":{mmax:.4}}},\"total_ms\":{total_ms:.2},\"fraction_on_lines\":{on_lines:.4}}}",
             a.log.display().to_string()
-        );
+        )?;
     } else {
-        println!("file:            {}", a.log.display());
-        println!("scans:           {n}");
-        println!("lines per scan:  mean {mean_lines:.2}, median {l50}, p95 {l95}, max {lmax}");
-        println!("ms per scan:     median {m50:.4}, p95 {m95:.4}, max {mmax:.4}");
-        println!("total:           {total_ms:.1} ms segmenting");
-        println!("points on lines: {:.1} %", 100.0 * on_lines);
+        outln!("file:            {}", a.log.display())?;
+        outln!("scans:           {n}")?;
+        outln!("lines per scan:  mean {mean_lines:.2}, median {l50}, p95 {l95}, max {lmax}")?;
+        outln!("ms per scan:     median {m50:.4}, p95 {m95:.4}, max {mmax:.4}")?;
+        outln!("total:           {total_ms:.1} ms segmenting")?;
+        outln!("points on lines: {:.1} %", 100.0 * on_lines)?;
     }
     Ok(())
 }
