@@ -547,18 +547,18 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
     if !bytes.starts_with(MAGIC) {
         return Ok(largest);
     }
-    let u64_at = |at: usize| -> Option<u64> {
+    let u64_at = |b: &[u8], at: usize| -> Option<u64> {
         Some(u64::from_le_bytes(
-            bytes.get(at..at.checked_add(8)?)?.try_into().ok()?,
+            b.get(at..at.checked_add(8)?)?.try_into().ok()?,
         ))
     };
-    let u32_at = |at: usize| -> Option<u32> {
+    let u32_at = |b: &[u8], at: usize| -> Option<u32> {
         Some(u32::from_le_bytes(
-            bytes.get(at..at.checked_add(4)?)?.try_into().ok()?,
+            b.get(at..at.checked_add(4)?)?.try_into().ok()?,
         ))
     };
     let mut pos = MAGIC.len();
-    while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(pos + 1)) {
+    while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(bytes, pos + 1)) {
         let start = pos + 9;
         let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)) else {
             break;
@@ -569,10 +569,12 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
         if op == OP_CHUNK {
             // start time, end time, uncompressed size, uncompressed CRC, compression string,
             // then the compressed records with their u64 length
-            let declared = u64_at(start + 16);
-            let name_len = u32_at(start + 28).map(|n| n as usize);
-            let records = name_len.and_then(|n| u64_at(start + 32 + n));
-            let compression = name_len.and_then(|n| bytes.get(start + 32..start + 32 + n));
+            // (read within the record only: a chunk too short for them is the crate's to report)
+            let rec = &bytes[start..end];
+            let declared = u64_at(rec, 16);
+            let name_len = u32_at(rec, 28).map(|n| n as usize);
+            let records = name_len.and_then(|n| u64_at(rec, 32usize.checked_add(n)?));
+            let compression = name_len.and_then(|n| rec.get(32..32usize.checked_add(n)?));
             if let (Some(declared), Some(records), Some(compression)) =
                 (declared, records, compression)
             {
