@@ -127,9 +127,10 @@ fn hand_on<F: BrickSink>(s: &mut OctScratch, n: usize, flush: &mut F) {
 #[target_feature(enable = "avx512f,popcnt")]
 fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
     let n = bricks.len().min(bits.len());
-    let (Some(&first), true) = (bricks.first(), n > 0) else {
+    if n == 0 {
         return 0;
-    };
+    }
+    let first = bricks[0];
     // the open run: a register whose last lane is its brick, and its bits in every lane (kept
     // in registers, so a register's scan does not wait for the previous one's)
     let mut prev = _mm512_set1_epi64(first as i64);
