@@ -1,6 +1,7 @@
 //! A frame: one scan's sensor origin and end points, in world coordinates.
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Rotation3};
+use octoquant_raycast::PixelGrid;
 
 /// One scan ready for insertion: every ray starts at `origin` and ends at one of `points`.
 ///
@@ -15,6 +16,47 @@ pub struct Frame {
     pub points: Vec<Point3<f32>>,
     /// Acquisition time in seconds, when the source records one.
     pub stamp: Option<f64>,
+    /// The depth camera's pixel of each point, when the frame comes from a depth image: exact
+    /// insertion then skips the ray stretches that neighbouring rays cover (same map, faster).
+    pub camera: Option<CameraPixels>,
+}
+
+/// Where a depth image frame's points were measured: a pinhole camera and each point's pixel
+/// (see [`PixelGrid`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CameraPixels {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Focal lengths and principal point, in pixels.
+    pub fx: f64,
+    /// See `fx`.
+    pub fy: f64,
+    /// See `fx`.
+    pub cx: f64,
+    /// See `fx`.
+    pub cy: f64,
+    /// Camera orientation in the world.
+    pub rotation: Rotation3<f64>,
+    /// The pixel `v·width + u` of each point, in point order.
+    pub pixels: Vec<u32>,
+}
+
+impl CameraPixels {
+    /// The grid as the ray caster takes it.
+    pub fn grid(&self) -> PixelGrid<'_> {
+        PixelGrid {
+            width: self.width,
+            height: self.height,
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+            rotation: self.rotation,
+            pixels: &self.pixels,
+        }
+    }
 }
 
 impl Frame {
@@ -24,6 +66,7 @@ impl Frame {
             origin,
             points,
             stamp: None,
+            camera: None,
         }
     }
 }

@@ -10,8 +10,8 @@ use nalgebra::{Isometry3, Point3};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
-    apply_update, compute_discrete_update, compute_update, compute_update_with, RayModel,
-    ScanStats, ScanUpdate,
+    apply_update, compute_discrete_update, compute_update, compute_update_grid,
+    compute_update_with, RayModel, ScanStats, ScanUpdate,
 };
 use std::time::Instant;
 
@@ -355,9 +355,13 @@ fn prepare(
     let origin = frame.origin;
     let max_range = options.max_range;
     let scan: ScanStats = match options.mode {
-        InsertMode::Exact | InsertMode::Simple => {
-            compute_update(conv, points, &origin, max_range, update)
-        }
+        InsertMode::Exact | InsertMode::Simple => match &frame.camera {
+            // a reduced frame has lost the pixel order
+            Some(camera) if options.reduce.is_none() => {
+                compute_update_grid(conv, points, &camera.grid(), &origin, max_range, update)
+            }
+            _ => compute_update(conv, points, &origin, max_range, update),
+        },
         InsertMode::Discretize => compute_discrete_update(conv, points, &origin, max_range, update),
         InsertMode::Quantized | InsertMode::QuantizedBresenham => {
             let q = quantize_endpoints(conv, points, &options.quantize, centres);

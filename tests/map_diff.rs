@@ -240,6 +240,57 @@ fn tum_rgbd_frames_match_octomap() {
     });
 }
 
+/// Full-resolution TUM depth frames carry their pixel grid, so exact insertion walks most
+/// rays only from where their neighbours stop covering them: the maps stay byte-identical to
+/// OctoMap's, and the key sets to those of the plain `computeUpdate`, while most rays skip.
+#[test]
+fn tum_full_frames_skip_ray_heads_and_match_octomap() {
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let frames = read_frames(&assoc, &ReadOptions::default()).unwrap();
+    assert_eq!(frames.len(), 10);
+    use octoquant_raycast::{compute_update, compute_update_grid, ScanUpdate};
+    for f in &frames {
+        let camera = f.camera.as_ref().expect("TUM frames carry their pixels");
+        for (res, mr) in [(0.05, None), (0.02, Some(2.0)), (0.1, None)] {
+            let conv = octoquant::octree::KeyConverter::new(res).unwrap();
+            let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
+            let a = compute_update(&conv, &f.points, &f.origin, mr, &mut plain);
+            let b = compute_update_grid(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
+            assert!(
+                b.heads_skipped * 2 > f.points.len(),
+                "res {res}: {} of {} rays skipped their heads",
+                b.heads_skipped,
+                f.points.len()
+            );
+            assert_eq!((a.rays, a.free, a.occupied), (b.rays, b.free, b.occupied));
+            assert!(
+                plain.free_bricks() == fast.free_bricks(),
+                "res {res}: free sets differ"
+            );
+            assert!(plain.occupied_bricks() == fast.occupied_bricks());
+        }
+    }
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let frames = subsample(frames, 2, 1);
+    let dir = common::scratch("map_diff_tum_full");
+    let ff = dir.join("tum.frames");
+    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    for mr in [None, Some(2.5)] {
+        let (rot, rbt) = reference(&refprog, &ff, 0.05, mr, false, &dir);
+        for threads in [1, 2] {
+            let (ot, bt) = ours(&frames, 0.05, mr, InsertMode::Exact, threads);
+            let what = format!("tum full frames, max range {mr:?}, {threads} threads");
+            assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
+            assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
+        }
+    }
+}
+
 /// The CLI end to end: `octoquant map` on the norlab directory writes the same .bt as the
 /// library, and reports what it skipped.
 #[test]

@@ -6,7 +6,8 @@
 //!   [`insert_ray`]: misses along one ray and a hit at its end (`insertRay`).
 //! - [`compute_update`] / [`compute_discrete_update`]: a scan's disjoint free and occupied key
 //!   sets (`computeUpdate`, `computeDiscreteUpdate`) in a reusable [`ScanUpdate`], sorted by
-//!   Morton code instead of hashed; [`discretize`] alone.
+//!   Morton code instead of hashed; [`discretize`] alone. [`compute_update_grid`]: the same
+//!   sets for a depth image's points, faster, given their [`PixelGrid`].
 //! - [`insert_point_cloud`]: a scan into an [`OcTree`](octoquant_octree::OcTree) under [`InsertOptions`]
 //!   (`insertPointCloud`); [`insert_point_cloud_rays`] for graph2tree's `-simple` mode.
 //!
@@ -40,7 +41,8 @@
 #![deny(missing_docs)]
 // Audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
 // that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
-// `bresenham_avx512::walk_lines`), and in tests the call of the AVX-512 run merge after the
+// `bresenham_avx512::walk_lines`, `lanes_avx512::replay_rays` and its loads and stores of
+// whole arrays), and in tests the call of the AVX-512 run merge after the
 // same check (`lanes_avx512::merge_runs_wide`). Everything else is safe code.
 #![deny(unsafe_code)]
 
@@ -56,6 +58,7 @@ mod lanes;
 mod lanes_avx2;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx512;
+mod pixel_grid;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;
@@ -67,7 +70,8 @@ pub use insert::{
     apply_update, insert_point_cloud, insert_point_cloud_rays, insert_point_cloud_reusing,
     InsertOptions, InsertStats,
 };
+pub use pixel_grid::PixelGrid;
 pub use update::{
-    compute_discrete_update, compute_update, compute_update_with, discretize, RayModel, ScanStats,
-    ScanUpdate,
+    compute_discrete_update, compute_update, compute_update_grid, compute_update_with, discretize,
+    RayModel, ScanStats, ScanUpdate,
 };

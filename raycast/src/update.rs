@@ -13,6 +13,7 @@ use crate::brickset::{push_brick_keys, BrickSet};
 use crate::dda::{
     coded, key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk,
 };
+use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 use std::sync::OnceLock;
@@ -39,6 +40,9 @@ pub struct ScanStats {
     pub failed_rays: usize,
     /// Points beyond the maximum range: their ray was cut and they add no occupied voxel.
     pub max_range_rays: usize,
+    /// Rays of a depth image walked only from where their neighbours stop covering them (see
+    /// [`compute_update_grid`]); the key sets are the same either way.
+    pub heads_skipped: usize,
     /// Distinct free voxels (after removing the occupied ones), or free updates applied.
     pub free: usize,
     /// Distinct occupied voxels, or hit updates applied.
@@ -67,6 +71,8 @@ pub struct ScanUpdate {
     /// The occupied voxels: sorted bricks.
     occ_bricks: Vec<(u64, u64)>,
     merge_tmp: Vec<(u64, u64)>,
+    /// What the rays of a depth-image frame may skip.
+    plan: SkipPlan,
     centres: Vec<Point3<f32>>,
     order: Vec<(u64, usize)>,
 }
@@ -143,10 +149,15 @@ struct RayScratch {
     codes: Vec<u64>,
     /// Well-conditioned DDA rays waiting to be walked together.
     batch: Vec<RaySetup>,
+    /// Depth-image rays waiting to skip their heads (up to the time given) and be walked.
+    tails: Vec<(RaySetup, f64)>,
     /// The buffers of the lane walks.
     lanes: crate::lanes::LaneScratch,
     /// Queued walks that degenerated since the counts were last taken.
     degenerate: usize,
+    /// Voxels of the 3x3x3 block around the origin voxel crossed by the skipped heads of
+    /// depth-image rays (see [`crate::pixel_grid`]).
+    near: u32,
     /// Bresenham lines (start and end keys, distinct) waiting to be walked together.
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
@@ -263,6 +274,13 @@ fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.batch.clear();
 }
 
+/// Move the queued skipping rays to their states at the end of their heads and walk them.
+fn walk_tails(set: &mut BrickSet, scratch: &mut RayScratch) {
+    scratch.near |= jump(&scratch.tails, &mut scratch.batch);
+    scratch.tails.clear();
+    walk_batch(set, scratch);
+}
+
 /// Walk the queued Bresenham lines into `set` and empty the queue: eight at a time where the
 /// CPU has AVX-512, else one after another.
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
@@ -340,14 +358,19 @@ fn merge_into(acc: &mut Vec<(u64, u64)>, other: &[(u64, u64)], tmp: &mut Vec<(u6
     std::mem::swap(acc, tmp);
 }
 
+/// The pixel of each point and what its ray may skip, for depth-image frames.
+type Skips<'a> = Option<(&'a SkipPlan, &'a [u32])>;
+
 /// OctoMap's `computeUpdate` loop body (no bounding box) for every finite point of `points`:
 /// its ray, cut at `max_range` when it is longer (and then without an occupied end), and its
-/// end point's voxel; non-finite points are counted.
+/// end point's voxel; non-finite points are counted. With `skips`, DDA rays through pixels
+/// that other rays cover start where [`SkipPlan::head`] allows.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_points(
     conv: &KeyConverter,
     points: &[Point3<f32>],
+    skips: Skips<'_>,
     origin: &Point3<f32>,
     origin_key: Option<(Key, u64)>,
     max_range: f64,
@@ -357,7 +380,8 @@ fn add_points(
     stats: &mut ScanStats,
     model: RayModel,
 ) {
-    for p in points {
+    let skips = skips.filter(|_| model == RayModel::Dda);
+    for (i, p) in points.iter().enumerate() {
         if !is_finite(p) {
             stats.non_finite += 1;
             continue;
@@ -377,6 +401,15 @@ fn add_points(
             let e = cut_at_range(origin, diff, max_range);
             (e, key_of(conv, &e).map(coded))
         };
+        if let Some((plan, pixels)) = skips {
+            if skip_ray(
+                conv, plan, pixels[i], origin, origin_key, &end, end_key, free_set, ray,
+            ) {
+                stats.rays += 1;
+                stats.heads_skipped += 1;
+                continue;
+            }
+        }
         if push_ray(
             conv, origin, origin_key, &end, end_key, free_set, ray, model,
         ) {
@@ -385,16 +418,109 @@ fn add_points(
             stats.failed_rays += 1;
         }
     }
+    if !ray.tails.is_empty() {
+        walk_tails(free_set, ray);
+    }
     if !ray.batch.is_empty() {
         walk_batch(free_set, ray);
     }
     if !ray.lines.is_empty() {
         walk_lines(free_set, ray);
     }
+    if let (Some((okey, _)), near) = (origin_key, std::mem::take(&mut ray.near)) {
+        let mut bits = near;
+        while bits != 0 {
+            let bit = bits.trailing_zeros();
+            bits &= bits - 1;
+            free_set.insert(morton(near_key(okey, bit)));
+        }
+    }
     // queued rays were counted as computed; one that degenerated was not
     stats.rays -= ray.degenerate;
     stats.failed_rays += ray.degenerate;
     ray.degenerate = 0;
+}
+
+/// Queue the tail of the ray `origin -> end` through `pixel` when its head may be skipped
+/// (see [`crate::pixel_grid`]), collecting its steps near the origin in `ray.near`; `false`
+/// when the ray is to be walked whole.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn skip_ray(
+    conv: &KeyConverter,
+    plan: &SkipPlan,
+    pixel: u32,
+    origin: &Point3<f32>,
+    origin_key: Option<(Key, u64)>,
+    end: &Point3<f32>,
+    end_key: Option<(Key, u64)>,
+    set: &mut BrickSet,
+    ray: &mut RayScratch,
+) -> bool {
+    let Some(at) = plan.locate(pixel) else {
+        return false;
+    };
+    let diff = sub_f32(end, origin);
+    let Some(t) = plan.head(at, norm_f32(diff) as f32 as f64) else {
+        return false;
+    };
+    if !plan.fits(at, diff) {
+        return false;
+    }
+    let Ok(r) = setup_with_keys(conv, origin, origin_key, end, end_key) else {
+        return false;
+    };
+    if !r.well_conditioned {
+        return false;
+    }
+    ray.tails.push((r, t));
+    if ray.tails.len() >= RAY_BATCH {
+        walk_tails(set, ray);
+    }
+    true
+}
+
+/// Record the length of every sampled ray of a depth-image frame in `plan` (0 for rays that
+/// will not be walked or do not point along their pixel), then finish the plan. A ray is
+/// walked (well-conditioned, see [`setup_with_keys`]) when both ends are in the map, in
+/// different voxels, and its `f32` length is finite and positive.
+fn sample_lengths(
+    conv: &KeyConverter,
+    plan: &mut SkipPlan,
+    points: &[Point3<f32>],
+    pixels: &[u32],
+    origin: &Point3<f32>,
+    origin_key: Option<(Key, u64)>,
+    max_range: f64,
+) {
+    let Some((okey, _)) = origin_key else {
+        return;
+    };
+    for (p, &pixel) in points.iter().zip(pixels) {
+        let Some(at) = plan.locate(pixel).filter(|&at| plan.sampled(at)) else {
+            continue;
+        };
+        let mut length = 0.0;
+        if is_finite(p) {
+            let diff = sub_f32(p, origin);
+            let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
+                *p
+            } else {
+                cut_at_range(origin, diff, max_range)
+            };
+            let d = sub_f32(&end, origin);
+            let l = norm_f32(d) as f32;
+            let walked = key_of(conv, &end).is_some_and(|k| k != okey)
+                && l.is_finite()
+                && l > 0.0
+                && plan.fits(at, d);
+            if walked {
+                length = l as f64;
+            }
+        }
+        plan.record(at, length);
+    }
+    plan.finish();
 }
 
 #[inline]
@@ -440,6 +566,41 @@ pub fn compute_update_with(
     model: RayModel,
     out: &mut ScanUpdate,
 ) -> ScanStats {
+    compute(conv, points, None, origin, max_range, model, out)
+}
+
+/// [`compute_update`] for the points of a depth image: the same key sets, bit for bit, found
+/// faster by walking most rays only from where their neighbours stop covering them (see
+/// [`PixelGrid`]). A `grid` that does not describe the points (another length, pixels out of
+/// range, directions that do not match) makes it slower, never different.
+pub fn compute_update_grid(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    grid: &PixelGrid<'_>,
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    out: &mut ScanUpdate,
+) -> ScanStats {
+    compute(
+        conv,
+        points,
+        Some(grid),
+        origin,
+        max_range,
+        RayModel::Dda,
+        out,
+    )
+}
+
+fn compute(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    grid: Option<&PixelGrid<'_>>,
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    model: RayModel,
+    out: &mut ScanUpdate,
+) -> ScanStats {
     out.clear();
     let mut stats = ScanStats {
         points: points.len(),
@@ -447,6 +608,18 @@ pub fn compute_update_with(
     };
     let m = max_range.unwrap_or(-1.0);
     let origin_key = key_of(conv, origin).map(coded);
+    let mut plan = std::mem::take(&mut out.plan);
+    let skips: Skips<'_> = match grid {
+        Some(g)
+            if model == RayModel::Dda
+                && origin_key.is_some()
+                && plan.prepare(g, points.len(), conv.resolution()) =>
+        {
+            sample_lengths(conv, &mut plan, points, g.pixels, origin, origin_key, m);
+            Some((&plan, g.pixels))
+        }
+        _ => None,
+    };
     let threads = rayon::current_num_threads();
     if threads > 1 && points.len() >= PARALLEL_MIN_POINTS {
         // each thread casts a contiguous share of the rays into its own sets; the union is
@@ -454,16 +627,22 @@ pub fn compute_update_with(
         out.workers.resize_with(threads, Worker::default);
         // worker `w` takes blocks w, w + T, w + 2T, ... of the points: neighbouring points
         // have similar rays, so every worker gets a fair share of long and short ones
-        let blocks: Vec<&[Point3<f32>]> = points.chunks(PARALLEL_BLOCK).collect();
+        let blocks: Vec<(usize, &[Point3<f32>])> = points
+            .chunks(PARALLEL_BLOCK)
+            .enumerate()
+            .map(|(i, c)| (i * PARALLEL_BLOCK, c))
+            .collect();
         use rayon::prelude::*;
         out.workers.par_iter_mut().enumerate().for_each(|(wi, w)| {
             w.free_set.clear();
             w.occ_set.clear();
             w.stats = ScanStats::default();
-            for pts in blocks.iter().skip(wi).step_by(threads) {
+            for &(at, pts) in blocks.iter().skip(wi).step_by(threads) {
+                let block_skips = skips.map(|(plan, pixels)| (plan, &pixels[at..at + pts.len()]));
                 add_points(
                     conv,
                     pts,
+                    block_skips,
                     origin,
                     origin_key,
                     m,
@@ -490,13 +669,16 @@ pub fn compute_update_with(
             stats.rays += w.stats.rays;
             stats.failed_rays += w.stats.failed_rays;
             stats.max_range_rays += w.stats.max_range_rays;
+            stats.heads_skipped += w.stats.heads_skipped;
         }
+        out.plan = plan;
         emit(out, &mut stats);
         return stats;
     }
     add_points(
         conv,
         points,
+        skips,
         origin,
         origin_key,
         m,
@@ -506,6 +688,7 @@ pub fn compute_update_with(
         &mut stats,
         model,
     );
+    out.plan = plan;
     finish(out, &mut stats);
     stats
 }

@@ -870,6 +870,7 @@ pub fn read_mcap(
             origin: (pose * Point3::origin()).cast::<f32>(),
             points,
             stamp: Some(cloud.stamp),
+            camera: None,
         });
         stats.push(st);
     }

@@ -13,8 +13,9 @@
 use super::compress::{open, LineReader};
 use super::error::{FormatError, Location};
 use super::vtk::{rigid_transform, unit_quaternion};
+use crate::frame::CameraPixels;
 use crate::Frame;
-use nalgebra::{Point3, UnitQuaternion, Vector3};
+use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
 
 /// Pinhole intrinsics of the depth camera, in pixels.
@@ -155,12 +156,30 @@ pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
 
 /// Back-project the valid pixels of `image` into the camera frame (`f64`), row by row.
 pub fn depth_to_points(image: &DepthImage, options: &TumOptions) -> Vec<Point3<f64>> {
+    depth_to_camera(image, options, Rotation3::identity()).0
+}
+
+/// [`depth_to_points`] with each point's pixel on the used grid (every `pixel_step`-th pixel),
+/// and that grid as a pinhole camera turned by `rotation`.
+fn depth_to_camera(
+    image: &DepthImage,
+    options: &TumOptions,
+    rotation: Rotation3<f64>,
+) -> (Vec<Point3<f64>>, CameraPixels) {
     let i = &options.intrinsics;
     let step = options.pixel_step.max(1) as usize;
     let w = image.width as usize;
     let mut points = Vec::new();
-    for (v, row) in image.data.chunks(w.max(1)).enumerate().step_by(step) {
-        for (u, &d) in row.iter().enumerate().step_by(step) {
+    let mut pixels = Vec::new();
+    let cols = w.div_ceil(step);
+    for (gv, (v, row)) in image
+        .data
+        .chunks(w.max(1))
+        .enumerate()
+        .step_by(step)
+        .enumerate()
+    {
+        for (gu, (u, &d)) in row.iter().enumerate().step_by(step).enumerate() {
             if d == 0 {
                 continue;
             }
@@ -168,21 +187,32 @@ pub fn depth_to_points(image: &DepthImage, options: &TumOptions) -> Vec<Point3<f
             let x = (u as f64 - i.cx) * z / i.fx;
             let y = (v as f64 - i.cy) * z / i.fy;
             points.push(Point3::new(x, y, z));
+            pixels.push((gv * cols + gu) as u32);
         }
     }
-    points
+    let k = step as f64;
+    let camera = CameraPixels {
+        width: cols as u32,
+        height: (image.height as usize).div_ceil(step) as u32,
+        fx: i.fx / k,
+        fy: i.fy / k,
+        cx: i.cx / k,
+        cy: i.cy / k,
+        rotation,
+        pixels,
+    };
+    (points, camera)
 }
 
 /// One depth PNG as a frame in the camera frame: origin (0, 0, 0), no pose.
 pub fn read_tum_depth(path: &Path, options: &TumOptions) -> Result<Vec<Frame>, FormatError> {
     options.check(path)?;
     let img = read_depth_png(path)?;
-    let points = depth_to_points(&img, options)
-        .into_iter()
-        .map(|p| p.cast::<f32>())
-        .collect();
+    let (points, camera) = depth_to_camera(&img, options, Rotation3::identity());
+    let points = points.into_iter().map(|p| p.cast::<f32>()).collect();
     let mut f = Frame::new(Point3::origin(), points);
     f.stamp = stamp_of(path);
+    f.camera = Some(camera);
     Ok(vec![f])
 }
 
@@ -276,12 +306,14 @@ pub fn read_tum_sequence(
     let mut frames = Vec::with_capacity(rows.len());
     for row in rows {
         let img = read_depth_png(&row.depth)?;
-        let points = depth_to_points(&img, options)
+        let (points, camera) = depth_to_camera(&img, options, row.rotation.to_rotation_matrix());
+        let points = points
             .iter()
             .map(|p| rigid_transform(&row.rotation, &row.translation, p))
             .collect();
         let mut f = Frame::new(row.translation.cast::<f32>().into(), points);
         f.stamp = stamp_of(&row.depth);
+        f.camera = Some(camera);
         frames.push(f);
     }
     Ok(frames)

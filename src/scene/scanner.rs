@@ -405,6 +405,7 @@ pub fn scan_terrestrial(
             origin: origin.cast::<f32>(),
             points,
             stamp: Some(60.0 * i as f64),
+            camera: None,
         });
         all_stats.push(stats);
     }
@@ -457,6 +458,7 @@ pub fn scan_lidar(
             origin: origin.cast::<f32>(),
             points,
             stamp: Some(i as f64 / lidar.rate_hz),
+            camera: None,
         });
         all_stats.push(stats);
     }
