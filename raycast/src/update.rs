@@ -481,9 +481,9 @@ fn skip_ray(
 }
 
 /// Record the length of every sampled ray of a depth-image frame in `plan` (0 for rays that
-/// will not be walked or do not point along their pixel), then finish the plan. A ray is
-/// walked (well-conditioned, see [`setup_with_keys`]) when both ends are in the map, in
-/// different voxels, and its `f32` length is finite and positive.
+/// will not be walked or do not point along their pixel), then finish the plan. The lengths
+/// are found on the rayon threads when `parallel`.
+#[allow(clippy::too_many_arguments)]
 fn sample_lengths(
     conv: &KeyConverter,
     plan: &mut SkipPlan,
@@ -492,35 +492,71 @@ fn sample_lengths(
     origin: &Point3<f32>,
     origin_key: Option<(Key, u64)>,
     max_range: f64,
+    parallel: bool,
 ) {
     let Some((okey, _)) = origin_key else {
         return;
     };
-    for (p, &pixel) in points.iter().zip(pixels) {
-        let Some(at) = plan.locate(pixel).filter(|&at| plan.sampled(at)) else {
-            continue;
-        };
-        let mut length = 0.0;
-        if is_finite(p) {
-            let diff = sub_f32(p, origin);
-            let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
-                *p
-            } else {
-                cut_at_range(origin, diff, max_range)
-            };
-            let d = sub_f32(&end, origin);
-            let l = norm_f32(d) as f32;
-            let walked = key_of(conv, &end).is_some_and(|k| k != okey)
-                && l.is_finite()
-                && l > 0.0
-                && plan.fits(at, d);
-            if walked {
-                length = l as f64;
-            }
+    let found = |ps: &[Point3<f32>], px: &[u32], plan: &SkipPlan| {
+        ps.iter()
+            .zip(px)
+            .filter_map(|(p, &pixel)| {
+                let at = plan.locate(pixel).filter(|&at| plan.sampled(at))?;
+                Some((at, sampled_length(conv, plan, at, p, origin, okey, max_range)))
+            })
+            .collect::<Vec<_>>()
+    };
+    if parallel {
+        use rayon::prelude::*;
+        let shares: Vec<Vec<_>> = points
+            .par_chunks(PARALLEL_BLOCK * 16)
+            .zip(pixels.par_chunks(PARALLEL_BLOCK * 16))
+            .map(|(ps, px)| found(ps, px, plan))
+            .collect();
+        for (at, length) in shares.into_iter().flatten() {
+            plan.record(at, length);
         }
-        plan.record(at, length);
+    } else {
+        for (at, length) in found(points, pixels, plan) {
+            plan.record(at, length);
+        }
     }
     plan.finish();
+}
+
+/// The length of the ray to `p` through the sampled pixel `at`, or 0 when it is not walked
+/// or does not point along the pixel. A ray is walked (well-conditioned, see
+/// [`setup_with_keys`]) when both ends are in the map, in different voxels, and its `f32`
+/// length is finite and positive.
+fn sampled_length(
+    conv: &KeyConverter,
+    plan: &SkipPlan,
+    at: (usize, usize),
+    p: &Point3<f32>,
+    origin: &Point3<f32>,
+    okey: Key,
+    max_range: f64,
+) -> f64 {
+    if !is_finite(p) {
+        return 0.0;
+    }
+    let diff = sub_f32(p, origin);
+    let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
+        *p
+    } else {
+        cut_at_range(origin, diff, max_range)
+    };
+    let d = sub_f32(&end, origin);
+    let l = norm_f32(d) as f32;
+    let walked = key_of(conv, &end).is_some_and(|k| k != okey)
+        && l.is_finite()
+        && l > 0.0
+        && plan.fits(at, d);
+    if walked {
+        l as f64
+    } else {
+        0.0
+    }
 }
 
 #[inline]
@@ -609,19 +645,20 @@ fn compute(
     let m = max_range.unwrap_or(-1.0);
     let origin_key = key_of(conv, origin).map(coded);
     let mut plan = std::mem::take(&mut out.plan);
+    let threads = rayon::current_num_threads();
+    let parallel = threads > 1 && points.len() >= PARALLEL_MIN_POINTS;
     let skips: Skips<'_> = match grid {
         Some(g)
             if model == RayModel::Dda
                 && origin_key.is_some()
                 && plan.prepare(g, points.len(), conv.resolution()) =>
         {
-            sample_lengths(conv, &mut plan, points, g.pixels, origin, origin_key, m);
+            sample_lengths(conv, &mut plan, points, g.pixels, origin, origin_key, m, parallel);
             Some((&plan, g.pixels))
         }
         _ => None,
     };
-    let threads = rayon::current_num_threads();
-    if threads > 1 && points.len() >= PARALLEL_MIN_POINTS {
+    if parallel {
         // each thread casts a contiguous share of the rays into its own sets; the union is
         // the same set whatever the split, so the output does not depend on the thread count
         out.workers.resize_with(threads, Worker::default);
