@@ -502,7 +502,10 @@ fn sample_lengths(
             .zip(px)
             .filter_map(|(p, &pixel)| {
                 let at = plan.locate(pixel).filter(|&at| plan.sampled(at))?;
-                Some((at, sampled_length(conv, plan, at, p, origin, okey, max_range)))
+                Some((
+                    at,
+                    sampled_length(conv, plan, at, p, origin, okey, max_range),
+                ))
             })
             .collect::<Vec<_>>()
     };
@@ -653,7 +656,9 @@ fn compute(
                 && origin_key.is_some()
                 && plan.prepare(g, points.len(), conv.resolution()) =>
         {
-            sample_lengths(conv, &mut plan, points, g.pixels, origin, origin_key, m, parallel);
+            sample_lengths(
+                conv, &mut plan, points, g.pixels, origin, origin_key, m, parallel,
+            );
             Some((&plan, g.pixels))
         }
         _ => None,
