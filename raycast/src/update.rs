@@ -206,6 +206,14 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
     )
 }
 
+/// The cut end of the ray `origin -> origin + diff` when it is longer than `max_range`
+/// (negative: no limit), `None` when it keeps its end point.
+#[inline(always)]
+fn beyond_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64) -> Option<Point3<f32>> {
+    let within = max_range < 0.0 || norm_f32(diff) <= max_range;
+    (!within).then(|| cut_at_range(origin, diff, max_range))
+}
+
 /// Walk one ray and add its keys to `set`. Returns whether the ray could be computed; the keys
 /// of a degenerate ray (see [`RayWalk::Degenerate`]) are dropped, as OctoMap gets no ray.
 ///
@@ -391,15 +399,17 @@ fn add_points(
         if hit.is_none() {
             stats.outside_map += 1;
         }
-        let (end, end_key) = if max_range < 0.0 || norm_f32(diff) <= max_range {
-            if let Some((_, code)) = hit {
-                occ_set.insert(code);
+        let (end, end_key) = match beyond_range(origin, diff, max_range) {
+            None => {
+                if let Some((_, code)) = hit {
+                    occ_set.insert(code);
+                }
+                (*p, hit)
             }
-            (*p, hit)
-        } else {
-            stats.max_range_rays += 1;
-            let e = cut_at_range(origin, diff, max_range);
-            (e, key_of(conv, &e).map(coded))
+            Some(e) => {
+                stats.max_range_rays += 1;
+                (e, key_of(conv, &e).map(coded))
+            }
         };
         if let Some((plan, pixels)) = skips {
             if skip_ray(
@@ -543,12 +553,7 @@ fn sampled_length(
     if !is_finite(p) {
         return 0.0;
     }
-    let diff = sub_f32(p, origin);
-    let end = if max_range < 0.0 || norm_f32(diff) <= max_range {
-        *p
-    } else {
-        cut_at_range(origin, diff, max_range)
-    };
+    let end = beyond_range(origin, sub_f32(p, origin), max_range).unwrap_or(*p);
     let d = sub_f32(&end, origin);
     let l = norm_f32(d) as f32;
     let walked = key_of(conv, &end).is_some_and(|k| k != okey)
