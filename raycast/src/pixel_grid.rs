@@ -74,8 +74,9 @@ pub struct PixelGrid<'a> {
     pub pixels: &'a [u32],
 }
 
-/// Pixels between the rays walked whole, in u and in v.
-const SAMPLE: usize = 4;
+/// Pixels between the rays walked whole, in u and in v: `1 << SAMPLE_SHIFT`.
+const SAMPLE_SHIFT: u32 = 2;
+const SAMPLE: usize = 1 << SAMPLE_SHIFT;
 /// Largest angle (radians) between a point's direction and its pixel's for the point to count
 /// as measured through that pixel.
 const DIRECTION_TOL: f64 = 1e-4;
@@ -88,7 +89,9 @@ const MIN_HEAD_VOXELS: f64 = 3.0;
 /// the odd pixels, with a window a quarter the size.
 #[derive(Debug, Clone, Default)]
 struct Level {
-    spacing: usize,
+    /// The spacing is `1 << shift` pixels (a power of two, so a pixel's block is found with
+    /// shifts, not divisions).
+    shift: u32,
     /// Blocks (sampled pixels) per row and per column.
     blocks_w: usize,
     blocks_h: usize,
@@ -105,9 +108,10 @@ struct Level {
 }
 
 impl Level {
-    /// The geometry of the level with `spacing` for `grid` at resolution `res`; `None` when
-    /// the argument does not hold for it.
-    fn new(spacing: usize, grid: &PixelGrid<'_>, res: f64, margin: f64) -> Option<Level> {
+    /// The geometry of the level with spacing `1 << shift` for `grid` at resolution `res`;
+    /// `None` when the argument does not hold for it.
+    fn new(shift: u32, grid: &PixelGrid<'_>, res: f64, margin: f64) -> Option<Level> {
+        let spacing = 1usize << shift;
         let (w, h) = (grid.width as usize, grid.height as usize);
         let half = spacing as f64 / 2.0;
         let net = ((half / grid.fx).powi(2) + (half / grid.fy).powi(2)).sqrt() + DIRECTION_TOL;
@@ -129,7 +133,7 @@ impl Level {
         let s = spacing as f64;
         let (blocks_w, blocks_h) = (w.div_ceil(spacing), h.div_ceil(spacing));
         Some(Level {
-            spacing,
+            shift,
             blocks_w,
             blocks_h,
             block_min: Vec::new(),
@@ -146,8 +150,8 @@ impl Level {
     /// The block of the pixel at `(u, v)`, when it is one of this level's sampled pixels.
     #[inline]
     fn sampled(&self, (u, v): (usize, usize)) -> Option<usize> {
-        let s = self.spacing;
-        (u % s == 0 && v % s == 0).then(|| (v / s) * self.blocks_w + u / s)
+        let (k, low) = (self.shift, (1 << self.shift) - 1);
+        ((u | v) & low == 0).then(|| (v >> k) * self.blocks_w + (u >> k))
     }
 
     /// After every sampled ray is recorded: the shortest length within each block's window
@@ -237,8 +241,8 @@ impl SkipPlan {
         }
         let margin = res / 50.0;
         let (Some(coarse), Some(fine)) = (
-            Level::new(SAMPLE, grid, res, margin),
-            Level::new(SAMPLE / 2, grid, res, margin),
+            Level::new(SAMPLE_SHIFT, grid, res, margin),
+            Level::new(SAMPLE_SHIFT - 1, grid, res, margin),
         ) else {
             return false;
         };
@@ -330,8 +334,8 @@ impl SkipPlan {
         if u < b || v < b || u + b >= self.width || v + b >= self.height {
             return None;
         }
-        let s = level.spacing;
-        let cover = level.block_min[(v / s) * level.blocks_w + u / s];
+        let k = level.shift;
+        let cover = level.block_min[(v >> k) * level.blocks_w + (u >> k)];
         let t = (cover - self.cover_margin)
             .min(level.head_limit)
             .min(length - self.end_margin);

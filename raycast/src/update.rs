@@ -672,19 +672,24 @@ fn compute(
         // each thread casts a contiguous share of the rays into its own sets; the union is
         // the same set whatever the split, so the output does not depend on the thread count
         out.workers.resize_with(threads, Worker::default);
-        // worker `w` takes blocks w, w + T, w + 2T, ... of the points: neighbouring points
-        // have similar rays, so every worker gets a fair share of long and short ones
-        let blocks: Vec<(usize, &[Point3<f32>])> = points
-            .chunks(PARALLEL_BLOCK)
-            .enumerate()
-            .map(|(i, c)| (i * PARALLEL_BLOCK, c))
-            .collect();
+        // the workers take the blocks of points in turn, each the next one not yet taken:
+        // a worker that starts late or meets long rays takes fewer, so none waits for
+        // another at the end (which worker took a block does not change the union)
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let take = || {
+            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let at = i.checked_mul(PARALLEL_BLOCK)?;
+            points
+                .get(at..)
+                .filter(|rest| !rest.is_empty())
+                .map(|rest| (at, &rest[..rest.len().min(PARALLEL_BLOCK)]))
+        };
         use rayon::prelude::*;
-        out.workers.par_iter_mut().enumerate().for_each(|(wi, w)| {
+        out.workers.par_iter_mut().for_each(|w| {
             w.free_set.clear();
             w.occ_set.clear();
             w.stats = ScanStats::default();
-            for &(at, pts) in blocks.iter().skip(wi).step_by(threads) {
+            while let Some((at, pts)) = take() {
                 let block_skips = skips.map(|(plan, pixels)| (plan, &pixels[at..at + pts.len()]));
                 add_points(
                     conv,
