@@ -59,6 +59,7 @@ mod lanes_avx2;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx512;
 mod pixel_grid;
+mod setups;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;

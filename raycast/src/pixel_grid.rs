@@ -299,48 +299,70 @@ impl SkipPlan {
     }
 
     /// Whether `diff` (end minus origin) points along the ray of the pixel at `(u, v)`, within
-    /// the tolerance. In `f32`: its rounding (about 1e-7 radians) stays far inside the tenth
-    /// of the tolerance kept as margin.
+    /// the tolerance (see [`fits_dir`]).
     #[inline]
     pub(crate) fn fits(&self, (u, v): (usize, usize), diff: [f32; 3]) -> bool {
-        let (a, b) = (self.col[u], self.row[v]);
-        let [x, y, z] = self.axes;
-        let w = [0, 1, 2].map(|i| x[i] * a + y[i] * b + z[i]);
-        let d = diff;
-        let along = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
-        let c = [
-            d[1] * w[2] - d[2] * w[1],
-            d[2] * w[0] - d[0] * w[2],
-            d[0] * w[1] - d[1] * w[0],
-        ];
-        let across = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
-        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-        let tol = (0.9 * DIRECTION_TOL) as f32;
-        along > 0.0 && across <= tol * tol * dd * ww
+        fits_dir(&self.axes, self.col[u], self.row[v], diff)
     }
 
-    /// The time up to which the ray through the pixel at `(u, v)`, of DDA length `length`,
-    /// may skip, or `None` when it is to be walked whole: pixels of the coarse level always,
-    /// the other even pixels by the coarse level's windows, the odd ones by the fine level's.
-    /// Its direction must still be checked with [`SkipPlan::fits`].
+    /// What the ray through the pixel at `(u, v)` may skip before its own length is taken
+    /// into account, with the pixel's direction factors `(u − cx)/fx` and `(v − cy)/fy`, or
+    /// `None` when it is to be walked whole: pixels of the coarse level always, the other even
+    /// pixels by the coarse level's windows, the odd ones by the fine level's. The time is
+    /// then capped by the ray's length ([`SkipPlan::end_margin`]), checked against
+    /// [`SkipPlan::min_head`], and the direction is checked with [`fits_dir`].
     #[inline]
-    pub(crate) fn head(&self, (u, v): (usize, usize), length: f64) -> Option<f64> {
-        if u % SAMPLE == 0 && v % SAMPLE == 0 {
+    pub(crate) fn cap(&self, (u, v): (usize, usize)) -> Option<(f64, f32, f32)> {
+        if (u | v) & (SAMPLE - 1) == 0 {
             return None;
         }
-        let level = &self.levels[(u % 2 == 1 || v % 2 == 1) as usize];
+        let level = &self.levels[(u | v) & 1];
         let b = level.border;
         if u < b || v < b || u + b >= self.width || v + b >= self.height {
             return None;
         }
         let k = level.shift;
         let cover = level.block_min[(v >> k) * level.blocks_w + (u >> k)];
-        let t = (cover - self.cover_margin)
-            .min(level.head_limit)
-            .min(length - self.end_margin);
-        (t >= self.min_head).then_some(t)
+        let t = (cover - self.cover_margin).min(level.head_limit);
+        Some((t, self.col[u], self.row[v]))
     }
+
+    /// A ray skips nothing closer than this to its own end (its length).
+    pub(crate) fn end_margin(&self) -> f64 {
+        self.end_margin
+    }
+
+    /// The shortest head worth skipping.
+    pub(crate) fn min_head(&self) -> f64 {
+        self.min_head
+    }
+
+    /// The camera rotation's columns, for [`fits_dir`].
+    pub(crate) fn axes(&self) -> [[f32; 3]; 3] {
+        self.axes
+    }
+}
+
+/// Whether `diff` (end minus origin) points along the ray of the pixel whose direction factors
+/// are `a = (u − cx)/fx` and `b = (v − cy)/fy` under the rotation with columns `axes`, within
+/// the tolerance. In `f32`: its rounding (about 1e-7 radians) stays far inside the tenth of
+/// the tolerance kept as margin. Branch-free, so that it vectorises (see [`crate::setups`]).
+#[inline(always)]
+pub(crate) fn fits_dir(axes: &[[f32; 3]; 3], a: f32, b: f32, diff: [f32; 3]) -> bool {
+    let [x, y, z] = axes;
+    let w = [0, 1, 2].map(|i| x[i] * a + y[i] * b + z[i]);
+    let d = diff;
+    let along = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
+    let c = [
+        d[1] * w[2] - d[2] * w[1],
+        d[2] * w[0] - d[0] * w[2],
+        d[0] * w[1] - d[1] * w[0],
+    ];
+    let across = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    let tol = (0.9 * DIRECTION_TOL) as f32;
+    (along > 0.0) & (across <= tol * tol * dd * ww)
 }
 
 /// The 27 voxels around the origin voxel, as bits `9·(dz+1) + 3·(dy+1) + (dx+1)`.

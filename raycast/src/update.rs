@@ -10,10 +10,9 @@
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{
-    coded, key_of, norm_f32, setup_with_keys, sub_f32, walk_ray_codes, RaySetup, RayWalk,
-};
+use crate::dda::{coded, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
+use crate::setups::{set_up, Pending, Setups, Shared};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 use std::sync::OnceLock;
@@ -153,6 +152,9 @@ struct RayScratch {
     tails: Vec<(RaySetup, f64)>,
     /// The buffers of the lane walks.
     lanes: crate::lanes::LaneScratch,
+    /// DDA rays waiting for their set-ups, and the set-ups.
+    pending: Pending,
+    setups: Setups,
     /// Queued walks that degenerated since the counts were last taken.
     degenerate: usize,
     /// Voxels of the 3x3x3 block around the origin voxel crossed by the skipped heads of
@@ -214,47 +216,37 @@ fn beyond_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64) -> Option<
     (!within).then(|| cut_at_range(origin, diff, max_range))
 }
 
-/// Walk one ray and add its keys to `set`. Returns whether the ray could be computed; the keys
-/// of a degenerate ray (see [`RayWalk::Degenerate`]) are dropped, as OctoMap gets no ray.
-///
-/// Well-conditioned DDA rays are not walked here but queued in `scratch.batch`, counted as
-/// computed (they cannot degenerate), and walked by [`walk_batch`]. `end_key` is
-/// `key_of(conv, end)`, which the caller has computed already.
-#[allow(clippy::too_many_arguments)]
-fn push_ray(
-    conv: &KeyConverter,
-    origin: &Point3<f32>,
+/// Queue the Bresenham line between the keys of `origin` and `end` (both in the map, else
+/// `false`: the ray fails, as a DDA ray would); lines are walked [`RAY_BATCH`] at a time.
+fn push_line(
     origin_key: Option<(Key, u64)>,
-    end: &Point3<f32>,
     end_key: Option<(Key, u64)>,
     set: &mut BrickSet,
     scratch: &mut RayScratch,
-    model: RayModel,
 ) -> bool {
-    if model == RayModel::Bresenham {
-        let (Some((a, _)), Some((b, _))) = (origin_key, end_key) else {
-            return false;
-        };
-        if a != b {
-            scratch.lines.push((a, b));
-            if scratch.lines.len() >= RAY_BATCH {
-                walk_lines(set, scratch);
-            }
+    let (Some((a, _)), Some((b, _))) = (origin_key, end_key) else {
+        return false;
+    };
+    if a != b {
+        scratch.lines.push((a, b));
+        if scratch.lines.len() >= RAY_BATCH {
+            walk_lines(set, scratch);
         }
-        return true;
     }
-    match setup_with_keys(conv, origin, origin_key, end, end_key) {
-        Err(walk) => return walk == RayWalk::SameVoxel,
-        Ok(r) if r.well_conditioned => {
-            scratch.batch.push(r);
-            if scratch.batch.len() >= RAY_BATCH {
-                walk_batch(set, scratch);
-            }
-            return true;
-        }
-        Ok(_) => {}
-    }
-    // the rare others are buffered so that a degenerate walk can be dropped whole
+    true
+}
+
+/// Walk the ray `origin -> end` one voxel at a time into a buffer and add its keys to `set`
+/// when it completes: the path of the rare rays that are not well-conditioned (see
+/// [`RaySetup`]), whose keys are dropped whole if the walk degenerates, as OctoMap gets no
+/// ray. Returns whether the ray could be computed.
+fn walk_buffered(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    set: &mut BrickSet,
+    scratch: &mut RayScratch,
+) -> bool {
     let codes = &mut scratch.codes;
     codes.clear();
     let walk = walk_ray_codes(conv, origin, end, |c| {
@@ -273,6 +265,44 @@ fn push_ray(
         }
         RayWalk::OutsideMap | RayWalk::Stopped | RayWalk::Degenerate => false,
     }
+}
+
+/// Set up the pending DDA rays together ([`crate::setups`]) and queue each: the rays that
+/// skip their heads in `ray.tails`, the other well-conditioned ones in `ray.batch`; the rest
+/// are walked at once ([`walk_buffered`]). Counts them and empties the pending columns.
+fn flush_pending(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    origin_key: (Key, u64),
+    shared: &Shared,
+    set: &mut BrickSet,
+    ray: &mut RayScratch,
+    stats: &mut ScanStats,
+) {
+    set_up(&ray.pending, shared, &mut ray.setups);
+    for i in 0..ray.pending.len() {
+        let r = ray.pending.ray(&ray.setups, i, origin_key);
+        if let Some(t) = ray.setups.head(i) {
+            stats.rays += 1;
+            stats.heads_skipped += 1;
+            ray.tails.push((r, t));
+            if ray.tails.len() >= RAY_BATCH {
+                walk_tails(set, ray);
+            }
+        } else if r.well_conditioned {
+            // well-conditioned walks cannot degenerate: counted as computed now
+            stats.rays += 1;
+            ray.batch.push(r);
+            if ray.batch.len() >= RAY_BATCH {
+                walk_batch(set, ray);
+            }
+        } else if walk_buffered(conv, origin, &ray.pending.end(i), set, ray) {
+            stats.rays += 1;
+        } else {
+            stats.failed_rays += 1;
+        }
+    }
+    ray.pending.clear();
 }
 
 /// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
@@ -389,6 +419,7 @@ fn add_points(
     model: RayModel,
 ) {
     let skips = skips.filter(|_| model == RayModel::Dda);
+    let shared = origin_key.map(|(k, _)| Shared::new(conv, origin, k, skips.map(|s| s.0)));
     for (i, p) in points.iter().enumerate() {
         if !is_finite(p) {
             stats.non_finite += 1;
@@ -411,21 +442,36 @@ fn add_points(
                 (e, key_of(conv, &e).map(coded))
             }
         };
+        if model == RayModel::Bresenham {
+            match push_line(origin_key, end_key, free_set, ray) {
+                true => stats.rays += 1,
+                false => stats.failed_rays += 1,
+            }
+            continue;
+        }
+        // OctoMap's checks before its loop: both ends in the map (else no ray), in different
+        // voxels (else a ray without keys)
+        let (Some(okey), Some(ekey), Some(shared)) = (origin_key, end_key, shared.as_ref()) else {
+            stats.failed_rays += 1;
+            continue;
+        };
+        if okey.0 == ekey.0 {
+            stats.rays += 1;
+            continue;
+        }
+        ray.pending.push(&end, ekey);
         if let Some((plan, pixels)) = skips {
-            if skip_ray(
-                conv, plan, pixels[i], origin, origin_key, &end, end_key, free_set, ray,
-            ) {
-                stats.rays += 1;
-                stats.heads_skipped += 1;
-                continue;
+            if let Some((cap, col, row)) = plan.locate(pixels[i]).and_then(|at| plan.cap(at)) {
+                ray.pending.may_skip(cap, col, row);
             }
         }
-        if push_ray(
-            conv, origin, origin_key, &end, end_key, free_set, ray, model,
-        ) {
-            stats.rays += 1;
-        } else {
-            stats.failed_rays += 1;
+        if ray.pending.is_full() {
+            flush_pending(conv, origin, okey, shared, free_set, ray, stats);
+        }
+    }
+    if let (Some(okey), Some(shared)) = (origin_key, shared.as_ref()) {
+        if ray.pending.len() > 0 {
+            flush_pending(conv, origin, okey, shared, free_set, ray, stats);
         }
     }
     if !ray.tails.is_empty() {
@@ -449,45 +495,6 @@ fn add_points(
     stats.rays -= ray.degenerate;
     stats.failed_rays += ray.degenerate;
     ray.degenerate = 0;
-}
-
-/// Queue the tail of the ray `origin -> end` through `pixel` when its head may be skipped
-/// (see [`crate::pixel_grid`]), collecting its steps near the origin in `ray.near`; `false`
-/// when the ray is to be walked whole.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn skip_ray(
-    conv: &KeyConverter,
-    plan: &SkipPlan,
-    pixel: u32,
-    origin: &Point3<f32>,
-    origin_key: Option<(Key, u64)>,
-    end: &Point3<f32>,
-    end_key: Option<(Key, u64)>,
-    set: &mut BrickSet,
-    ray: &mut RayScratch,
-) -> bool {
-    let Some(at) = plan.locate(pixel) else {
-        return false;
-    };
-    let diff = sub_f32(end, origin);
-    let Some(t) = plan.head(at, norm_f32(diff) as f32 as f64) else {
-        return false;
-    };
-    if !plan.fits(at, diff) {
-        return false;
-    }
-    let Ok(r) = setup_with_keys(conv, origin, origin_key, end, end_key) else {
-        return false;
-    };
-    if !r.well_conditioned {
-        return false;
-    }
-    ray.tails.push((r, t));
-    if ray.tails.len() >= RAY_BATCH {
-        walk_tails(set, ray);
-    }
-    true
 }
 
 /// Record the length of every sampled ray of a depth-image frame in `plan` (0 for rays that
