@@ -298,13 +298,6 @@ impl SkipPlan {
         }
     }
 
-    /// Whether `diff` (end minus origin) points along the ray of the pixel at `(u, v)`, within
-    /// the tolerance (see [`fits_dir`]).
-    #[inline]
-    pub(crate) fn fits(&self, (u, v): (usize, usize), diff: [f32; 3]) -> bool {
-        fits_dir(&self.axes, self.col[u], self.row[v], diff)
-    }
-
     /// What the ray through the pixel at `(u, v)` may skip before its own length is taken
     /// into account, with the pixel's direction factors `(u − cx)/fx` and `(v − cy)/fy`, or
     /// `None` when it is to be walked whole: pixels of the coarse level always, the other even
@@ -324,7 +317,15 @@ impl SkipPlan {
         let k = level.shift;
         let cover = level.block_min[(v >> k) * level.blocks_w + (u >> k)];
         let t = (cover - self.cover_margin).min(level.head_limit);
-        Some((t, self.col[u], self.row[v]))
+        let (a, b) = self.factors((u, v));
+        Some((t, a, b))
+    }
+
+    /// The direction factors `(u − cx)/fx` and `(v − cy)/fy` of the pixel at `(u, v)`, for
+    /// [`fits_dir`].
+    #[inline]
+    pub(crate) fn factors(&self, (u, v): (usize, usize)) -> (f32, f32) {
+        (self.col[u], self.row[v])
     }
 
     /// A ray skips nothing closer than this to its own end (its length).

@@ -62,6 +62,8 @@ pub(crate) struct Setups {
     /// The head's time, when the ray skips it.
     head: [f64; PENDING],
     skips: [bool; PENDING],
+    /// The ray points along its pixel ([`fits_dir`]).
+    fits: [bool; PENDING],
 }
 
 impl Default for Setups {
@@ -74,6 +76,7 @@ impl Default for Setups {
             well_conditioned: [false; PENDING],
             head: [0.0; PENDING],
             skips: [false; PENDING],
+            fits: [false; PENDING],
         }
     }
 }
@@ -156,6 +159,18 @@ impl Setups {
     #[inline]
     pub(crate) fn head(&self, i: usize) -> Option<f64> {
         self.skips[i].then_some(self.head[i])
+    }
+
+    /// The length of pending ray `i` when it is well-conditioned (so surely walked, whole or
+    /// from its head's end) and points along its pixel, else 0: what a sampled ray of
+    /// [`crate::pixel_grid`] contributes to its windows.
+    #[inline]
+    pub(crate) fn walked_length(&self, i: usize) -> f64 {
+        if self.well_conditioned[i] && self.fits[i] {
+            self.length[i] as f64
+        } else {
+            0.0
+        }
     }
 }
 
@@ -248,11 +263,13 @@ fn set_up_lanes(p: &Pending, s: &Shared, out: &mut Setups) {
         }
         out.length[i] = length;
         out.well_conditioned[i] = well;
-        // `SkipPlan::head` after its window look-up, and `SkipPlan::fits`
+        // what `SkipPlan::cap` leaves to the ray: its own length, the shortest head, and the
+        // direction check
         let t = p.cap[i].min(length as f64 - s.end_margin);
         let fits = fits_dir(&s.axes, p.col[i], p.row[i], d);
         out.head[i] = t;
         out.skips[i] = (t >= s.min_head) & fits & well;
+        out.fits[i] = fits;
     }
 }
 

@@ -12,7 +12,7 @@
 use crate::brickset::{push_brick_keys, BrickSet};
 use crate::dda::{coded, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
-use crate::setups::{set_up, Pending, Setups, Shared};
+use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 use std::sync::OnceLock;
@@ -498,8 +498,12 @@ fn add_points(
 }
 
 /// Record the length of every sampled ray of a depth-image frame in `plan` (0 for rays that
-/// will not be walked or do not point along their pixel), then finish the plan. The lengths
-/// are found on the rayon threads when `parallel`.
+/// will not surely be walked or do not point along their pixel), then finish the plan. The
+/// lengths are found on the rayon threads when `parallel`.
+///
+/// A sampled ray counts when it is queued as a lane walk by [`add_points`]: both ends in the
+/// map, in different voxels, and well-conditioned ([`RaySetup`]), so that its voxels are all
+/// in the union (whole, or its head covered by the coarser level and its tail walked).
 #[allow(clippy::too_many_arguments)]
 fn sample_lengths(
     conv: &KeyConverter,
@@ -515,16 +519,39 @@ fn sample_lengths(
         return;
     };
     let found = |ps: &[Point3<f32>], px: &[u32], plan: &SkipPlan| {
-        ps.iter()
-            .zip(px)
-            .filter_map(|(p, &pixel)| {
-                let at = plan.locate(pixel).filter(|&at| plan.sampled(at))?;
-                Some((
-                    at,
-                    sampled_length(conv, plan, at, p, origin, okey, max_range),
-                ))
-            })
-            .collect::<Vec<_>>()
+        // the sampled rays' lengths and direction checks are found with their set-ups, in
+        // columns (see [`crate::setups`]); the other checks are made here
+        let shared = Shared::new(conv, origin, okey, Some(plan));
+        let (mut pending, mut out) = (Pending::default(), Setups::default());
+        let mut ats = [(0, 0); PENDING];
+        let mut found = Vec::new();
+        let mut flush = |pending: &mut Pending, ats: &[(usize, usize)], found: &mut Vec<_>| {
+            set_up(pending, &shared, &mut out);
+            found.extend((0..pending.len()).map(|i| (ats[i], out.walked_length(i))));
+            pending.clear();
+        };
+        for (p, &pixel) in ps.iter().zip(px) {
+            let Some(at) = plan.locate(pixel).filter(|&at| plan.sampled(at)) else {
+                continue;
+            };
+            // not walked: not finite, an end outside the map or in the origin's voxel
+            let end = is_finite(p)
+                .then(|| beyond_range(origin, sub_f32(p, origin), max_range).unwrap_or(*p));
+            let key = end.and_then(|e| key_of(conv, &e)).filter(|&k| k != okey);
+            let (Some(end), Some(key)) = (end, key) else {
+                found.push((at, 0.0));
+                continue;
+            };
+            ats[pending.len()] = at;
+            pending.push(&end, (key, 0));
+            let (a, b) = plan.factors(at);
+            pending.may_skip(f64::INFINITY, a, b);
+            if pending.is_full() {
+                flush(&mut pending, &ats, &mut found);
+            }
+        }
+        flush(&mut pending, &ats, &mut found);
+        found
     };
     if parallel {
         use rayon::prelude::*;
@@ -542,36 +569,6 @@ fn sample_lengths(
         }
     }
     plan.finish();
-}
-
-/// The length of the ray to `p` through the sampled pixel `at`, or 0 when it is not walked
-/// or does not point along the pixel. A ray is walked (well-conditioned, see
-/// [`setup_with_keys`]) when both ends are in the map, in different voxels, and its `f32`
-/// length is finite and positive.
-fn sampled_length(
-    conv: &KeyConverter,
-    plan: &SkipPlan,
-    at: (usize, usize),
-    p: &Point3<f32>,
-    origin: &Point3<f32>,
-    okey: Key,
-    max_range: f64,
-) -> f64 {
-    if !is_finite(p) {
-        return 0.0;
-    }
-    let end = beyond_range(origin, sub_f32(p, origin), max_range).unwrap_or(*p);
-    let d = sub_f32(&end, origin);
-    let l = norm_f32(d) as f32;
-    let walked = key_of(conv, &end).is_some_and(|k| k != okey)
-        && l.is_finite()
-        && l > 0.0
-        && plan.fits(at, d);
-    if walked {
-        l as f64
-    } else {
-        0.0
-    }
 }
 
 #[inline]
