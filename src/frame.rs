@@ -1,7 +1,7 @@
 //! A frame: one scan's sensor origin and end points, in world coordinates.
 
-use nalgebra::{Point3, Rotation3};
-use octoquant_raycast::PixelGrid;
+use nalgebra::Point3;
+use octoquant_raycast::{PinholeCamera, PixelGrid};
 
 /// One scan ready for insertion: every ray starts at `origin` and ends at one of `points`.
 ///
@@ -23,22 +23,10 @@ pub struct Frame {
 
 /// Where a depth image frame's points were measured: a pinhole camera and each point's pixel
 /// (see [`PixelGrid`]).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CameraPixels {
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
-    /// Focal lengths and principal point, in pixels.
-    pub fx: f64,
-    /// See `fx`.
-    pub fy: f64,
-    /// See `fx`.
-    pub cx: f64,
-    /// See `fx`.
-    pub cy: f64,
-    /// Camera orientation in the world.
-    pub rotation: Rotation3<f64>,
+    /// The camera.
+    pub camera: PinholeCamera,
     /// The pixel `v·width + u` of each point, in point order.
     pub pixels: Vec<u32>,
 }
@@ -47,13 +35,7 @@ impl CameraPixels {
     /// The grid as the ray caster takes it.
     pub fn grid(&self) -> PixelGrid<'_> {
         PixelGrid {
-            width: self.width,
-            height: self.height,
-            fx: self.fx,
-            fy: self.fy,
-            cx: self.cx,
-            cy: self.cy,
-            rotation: self.rotation,
+            camera: self.camera,
             pixels: &self.pixels,
         }
     }

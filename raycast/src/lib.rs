@@ -71,7 +71,7 @@ pub use insert::{
     apply_update, insert_point_cloud, insert_point_cloud_rays, insert_point_cloud_reusing,
     InsertOptions, InsertStats,
 };
-pub use pixel_grid::PixelGrid;
+pub use pixel_grid::{PinholeCamera, PixelGrid};
 pub use update::{
     compute_discrete_update, compute_update, compute_update_grid, compute_update_with, discretize,
     RayModel, ScanStats, ScanUpdate,

@@ -49,12 +49,10 @@ const REPLAY_RAYS: usize = 16;
 use nalgebra::Rotation3;
 use octoquant_octree::Key;
 
-/// How the points of a frame lie on a pinhole camera's pixel grid, for
-/// [`crate::compute_update_grid`]: point `i` was measured through pixel `pixels[i]`
-/// (`v·width + u`). Wrong information costs speed, never exactness: points whose direction
-/// from the origin does not match their pixel are walked whole.
-#[derive(Debug, Clone, Copy)]
-pub struct PixelGrid<'a> {
+/// A pinhole depth camera: its image size, intrinsics and orientation in the map. A pixel
+/// `(u, v)` looks along the map direction `rotation · ((u − cx)/fx, (v − cy)/fy, 1)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PinholeCamera {
     /// Pixels per row.
     pub width: u32,
     /// Rows.
@@ -67,9 +65,18 @@ pub struct PixelGrid<'a> {
     pub cx: f64,
     /// Principal point, v.
     pub cy: f64,
-    /// The camera's orientation in the map: a pixel's ray has the map direction
-    /// `rotation · ((u − cx)/fx, (v − cy)/fy, 1)`.
+    /// The camera's orientation in the map.
     pub rotation: Rotation3<f64>,
+}
+
+/// How the points of a frame lie on a pinhole camera's pixel grid, for
+/// [`crate::compute_update_grid`]: point `i` was measured through pixel `pixels[i]`
+/// (`v·width + u`). Wrong information costs speed, never exactness: points whose direction
+/// from the origin does not match their pixel are walked whole.
+#[derive(Debug, Clone, Copy)]
+pub struct PixelGrid<'a> {
+    /// The camera that measured the points.
+    pub camera: PinholeCamera,
     /// The pixel of each point, `v·width + u`, in point order.
     pub pixels: &'a [u32],
 }
@@ -110,7 +117,7 @@ struct Level {
 impl Level {
     /// The geometry of the level with spacing `1 << shift` for `grid` at resolution `res`;
     /// `None` when the argument does not hold for it.
-    fn new(shift: u32, grid: &PixelGrid<'_>, res: f64, margin: f64) -> Option<Level> {
+    fn new(shift: u32, grid: &PinholeCamera, res: f64, margin: f64) -> Option<Level> {
         let spacing = 1usize << shift;
         let (w, h) = (grid.width as usize, grid.height as usize);
         let half = spacing as f64 / 2.0;
@@ -228,7 +235,8 @@ pub(crate) struct SkipPlan {
 impl SkipPlan {
     /// Set up the window geometry for `grid` at resolution `res`; `false` (nothing to skip)
     /// when the grid is unusable or too coarse for the argument.
-    pub(crate) fn prepare(&mut self, grid: &PixelGrid<'_>, points: usize, res: f64) -> bool {
+    pub(crate) fn prepare(&mut self, pixels: &PixelGrid<'_>, points: usize, res: f64) -> bool {
+        let grid = &pixels.camera;
         let (w, h) = (grid.width as usize, grid.height as usize);
         let finite = [grid.fx, grid.fy, grid.cx, grid.cy]
             .iter()
@@ -236,7 +244,7 @@ impl SkipPlan {
         if !finite || grid.fx <= 0.0 || grid.fy <= 0.0 || w < SAMPLE || h < SAMPLE {
             return false;
         }
-        if grid.pixels.len() != points || w.checked_mul(h).is_none_or(|n| n > u32::MAX as usize) {
+        if pixels.pixels.len() != points || w.checked_mul(h).is_none_or(|n| n > u32::MAX as usize) {
             return false;
         }
         let margin = res / 50.0;

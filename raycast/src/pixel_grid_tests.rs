@@ -198,13 +198,15 @@ fn scene(p: &SceneParams, res: f64) -> Scene {
 impl Scene {
     fn grid(&self) -> PixelGrid<'_> {
         PixelGrid {
-            width: self.width,
-            height: self.height,
-            fx: self.f.0,
-            fy: self.f.1,
-            cx: self.c.0,
-            cy: self.c.1,
-            rotation: self.rotation,
+            camera: PinholeCamera {
+                width: self.width,
+                height: self.height,
+                fx: self.f.0,
+                fy: self.f.1,
+                cx: self.c.0,
+                cy: self.c.1,
+                rotation: self.rotation,
+            },
             pixels: &self.pixels,
         }
     }

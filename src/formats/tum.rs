@@ -16,6 +16,7 @@ use super::vtk::{rigid_transform, unit_quaternion};
 use crate::frame::CameraPixels;
 use crate::Frame;
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
+use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};
 
 /// Pinhole intrinsics of the depth camera, in pixels.
@@ -192,13 +193,15 @@ fn depth_to_camera(
     }
     let k = step as f64;
     let camera = CameraPixels {
-        width: cols as u32,
-        height: (image.height as usize).div_ceil(step) as u32,
-        fx: i.fx / k,
-        fy: i.fy / k,
-        cx: i.cx / k,
-        cy: i.cy / k,
-        rotation,
+        camera: PinholeCamera {
+            width: cols as u32,
+            height: (image.height as usize).div_ceil(step) as u32,
+            fx: i.fx / k,
+            fy: i.fy / k,
+            cx: i.cx / k,
+            cy: i.cy / k,
+            rotation,
+        },
         pixels,
     };
     (points, camera)
