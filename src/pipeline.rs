@@ -95,6 +95,9 @@ pub struct FrameStats {
     pub reduced: usize,
     /// Rays cast (after quantization).
     pub rays: usize,
+    /// Of which: depth-image rays walked only from where their neighbours stop covering them
+    /// (the same map either way; see [`octoquant_raycast::compute_update_grid`]).
+    pub heads_skipped: usize,
     /// Free-voxel updates applied.
     pub free: usize,
     /// Occupied-voxel updates applied.
@@ -282,6 +285,7 @@ impl Mapper {
         t.outside_map += st.outside_map;
         t.reduced += st.reduced;
         t.rays += st.rays;
+        t.heads_skipped += st.heads_skipped;
         t.free += st.free;
         t.occupied += st.occupied;
         t.seconds += st.seconds;
@@ -380,6 +384,7 @@ fn prepare(
     st.non_finite += scan.non_finite;
     st.outside_map = scan.outside_map;
     st.rays = scan.rays;
+    st.heads_skipped = scan.heads_skipped;
     st.free = scan.free;
     st.occupied = scan.occupied;
     st

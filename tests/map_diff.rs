@@ -316,10 +316,28 @@ fn cli_map_on_real_files() {
         json.contains("\"frames\":1") && json.contains("\"points\":88206"),
         "{json}"
     );
+    // a LiDAR scan has no pixel grid: every ray is walked whole
+    assert_eq!(json_count(&json, "heads_skipped"), Some(0), "{json}");
     assert_eq!(
         std::fs::read(&out).unwrap(),
         std::fs::read(expected).unwrap()
     );
+    // TUM depth frames: most rays skip their heads, and the summary says how many
+    if let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt") {
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .arg("map")
+            .arg(&assoc)
+            .args(["--res", "0.05", "--json", "-o"])
+            .arg(dir.join("tum.bt"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json = String::from_utf8(o.stdout).unwrap();
+        let rays = json_count(&json, "rays").unwrap();
+        let skipped = json_count(&json, "heads_skipped").unwrap();
+        assert_eq!(rays, 2_573_870, "{json}");
+        assert!(skipped * 2 > rays && skipped < rays, "{json}");
+    }
     // a missing input names the file
     let bad = Command::new(env!("CARGO_BIN_EXE_octoquant"))
         .args(["map", "/nonexistent/scan.pcd", "-o"])
@@ -329,6 +347,16 @@ fn cli_map_on_real_files() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("/nonexistent/scan.pcd"));
     assert!(!dir.join("x.bt").exists());
+}
+
+/// The whole number after `"key":` in a one-line JSON object.
+fn json_count(json: &str, key: &str) -> Option<usize> {
+    let at = json.find(&format!("\"{key}\":"))? + key.len() + 3;
+    let digits: String = json[at..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits.parse().ok()
 }
 
 /// A failing command prints the error and each cause once, on one line, naming the file.

@@ -194,8 +194,8 @@ pub fn run(a: &Args) -> Result<()> {
     };
     if a.json {
         outln!(
-            "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
-            stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.free, t.occupied,
+            "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"heads_skipped\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
+            stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.heads_skipped, t.free, t.occupied,
             load_s, t.seconds, pps, full_nodes, bytes_per_node, tree.size(),
             a.output.display().to_string()
         )?;
@@ -206,6 +206,11 @@ pub fn run(a: &Args) -> Result<()> {
             t.points,
             t.non_finite,
             t.outside_map
+        )?;
+        outln!(
+            "rays:            {} ({} walked from where their neighbours stop covering them)",
+            t.rays,
+            t.heads_skipped
         )?;
         outln!("loading:         {load_s:.3} s")?;
         outln!(
