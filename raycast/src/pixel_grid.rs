@@ -115,13 +115,13 @@ struct Level {
 }
 
 impl Level {
-    /// The geometry of the level with spacing `1 << shift` for `grid` at resolution `res`;
+    /// The geometry of the level with spacing `1 << shift` for `camera` at resolution `res`;
     /// `None` when the argument does not hold for it.
-    fn new(shift: u32, grid: &PinholeCamera, res: f64, margin: f64) -> Option<Level> {
+    fn new(shift: u32, camera: &PinholeCamera, res: f64, margin: f64) -> Option<Level> {
         let spacing = 1usize << shift;
-        let (w, h) = (grid.width as usize, grid.height as usize);
+        let (w, h) = (camera.width as usize, camera.height as usize);
         let half = spacing as f64 / 2.0;
-        let net = ((half / grid.fx).powi(2) + (half / grid.fy).powi(2)).sqrt() + DIRECTION_TOL;
+        let net = ((half / camera.fx).powi(2) + (half / camera.fy).powi(2)).sqrt() + DIRECTION_TOL;
         let cap = net + DIRECTION_TOL;
         let sin_x = 3f64.sqrt() * cap.sin();
         // (NaN fails too)
@@ -130,10 +130,10 @@ impl Level {
             return None;
         }
         let spread = sin_x.asin() + cap + 2.0 * DIRECTION_TOL;
-        let du = grid.cx.abs().max((w as f64 - 1.0 - grid.cx).abs()) / grid.fx;
-        let dv = grid.cy.abs().max((h as f64 - 1.0 - grid.cy).abs()) / grid.fy;
+        let du = camera.cx.abs().max((w as f64 - 1.0 - camera.cx).abs()) / camera.fx;
+        let dv = camera.cy.abs().max((h as f64 - 1.0 - camera.cy).abs()) / camera.fy;
         let stretch = 1.0 + du * du + dv * dv;
-        let radius = grid.fx.max(grid.fy) * spread * stretch;
+        let radius = camera.fx.max(camera.fy) * spread * stretch;
         if !(radius.is_finite() && radius < (w.min(h) / 2) as f64) {
             return None;
         }
@@ -235,22 +235,22 @@ pub(crate) struct SkipPlan {
 impl SkipPlan {
     /// Set up the window geometry for `grid` at resolution `res`; `false` (nothing to skip)
     /// when the grid is unusable or too coarse for the argument.
-    pub(crate) fn prepare(&mut self, pixels: &PixelGrid<'_>, points: usize, res: f64) -> bool {
-        let grid = &pixels.camera;
-        let (w, h) = (grid.width as usize, grid.height as usize);
-        let finite = [grid.fx, grid.fy, grid.cx, grid.cy]
+    pub(crate) fn prepare(&mut self, grid: &PixelGrid<'_>, points: usize, res: f64) -> bool {
+        let camera = &grid.camera;
+        let (w, h) = (camera.width as usize, camera.height as usize);
+        let finite = [camera.fx, camera.fy, camera.cx, camera.cy]
             .iter()
             .all(|v| v.is_finite());
-        if !finite || grid.fx <= 0.0 || grid.fy <= 0.0 || w < SAMPLE || h < SAMPLE {
+        if !finite || camera.fx <= 0.0 || camera.fy <= 0.0 || w < SAMPLE || h < SAMPLE {
             return false;
         }
-        if pixels.pixels.len() != points || w.checked_mul(h).is_none_or(|n| n > u32::MAX as usize) {
+        if grid.pixels.len() != points || w.checked_mul(h).is_none_or(|n| n > u32::MAX as usize) {
             return false;
         }
         let margin = res / 50.0;
         let (Some(coarse), Some(fine)) = (
-            Level::new(SAMPLE_SHIFT, grid, res, margin),
-            Level::new(SAMPLE_SHIFT - 1, grid, res, margin),
+            Level::new(SAMPLE_SHIFT, camera, res, margin),
+            Level::new(SAMPLE_SHIFT - 1, camera, res, margin),
         ) else {
             return false;
         };
@@ -262,12 +262,12 @@ impl SkipPlan {
         self.min_head = MIN_HEAD_VOXELS * res;
         self.inv_width = 1.0 / w as f64;
         self.col = (0..w)
-            .map(|u| ((u as f64 - grid.cx) / grid.fx) as f32)
+            .map(|u| ((u as f64 - camera.cx) / camera.fx) as f32)
             .collect();
         self.row = (0..h)
-            .map(|v| ((v as f64 - grid.cy) / grid.fy) as f32)
+            .map(|v| ((v as f64 - camera.cy) / camera.fy) as f32)
             .collect();
-        let m = grid.rotation.matrix();
+        let m = camera.rotation.matrix();
         self.axes = [0, 1, 2].map(|c| [0, 1, 2].map(|r| m[(r, c)] as f32));
         self.levels[0].head_limit > self.min_head
     }
