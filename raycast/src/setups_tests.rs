@@ -68,7 +68,8 @@ proptest! {
 
     /// With a skip plan's values, a column skips exactly when the one-ray checks say so:
     /// a head cap, its time `min(cap, length − margin)` at least the shortest head, the
-    /// direction along the pixel ([`fits_dir`]) and a well-conditioned ray.
+    /// direction along the pixel ([`fits_dir`]) and a well-conditioned ray; as a sample it
+    /// gives its length exactly when it is well-conditioned and along its pixel.
     #[test]
     fn columns_decide_the_heads_as_one_by_one(
         origin in prop::array::uniform3(-1.0f32..1.0),
@@ -107,12 +108,17 @@ proptest! {
             let r = setup_with_keys(&conv, &o, Some(ocoded), &e, Some((ek, ek.morton()))).unwrap();
             let diff = [e.x - o.x, e.y - o.y, e.z - o.z];
             let t = cap.min(r.length - end_margin);
-            let skips = skip && t >= min_head && fits_dir(&axes, a, b, diff) && r.well_conditioned;
-            wanted.push(skips.then_some(t));
+            let fits = fits_dir(&axes, a, b, diff);
+            let skips = skip && t >= min_head && fits && r.well_conditioned;
+            // what the ray gives as a sample: its length when it is surely walked and points
+            // along its pixel
+            let sample = if r.well_conditioned && fits { r.length } else { 0.0 };
+            wanted.push((skips.then_some(t), sample));
         }
         for out in both_paths(&p, &shared) {
-            for (i, w) in wanted.iter().enumerate() {
-                prop_assert_eq!(out.head(i).map(f64::to_bits), w.map(f64::to_bits));
+            for (i, (head, sample)) in wanted.iter().enumerate() {
+                prop_assert_eq!(out.head(i).map(f64::to_bits), head.map(f64::to_bits));
+                prop_assert_eq!(out.walked_length(i).to_bits(), sample.to_bits());
             }
         }
     }
