@@ -401,7 +401,8 @@ fn cli_errors_name_each_cause_once() {
 }
 
 /// Output into a pipe whose reader has gone (`octoquant info m.bt | head -0`) ends the program
-/// quietly with SIGPIPE's status, 141, instead of a panic.
+/// quietly with SIGPIPE's status, 141, instead of a panic; a stderr whose reader has gone
+/// loses the status lines, and the run goes on.
 #[test]
 fn cli_output_into_a_closed_pipe_is_not_a_panic() {
     let dir = common::scratch("cli_closed_pipe");
@@ -430,6 +431,28 @@ fn cli_output_into_a_closed_pipe_is_not_a_panic() {
         assert_eq!(o.status.code(), Some(141), "{args:?}: {stderr}");
         assert!(stderr.is_empty(), "{args:?}: {stderr}");
     }
+    // status lines go to stderr: a stderr whose reader has gone loses them, not the run
+    let ot = dir.join("m.ot");
+    let again = dir.join("again.bt");
+    for (args, out) in [
+        (vec!["map", "--res", "0.5", "-o"], &again),
+        (vec!["convert", map.to_str().unwrap()], &ot),
+    ] {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .args(&args)
+            .arg(out)
+            .stderr(writer)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{args:?}: {:?}", o.status);
+        assert!(
+            std::fs::metadata(out).is_ok_and(|m| m.len() > 0),
+            "{args:?}"
+        );
+    }
+    assert_eq!(std::fs::read(&again).unwrap(), std::fs::read(&map).unwrap());
 }
 
 /// `octoquant map bag.mcap --topic T` works like any other input: the real Ouster recording

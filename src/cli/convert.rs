@@ -16,6 +16,6 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<()> {
     let mut tree = read_tree_file(&a.input)?;
     write_tree_file(&mut tree, &a.output)?;
-    eprintln!("wrote {} ({} nodes)", a.output.display(), tree.size());
+    errln!("wrote {} ({} nodes)", a.output.display(), tree.size());
     Ok(())
 }

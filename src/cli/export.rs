@@ -31,7 +31,7 @@ pub fn run(a: &Args) -> Result<()> {
         ascii: a.ascii,
     };
     let s = export_ply_file(&tree, &a.output, &options)?;
-    eprintln!(
+    errln!(
         "wrote {}: {} occupied, {} free leaves, {} vertices, {} faces",
         a.output.display(),
         s.occupied,

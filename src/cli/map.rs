@@ -150,7 +150,7 @@ pub fn run(a: &Args) -> Result<()> {
     let t_load = Instant::now();
     let mut frames = Vec::new();
     if a.inputs.is_empty() {
-        eprintln!("no input given: mapping the built-in scene (pass files to map your own data)");
+        errln!("no input given: mapping the built-in scene (pass files to map your own data)");
         frames = builtin_frames()?;
     }
     for p in &a.inputs {
@@ -164,11 +164,11 @@ pub fn run(a: &Args) -> Result<()> {
         mapper.insert_frames(chunk);
         done += chunk.len();
         if progress {
-            eprint!("\rinserting frame {}/{}", done, frames.len());
+            err!("\rinserting frame {}/{}", done, frames.len());
         }
     }
     if progress {
-        eprintln!();
+        errln!();
     }
     mapper.finish();
     let stats = *mapper.stats();

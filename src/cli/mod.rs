@@ -10,6 +10,24 @@ macro_rules! outln {
     }};
 }
 
+/// A status line on stderr. Unlike `eprintln!` it never panics: when stderr is closed or its
+/// reader has gone, the message is lost and the work goes on (the output files are what
+/// counts).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
+/// [`errln!`] without the newline (a progress line rewritten in place).
+macro_rules! err {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod bench;
 mod convert;
 mod demo;
@@ -72,7 +90,7 @@ pub fn main() -> std::process::ExitCode {
         // status of a C tool that SIGPIPE ended (128 + 13), since the work may be unfinished
         Err(e) if closed_pipe(&e) => std::process::ExitCode::from(141),
         Err(e) => {
-            eprintln!("octoquant: error: {}", describe(&e));
+            errln!("octoquant: error: {}", describe(&e));
             std::process::ExitCode::FAILURE
         }
     }

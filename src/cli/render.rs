@@ -46,7 +46,7 @@ pub fn run(a: &Args) -> Result<()> {
         show_free: !a.no_free,
     };
     let image = render_png_file(&tree, &a.output, &options)?;
-    eprintln!(
+    errln!(
         "wrote {} ({} × {} px)",
         a.output.display(),
         image.width,
