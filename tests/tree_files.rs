@@ -223,6 +223,38 @@ fn octoquant_cmd() -> Command {
     Command::new(env!("CARGO_BIN_EXE_octoquant"))
 }
 
+/// `info --json` writes numbers in their shortest form: a map at 1e-300 m says
+/// `"resolution":1e-300`, not three hundred digits.
+#[test]
+fn cli_info_json_numbers_are_short() {
+    let dir = common::scratch("cli_info_tiny");
+    let map = dir.join("tiny.bt");
+    let made = octoquant_cmd()
+        .args(["map", "--res", "1e-300", "-o"])
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let out = octoquant_cmd()
+        .arg("info")
+        .arg(&map)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = String::from_utf8(out.stdout).unwrap();
+    assert!(json.contains("\"resolution\":1e-300,"), "{json}");
+    assert!(json.len() < 400, "{json}");
+}
+
 #[test]
 fn cli_info_and_convert_on_geb079() {
     let Some(geb) = common::data_file("octomap_reference/geb079.bt") else {

@@ -1,6 +1,7 @@
 //! `octoquant bench INPUT... --res R`: the insertion modes side by side on the same frames,
 //! optionally against the C++ OctoMap reference program, as ratios.
 
+use super::json_number;
 use anyhow::{bail, Context, Result};
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant::octree::io::write_bt;
@@ -272,8 +273,8 @@ pub fn run(a: &Args) -> Result<()> {
             frames.len(),
             a.repeat.max(1),
             points,
-            a.res,
-            a.max_range.map_or("null".into(), |m| m.to_string())
+            json_number(a.res),
+            a.max_range.map_or("null".into(), json_number)
         );
         for (i, (r, med, total_s, vs, classes, vs_q)) in rows.iter().enumerate() {
             if i > 0 {

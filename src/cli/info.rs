@@ -1,5 +1,6 @@
 //! `octoquant info FILE [--json]`.
 
+use super::json_number;
 use anyhow::Result;
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
@@ -32,16 +33,19 @@ pub fn run(a: &Args) -> Result<()> {
     };
     if a.json {
         let b = match bounds {
-            Some((lo, hi)) => format!(
-                "{{\"min\":[{},{},{}],\"max\":[{},{},{}]}}",
-                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-            ),
+            Some((lo, hi)) => {
+                let [lo, hi] = [lo, hi].map(|p| p.coords.map(|v| json_number(v as f64)));
+                format!(
+                    "{{\"min\":[{},{},{}],\"max\":[{},{},{}]}}",
+                    lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+                )
+            }
             None => "null".into(),
         };
         outln!(
             "{{\"file\":{:?},\"resolution\":{},\"nodes\":{},\"inner\":{},\"leaves\":{},\"occupied_leaves\":{},\"free_leaves\":{},\"bounds\":{},\"memory_bytes\":{},\"bytes_per_node\":{:.3},\"octomap_memory_bytes\":{},\"octomap_bytes_per_node\":{:.3}}}",
             a.file.display().to_string(),
-            tree.resolution(),
+            json_number(tree.resolution()),
             c.nodes,
             c.inner,
             c.leaves,

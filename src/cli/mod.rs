@@ -96,6 +96,16 @@ pub fn main() -> std::process::ExitCode {
     }
 }
 
+/// A number for a JSON object: the shortest form that reads back to the same value (`1e-300`,
+/// not three hundred digits), or `null` for infinities and NaN, which JSON cannot hold.
+fn json_number(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:?}")
+    } else {
+        "null".into()
+    }
+}
+
 /// An error and its causes on one line, each cause once: the library errors already name
 /// their source in their own message (so that they read well alone), and repeating it after
 /// a colon, as `{:#}` does, would print it twice.
