@@ -34,7 +34,7 @@ pub fn run(a: &Args) -> Result<()> {
     if a.json {
         let b = match bounds {
             Some((lo, hi)) => {
-                let [lo, hi] = [lo, hi].map(|p| p.coords.map(|v| json_number(v as f64)));
+                let [lo, hi] = [lo, hi].map(|p| p.coords.map(json_number));
                 format!(
                     "{{\"min\":[{},{},{}],\"max\":[{},{},{}]}}",
                     lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
