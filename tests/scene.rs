@@ -235,3 +235,73 @@ fn invalid_inputs_are_errors() {
     };
     assert!(scan_lidar(&scene, &SpinningLidar::builtin_path(), &noisy).is_err());
 }
+
+/// The built-in depth camera: its frames carry their pixels, every point lies on its pixel's
+/// ray, exact insertion through the pixel grid skips most ray heads and gives the plain
+/// `computeUpdate` sets, and a broken camera is an error.
+#[test]
+fn depth_camera_frames_carry_their_pixels() {
+    use octoquant::scene::{scan_depth, DepthCamera};
+    use octoquant_raycast::{compute_update, compute_update_grid, ScanUpdate};
+    let scene = Scene::builtin();
+    let mut camera = DepthCamera::builtin(&scene);
+    camera.poses.truncate(2);
+    for misses in [MissPolicy::Drop, MissPolicy::MaxRange] {
+        let options = ScanOptions {
+            misses,
+            ..ScanOptions::default()
+        };
+        let (frames, stats) = scan_depth(&scene, &camera, &options).unwrap();
+        assert_eq!(frames.len(), 2);
+        for (f, s) in frames.iter().zip(&stats) {
+            assert_eq!(s.rays, 320 * 240);
+            let kept = match misses {
+                MissPolicy::Drop => s.hits,
+                MissPolicy::MaxRange => s.hits + s.misses,
+            };
+            assert_eq!(f.points.len(), kept);
+            assert!(s.hits > s.rays / 2, "{s:?}");
+            let c = f.camera.as_ref().expect("depth frames carry their pixels");
+            assert_eq!(c.pixels.len(), f.points.len());
+            assert!(c.pixels.windows(2).all(|w| w[0] < w[1]));
+            // each point on its pixel's ray
+            let cam = &c.camera;
+            for (p, &px) in f.points.iter().zip(&c.pixels) {
+                let (u, v) = ((px % cam.width) as f64, (px / cam.width) as f64);
+                let ray = cam.rotation
+                    * nalgebra::Vector3::new((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+                let d = (p - f.origin).cast::<f64>();
+                assert!(d.angle(&ray) < 1e-5, "pixel {px}: {}", d.angle(&ray));
+            }
+            for (res, max_range) in [(0.1, Some(8.0)), (0.05, None)] {
+                let conv = octoquant::octree::KeyConverter::new(res).unwrap();
+                let (mut plain, mut grid) = (ScanUpdate::new(), ScanUpdate::new());
+                let a = compute_update(&conv, &f.points, &f.origin, max_range, &mut plain);
+                let b = compute_update_grid(
+                    &conv,
+                    &f.points,
+                    &c.grid(),
+                    &f.origin,
+                    max_range,
+                    &mut grid,
+                );
+                assert!(b.heads_skipped * 2 > b.rays, "{res}: {b:?}");
+                assert_eq!((a.rays, a.free, a.occupied), (b.rays, b.free, b.occupied));
+                assert!(
+                    plain.free_bricks() == grid.free_bricks(),
+                    "{res}: free sets differ"
+                );
+                assert!(plain.occupied_bricks() == grid.occupied_bricks());
+            }
+        }
+    }
+    let mut bad = camera.clone();
+    bad.fx = 0.0;
+    assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
+    let mut bad = camera.clone();
+    bad.width = 0;
+    assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
+    let mut bad = camera;
+    bad.poses[0].1 = f64::NAN;
+    assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
+}

@@ -6,8 +6,8 @@ use clap::Parser;
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
 use octoquant::render::{render_png_file, RenderOptions};
 use octoquant::scene::{
-    scan_lidar, scan_terrestrial, MissPolicy, ScanOptions, ScanStats, Scene, SpinningLidar,
-    TerrestrialScanner,
+    scan_depth, scan_lidar, scan_terrestrial, DepthCamera, MissPolicy, ScanOptions, ScanStats,
+    Scene, SpinningLidar, TerrestrialScanner,
 };
 use octoquant::treefile::write_tree_file;
 use octoquant::{Frame, OcTree};
@@ -46,6 +46,10 @@ pub struct Args {
     /// Skip the LiDAR.
     #[arg(long)]
     no_lidar: bool,
+    /// Skip the depth camera (320 x 240 images, whose rays exact insertion walks only where
+    /// neighbouring pixels do not cover them).
+    #[arg(long)]
+    no_depth: bool,
     /// Return beams that hit nothing as max-range readings so they carve free space (as
     /// OctoMap users do). The scene has no roof, so this clears the sky to 30 m around every
     /// pose: tens of millions of free voxels at 0.1 m, and a much slower demo.
@@ -106,6 +110,13 @@ pub fn run(a: &Args) -> Result<()> {
         let t = Instant::now();
         let (f, s) = scan_lidar(&scene, &lidar, &options)?;
         scan_rows.push(("lidar", f.len(), t.elapsed().as_secs_f64()));
+        frames.extend(f);
+        stats.extend(s);
+    }
+    if !a.no_depth {
+        let t = Instant::now();
+        let (f, s) = scan_depth(&scene, &DepthCamera::builtin(&scene), &options)?;
+        scan_rows.push(("depth camera", f.len(), t.elapsed().as_secs_f64()));
         frames.extend(f);
         stats.extend(s);
     }

@@ -33,9 +33,11 @@
 //! assert!(frames.iter().all(|f| f.points.len() <= 16 * 64));
 //! ```
 
+mod depth_camera;
 mod scanner;
 mod shapes;
 
+pub use depth_camera::{scan_depth, DepthCamera};
 pub use scanner::{
     scan_lidar, scan_terrestrial, MissPolicy, ScanOptions, ScanStats, SpinningLidar,
     TerrestrialScanner, MISS_RANGE_FACTOR,

@@ -11,7 +11,7 @@ use nalgebra::{Point3, Vector3};
 pub const MISS_RANGE_FACTOR: f64 = 1.01;
 
 /// Largest number of rays one frame may cast (guards against a tiny angular step).
-const MAX_RAYS_PER_FRAME: u64 = 20_000_000;
+pub(super) const MAX_RAYS_PER_FRAME: u64 = 20_000_000;
 /// Largest number of frames one scan may produce (guards against a tiny frame spacing).
 const MAX_FRAMES: u64 = 1_000_000;
 
@@ -252,7 +252,7 @@ impl SpinningLidar {
     }
 }
 
-fn invalid(name: &'static str, message: String) -> SceneError {
+pub(super) fn invalid(name: &'static str, message: String) -> SceneError {
     SceneError::InvalidOption { name, message }
 }
 
@@ -270,7 +270,7 @@ fn check_angles(min: f64, max: f64, name: &'static str) -> Result<(), SceneError
     Ok(())
 }
 
-fn check_ranges(min: f64, max: f64) -> Result<(), SceneError> {
+pub(super) fn check_ranges(min: f64, max: f64) -> Result<(), SceneError> {
     if !(min.is_finite() && max.is_finite() && min >= 0.0 && max > min) {
         return Err(invalid(
             "max_range",
@@ -280,7 +280,7 @@ fn check_ranges(min: f64, max: f64) -> Result<(), SceneError> {
     Ok(())
 }
 
-fn check_options(o: &ScanOptions) -> Result<(), SceneError> {
+pub(super) fn check_options(o: &ScanOptions) -> Result<(), SceneError> {
     if !(o.range_noise.is_finite() && o.range_noise >= 0.0) {
         return Err(invalid(
             "range_noise",
@@ -322,7 +322,7 @@ impl SplitMix64 {
 }
 
 /// Casts one beam and records the outcome in `points` and `stats`.
-struct BeamCaster<'a> {
+pub(super) struct BeamCaster<'a> {
     scene: &'a Scene,
     options: &'a ScanOptions,
     min_range: f64,
@@ -330,8 +330,27 @@ struct BeamCaster<'a> {
     rng: SplitMix64,
 }
 
-impl BeamCaster<'_> {
-    fn cast(
+impl<'a> BeamCaster<'a> {
+    /// The caster of frame `frame` of a scan of `scene` (its noise drawn from the frame's own
+    /// generator, so frames do not depend on each other).
+    pub(super) fn new(
+        scene: &'a Scene,
+        options: &'a ScanOptions,
+        (min_range, max_range): (f64, f64),
+        frame: u64,
+    ) -> Self {
+        BeamCaster {
+            scene,
+            options,
+            min_range,
+            max_range,
+            rng: SplitMix64::for_frame(options.seed, frame),
+        }
+    }
+
+    /// Cast the beam from `origin` along the unit vector `dir`: a hit (or, with
+    /// [`MissPolicy::MaxRange`], a miss) appends one point.
+    pub(super) fn cast(
         &mut self,
         origin: &Point3<f64>,
         dir: &Vector3<f64>,
