@@ -295,11 +295,20 @@ fn depth_camera_frames_carry_their_pixels() {
             }
         }
     }
+    // the built-in camera looks along +x, a little down, with image rows running down
+    let r = octoquant::scene::looking_along_x(0.2);
+    let (right, down, forward) = (
+        r * nalgebra::Vector3::x(),
+        r * nalgebra::Vector3::y(),
+        r * nalgebra::Vector3::z(),
+    );
+    assert!(forward.x > 0.9 && forward.z < 0.0 && down.z < -0.9 && right.y < -0.99);
+    assert!((right.cross(&down) - forward).norm() < 1e-12);
     let mut bad = camera.clone();
-    bad.fx = 0.0;
+    bad.image.fx = 0.0;
     assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
     let mut bad = camera.clone();
-    bad.width = 0;
+    bad.image.width = 0;
     assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
     let mut bad = camera;
     bad.poses[0].1 = f64::NAN;

@@ -227,30 +227,24 @@ fn octoquant_cmd() -> Command {
 /// `"resolution":1e-300`, not three hundred digits.
 #[test]
 fn cli_info_json_numbers_are_short() {
-    let dir = common::scratch("cli_info_tiny");
-    let map = dir.join("tiny.bt");
-    let made = octoquant_cmd()
-        .args(["map", "--res", "1e-300", "-o"])
-        .arg(&map)
-        .output()
-        .unwrap();
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
-    let out = octoquant_cmd()
-        .arg("info")
-        .arg(&map)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json = String::from_utf8(out.stdout).unwrap();
+    let map = common::scratch("cli_info_tiny").join("tiny.bt");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = octoquant_cmd().args(args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    run(&[
+        "map".as_ref(),
+        "--res".as_ref(),
+        "1e-300".as_ref(),
+        "-o".as_ref(),
+        map.as_ref(),
+    ]);
+    let json = run(&["info".as_ref(), map.as_ref(), "--json".as_ref()]);
     assert!(json.contains("\"resolution\":1e-300,"), "{json}");
     assert!(json.len() < 400, "{json}");
 }

@@ -10,27 +10,16 @@ use crate::Frame;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use octoquant_raycast::PinholeCamera;
 
-/// A depth camera at fixed poses, its optical axis level with the ground but tilted down by
-/// `tilt_deg`. Pixel `(u, v)` looks along `((u − cx)/fx, (v − cy)/fy, 1)` in the camera frame
-/// (x right, y down, z forward), as in TUM RGB-D.
+/// A depth camera at fixed poses. `image` gives its size, intrinsics and its orientation at
+/// heading 0; a pose turns it about the world's z axis. Pixel `(u, v)` looks along
+/// `((u − cx)/fx, (v − cy)/fy, 1)` in the camera frame (x right, y down, z forward), as in
+/// TUM RGB-D.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DepthCamera {
     /// Camera positions and headings (radians from +x towards +y), one frame each.
     pub poses: Vec<(Point3<f64>, f64)>,
-    /// Downward tilt of the optical axis, degrees.
-    pub tilt_deg: f64,
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
-    /// Focal lengths and principal point, in pixels.
-    pub fx: f64,
-    /// See `fx`.
-    pub fy: f64,
-    /// See `fx`.
-    pub cx: f64,
-    /// See `fx`.
-    pub cy: f64,
+    /// The image and the camera's orientation at heading 0.
+    pub image: PinholeCamera,
     /// Hits closer than this are dropped, metres.
     pub min_range: f64,
     /// Beams reach this far, metres.
@@ -51,52 +40,47 @@ impl DepthCamera {
             .collect();
         DepthCamera {
             poses,
-            tilt_deg: 10.0,
-            width: 320,
-            height: 240,
-            fx: 262.5,
-            fy: 262.5,
-            cx: 159.5,
-            cy: 119.5,
+            image: PinholeCamera {
+                width: 320,
+                height: 240,
+                fx: 262.5,
+                fy: 262.5,
+                cx: 159.5,
+                cy: 119.5,
+                rotation: looking_along_x(10f64.to_radians()),
+            },
             min_range: 0.5,
             max_range: 8.0,
         }
     }
 
-    /// The camera-to-world rotation at heading `yaw`: columns right, down and forward.
+    /// The camera-to-world rotation at heading `yaw`.
     pub fn rotation(&self, yaw: f64) -> Rotation3<f64> {
-        let (s, c) = yaw.sin_cos();
-        let (st, ct) = self.tilt_deg.to_radians().sin_cos();
-        let forward = Vector3::new(c * ct, s * ct, -st);
-        let right = Vector3::new(s, -c, 0.0);
-        let down = forward.cross(&right);
-        Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[right, down, forward]))
+        Rotation3::from_axis_angle(&Vector3::z_axis(), yaw) * self.image.rotation
     }
 
     fn validate(&self) -> Result<(), SceneError> {
         check_ranges(self.min_range, self.max_range)?;
-        let intrinsics = [self.fx, self.fy, self.cx, self.cy];
-        if !intrinsics.iter().all(|v| v.is_finite()) || self.fx <= 0.0 || self.fy <= 0.0 {
+        let c = &self.image;
+        let intrinsics = [c.fx, c.fy, c.cx, c.cy];
+        if !intrinsics.iter().all(|v| v.is_finite()) || c.fx <= 0.0 || c.fy <= 0.0 {
             return Err(invalid(
                 "fx",
                 format!("intrinsics {intrinsics:?} are not finite with positive focal lengths"),
             ));
         }
-        let pixels = self.width as u64 * self.height as u64;
+        let pixels = c.width as u64 * c.height as u64;
         if pixels == 0 || pixels > MAX_RAYS_PER_FRAME {
             return Err(invalid(
                 "width",
                 format!(
                     "{} x {} pixels (1 to {MAX_RAYS_PER_FRAME} per frame)",
-                    self.width, self.height
+                    c.width, c.height
                 ),
             ));
         }
-        if !self.tilt_deg.is_finite() || self.tilt_deg.abs() > 90.0 {
-            return Err(invalid(
-                "tilt_deg",
-                format!("{} is not in [-90, 90]", self.tilt_deg),
-            ));
+        if !c.rotation.matrix().iter().all(|v| v.is_finite()) {
+            return Err(invalid("rotation", "the rotation is not finite".into()));
         }
         let finite = |(p, yaw): &(Point3<f64>, f64)| {
             p.coords.iter().all(|v| v.is_finite()) && yaw.is_finite()
@@ -106,6 +90,16 @@ impl DepthCamera {
         }
         Ok(())
     }
+}
+
+/// The orientation of a camera looking along +x, tilted down by `tilt` radians: its columns
+/// are the camera's right, down and forward axes in the world.
+pub fn looking_along_x(tilt: f64) -> Rotation3<f64> {
+    let (st, ct) = tilt.sin_cos();
+    let forward = Vector3::new(ct, 0.0, -st);
+    let right = Vector3::new(0.0, -1.0, 0.0);
+    let down = forward.cross(&right);
+    Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[right, down, forward]))
 }
 
 /// One frame per pose of a [`DepthCamera`], stamped `pose index / 30` s, with each point's
@@ -129,11 +123,12 @@ pub fn scan_depth(
         let mut points = Vec::new();
         let mut pixels = Vec::new();
         let mut stats = ScanStats::default();
-        for v in 0..camera.height {
-            for u in 0..camera.width {
+        let image = &camera.image;
+        for v in 0..image.height {
+            for u in 0..image.width {
                 let ray = Vector3::new(
-                    (u as f64 - camera.cx) / camera.fx,
-                    (v as f64 - camera.cy) / camera.fy,
+                    (u as f64 - image.cx) / image.fx,
+                    (v as f64 - image.cy) / image.fy,
                     1.0,
                 );
                 let before = points.len();
@@ -144,22 +139,14 @@ pub fn scan_depth(
                     &mut stats,
                 );
                 if points.len() > before {
-                    pixels.push(v * camera.width + u);
+                    pixels.push(v * image.width + u);
                 }
             }
         }
         let mut frame = Frame::new(origin.cast::<f32>(), points);
         frame.stamp = Some(i as f64 / 30.0);
         frame.camera = Some(CameraPixels {
-            camera: PinholeCamera {
-                width: camera.width,
-                height: camera.height,
-                fx: camera.fx,
-                fy: camera.fy,
-                cx: camera.cx,
-                cy: camera.cy,
-                rotation,
-            },
+            camera: PinholeCamera { rotation, ..*image },
             pixels,
         });
         frames.push(frame);

@@ -37,7 +37,7 @@ mod depth_camera;
 mod scanner;
 mod shapes;
 
-pub use depth_camera::{scan_depth, DepthCamera};
+pub use depth_camera::{looking_along_x, scan_depth, DepthCamera};
 pub use scanner::{
     scan_lidar, scan_terrestrial, MissPolicy, ScanOptions, ScanStats, SpinningLidar,
     TerrestrialScanner, MISS_RANGE_FACTOR,
