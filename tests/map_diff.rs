@@ -506,8 +506,8 @@ fn cli_map_reads_a_ros_bag() {
 
 /// `octoquant bench` on real multi-frame data with the reference program: the exact and
 /// quantized runs (1 and 2 threads, the latter pipelined) write OctoMap's `.bt` byte for byte,
-/// and the class agreement it reports is 1 for a map with itself and a real share for the
-/// Bresenham map.
+/// the class agreement it reports is 1 for a map with itself and a real share for the
+/// Bresenham map, and it counts the exact rays that skipped their heads.
 #[test]
 fn cli_bench_matches_octomap_and_measures_agreement() {
     let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
@@ -544,9 +544,18 @@ fn cli_bench_matches_octomap_and_measures_agreement() {
         let agree_q: f64 = field(run, "class_agreement_with_quantized")
             .parse()
             .unwrap();
+        let rays: usize = field(run, "rays").parse().unwrap();
+        let skipped: usize = field(run, "heads_skipped").parse().unwrap();
         if run.starts_with("\"exact\"") {
             assert_eq!(field(run, "bt_identical_to_octomap"), "true", "{run}");
             assert_eq!(agree, 1.0);
+            // depth frames: some rays skip their heads, with either thread count
+            assert!(skipped > 0 && skipped < rays, "{run}");
+        } else {
+            // the quantized modes cast one ray per voxel, without the pixel grid
+            assert_eq!(skipped, 0, "{run}");
+        }
+        if run.starts_with("\"exact\"") {
         } else if run.starts_with("\"quantized\"") {
             assert_eq!(field(run, "bt_identical_to_octomap"), "true", "{run}");
             assert_eq!(agree_q, 1.0);

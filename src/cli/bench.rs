@@ -51,6 +51,9 @@ struct Run {
     tree_s: Vec<f64>,
     /// Points inserted over all repetitions.
     points: usize,
+    /// Rays cast in one repetition, and those of depth images that skipped their heads.
+    rays: usize,
+    heads_skipped: usize,
     nodes: usize,
     bytes_per_node: f64,
     bt: Vec<u8>,
@@ -101,6 +104,8 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
         ray_s: vec![st.total.ray_seconds],
         tree_s: vec![st.total.tree_seconds],
         points: st.total.points,
+        rays: st.total.rays,
+        heads_skipped: st.total.heads_skipped,
         nodes,
         bytes_per_node,
         bt,
@@ -281,9 +286,9 @@ pub fn run(a: &Args) -> Result<()> {
                 s.push(',');
             }
             s.push_str(&format!(
-                "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
+                "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"rays\":{},\"heads_skipped\":{},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
                 r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
-                r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
+                r.rays, r.heads_skipped, r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
             ));
             let c = &classes.counts;
             s.push_str(&format!(
@@ -365,6 +370,17 @@ pub fn run(a: &Args) -> Result<()> {
         )?;
     }
     outln!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)")?;
+    // depth images: how many exact rays were walked only where their neighbours do not cover
+    if let Some(r) = runs
+        .iter()
+        .find(|r| r.name == "exact" && r.heads_skipped > 0)
+    {
+        outln!(
+            "exact: {} of the {} rays skipped their heads (depth images: covered by neighbouring pixels' rays)",
+            r.heads_skipped,
+            r.rays
+        )?;
+    }
     // where the Bresenham map's classes differ from the exact one's
     if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.name == "quant+bres") {
         use octoquant::octree::VoxelClass::{Free, Occupied, Unknown};
