@@ -252,9 +252,6 @@ pub(crate) fn setup_with_keys(
             t_delta[i] = res / direction[i].abs() as f64;
         }
     }
-    let manhattan: u32 = (0..3)
-        .map(|i| (key_origin[i] as i32 - key_end[i] as i32).unsigned_abs())
-        .sum();
     Ok(RaySetup {
         key_origin,
         key_end,
@@ -264,9 +261,19 @@ pub(crate) fn setup_with_keys(
         t_max,
         t_delta,
         length: length as f64,
-        budget: manhattan + STEP_MARGIN,
+        budget: step_budget(key_origin, key_end),
         well_conditioned,
     })
+}
+
+/// The most steps a walk from `from` to `to` may take: their Manhattan key distance plus
+/// [`STEP_MARGIN`] (see [`RaySetup::budget`]).
+#[inline]
+pub(crate) fn step_budget(from: Key, to: Key) -> u32 {
+    let manhattan: u32 = (0..3)
+        .map(|i| (from[i] as i32 - to[i] as i32).unsigned_abs())
+        .sum();
+    manhattan + STEP_MARGIN
 }
 
 /// Visit the keys of the voxels the segment `origin -> end` crosses, exactly as OctoMap's

@@ -42,8 +42,9 @@
 // Audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
 // that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
 // `bresenham_avx512::walk_lines`, `lanes_avx512::replay_rays` and its loads and stores of
-// whole arrays, `setups::set_up`'s call of its AVX-512 build), and in tests the call of the AVX-512 run merge after the
-// same check (`lanes_avx512::merge_runs_wide`). Everything else is safe code.
+// whole arrays, `setups::set_up`'s call of its AVX-512 build), and in tests the call of the
+// AVX-512 run merge after the same check (`lanes_avx512::merge_runs_wide`). Everything else is
+// safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;

@@ -41,7 +41,7 @@
 //! `tMax` is the same chain of `f64` additions, replayed per axis. The tail's walk then makes
 //! the very comparisons the whole walk would.
 
-use crate::dda::{min_axis, RaySetup, STEP_MARGIN};
+use crate::dda::{min_axis, step_budget, RaySetup};
 #[cfg(target_arch = "x86_64")]
 use crate::lanes_avx512::REPLAY_RAYS;
 #[cfg(not(target_arch = "x86_64"))]
@@ -474,10 +474,7 @@ fn jump_with(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>, wide: bool) -> u
             }
             r.key_origin = k;
             r.code_origin = k.morton();
-            let manhattan: u32 = (0..3)
-                .map(|i| (k.0[i] as i32 - r.key_end.0[i] as i32).unsigned_abs())
-                .sum();
-            r.budget = manhattan + STEP_MARGIN;
+            r.budget = step_budget(k, r.key_end);
             out.push(r);
         }
     }

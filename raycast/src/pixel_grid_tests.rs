@@ -1,5 +1,5 @@
 use super::*;
-use crate::dda::{key_of, setup_with_keys};
+use crate::dda::{key_of, setup_with_keys, STEP_MARGIN};
 use crate::update::{compute_update, compute_update_grid, ScanUpdate};
 use nalgebra::{Point3, Rotation3, Vector3};
 use octoquant_octree::KeyConverter;

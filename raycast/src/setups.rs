@@ -9,17 +9,18 @@
 //! depth-image checks of [`crate::pixel_grid`] (the direction check and the head's time) are
 //! done in the same loop.
 
-use crate::dda::{RaySetup, STEP_MARGIN};
+use crate::dda::{step_budget, RaySetup};
 use crate::pixel_grid::{fits_dir, SkipPlan};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 
-/// Rays set up together.
+/// Rays set up together (at most 32, for the columns' derived `Default`).
 pub(crate) const PENDING: usize = 32;
 
 /// Rays from one origin (whose key is known) to end points in other voxels, waiting for their
-/// set-ups, in columns.
-#[derive(Debug, Clone)]
+/// set-ups, in columns. Only the first `len` columns hold rays; the others are set up too (the
+/// loop has no branches) and never read.
+#[derive(Debug, Clone, Default)]
 pub(crate) struct Pending {
     len: usize,
     end: [[f32; PENDING]; 3],
@@ -34,51 +35,21 @@ pub(crate) struct Pending {
     row: [f32; PENDING],
 }
 
-impl Default for Pending {
-    fn default() -> Self {
-        Pending {
-            len: 0,
-            end: [[0.0; PENDING]; 3],
-            key_end: [Key([0; 3]); PENDING],
-            code_end: [0; PENDING],
-            cap: [f64::NEG_INFINITY; PENDING],
-            col: [0.0; PENDING],
-            row: [0.0; PENDING],
-        }
-    }
-}
-
 /// The set-ups of the pending rays, in columns: what [`setup_with_keys`] computes per ray,
 /// plus whether the ray skips its head and up to when.
 ///
 /// [`setup_with_keys`]: crate::dda::setup_with_keys
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct Setups {
     step: [[i32; PENDING]; 3],
     t_max: [[f64; PENDING]; 3],
     t_delta: [[f64; PENDING]; 3],
     length: [f32; PENDING],
     well_conditioned: [bool; PENDING],
-    /// The head's time, when the ray skips it.
+    /// The head's time when the ray skips it, else −∞.
     head: [f64; PENDING],
-    skips: [bool; PENDING],
     /// The ray points along its pixel ([`fits_dir`]).
     fits: [bool; PENDING],
-}
-
-impl Default for Setups {
-    fn default() -> Self {
-        Setups {
-            step: [[0; PENDING]; 3],
-            t_max: [[0.0; PENDING]; 3],
-            t_delta: [[0.0; PENDING]; 3],
-            length: [0.0; PENDING],
-            well_conditioned: [false; PENDING],
-            head: [0.0; PENDING],
-            skips: [false; PENDING],
-            fits: [false; PENDING],
-        }
-    }
 }
 
 impl Pending {
@@ -136,9 +107,6 @@ impl Pending {
     pub(crate) fn ray(&self, out: &Setups, i: usize, origin: (Key, u64)) -> RaySetup {
         let (key_origin, code_origin) = origin;
         let key_end = self.key_end[i];
-        let manhattan: u32 = (0..3)
-            .map(|a| (key_origin[a] as i32 - key_end[a] as i32).unsigned_abs())
-            .sum();
         RaySetup {
             key_origin,
             key_end,
@@ -148,7 +116,7 @@ impl Pending {
             t_max: [0, 1, 2].map(|a| out.t_max[a][i]),
             t_delta: [0, 1, 2].map(|a| out.t_delta[a][i]),
             length: out.length[i] as f64,
-            budget: manhattan + STEP_MARGIN,
+            budget: step_budget(key_origin, key_end),
             well_conditioned: out.well_conditioned[i],
         }
     }
@@ -158,7 +126,8 @@ impl Setups {
     /// Whether pending ray `i` skips its head, and up to when.
     #[inline]
     pub(crate) fn head(&self, i: usize) -> Option<f64> {
-        self.skips[i].then_some(self.head[i])
+        let t = self.head[i];
+        (t != f64::NEG_INFINITY).then_some(t)
     }
 
     /// The length of pending ray `i` when it is well-conditioned (so surely walked, whole or
@@ -267,8 +236,8 @@ fn set_up_lanes(p: &Pending, s: &Shared, out: &mut Setups) {
         // direction check
         let t = p.cap[i].min(length as f64 - s.end_margin);
         let fits = fits_dir(&s.axes, p.col[i], p.row[i], d);
-        out.head[i] = t;
-        out.skips[i] = (t >= s.min_head) & fits & well;
+        let skips = (t >= s.min_head) & fits & well;
+        out.head[i] = if skips { t } else { f64::NEG_INFINITY };
         out.fits[i] = fits;
     }
 }

@@ -402,7 +402,7 @@ type Skips<'a> = Option<(&'a SkipPlan, &'a [u32])>;
 /// OctoMap's `computeUpdate` loop body (no bounding box) for every finite point of `points`:
 /// its ray, cut at `max_range` when it is longer (and then without an occupied end), and its
 /// end point's voxel; non-finite points are counted. With `skips`, DDA rays through pixels
-/// that other rays cover start where [`SkipPlan::head`] allows.
+/// that other rays cover start where [`SkipPlan::cap`] and their set-ups allow.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_points(
