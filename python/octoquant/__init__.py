@@ -1,0 +1,29 @@
+"""octoquant: OctoMap-compatible occupancy octrees from NumPy, fast.
+
+``octoquant.OcTree`` is a drop-in for octomap-python's ``octomap.OcTree``: the same method
+names, signatures and results (the ``.bt``/``.ot`` bytes are identical), built by octoquant's
+Rust library, with the GIL released during heavy calls. See ``python/README.md`` for the
+migration table.
+"""
+
+from octoquant._octoquant import (
+    NullPointerException,
+    OcTree,
+    OcTreeKey,
+    OcTreeNode,
+    iterator_base,
+    leaf_bbx_iterator,
+    leaf_iterator,
+    tree_iterator,
+)
+
+__all__ = [
+    "NullPointerException",
+    "OcTree",
+    "OcTreeKey",
+    "OcTreeNode",
+    "iterator_base",
+    "leaf_bbx_iterator",
+    "leaf_iterator",
+    "tree_iterator",
+]

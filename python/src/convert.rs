@@ -1,0 +1,239 @@
+//! Python values in and out: NumPy point arrays, 3-vectors, paths or serialized bytes, and the
+//! library's errors as Python exceptions. Every check happens here, before any Rust call, so a
+//! bad argument is a clear `TypeError`/`ValueError`, never a panic.
+
+use crate::engine::OctreeError;
+use nalgebra::Point3;
+use numpy::ndarray::Array2;
+use numpy::{
+    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyOSError, PyPermissionError, PyTypeError, PyValueError,
+};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyString};
+use std::path::PathBuf;
+
+/// A library error as `ValueError`, prefixed with what was being done.
+pub fn value_error(context: &str, e: &OctreeError) -> PyErr {
+    PyValueError::new_err(format!("{context}: {e}"))
+}
+
+/// An I/O error as the matching `OSError` subclass, naming the file.
+pub fn io_error(action: &str, path: &std::path::Path, e: &std::io::Error) -> PyErr {
+    let msg = format!("cannot {action} {}: {e}", path.display());
+    match e.kind() {
+        std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
+        std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(msg),
+        _ => PyOSError::new_err(msg),
+    }
+}
+
+/// The name of an array's dtype, for messages.
+fn dtype_name(a: &Bound<'_, PyUntypedArray>) -> String {
+    a.dtype()
+        .str()
+        .map(|s| s.to_string())
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// A float (N, 3) array: the two element types we read without a copy.
+enum Cloud<'py> {
+    F32(Bound<'py, PyArray2<f32>>),
+    F64(Bound<'py, PyArray2<f64>>),
+}
+
+/// Check that `obj` is an (N, 3) float32 or float64 array (any order or strides); lists and
+/// tuples are converted with `numpy.asarray(obj, dtype=float64)` first.
+fn cloud<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Cloud<'py>> {
+    let py = obj.py();
+    let owned;
+    let obj = if obj.cast::<PyUntypedArray>().is_ok() {
+        obj
+    } else if obj.cast::<PyString>().is_ok() || obj.cast::<PyBytes>().is_ok() {
+        return Err(PyTypeError::new_err(format!(
+            "{name} must be an (N, 3) float array, got {}",
+            obj.get_type().name()?
+        )));
+    } else {
+        let np = py.import("numpy")?;
+        owned = np
+            .call_method1("asarray", (obj, np.getattr("float64")?))
+            .map_err(|e| {
+                PyTypeError::new_err(format!(
+                    "{name} must be an (N, 3) float array: {}",
+                    e.value(py)
+                ))
+            })?;
+        &owned
+    };
+    let a = obj.cast::<PyUntypedArray>()?;
+    let shape = a.shape();
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (N, 3), got {shape:?}"
+        )));
+    }
+    if let Ok(a) = obj.cast::<PyArray2<f64>>() {
+        Ok(Cloud::F64(a.clone()))
+    } else if let Ok(a) = obj.cast::<PyArray2<f32>>() {
+        Ok(Cloud::F32(a.clone()))
+    } else {
+        Err(PyTypeError::new_err(format!(
+            "{name} must be a float32 or float64 array, got dtype {} (use .astype(numpy.float64))",
+            dtype_name(a)
+        )))
+    }
+}
+
+/// Rows of a 2-D array, contiguous or not, mapped through `f`.
+fn rows<T: numpy::Element + Copy, O>(
+    a: &Bound<'_, PyArray2<T>>,
+    name: &str,
+    f: impl Fn([T; 3]) -> O,
+) -> PyResult<Vec<O>> {
+    let ro = a
+        .try_readonly()
+        .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
+    if let Ok(s) = ro.as_slice() {
+        return Ok(s.chunks_exact(3).map(|c| f([c[0], c[1], c[2]])).collect());
+    }
+    let v = ro.as_array();
+    Ok(v.rows().into_iter().map(|r| f([r[0], r[1], r[2]])).collect())
+}
+
+/// An (N, 3) float array as `f32` points (OctoMap's `point3d`: float64 input is rounded).
+pub fn points_f32(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Point3<f32>>> {
+    match cloud(obj, name)? {
+        Cloud::F32(a) => rows(&a, name, |c| Point3::new(c[0], c[1], c[2])),
+        Cloud::F64(a) => rows(&a, name, |c| {
+            Point3::new(c[0] as f32, c[1] as f32, c[2] as f32)
+        }),
+    }
+}
+
+/// An (N, 3) float array as `f64` points (float32 input is widened exactly).
+pub fn points_f64(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Point3<f64>>> {
+    match cloud(obj, name)? {
+        Cloud::F32(a) => rows(&a, name, |c| {
+            Point3::new(c[0] as f64, c[1] as f64, c[2] as f64)
+        }),
+        Cloud::F64(a) => rows(&a, name, |c| Point3::new(c[0], c[1], c[2])),
+    }
+}
+
+/// One 3-vector: a NumPy array of 3 numbers (any real dtype) or a sequence of 3 numbers.
+pub fn vec3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Point3<f64>> {
+    let py = obj.py();
+    let values: Vec<f64> = if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        let kind = a.dtype().kind();
+        if !matches!(kind, b'f' | b'i' | b'u') {
+            return Err(PyTypeError::new_err(format!(
+                "{name} must hold 3 real numbers, got dtype {}",
+                dtype_name(a)
+            )));
+        }
+        let as_f64 = obj.call_method1("astype", (py.import("numpy")?.getattr("float64")?,))?;
+        let a = as_f64.cast::<PyArrayDyn<f64>>()?;
+        let ro = a.readonly();
+        ro.as_array().iter().copied().collect()
+    } else if obj.cast::<PyString>().is_ok() || obj.cast::<PyBytes>().is_ok() {
+        return Err(PyTypeError::new_err(format!(
+            "{name} must be 3 numbers, got {}",
+            obj.get_type().name()?
+        )));
+    } else {
+        obj.extract::<Vec<f64>>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{name} must be 3 numbers (a sequence or array), got {}",
+                obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+            ))
+        })?
+    };
+    if values.len() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have 3 elements, got {}",
+            values.len()
+        )));
+    }
+    Ok(Point3::new(values[0], values[1], values[2]))
+}
+
+/// A 3-vector as OctoMap's `point3d` (`f32`).
+pub fn vec3_f32(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Point3<f32>> {
+    Ok(vec3(obj, name)?.cast::<f32>())
+}
+
+/// A float64 (3,) array.
+pub fn array3<'py>(py: Python<'py>, v: [f64; 3]) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_slice(py, &v)
+}
+
+/// A float64 (N, 3) array from rows.
+pub fn array_n3<'py>(py: Python<'py>, rows: Vec<[f64; 3]>) -> Bound<'py, PyArray2<f64>> {
+    let n = rows.len();
+    let flat: Vec<f64> = rows.into_iter().flatten().collect();
+    let arr = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+    PyArray2::from_owned_array(py, arr)
+}
+
+/// A tree depth argument: 0..=16.
+pub fn depth(d: i64, name: &str) -> PyResult<u8> {
+    if (0..=16).contains(&d) {
+        Ok(d as u8)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name} must be between 0 and 16, got {d}"
+        )))
+    }
+}
+
+/// Where a tree comes from: serialized bytes or a file.
+pub enum Source {
+    /// `.bt`/`.ot` contents.
+    Data(Vec<u8>),
+    /// A path.
+    Path(PathBuf),
+}
+
+impl Source {
+    /// The bytes, read from the file if needed; errors name the file.
+    pub fn bytes(self) -> PyResult<(Vec<u8>, String)> {
+        match self {
+            Source::Data(d) => Ok((d, "serialized tree".into())),
+            Source::Path(p) => {
+                let d = std::fs::read(&p).map_err(|e| io_error("read", &p, &e))?;
+                Ok((d, p.display().to_string()))
+            }
+        }
+    }
+}
+
+/// A path (str, bytes or os.PathLike) or, for bytes that start with an OctoMap header,
+/// serialized tree data, as octomap-python tells them apart.
+pub fn source(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Source> {
+    if let Ok(b) = obj.cast::<PyBytes>() {
+        let data = b.as_bytes();
+        if data.starts_with(b"# Octomap OcTree") {
+            return Ok(Source::Data(data.to_vec()));
+        }
+    }
+    Ok(Source::Path(path(obj, name)?))
+}
+
+/// A file name: str, bytes or os.PathLike (decoded as `os.fsdecode` does).
+pub fn path(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<PathBuf> {
+    let py = obj.py();
+    let decoded = py
+        .import("os")?
+        .call_method1("fsdecode", (obj,))
+        .map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{name} must be a str, bytes or os.PathLike, got {}",
+                obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+            ))
+        })?;
+    decoded.extract::<PathBuf>()
+}

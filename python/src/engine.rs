@@ -1,0 +1,116 @@
+//! The one place that calls the octoquant Rust library.
+//!
+//! Every other file of the bindings deals in Python objects and these functions and
+//! re-exports; when a path or signature of the library changes, the fix is here, one line per
+//! call. Nothing here touches Python.
+
+use nalgebra::Point3;
+use octoquant::octree::io;
+use octoquant::raycast::{self, InsertOptions};
+use std::path::Path;
+
+pub use octoquant::octree::{
+    logodds, probability, Key, KeyConverter, NodeInfo, NodeItem, OcTree, OccupancyParams,
+    OctreeError, Update,
+    TREE_DEPTH,
+};
+
+/// Where a ray cast stopped: `hit` is OctoMap's return value, `end` what it writes into its
+/// `end` argument (`None`: OctoMap leaves `end` untouched).
+pub struct Cast {
+    /// An occupied voxel was reached.
+    pub hit: bool,
+    /// Centre of the voxel where the cast stopped.
+    pub end: Option<Point3<f32>>,
+}
+
+/// OctoMap's `castRay(origin, direction, end, ignoreUnknownCells, maxRange)`.
+pub fn cast_ray(
+    tree: &OcTree,
+    origin: &Point3<f32>,
+    direction: &Point3<f32>,
+    ignore_unknown: bool,
+    max_range: f64,
+) -> Cast {
+    let r = raycast::cast_ray(tree, origin, direction, ignore_unknown, max_range);
+    Cast {
+        hit: r.hit,
+        end: r.end,
+    }
+}
+
+/// OctoMap's `insertPointCloud(scan, origin, maxrange, lazy_eval, discretize)`; `max_range`
+/// `None` (or negative) is OctoMap's -1. Non-finite points are skipped.
+pub fn insert_point_cloud(
+    tree: &mut OcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    lazy: bool,
+    discretize: bool,
+) {
+    let options = InsertOptions {
+        max_range,
+        discretize,
+        lazy,
+    };
+    raycast::insert_point_cloud(tree, points, origin, &options);
+}
+
+/// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
+/// `false` when an end is outside the map.
+pub fn ray_keys(tree: &OcTree, origin: &Point3<f32>, end: &Point3<f32>, out: &mut Vec<Key>) -> bool {
+    let mut ray = raycast::KeyRay::new();
+    let ok = raycast::compute_ray_keys(tree.converter(), origin, end, &mut ray);
+    out.clear();
+    out.extend_from_slice(ray.keys());
+    ok
+}
+
+/// OctoMap's `discretize` pre-pass: one voxel centre per end-point voxel, first-seen order.
+pub fn discretize(tree: &OcTree, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
+    let mut centres = Vec::new();
+    raycast::discretize(tree.converter(), points, &mut centres);
+    centres
+}
+
+/// A tree from `.bt` or `.ot` bytes (told apart by the header line).
+pub fn read_tree(bytes: &[u8]) -> Result<OcTree, OctreeError> {
+    io::read_tree(bytes)
+}
+
+/// A tree from `.bt` bytes only (OctoMap's `readBinary`).
+pub fn read_bt(bytes: &[u8]) -> Result<OcTree, OctreeError> {
+    io::read_bt(bytes)
+}
+
+/// `.bt` bytes; converts the tree to max-likelihood and prunes it first, as OctoMap's
+/// `writeBinary` does.
+pub fn write_bt(tree: &mut OcTree) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    io::write_bt(tree, &mut out)?;
+    Ok(out)
+}
+
+/// `.ot` bytes (OctoMap's `write`): the full tree with every node's log-odds.
+pub fn write_ot(tree: &OcTree) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    io::write_ot(tree, &mut out)?;
+    Ok(out)
+}
+
+/// Write bytes to `path` through a temporary file and a rename, so a failed write leaves no
+/// half-written file.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    octoquant::output::write_atomic(path, |w| w.write_all(bytes)).map_err(|e| e.to_string())
+}
+
+/// The leaves of `tree` down to `max_depth` (16 = all), in OctoMap's iteration order.
+pub fn leaves(tree: &OcTree, max_depth: u8) -> Vec<NodeItem> {
+    tree.leaves_to_depth(max_depth).collect()
+}
+
+/// Every node (inner ones too) down to `max_depth`, in OctoMap's `tree_iterator` order.
+pub fn nodes(tree: &OcTree, max_depth: u8) -> Vec<NodeItem> {
+    tree.nodes().filter(|n| n.depth <= max_depth).collect()
+}

@@ -1,0 +1,197 @@
+//! `OcTreeKey` and `OcTreeNode`, octomap-python's key and node objects.
+
+use crate::engine::{probability, Key, NodeInfo};
+use pyo3::exceptions::{PyIndexError, PyTypeError};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+
+/// A voxel address: three 16-bit indices counting cells from the map's corner (octomap's
+/// `OcTreeKey`). Index it like a sequence: ``key[0]``, ``key[1] = 7``.
+#[pyclass(module = "octoquant", name = "OcTreeKey")]
+#[derive(Clone, Copy)]
+pub struct PyKey {
+    pub key: Key,
+}
+
+impl PyKey {
+    /// Wrap a library key.
+    pub fn new(key: Key) -> Self {
+        PyKey { key }
+    }
+}
+
+fn axis(i: isize) -> PyResult<usize> {
+    match i {
+        0..=2 => Ok(i as usize),
+        -3..=-1 => Ok((i + 3) as usize),
+        _ => Err(PyIndexError::new_err("OcTreeKey index out of range (0..3)")),
+    }
+}
+
+#[pymethods]
+impl PyKey {
+    /// A key; all axes 0 unless given.
+    #[new]
+    #[pyo3(signature = (k0=0, k1=0, k2=0))]
+    fn py_new(k0: u16, k1: u16, k2: u16) -> Self {
+        PyKey::new(Key::new(k0, k1, k2))
+    }
+
+    fn __getitem__(&self, i: isize) -> PyResult<u16> {
+        Ok(self.key[axis(i)?])
+    }
+
+    fn __setitem__(&mut self, i: isize, value: u16) -> PyResult<()> {
+        self.key[axis(i)?] = value;
+        Ok(())
+    }
+
+    fn __len__(&self) -> usize {
+        3
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        (0..3).all(|i| {
+            other
+                .get_item(i)
+                .and_then(|v| v.extract::<u16>())
+                .is_ok_and(|v| v == self.key[i])
+        })
+    }
+
+    fn __ne__(&self, other: &Bound<'_, PyAny>) -> bool {
+        !self.__eq__(other)
+    }
+
+    fn __hash__(&self) -> u64 {
+        self.key.morton()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "OcTreeKey({}, {}, {})",
+            self.key[0], self.key[1], self.key[2]
+        )
+    }
+
+    fn __getnewargs__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(py, self.key.0)
+    }
+}
+
+/// A key argument: an `OcTreeKey` or any sequence of three integers in 0..65535.
+pub fn key_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Key> {
+    if let Ok(k) = obj.cast::<PyKey>() {
+        return Ok(k.borrow().key);
+    }
+    let v: Vec<u16> = obj.extract().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "{name} must be an OcTreeKey or 3 integers in 0..65535"
+        ))
+    })?;
+    match v[..] {
+        [a, b, c] => Ok(Key::new(a, b, c)),
+        _ => Err(PyTypeError::new_err(format!(
+            "{name} must have 3 elements, got {}",
+            v.len()
+        ))),
+    }
+}
+
+/// A node of the tree as it was when it was looked up (octomap-python's `OcTreeNode` points
+/// into the live tree instead; see the migration notes).
+#[pyclass(module = "octoquant", name = "OcTreeNode", frozen)]
+#[derive(Clone, Copy)]
+pub struct PyNode {
+    /// The node's log-odds.
+    pub value: f32,
+    /// Whether it had children.
+    pub has_children: bool,
+    /// Its depth (0 root .. 16 voxel).
+    pub depth: u8,
+    /// Its key at that depth (the voxel key at depth 16).
+    pub key: Key,
+}
+
+impl PyNode {
+    /// A node from a search result and the key it was searched with.
+    pub fn found(info: NodeInfo, key: Key) -> Self {
+        PyNode {
+            value: info.value,
+            has_children: info.has_children,
+            depth: info.depth,
+            key: if info.depth < 16 {
+                key.at_depth(info.depth)
+            } else {
+                key
+            },
+        }
+    }
+}
+
+#[pymethods]
+impl PyNode {
+    /// The node's log-odds (same as `getLogOdds`).
+    #[pyo3(name = "getValue")]
+    fn get_value(&self) -> f32 {
+        self.value
+    }
+
+    /// The node's log-odds occupancy.
+    #[pyo3(name = "getLogOdds")]
+    fn get_log_odds(&self) -> f32 {
+        self.value
+    }
+
+    /// The node's occupancy probability, `1 - 1/(1 + exp(log_odds))`.
+    #[pyo3(name = "getOccupancy")]
+    fn get_occupancy(&self) -> f64 {
+        probability(self.value as f64)
+    }
+
+    /// Whether the node had children when it was looked up.
+    #[pyo3(name = "hasChildren")]
+    fn has_children_py(&self) -> bool {
+        self.has_children
+    }
+
+    /// The node's depth (16 = voxel; smaller for a pruned node covering many voxels).
+    #[pyo3(name = "getDepth")]
+    fn get_depth(&self) -> u8 {
+        self.depth
+    }
+
+    /// The node's key at its depth.
+    #[pyo3(name = "getKey")]
+    fn get_key(&self) -> PyKey {
+        PyKey::new(self.key)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "OcTreeNode(log_odds={}, depth={}, has_children={})",
+            self.value,
+            self.depth,
+            if self.has_children { "True" } else { "False" }
+        )
+    }
+}
+
+/// Used by `isNodeOccupied` and friends: the log-odds of a node or iterator argument.
+pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
+    if let Ok(n) = obj.cast::<PyNode>() {
+        return Ok(n.get().value);
+    }
+    if let Ok(it) = obj.cast::<crate::iter::IteratorBase>() {
+        return it.borrow().current().map(|n| n.value);
+    }
+    if obj.is_none() {
+        return Err(crate::NullPointerException::new_err(
+            "no node (search found unknown space)",
+        ));
+    }
+    Err(PyTypeError::new_err(format!(
+        "expected an OcTreeNode or an iterator, got {}",
+        obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+    )))
+}

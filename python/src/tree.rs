@@ -1,0 +1,1149 @@
+//! `octoquant.OcTree`: octomap-python's `OcTree` (same names, signatures and results) plus
+//! vectorised extras, over the Rust library's tree.
+
+use crate::bbx::{self, Bbx};
+use crate::cloud;
+use crate::convert::{self, array3, array_n3, depth, path, source, vec3, vec3_f32};
+use crate::engine::{self, logodds, probability, Key, OcTree, OccupancyParams, Update, TREE_DEPTH};
+use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
+use crate::node::{key_arg, node_value, PyKey, PyNode};
+use nalgebra::Point3;
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyBytes, PyDict, PyTuple};
+use rayon::prelude::*;
+
+/// OctoMap's probabilistic occupancy octree, built by octoquant.
+///
+/// ``OcTree(resolution)`` makes an empty tree with leaves of that edge length (metres);
+/// ``OcTree(filename)`` reads a ``.bt`` or ``.ot`` file (str, bytes or os.PathLike).
+/// Method names, signatures and results follow octomap-python, so porting a script is changing
+/// the import; ``.bt``/``.ot`` bytes are identical to OctoMap's for the same calls.
+#[pyclass(module = "octoquant", name = "OcTree")]
+pub struct PyOcTree {
+    /// Boxed: the tree's blocks are cache-line aligned (64 bytes), more than Python's
+    /// allocator guarantees for the object that holds it.
+    pub tree: Box<OcTree>,
+    pub bbx: Bbx,
+}
+
+/// A key-or-point argument (`updateNode`, `search`, ...).
+enum Target {
+    Key(Key),
+    Point(Point3<f64>),
+}
+
+fn target(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Target> {
+    if obj.cast::<PyKey>().is_ok() {
+        Ok(Target::Key(key_arg(obj, name)?))
+    } else {
+        Ok(Target::Point(vec3(obj, name)?))
+    }
+}
+
+/// `update` of `updateNode`: a Python bool is a hit or a miss, anything else a log-odds delta.
+fn update_arg(obj: &Bound<'_, PyAny>) -> PyResult<Update> {
+    if let Ok(b) = obj.cast::<PyBool>() {
+        return Ok(if b.is_true() {
+            Update::Hit
+        } else {
+            Update::Miss
+        });
+    }
+    let v: f32 = obj.extract().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(
+            "update must be a bool (hit/miss) or a float (log-odds delta)",
+        )
+    })?;
+    Ok(Update::LogOdds(v))
+}
+
+/// A probability for a sensor-model setter: strictly between 0 and 1.
+fn prob(p: f64, name: &str) -> PyResult<f32> {
+    if p.is_finite() && p > 0.0 && p < 1.0 {
+        Ok(logodds(p))
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name} must lie strictly between 0 and 1, got {p}"
+        )))
+    }
+}
+
+fn bytes_or_true<'py>(
+    py: Python<'py>,
+    data: Vec<u8>,
+    filename: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    match filename {
+        None => Ok(PyBytes::new(py, &data).into_any()),
+        Some(f) => {
+            let p = path(f, "filename")?;
+            py.detach(|| engine::write_file(&p, &data))
+                .map_err(PyOSError::new_err)?;
+            Ok(PyBool::new(py, true).to_owned().into_any())
+        }
+    }
+}
+
+impl PyOcTree {
+    /// Wrap a tree (no bounding box).
+    pub fn wrap(tree: OcTree) -> Self {
+        PyOcTree {
+            tree: Box::new(tree),
+            bbx: Bbx::default(),
+        }
+    }
+
+    /// A tree from a path or serialized bytes, `.bt` or `.ot`.
+    fn load(py: Python<'_>, obj: &Bound<'_, PyAny>, bt_only: bool) -> PyResult<OcTree> {
+        let (data, name) = source(obj, "filename")?.bytes()?;
+        py.detach(|| {
+            if bt_only {
+                engine::read_bt(&data)
+            } else {
+                engine::read_tree(&data)
+            }
+        })
+        .map_err(|e| convert::value_error(&name, &e))
+    }
+
+    fn node_at(&self, key: Key, d: u8) -> Option<PyNode> {
+        self.tree.search(key, d).map(|n| PyNode::found(n, key))
+    }
+
+    fn key_of_point(&self, p: &Point3<f64>) -> Option<Key> {
+        self.tree.converter().point_to_key(p)
+    }
+
+    fn set_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
+        let mut p = *self.tree.params();
+        f(&mut p);
+        self.tree.set_params(p);
+    }
+
+    fn iterator_base(&self, py: Python<'_>, nodes: bool, d: u8) -> IteratorBase {
+        let tree = &self.tree;
+        let items = py.detach(|| {
+            if nodes {
+                engine::nodes(tree, d)
+            } else {
+                engine::leaves(tree, d)
+            }
+        });
+        IteratorBase::new(items, tree.converter().clone(), d)
+    }
+}
+
+#[pymethods]
+impl PyOcTree {
+    #[new]
+    fn py_new(py: Python<'_>, arg: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let is_number = arg.extract::<f64>().is_ok()
+            && arg.cast::<pyo3::types::PyString>().is_err()
+            && arg.cast::<PyBytes>().is_err();
+        if is_number {
+            let r: f64 = arg.extract()?;
+            let tree = OcTree::new(r).map_err(|e| convert::value_error("OcTree", &e))?;
+            Ok(Self::wrap(tree))
+        } else {
+            Ok(Self::wrap(Self::load(py, arg, false)?))
+        }
+    }
+
+    /// Read a tree from a ``.ot`` or ``.bt`` file, or from the bytes ``write()`` /
+    /// ``writeBinary()`` returned. Raises OSError (FileNotFoundError, ...) or ValueError.
+    #[staticmethod]
+    fn read(py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Ok(Self::wrap(Self::load(py, filename, false)?))
+    }
+
+    /// A tree from ``.bt`` or ``.ot`` bytes.
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        let tree = py
+            .detach(|| engine::read_tree(data))
+            .map_err(|e| convert::value_error("serialized tree", &e))?;
+        Ok(Self::wrap(tree))
+    }
+
+    /// Replace this tree by a ``.bt`` file (or ``.bt`` bytes); the sensor model is kept.
+    /// Returns True; raises OSError or ValueError instead of returning False.
+    #[pyo3(name = "readBinary")]
+    fn read_binary(&mut self, py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let mut tree = Self::load(py, filename, true)?;
+        tree.set_params(*self.tree.params());
+        self.tree = Box::new(tree);
+        Ok(true)
+    }
+
+    /// ``.bt`` bytes of the tree, or write them to ``filename`` and return True. Like
+    /// OctoMap, converts the tree to max-likelihood and prunes it first.
+    #[pyo3(name = "writeBinary", signature = (filename=None))]
+    fn write_binary<'py>(
+        &mut self,
+        py: Python<'py>,
+        filename: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let tree = &mut self.tree;
+        let data = py
+            .detach(|| engine::write_bt(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        bytes_or_true(py, data, filename)
+    }
+
+    /// ``.ot`` bytes of the tree (every node's log-odds), or write them to ``filename`` and
+    /// return True.
+    #[pyo3(signature = (filename=None))]
+    fn write<'py>(
+        &self,
+        py: Python<'py>,
+        filename: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let tree = &self.tree;
+        let data = py
+            .detach(|| engine::write_ot(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        bytes_or_true(py, data, filename)
+    }
+
+    /// The tree serialized: ``kind="bt"`` (max-likelihood, pruned first, like
+    /// ``writeBinary``) or ``"ot"`` (full, like ``write``).
+    #[pyo3(signature = (kind="bt"))]
+    fn to_bytes<'py>(&mut self, py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyBytes>> {
+        let tree = &mut self.tree;
+        let data = match kind {
+            "bt" => py.detach(|| engine::write_bt(tree)),
+            "ot" => py.detach(|| engine::write_ot(tree)),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "kind must be \"bt\" or \"ot\", got {kind:?}"
+                )))
+            }
+        }
+        .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        Ok(PyBytes::new(py, &data))
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let tree = &self.tree;
+        let data = py
+            .detach(|| engine::write_ot(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        let p = self.tree.params();
+        let restore = py.import("octoquant._octoquant")?.getattr("_restore")?;
+        let args = (
+            PyBytes::new(py, &data),
+            p.hit,
+            p.miss,
+            p.clamp_min,
+            p.clamp_max,
+            p.occupancy_threshold,
+        );
+        PyTuple::new(py, [restore.into_any(), args.into_pyobject(py)?.into_any()])
+    }
+
+    /// Integrate a scan: ``pointcloud`` (N, 3) end points and the sensor ``origin`` in the map
+    /// frame. Each voxel is updated once per scan, occupied before free, exactly as OctoMap.
+    /// ``maxrange`` < 0: no limit; ``lazy_eval``: skip inner-node upkeep (call
+    /// ``updateInnerOccupancy()`` afterwards); ``discretize``: one ray per end-point voxel.
+    /// NaN/inf points are skipped. Releases the GIL.
+    #[pyo3(
+        name = "insertPointCloud",
+        signature = (pointcloud, origin, maxrange=-1.0, lazy_eval=false, discretize=false)
+    )]
+    fn insert_point_cloud(
+        &mut self,
+        py: Python<'_>,
+        pointcloud: &Bound<'_, PyAny>,
+        origin: &Bound<'_, PyAny>,
+        maxrange: f64,
+        lazy_eval: bool,
+        discretize: bool,
+    ) -> PyResult<()> {
+        if maxrange.is_nan() {
+            return Err(PyValueError::new_err("maxrange must not be NaN"));
+        }
+        let points = convert::points_f32(pointcloud, "pointcloud")?;
+        let origin = vec3_f32(origin, "origin")?;
+        let tree = &mut self.tree;
+        let bbx = self.bbx;
+        py.detach(|| {
+            if bbx.enabled {
+                bbx::insert_point_cloud(tree, &bbx, &points, &origin, maxrange, lazy_eval, discretize)
+            } else {
+                let max_range = (maxrange >= 0.0).then_some(maxrange);
+                engine::insert_point_cloud(tree, &points, &origin, max_range, lazy_eval, discretize)
+            }
+        });
+        Ok(())
+    }
+
+    /// Follow a ray from ``origin`` along ``direction`` to the first occupied voxel. Writes the
+    /// centre of the voxel where it stopped into ``end`` (a float array of 3, changed in place)
+    /// and returns True only for an occupied voxel; stops at unknown space unless
+    /// ``ignoreUnknownCells``, and beyond ``maxRange`` when it is > 0.
+    #[pyo3(
+        name = "castRay",
+        signature = (origin, direction, end, ignoreUnknownCells=false, maxRange=-1.0)
+    )]
+    #[allow(non_snake_case)]
+    fn cast_ray(
+        &self,
+        origin: &Bound<'_, PyAny>,
+        direction: &Bound<'_, PyAny>,
+        end: &Bound<'_, PyAny>,
+        ignoreUnknownCells: bool,
+        maxRange: f64,
+    ) -> PyResult<bool> {
+        let o = vec3_f32(origin, "origin")?;
+        let d = vec3_f32(direction, "direction")?;
+        let out = end_array(end)?;
+        let r = engine::cast_ray(&self.tree, &o, &d, ignoreUnknownCells, maxRange);
+        if let Some(e) = r.end {
+            out.set(e)?;
+        }
+        Ok(r.hit)
+    }
+
+    /// Many casts at once: ``origins`` (N, 3) or one (3,) origin for all, ``directions``
+    /// (N, 3). Returns ``(hit, ends)``: bool (N,) and float64 (N, 3), NaN rows where the
+    /// ray could not be cast. Parallel, without the GIL.
+    #[pyo3(signature = (origins, directions, ignore_unknown=false, max_range=None))]
+    fn cast_rays<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        ignore_unknown: bool,
+        max_range: Option<f64>,
+    ) -> PyResult<(Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>)> {
+        let dirs = convert::points_f32(directions, "directions")?;
+        let origins = match vec3_f32(origins, "origins") {
+            Ok(o) => vec![o; dirs.len()],
+            Err(_) => convert::points_f32(origins, "origins")?,
+        };
+        if origins.len() != dirs.len() {
+            return Err(PyValueError::new_err(format!(
+                "origins has {} rows but directions has {}",
+                origins.len(),
+                dirs.len()
+            )));
+        }
+        let tree = &self.tree;
+        let mr = max_range.unwrap_or(-1.0);
+        let results: Vec<(bool, [f64; 3])> = py.detach(|| {
+            origins
+                .par_iter()
+                .zip(dirs.par_iter())
+                .map(|(o, d)| {
+                    let r = engine::cast_ray(tree, o, d, ignore_unknown, mr);
+                    let e = r.end.map_or([f64::NAN; 3], |e| [e.x as f64, e.y as f64, e.z as f64]);
+                    (r.hit, e)
+                })
+                .collect()
+        });
+        let hits: Vec<bool> = results.iter().map(|r| r.0).collect();
+        let ends: Vec<[f64; 3]> = results.into_iter().map(|r| r.1).collect();
+        Ok((PyArray1::from_vec(py, hits), array_n3(py, ends)))
+    }
+
+    /// The node holding ``value`` (an OcTreeKey or a point), descending at most to ``depth``
+    /// (0 = 16, the voxel level): the node, the pruned leaf covering it, or None in unknown
+    /// space or outside the map.
+    #[pyo3(signature = (value, depth=0))]
+    fn search(&self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<Option<PyNode>> {
+        let d = convert::depth(depth, "depth")?;
+        let key = match target(value, "value")? {
+            Target::Key(k) => k,
+            Target::Point(p) => match self.key_of_point(&p) {
+                Some(k) => k,
+                None => return Ok(None),
+            },
+        };
+        Ok(self.node_at(key, d))
+    }
+
+    /// Whether a node (from ``search``/``updateNode``, or an iterator) is occupied under the
+    /// current threshold. ``None`` (unknown space) raises NullPointerException.
+    #[pyo3(name = "isNodeOccupied")]
+    fn is_node_occupied(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        Ok(self.tree.params().is_occupied(node_value(node)?))
+    }
+
+    /// Whether a node's log-odds sits at either clamping bound.
+    #[pyo3(name = "isNodeAtThreshold")]
+    fn is_node_at_threshold(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        Ok(self.tree.params().is_at_threshold(node_value(node)?))
+    }
+
+    /// Integrate one observation of the voxel at ``value`` (OcTreeKey or point):
+    /// ``update`` True = hit, False = miss, a float = log-odds delta. Returns the updated
+    /// node, or None for a point outside the map.
+    #[pyo3(name = "updateNode", signature = (value, update, lazy_eval=false))]
+    fn update_node(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        update: &Bound<'_, PyAny>,
+        lazy_eval: bool,
+    ) -> PyResult<Option<PyNode>> {
+        let u = update_arg(update)?;
+        let key = match target(value, "value")? {
+            Target::Key(k) => k,
+            Target::Point(p) => match self.key_of_point(&p.cast::<f32>().cast::<f64>()) {
+                Some(k) => k,
+                None => return Ok(None),
+            },
+        };
+        self.tree.update_node(key, u, lazy_eval);
+        Ok(self.node_at(key, TREE_DEPTH))
+    }
+
+    /// ``updateNode`` for many keys or points (a sequence, or an (N, 3) array of points), in
+    /// order. Points outside the map are skipped.
+    #[pyo3(name = "updateNodes", signature = (values, update, lazy_eval=false))]
+    fn update_nodes(
+        &mut self,
+        py: Python<'_>,
+        values: &Bound<'_, PyAny>,
+        update: &Bound<'_, PyAny>,
+        lazy_eval: bool,
+    ) -> PyResult<()> {
+        let u = update_arg(update)?;
+        if values.is_none() {
+            return Ok(());
+        }
+        let conv = self.tree.converter().clone();
+        let keys: Vec<Key> = match convert::points_f32(values, "values") {
+            Ok(points) => points
+                .iter()
+                .filter_map(|p| conv.point_to_key(&p.cast::<f64>()))
+                .collect(),
+            Err(_) => {
+                let mut keys = Vec::new();
+                for v in values.try_iter()? {
+                    match target(&v?, "values")? {
+                        Target::Key(k) => keys.push(k),
+                        Target::Point(p) => {
+                            keys.extend(conv.point_to_key(&p.cast::<f32>().cast::<f64>()))
+                        }
+                    }
+                }
+                keys
+            }
+        };
+        let tree = &mut self.tree;
+        py.detach(|| tree.update_keys(&keys, u, lazy_eval));
+        Ok(())
+    }
+
+    /// Bring inner nodes up to date after ``lazy_eval`` updates.
+    #[pyo3(name = "updateInnerOccupancy")]
+    fn update_inner_occupancy(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.update_inner_occupancy());
+    }
+
+    /// Set every node to the clamping bound on its side of the threshold.
+    #[pyo3(name = "toMaxLikelihood")]
+    fn to_max_likelihood(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.to_max_likelihood());
+    }
+
+    /// Merge children that all have the same value into their parent (OctoMap's ``prune``).
+    fn prune(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.prune());
+    }
+
+    /// Expand every pruned node down to voxels (OctoMap's ``expand``).
+    fn expand(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.expand());
+    }
+
+    /// Remove every node (the resolution and sensor model stay).
+    fn clear(&mut self) {
+        self.tree.clear();
+    }
+
+    /// Delete the node at ``depth`` (0 = 16) holding point ``value``, with its subtree.
+    /// Returns whether anything was deleted. Note octomap-python's default depth is 1.
+    #[pyo3(name = "deleteNode", signature = (value, depth=1))]
+    fn delete_node(&mut self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<bool> {
+        let d = convert::depth(depth, "depth")?;
+        let key = match target(value, "value")? {
+            Target::Key(k) => k,
+            Target::Point(p) => match self.key_of_point(&p.cast::<f32>().cast::<f64>()) {
+                Some(k) => k,
+                None => return Ok(false),
+            },
+        };
+        Ok(self.tree.delete_node(key, d))
+    }
+
+    /// ``(occupied, empty)``: float64 (N, 3) arrays of the centres of every voxel inside the
+    /// occupied and the free leaves (a pruned leaf gives all the voxels it covers).
+    #[pyo3(name = "extractPointCloud")]
+    fn extract_point_cloud<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+        let tree = &self.tree;
+        let (occ, free) = py.detach(|| cloud::extract_point_cloud(tree)).map_err(|e| {
+            PyMemoryError::new_err(format!("extractPointCloud would return {} points", e.0))
+        })?;
+        Ok((array_n3(py, occ), array_n3(py, free)))
+    }
+
+    /// int32 label per point of an (N, 3) array: 1 occupied, 0 free, -1 unknown (also for
+    /// NaN points and points outside the map).
+    #[pyo3(name = "getLabels")]
+    fn get_labels<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<i32>>> {
+        let pts = convert::points_f32(points, "points")?;
+        let tree = &self.tree;
+        let labels = py.detach(|| cloud::labels(tree, &pts));
+        Ok(PyArray1::from_vec(py, labels))
+    }
+
+    /// Occupancy probability per point of an (N, 3) array; NaN in unknown space.
+    fn occupancy<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let pts = convert::points_f64(points, "points")?;
+        let tree = &self.tree;
+        let p = py.detach(|| cloud::occupancy(tree, &pts));
+        Ok(PyArray1::from_vec(py, p))
+    }
+
+    /// ``(centres, sizes)`` of the occupied leaves: float64 (N, 3) and (N,).
+    fn occupied_voxels<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>) {
+        let tree = &self.tree;
+        let (c, s) = py.detach(|| cloud::voxels(tree, true));
+        (array_n3(py, c), PyArray1::from_vec(py, s))
+    }
+
+    /// ``(centres, sizes)`` of the free leaves: float64 (N, 3) and (N,).
+    fn free_voxels<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>) {
+        let tree = &self.tree;
+        let (c, s) = py.detach(|| cloud::voxels(tree, false));
+        (array_n3(py, c), PyArray1::from_vec(py, s))
+    }
+
+    /// Every leaf (down to ``max_depth``, 0 = 16; inside ``bbx = (min, max)`` if given) as a
+    /// structured array with fields x, y, z (centre), size, depth, log_odds.
+    #[pyo3(signature = (bbx=None, max_depth=0))]
+    fn leaves<'py>(
+        &self,
+        py: Python<'py>,
+        bbx: Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>,
+        max_depth: i64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let d = crate::iter::max_depth(convert::depth(max_depth, "max_depth")?);
+        let items = match &bbx {
+            None => {
+                let tree = &self.tree;
+                py.detach(|| engine::leaves(tree, d))
+            }
+            Some((lo, hi)) => self.bbx_items(py, lo, hi, d)?,
+        };
+        let conv = self.tree.converter();
+        let np = py.import("numpy")?;
+        let dtype = np.call_method1(
+            "dtype",
+            (vec![
+                ("x", "f8"),
+                ("y", "f8"),
+                ("z", "f8"),
+                ("size", "f8"),
+                ("depth", "u1"),
+                ("log_odds", "f4"),
+            ],),
+        )?;
+        let out = np.call_method1("empty", (items.len(), dtype))?;
+        for (a, name) in ["x", "y", "z"].iter().enumerate() {
+            let col: Vec<f64> = items
+                .iter()
+                .map(|n| conv.key_to_coord_at_depth(n.key[a], n.depth))
+                .collect();
+            out.set_item(*name, PyArray1::from_vec(py, col))?;
+        }
+        let sizes: Vec<f64> = items.iter().map(|n| conv.node_size(n.depth)).collect();
+        out.set_item("size", PyArray1::from_vec(py, sizes))?;
+        let depths: Vec<u8> = items.iter().map(|n| n.depth).collect();
+        out.set_item("depth", PyArray1::from_vec(py, depths))?;
+        let values: Vec<f32> = items.iter().map(|n| n.value).collect();
+        out.set_item("log_odds", PyArray1::from_vec(py, values))?;
+        Ok(out)
+    }
+
+    /// Leaf size in metres.
+    #[pyo3(name = "getResolution")]
+    fn get_resolution(&self) -> f64 {
+        self.tree.resolution()
+    }
+
+    /// ``b"OcTree"``.
+    #[pyo3(name = "getTreeType")]
+    fn get_tree_type<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, b"OcTree")
+    }
+
+    /// Number of nodes, inner and leaves.
+    fn size(&self) -> usize {
+        self.tree.size()
+    }
+
+    /// Number of nodes, counted by walking the tree.
+    #[pyo3(name = "calcNumNodes")]
+    fn calc_num_nodes(&self, py: Python<'_>) -> usize {
+        let tree = &self.tree;
+        py.detach(|| tree.counts().nodes)
+    }
+
+    /// Number of leaves.
+    #[pyo3(name = "getNumLeafNodes")]
+    fn get_num_leaf_nodes(&self, py: Python<'_>) -> usize {
+        let tree = &self.tree;
+        py.detach(|| tree.num_leaves())
+    }
+
+    /// 16.
+    #[pyo3(name = "getTreeDepth")]
+    fn get_tree_depth(&self) -> u8 {
+        TREE_DEPTH
+    }
+
+    /// Lower corner of the bounding box of all leaves (zeros for an empty tree).
+    #[pyo3(name = "getMetricMin")]
+    fn get_metric_min<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let b = self.tree.metric_bounds().map_or([0.0; 3], |(lo, _)| lo.into());
+        array3(py, b)
+    }
+
+    /// Upper corner of the bounding box of all leaves (zeros for an empty tree).
+    #[pyo3(name = "getMetricMax")]
+    fn get_metric_max<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let b = self.tree.metric_bounds().map_or([0.0; 3], |(_, hi)| hi.into());
+        array3(py, b)
+    }
+
+    /// Edge lengths of the bounding box of all leaves.
+    #[pyo3(name = "getMetricSize")]
+    fn get_metric_size<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        array3(py, self.tree.metric_size())
+    }
+
+    /// Volume of the bounding box of all leaves.
+    fn volume(&self) -> f64 {
+        self.tree.volume()
+    }
+
+    /// Bytes this tree's storage holds (octoquant's, not OctoMap's formula).
+    #[pyo3(name = "memoryUsage")]
+    fn memory_usage(&self) -> usize {
+        self.tree.memory_usage()
+    }
+
+    /// Bytes per node in OctoMap (16 on 64-bit machines), for formulas written against it.
+    #[pyo3(name = "memoryUsageNode")]
+    fn memory_usage_node(&self) -> usize {
+        16
+    }
+
+    /// Bytes a dense float grid over the map's bounding box would take (OctoMap's formula).
+    #[pyo3(name = "memoryFullGrid")]
+    fn memory_full_grid(&self) -> usize {
+        if self.tree.is_empty() {
+            return 0;
+        }
+        let f = 1.0 / self.tree.resolution();
+        let s = self.tree.metric_size();
+        ((f * s[0]).ceil() * (f * s[1]).ceil() * (f * s[2]).ceil()) as usize * 4
+    }
+
+    /// The root node, or None for an empty tree.
+    #[pyo3(name = "getRoot")]
+    fn get_root(&self) -> Option<PyNode> {
+        self.tree.root_value().map(|v| PyNode {
+            value: v,
+            has_children: self.tree.size() > 1,
+            depth: 0,
+            key: Key::new(0, 0, 0),
+        })
+    }
+
+    /// Key of a point (taken as float32), unchecked like OctoMap: outside the map it wraps.
+    /// With ``depth``, the key of the coarser node at that depth.
+    #[pyo3(name = "coordToKey", signature = (coord, depth=None))]
+    fn coord_to_key(&self, coord: &Bound<'_, PyAny>, depth: Option<i64>) -> PyResult<PyKey> {
+        let p = vec3_f32(coord, "coord")?.cast::<f64>();
+        let conv = self.tree.converter();
+        let key = match depth {
+            None => conv.point_to_key_unchecked(&p),
+            Some(d) => {
+                let d = convert::depth(d, "depth")?;
+                Key::new(
+                    conv.coord_to_key_at_depth(p.x, d),
+                    conv.coord_to_key_at_depth(p.y, d),
+                    conv.coord_to_key_at_depth(p.z, d),
+                )
+            }
+        };
+        Ok(PyKey::new(key))
+    }
+
+    /// ``(True, key)`` for a point inside the map, ``(False, None)`` outside.
+    #[pyo3(name = "coordToKeyChecked", signature = (coord, depth=None))]
+    fn coord_to_key_checked(
+        &self,
+        coord: &Bound<'_, PyAny>,
+        depth: Option<i64>,
+    ) -> PyResult<(bool, Option<PyKey>)> {
+        let p = vec3_f32(coord, "coord")?.cast::<f64>();
+        let d = depth.map(|d| convert::depth(d, "depth")).transpose()?;
+        Ok(match self.key_of_point(&p) {
+            Some(k) => (true, Some(PyKey::new(d.map_or(k, |d| k.at_depth(d))))),
+            None => (false, None),
+        })
+    }
+
+    /// Centre of the voxel (or of the node at ``depth``) with this key, float32 precision.
+    #[pyo3(name = "keyToCoord", signature = (key, depth=None))]
+    fn key_to_coord<'py>(
+        &self,
+        py: Python<'py>,
+        key: &Bound<'py, PyAny>,
+        depth: Option<i64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let k = key_arg(key, "key")?;
+        let d = depth.map(|d| convert::depth(d, "depth")).transpose()?;
+        let conv = self.tree.converter();
+        let d = d.unwrap_or(TREE_DEPTH);
+        let c = [0, 1, 2].map(|a| conv.key_to_coord_at_depth(k[a], d) as f32 as f64);
+        Ok(array3(py, c))
+    }
+
+    /// The key of the node at ``depth`` that contains ``key``.
+    #[pyo3(name = "adjustKeyAtDepth")]
+    fn adjust_key_at_depth(&self, key: &Bound<'_, PyAny>, depth: i64) -> PyResult<PyKey> {
+        let k = key_arg(key, "key")?;
+        Ok(PyKey::new(k.at_depth(convert::depth(depth, "depth")?)))
+    }
+
+    // ---- the sensor model ----
+
+    /// Probability added by a hit.
+    #[pyo3(name = "getProbHit")]
+    fn get_prob_hit(&self) -> f64 {
+        probability(self.tree.params().hit as f64)
+    }
+    /// Log-odds added by a hit.
+    #[pyo3(name = "getProbHitLog")]
+    fn get_prob_hit_log(&self) -> f32 {
+        self.tree.params().hit
+    }
+    /// Probability of a miss.
+    #[pyo3(name = "getProbMiss")]
+    fn get_prob_miss(&self) -> f64 {
+        probability(self.tree.params().miss as f64)
+    }
+    /// Log-odds added by a miss.
+    #[pyo3(name = "getProbMissLog")]
+    fn get_prob_miss_log(&self) -> f32 {
+        self.tree.params().miss
+    }
+    /// Lower clamping bound (probability).
+    #[pyo3(name = "getClampingThresMin")]
+    fn get_clamping_thres_min(&self) -> f64 {
+        probability(self.tree.params().clamp_min as f64)
+    }
+    /// Lower clamping bound (log-odds).
+    #[pyo3(name = "getClampingThresMinLog")]
+    fn get_clamping_thres_min_log(&self) -> f32 {
+        self.tree.params().clamp_min
+    }
+    /// Upper clamping bound (probability).
+    #[pyo3(name = "getClampingThresMax")]
+    fn get_clamping_thres_max(&self) -> f64 {
+        probability(self.tree.params().clamp_max as f64)
+    }
+    /// Upper clamping bound (log-odds).
+    #[pyo3(name = "getClampingThresMaxLog")]
+    fn get_clamping_thres_max_log(&self) -> f32 {
+        self.tree.params().clamp_max
+    }
+    /// Occupancy threshold (probability).
+    #[pyo3(name = "getOccupancyThres")]
+    fn get_occupancy_thres(&self) -> f64 {
+        probability(self.tree.params().occupancy_threshold as f64)
+    }
+    /// Occupancy threshold (log-odds).
+    #[pyo3(name = "getOccupancyThresLog")]
+    fn get_occupancy_thres_log(&self) -> f32 {
+        self.tree.params().occupancy_threshold
+    }
+
+    /// Set the hit probability (0.5 <= p < 1).
+    #[pyo3(name = "setProbHit")]
+    fn set_prob_hit(&mut self, prob_: f64) -> PyResult<()> {
+        let l = prob(prob_, "prob")?;
+        if l < 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "a hit must not lower occupancy: prob must be >= 0.5, got {prob_}"
+            )));
+        }
+        self.set_params(|p| p.hit = l);
+        Ok(())
+    }
+
+    /// Set the miss probability (0 < p <= 0.5).
+    #[pyo3(name = "setProbMiss")]
+    fn set_prob_miss(&mut self, prob_: f64) -> PyResult<()> {
+        let l = prob(prob_, "prob")?;
+        if l > 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "a miss must not raise occupancy: prob must be <= 0.5, got {prob_}"
+            )));
+        }
+        self.set_params(|p| p.miss = l);
+        Ok(())
+    }
+
+    /// Set the lower clamping bound (a probability, at most the upper bound).
+    #[pyo3(name = "setClampingThresMin")]
+    #[allow(non_snake_case)]
+    fn set_clamping_thres_min(&mut self, thresProb: f64) -> PyResult<()> {
+        let l = prob(thresProb, "thresProb")?;
+        if l > self.tree.params().clamp_max {
+            return Err(PyValueError::new_err(format!(
+                "the lower clamping bound {thresProb} exceeds the upper one {}",
+                probability(self.tree.params().clamp_max as f64)
+            )));
+        }
+        self.set_params(|p| p.clamp_min = l);
+        Ok(())
+    }
+
+    /// Set the upper clamping bound (a probability, at least the lower bound).
+    #[pyo3(name = "setClampingThresMax")]
+    #[allow(non_snake_case)]
+    fn set_clamping_thres_max(&mut self, thresProb: f64) -> PyResult<()> {
+        let l = prob(thresProb, "thresProb")?;
+        if l < self.tree.params().clamp_min {
+            return Err(PyValueError::new_err(format!(
+                "the upper clamping bound {thresProb} is below the lower one {}",
+                probability(self.tree.params().clamp_min as f64)
+            )));
+        }
+        self.set_params(|p| p.clamp_max = l);
+        Ok(())
+    }
+
+    /// Set the occupancy threshold (a probability).
+    #[pyo3(name = "setOccupancyThres")]
+    fn set_occupancy_thres(&mut self, prob_: f64) -> PyResult<()> {
+        let l = prob(prob_, "prob")?;
+        self.set_params(|p| p.occupancy_threshold = l);
+        Ok(())
+    }
+
+    // ---- iteration ----
+
+    /// Iterator over every node, inner ones too, down to ``maxDepth`` (0 = 16).
+    #[pyo3(signature = (maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_tree(&self, py: Python<'_>, maxDepth: i64) -> PyResult<Py<TreeIterator>> {
+        let d = max_depth(depth(maxDepth, "maxDepth")?);
+        TreeIterator::create(py, self.iterator_base(py, true, d))
+    }
+
+    /// Iterator over the leaves, treating nodes at ``maxDepth`` (0 = 16) as leaves.
+    #[pyo3(signature = (maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_leafs(&self, py: Python<'_>, maxDepth: i64) -> PyResult<Py<LeafIterator>> {
+        let d = max_depth(depth(maxDepth, "maxDepth")?);
+        LeafIterator::create(py, self.iterator_base(py, false, d))
+    }
+
+    /// Iterator over the leaves whose cube overlaps the box ``[bbx_min, bbx_max]``; empty when
+    /// a corner is outside the map.
+    #[pyo3(signature = (bbx_min, bbx_max, maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_leafs_bbx(
+        &self,
+        py: Python<'_>,
+        bbx_min: &Bound<'_, PyAny>,
+        bbx_max: &Bound<'_, PyAny>,
+        maxDepth: i64,
+    ) -> PyResult<Py<LeafBbxIterator>> {
+        let d = max_depth(depth(maxDepth, "maxDepth")?);
+        let items = self.bbx_items(py, bbx_min, bbx_max, d)?;
+        let base = IteratorBase::new(items, self.tree.converter().clone(), d);
+        LeafBbxIterator::create(py, base)
+    }
+
+    /// An iterator past the last node.
+    fn end_tree(&self, py: Python<'_>) -> PyResult<Py<TreeIterator>> {
+        TreeIterator::create(py, self.empty_iterator())
+    }
+
+    /// An iterator past the last leaf.
+    fn end_leafs(&self, py: Python<'_>) -> PyResult<Py<LeafIterator>> {
+        LeafIterator::create(py, self.empty_iterator())
+    }
+
+    /// An iterator past the last leaf of a box.
+    fn end_leafs_bbx(&self, py: Python<'_>) -> PyResult<Py<LeafBbxIterator>> {
+        LeafBbxIterator::create(py, self.empty_iterator())
+    }
+
+    // ---- bounding box ----
+
+    /// Limit ``insertPointCloud`` to the box set with ``setBBXMin``/``setBBXMax``.
+    #[pyo3(name = "useBBXLimit")]
+    fn use_bbx_limit(&mut self, enable: bool) {
+        self.bbx.enabled = enable;
+    }
+
+    /// Whether the box limit is on.
+    #[pyo3(name = "bbxSet")]
+    fn bbx_set(&self) -> bool {
+        self.bbx.enabled
+    }
+
+    /// Set the lower corner of the box (ValueError outside the map).
+    #[pyo3(name = "setBBXMin")]
+    fn set_bbx_min(&mut self, min: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = vec3_f32(min, "min")?;
+        if !self.bbx.set_min(self.tree.converter(), p) {
+            return Err(PyValueError::new_err(format!("box corner {p:?} is outside the map")));
+        }
+        Ok(())
+    }
+
+    /// Set the upper corner of the box (ValueError outside the map).
+    #[pyo3(name = "setBBXMax")]
+    fn set_bbx_max(&mut self, max: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = vec3_f32(max, "max")?;
+        if !self.bbx.set_max(self.tree.converter(), p) {
+            return Err(PyValueError::new_err(format!("box corner {p:?} is outside the map")));
+        }
+        Ok(())
+    }
+
+    /// Lower corner of the box.
+    #[pyo3(name = "getBBXMin")]
+    fn get_bbx_min<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        array3(py, self.bbx.min.cast::<f64>().into())
+    }
+
+    /// Upper corner of the box.
+    #[pyo3(name = "getBBXMax")]
+    fn get_bbx_max<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        array3(py, self.bbx.max.cast::<f64>().into())
+    }
+
+    /// Half the box's edge lengths.
+    #[pyo3(name = "getBBXBounds")]
+    fn get_bbx_bounds<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let b = (self.bbx.max - self.bbx.min) / 2.0;
+        array3(py, [b.x as f64, b.y as f64, b.z as f64])
+    }
+
+    /// Centre of the box.
+    #[pyo3(name = "getBBXCenter")]
+    fn get_bbx_center<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let c = self.bbx.min + (self.bbx.max - self.bbx.min) / 2.0;
+        array3(py, [c.x as f64, c.y as f64, c.z as f64])
+    }
+
+    /// Whether a point lies inside the box (borders included).
+    #[pyo3(name = "inBBX")]
+    fn in_bbx(&self, p: &Bound<'_, PyAny>) -> PyResult<bool> {
+        Ok(self.bbx.contains(&vec3_f32(p, "p")?))
+    }
+
+    // ---- change detection ----
+
+    /// Record every voxel that is created or whose occupancy flips from now on.
+    #[pyo3(name = "enableChangeDetection")]
+    fn enable_change_detection(&mut self, enable: bool) {
+        self.tree.enable_change_detection(enable);
+    }
+
+    /// Whether change detection is on.
+    #[pyo3(name = "isChangeDetectionEnabled")]
+    fn is_change_detection_enabled(&self) -> bool {
+        self.tree.is_change_detection_enabled()
+    }
+
+    /// Forget the changes recorded so far.
+    #[pyo3(name = "resetChangeDetection")]
+    fn reset_change_detection(&mut self) {
+        self.tree.reset_change_detection();
+    }
+
+    /// Number of changed voxels recorded.
+    #[pyo3(name = "numChangesDetected")]
+    fn num_changes_detected(&self) -> usize {
+        self.tree.num_changes_detected()
+    }
+
+    /// The changed voxels in key order: ``[(OcTreeKey, is_new), ...]``; ``is_new`` is True
+    /// for a voxel that did not exist before, False for one whose occupancy flipped.
+    #[pyo3(name = "changedKeys")]
+    fn changed_keys(&self) -> Vec<(PyKey, bool)> {
+        self.tree
+            .changed_keys()
+            .map(|(k, new)| (PyKey::new(k), new))
+            .collect()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "octoquant.OcTree(resolution={}, size={})",
+            self.tree.resolution(),
+            self.tree.size()
+        )
+    }
+
+    fn __copy__(&self) -> Self {
+        PyOcTree {
+            tree: self.tree.clone(),
+            bbx: self.bbx,
+        }
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyDict>) -> Self {
+        self.__copy__()
+    }
+}
+
+impl PyOcTree {
+    fn empty_iterator(&self) -> IteratorBase {
+        IteratorBase::new(Vec::new(), self.tree.converter().clone(), TREE_DEPTH)
+    }
+
+    /// Leaves down to depth `d` overlapping the box between two points; none when a corner is
+    /// outside the map (OctoMap's end iterator).
+    fn bbx_items(
+        &self,
+        py: Python<'_>,
+        lo: &Bound<'_, PyAny>,
+        hi: &Bound<'_, PyAny>,
+        d: u8,
+    ) -> PyResult<Vec<engine::NodeItem>> {
+        let lo = vec3_f32(lo, "bbx_min")?.cast::<f64>();
+        let hi = vec3_f32(hi, "bbx_max")?.cast::<f64>();
+        let (Some(a), Some(b)) = (self.key_of_point(&lo), self.key_of_point(&hi)) else {
+            return Ok(Vec::new());
+        };
+        let tree = &self.tree;
+        Ok(py.detach(|| {
+            if d == TREE_DEPTH {
+                tree.leaves_in_bbx(a, b).collect()
+            } else {
+                let lo = Key([0, 1, 2].map(|i| a[i].min(b[i])));
+                let hi = Key([0, 1, 2].map(|i| a[i].max(b[i])));
+                engine::leaves(tree, d)
+                    .into_iter()
+                    .filter(|n| {
+                        let m = n.min_key();
+                        let w = n.width() - 1;
+                        (0..3).all(|i| {
+                            m[i] as u32 <= hi[i] as u32 && m[i] as u32 + w >= lo[i] as u32
+                        })
+                    })
+                    .collect()
+            }
+        }))
+    }
+}
+
+/// The `end` argument of `castRay`: a writable float array of at least 3 elements.
+enum EndArray<'py> {
+    F64(Bound<'py, numpy::PyArrayDyn<f64>>),
+    F32(Bound<'py, numpy::PyArrayDyn<f32>>),
+}
+
+fn end_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<EndArray<'py>> {
+    let bad = || {
+        pyo3::exceptions::PyTypeError::new_err(
+            "end must be a writable float64 or float32 NumPy array of 3 elements (castRay writes the end point into it)",
+        )
+    };
+    let e = if let Ok(a) = obj.cast::<numpy::PyArrayDyn<f64>>() {
+        EndArray::F64(a.clone())
+    } else if let Ok(a) = obj.cast::<numpy::PyArrayDyn<f32>>() {
+        EndArray::F32(a.clone())
+    } else {
+        return Err(bad());
+    };
+    let len = match &e {
+        EndArray::F64(a) => numpy::PyUntypedArrayMethods::len(a),
+        EndArray::F32(a) => numpy::PyUntypedArrayMethods::len(a),
+    };
+    if len < 3 {
+        return Err(PyValueError::new_err(format!(
+            "end must have at least 3 elements, got {len}"
+        )));
+    }
+    Ok(e)
+}
+
+impl EndArray<'_> {
+    fn set(&self, p: Point3<f32>) -> PyResult<()> {
+        let err = |e: numpy::BorrowError| PyValueError::new_err(format!("end: {e}"));
+        match self {
+            EndArray::F64(a) => {
+                let mut rw = a.try_readwrite().map_err(err)?;
+                for (v, c) in rw.as_array_mut().iter_mut().zip([p.x, p.y, p.z]) {
+                    *v = c as f64;
+                }
+            }
+            EndArray::F32(a) => {
+                let mut rw = a.try_readwrite().map_err(err)?;
+                for (v, c) in rw.as_array_mut().iter_mut().zip([p.x, p.y, p.z]) {
+                    *v = c;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Unpickling: a tree from `.ot` bytes and its sensor model (log-odds).
+#[pyfunction]
+pub fn _restore(
+    py: Python<'_>,
+    data: &[u8],
+    hit: f32,
+    miss: f32,
+    clamp_min: f32,
+    clamp_max: f32,
+    threshold: f32,
+) -> PyResult<PyOcTree> {
+    let mut t = PyOcTree::from_bytes(py, data)?;
+    t.tree.set_params(OccupancyParams {
+        hit,
+        miss,
+        clamp_min,
+        clamp_max,
+        occupancy_threshold: threshold,
+    });
+    Ok(t)
+}
