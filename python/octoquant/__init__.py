@@ -7,6 +7,7 @@ migration table.
 """
 
 from octoquant._octoquant import (
+    Mapper,
     NullPointerException,
     OcTree,
     OcTreeKey,
@@ -18,6 +19,7 @@ from octoquant._octoquant import (
 )
 
 __all__ = [
+    "Mapper",
     "NullPointerException",
     "OcTree",
     "OcTreeKey",

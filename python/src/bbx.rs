@@ -55,10 +55,16 @@ impl Bbx {
     }
 }
 
-/// OctoMap's `insertPointCloud` while the BBX limit is on: only end points inside the box
-/// (and within `max_range`, negative = none) count; each marks its voxel occupied and frees
-/// its ray's voxels walking back from the end until the ray leaves the box. Occupied wins over
-/// free; every voxel is updated once, misses first.
+/// octomath's `norm()`: the squares summed in float, the root taken in double.
+fn norm(d: [f32; 3]) -> f64 {
+    ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64).sqrt()
+}
+
+/// OctoMap 1.10's `insertPointCloud` while the BBX limit is on (octomap-python bundles 1.10;
+/// 1.9 differed): an end point inside the box and within `max_range` (negative = none) marks
+/// its voxel occupied; every ray, cut to `max_range`, frees its voxels from the origin until
+/// the first voxel outside the box. Occupied wins over free; every voxel is updated once,
+/// misses first.
 pub fn insert_point_cloud(
     tree: &mut OcTree,
     bbx: &Bbx,
@@ -80,27 +86,28 @@ pub fn insert_point_cloud(
     let mut occupied = Vec::new();
     let mut ray = Vec::new();
     for p in points {
-        if !bbx.contains(p) {
-            continue;
-        }
-        if max_range >= 0.0 {
-            // octomath's norm: the squares summed in float, the root in double
-            let d = [p.x - origin.x, p.y - origin.y, p.z - origin.z];
-            let sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if (sq as f64).sqrt() > max_range {
-                continue;
+        let d = [p.x - origin.x, p.y - origin.y, p.z - origin.z];
+        let beyond = max_range >= 0.0 && norm(d) > max_range;
+        if bbx.contains(p) && !beyond {
+            if let Some(k) = conv.point_to_key(&p.cast::<f64>()) {
+                occupied.push(k);
             }
         }
-        if let Some(k) = conv.point_to_key(&p.cast::<f64>()) {
-            occupied.push(k);
-        }
-        if engine::ray_keys(tree, origin, p, &mut ray) {
-            for k in ray.iter().rev() {
-                if !bbx.contains_key(k) {
-                    break;
-                }
-                free.push(*k);
-            }
+        let end = if beyond {
+            // Vector3::normalized divides by the float of the double norm
+            let len = norm(d) as f32;
+            let dir = if len > 0.0 { d.map(|c| c / len) } else { d };
+            let m = max_range as f32;
+            Point3::new(
+                origin.x + dir[0] * m,
+                origin.y + dir[1] * m,
+                origin.z + dir[2] * m,
+            )
+        } else {
+            *p
+        };
+        if engine::ray_keys(tree, origin, &end, &mut ray) {
+            free.extend(ray.iter().take_while(|k| bbx.contains_key(k)));
         }
     }
     let by_morton = |a: &Key, b: &Key| a.morton().cmp(&b.morton());

@@ -97,11 +97,17 @@ fn rows<T: numpy::Element + Copy, O>(
     let ro = a
         .try_readonly()
         .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
-    if let Ok(s) = ro.as_slice() {
-        return Ok(s.chunks_exact(3).map(|c| f([c[0], c[1], c[2]])).collect());
+    // as_slice also accepts Fortran order, whose memory is column by column
+    if ro.is_c_contiguous() {
+        if let Ok(s) = ro.as_slice() {
+            return Ok(s.chunks_exact(3).map(|c| f([c[0], c[1], c[2]])).collect());
+        }
     }
     let v = ro.as_array();
-    Ok(v.rows().into_iter().map(|r| f([r[0], r[1], r[2]])).collect())
+    Ok(v.rows()
+        .into_iter()
+        .map(|r| f([r[0], r[1], r[2]]))
+        .collect())
 }
 
 /// An (N, 3) float array as `f32` points (OctoMap's `point3d`: float64 input is rounded).
@@ -148,7 +154,10 @@ pub fn vec3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Point3<f64>> {
         obj.extract::<Vec<f64>>().map_err(|_| {
             PyTypeError::new_err(format!(
                 "{name} must be 3 numbers (a sequence or array), got {}",
-                obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                obj.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
             ))
         })?
     };
@@ -232,7 +241,10 @@ pub fn path(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<PathBuf> {
         .map_err(|_| {
             PyTypeError::new_err(format!(
                 "{name} must be a str, bytes or os.PathLike, got {}",
-                obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                obj.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
             ))
         })?;
     decoded.extract::<PathBuf>()

@@ -11,9 +11,19 @@ use std::path::Path;
 
 pub use octoquant::octree::{
     logodds, probability, Key, KeyConverter, NodeInfo, NodeItem, OcTree, OccupancyParams,
-    OctreeError, Update,
-    TREE_DEPTH,
+    OctreeError, Update, TREE_DEPTH,
 };
+pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
+pub use octoquant::Frame;
+
+/// Every insertion mode, for looking one up by its name.
+pub const INSERT_MODES: [InsertMode; 5] = [
+    InsertMode::Exact,
+    InsertMode::Discretize,
+    InsertMode::Quantized,
+    InsertMode::QuantizedBresenham,
+    InsertMode::Simple,
+];
 
 /// Where a ray cast stopped: `hit` is OctoMap's return value, `end` what it writes into its
 /// `end` argument (`None`: OctoMap leaves `end` untouched).
@@ -59,7 +69,12 @@ pub fn insert_point_cloud(
 
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
 /// `false` when an end is outside the map.
-pub fn ray_keys(tree: &OcTree, origin: &Point3<f32>, end: &Point3<f32>, out: &mut Vec<Key>) -> bool {
+pub fn ray_keys(
+    tree: &OcTree,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+    out: &mut Vec<Key>,
+) -> bool {
     let mut ray = raycast::KeyRay::new();
     let ok = raycast::compute_ray_keys(tree.converter(), origin, end, &mut ray);
     out.clear();

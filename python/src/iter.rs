@@ -75,7 +75,6 @@ impl IteratorBase {
         let n = self.current()?;
         Ok(self.conv.key_to_coord_at_depth(n.key[axis], n.depth))
     }
-
 }
 
 #[pymethods]

@@ -2,7 +2,8 @@
 //! drop-in for octomap-python (`octoquant.OcTree`) with NumPy in and out.
 //!
 //! Layout: [`engine`] is the only file that calls the octoquant library; [`convert`] checks
-//! and converts Python arguments; [`tree`], [`node`] and [`iter`] are the Python classes;
+//! and converts Python arguments; [`tree`], [`node`], [`iter`] and [`mapper`] are the Python
+//! classes;
 //! [`cloud`] and [`bbx`] hold the array queries and the bounding-box insertion they call.
 #![deny(missing_docs)]
 
@@ -11,6 +12,7 @@ mod cloud;
 mod convert;
 mod engine;
 mod iter;
+mod mapper;
 mod node;
 mod tree;
 
@@ -27,6 +29,7 @@ pyo3::create_exception!(
 #[pymodule]
 fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tree::PyOcTree>()?;
+    m.add_class::<mapper::PyMapper>()?;
     m.add_class::<node::PyKey>()?;
     m.add_class::<node::PyNode>()?;
     m.add_class::<iter::IteratorBase>()?;

@@ -192,6 +192,9 @@ pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
     }
     Err(PyTypeError::new_err(format!(
         "expected an OcTreeNode or an iterator, got {}",
-        obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+        obj.get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default()
     )))
 }

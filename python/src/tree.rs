@@ -270,7 +270,9 @@ impl PyOcTree {
         let bbx = self.bbx;
         py.detach(|| {
             if bbx.enabled {
-                bbx::insert_point_cloud(tree, &bbx, &points, &origin, maxrange, lazy_eval, discretize)
+                bbx::insert_point_cloud(
+                    tree, &bbx, &points, &origin, maxrange, lazy_eval, discretize,
+                )
             } else {
                 let max_range = (maxrange >= 0.0).then_some(maxrange);
                 engine::insert_point_cloud(tree, &points, &origin, max_range, lazy_eval, discretize)
@@ -338,7 +340,9 @@ impl PyOcTree {
                 .zip(dirs.par_iter())
                 .map(|(o, d)| {
                     let r = engine::cast_ray(tree, o, d, ignore_unknown, mr);
-                    let e = r.end.map_or([f64::NAN; 3], |e| [e.x as f64, e.y as f64, e.z as f64]);
+                    let e = r
+                        .end
+                        .map_or([f64::NAN; 3], |e| [e.x as f64, e.y as f64, e.z as f64]);
                     (r.hit, e)
                 })
                 .collect()
@@ -468,8 +472,9 @@ impl PyOcTree {
         self.tree.clear();
     }
 
-    /// Delete the node at ``depth`` (0 = 16) holding point ``value``, with its subtree.
-    /// Returns whether anything was deleted. Note octomap-python's default depth is 1.
+    /// Delete the node at ``depth`` (0 = 16) holding point ``value``, with its subtree
+    /// (octomap-python's default depth is 1: a whole octant). Returns OctoMap's value: True
+    /// only when the tree was empty or is left without children.
     #[pyo3(name = "deleteNode", signature = (value, depth=1))]
     fn delete_node(&mut self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<bool> {
         let d = convert::depth(depth, "depth")?;
@@ -480,7 +485,12 @@ impl PyOcTree {
                 None => return Ok(false),
             },
         };
-        Ok(self.tree.delete_node(key, d))
+        if self.tree.is_empty() {
+            return Ok(true);
+        }
+        let deleted = self.tree.delete_node(key, d);
+        // OctoMap's deleteNodeRecurs reports whether the root was left without children
+        Ok(deleted && self.tree.nodes().nth(1).is_none())
     }
 
     /// ``(occupied, empty)``: float64 (N, 3) arrays of the centres of every voxel inside the
@@ -491,9 +501,11 @@ impl PyOcTree {
         py: Python<'py>,
     ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
         let tree = &self.tree;
-        let (occ, free) = py.detach(|| cloud::extract_point_cloud(tree)).map_err(|e| {
-            PyMemoryError::new_err(format!("extractPointCloud would return {} points", e.0))
-        })?;
+        let (occ, free) = py
+            .detach(|| cloud::extract_point_cloud(tree))
+            .map_err(|e| {
+                PyMemoryError::new_err(format!("extractPointCloud would return {} points", e.0))
+            })?;
         Ok((array_n3(py, occ), array_n3(py, free)))
     }
 
@@ -630,14 +642,20 @@ impl PyOcTree {
     /// Lower corner of the bounding box of all leaves (zeros for an empty tree).
     #[pyo3(name = "getMetricMin")]
     fn get_metric_min<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let b = self.tree.metric_bounds().map_or([0.0; 3], |(lo, _)| lo.into());
+        let b = self
+            .tree
+            .metric_bounds()
+            .map_or([0.0; 3], |(lo, _)| lo.into());
         array3(py, b)
     }
 
     /// Upper corner of the bounding box of all leaves (zeros for an empty tree).
     #[pyo3(name = "getMetricMax")]
     fn get_metric_max<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let b = self.tree.metric_bounds().map_or([0.0; 3], |(_, hi)| hi.into());
+        let b = self
+            .tree
+            .metric_bounds()
+            .map_or([0.0; 3], |(_, hi)| hi.into());
         array3(py, b)
     }
 
@@ -930,7 +948,9 @@ impl PyOcTree {
     fn set_bbx_min(&mut self, min: &Bound<'_, PyAny>) -> PyResult<()> {
         let p = vec3_f32(min, "min")?;
         if !self.bbx.set_min(self.tree.converter(), p) {
-            return Err(PyValueError::new_err(format!("box corner {p:?} is outside the map")));
+            return Err(PyValueError::new_err(format!(
+                "box corner {p:?} is outside the map"
+            )));
         }
         Ok(())
     }
@@ -940,7 +960,9 @@ impl PyOcTree {
     fn set_bbx_max(&mut self, max: &Bound<'_, PyAny>) -> PyResult<()> {
         let p = vec3_f32(max, "max")?;
         if !self.bbx.set_max(self.tree.converter(), p) {
-            return Err(PyValueError::new_err(format!("box corner {p:?} is outside the map")));
+            return Err(PyValueError::new_err(format!(
+                "box corner {p:?} is outside the map"
+            )));
         }
         Ok(())
     }
@@ -1038,8 +1060,9 @@ impl PyOcTree {
         IteratorBase::new(Vec::new(), self.tree.converter().clone(), TREE_DEPTH)
     }
 
-    /// Leaves down to depth `d` overlapping the box between two points; none when a corner is
-    /// outside the map (OctoMap's end iterator).
+    /// Leaves down to depth `d` overlapping the box between two points as OctoMap's
+    /// `begin_leafs_bbx` finds them; none when a corner is outside the map (OctoMap's end
+    /// iterator).
     fn bbx_items(
         &self,
         py: Python<'_>,
@@ -1054,24 +1077,29 @@ impl PyOcTree {
         };
         let tree = &self.tree;
         Ok(py.detach(|| {
-            if d == TREE_DEPTH {
-                tree.leaves_in_bbx(a, b).collect()
-            } else {
-                let lo = Key([0, 1, 2].map(|i| a[i].min(b[i])));
-                let hi = Key([0, 1, 2].map(|i| a[i].max(b[i])));
-                engine::leaves(tree, d)
-                    .into_iter()
-                    .filter(|n| {
-                        let m = n.min_key();
-                        let w = n.width() - 1;
-                        (0..3).all(|i| {
-                            m[i] as u32 <= hi[i] as u32 && m[i] as u32 + w >= lo[i] as u32
-                        })
-                    })
-                    .collect()
-            }
+            engine::leaves(tree, d)
+                .into_iter()
+                .filter(|n| octomap_bbx_overlap(n, &a, &b))
+                .collect()
         }))
     }
+}
+
+/// OctoMap's `leaf_bbx_iterator` test of a node against the key box `[lo, hi]` (corners taken
+/// as given, not sorted): `lo <= key + half && hi >= key - half` on every axis, where `key` is
+/// the node's centre key and `half` its half width in keys. The upper side reaches one key
+/// past the node, so a pruned node that ends just below the box is included, as in OctoMap.
+/// A node passes only if its parent does, so filtering the leaves equals OctoMap's pruned walk.
+fn octomap_bbx_overlap(n: &engine::NodeItem, lo: &Key, hi: &Key) -> bool {
+    let half = if n.depth >= TREE_DEPTH {
+        0
+    } else {
+        32768i32 >> n.depth
+    };
+    (0..3).all(|i| {
+        let k = n.key[i] as i32;
+        lo[i] as i32 <= k + half && hi[i] as i32 >= k - half
+    })
 }
 
 /// The `end` argument of `castRay`: a writable float array of at least 3 elements.

@@ -1,0 +1,270 @@
+//! `octoquant.Mapper`: the library's mapping pipeline (insertion modes, maximum range,
+//! threads, density reduction) for NumPy frames.
+
+use crate::convert::{self, vec3, vec3_f32};
+use crate::engine::{self, FrameStats, InsertMode, Mapper, MapperOptions};
+use crate::tree::PyOcTree;
+use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Rotation3, Translation3, UnitQuaternion};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Builds a map from frames with octoquant's pipeline.
+///
+/// ``mode``: ``"exact"`` (OctoMap's ``insertPointCloud``), ``"discretize"`` (its
+/// ``discretize=True``), ``"quantized"`` (the same map as discretize, faster),
+/// ``"quantized+bresenham"`` (fastest, not OctoMap-identical) or ``"simple"`` (per-point rays
+/// without deduplication). ``max_range``: readings beyond only clear space. ``threads``: worker
+/// threads for ray casting (None: all cores). ``lazy``: skip inner-node upkeep until ``tree``
+/// is read. ``reduce``: thin each frame with the density reducer first (cell edge in metres,
+/// one number or three). The sensor model is OctoMap's unless given.
+#[pyclass(module = "octoquant", name = "Mapper")]
+pub struct PyMapper {
+    mapper: Mapper,
+    pool: Option<rayon::ThreadPool>,
+}
+
+fn mode(name: &str) -> PyResult<InsertMode> {
+    engine::INSERT_MODES
+        .into_iter()
+        .find(|m| m.name() == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = engine::INSERT_MODES.iter().map(|m| m.name()).collect();
+            PyValueError::new_err(format!(
+                "unknown mode {name:?}; expected one of {}",
+                names.join(", ")
+            ))
+        })
+}
+
+fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("points", s.points)?;
+    d.set_item("non_finite", s.non_finite)?;
+    d.set_item("outside_map", s.outside_map)?;
+    d.set_item("reduced", s.reduced)?;
+    d.set_item("rays", s.rays)?;
+    d.set_item("free", s.free)?;
+    d.set_item("occupied", s.occupied)?;
+    d.set_item("seconds", s.seconds)?;
+    Ok(d)
+}
+
+/// A pose: a 4x4 homogeneous matrix, or (translation (3,), quaternion (x, y, z, w)).
+fn pose(obj: &Bound<'_, PyAny>) -> PyResult<Isometry3<f64>> {
+    if let Ok((t, q)) = obj.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>)>() {
+        let t = vec3(&t, "pose translation")?;
+        let q: Vec<f64> = q
+            .extract()
+            .map_err(|_| PyValueError::new_err("pose quaternion must be 4 numbers (x, y, z, w)"))?;
+        let [x, y, z, w] = q[..] else {
+            return Err(PyValueError::new_err(
+                "pose quaternion must be 4 numbers (x, y, z, w)",
+            ));
+        };
+        let q = Quaternion::new(w, x, y, z);
+        if !(q.norm() > 0.0 && q.norm().is_finite()) {
+            return Err(PyValueError::new_err(
+                "pose quaternion must be finite and non-zero",
+            ));
+        }
+        return Ok(Isometry3::from_parts(
+            Translation3::from(t.coords),
+            UnitQuaternion::from_quaternion(q),
+        ));
+    }
+    let m: Vec<Vec<f64>> = obj.extract().or_else(|_| {
+        obj.call_method0("tolist")
+            .and_then(|l| l.extract())
+            .map_err(|_| {
+                PyValueError::new_err("pose must be a 4x4 matrix or (translation, quaternion)")
+            })
+    })?;
+    if m.len() != 4 || m.iter().any(|r| r.len() != 4) || m.iter().flatten().any(|v| !v.is_finite())
+    {
+        return Err(PyValueError::new_err("pose must be a finite 4x4 matrix"));
+    }
+    let r = Matrix3::from_fn(|i, j| m[i][j]);
+    let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
+    Ok(Isometry3::from_parts(
+        Translation3::new(m[0][3], m[1][3], m[2][3]),
+        rot,
+    ))
+}
+
+impl PyMapper {
+    fn run<T: Send>(&mut self, py: Python<'_>, f: impl FnOnce(&mut Mapper) -> T + Send) -> T {
+        let PyMapper { mapper, pool } = self;
+        py.detach(|| match pool {
+            Some(p) => p.install(|| f(mapper)),
+            None => f(mapper),
+        })
+    }
+}
+
+#[pymethods]
+impl PyMapper {
+    #[new]
+    #[pyo3(signature = (
+        resolution=0.1, mode="exact", max_range=None, threads=None, lazy=false, reduce=None,
+        prob_hit=0.7, prob_miss=0.4, clamping_min=0.1192, clamping_max=0.971,
+        occupancy_threshold=0.5
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn py_new(
+        resolution: f64,
+        mode: &str,
+        max_range: Option<f64>,
+        threads: Option<usize>,
+        lazy: bool,
+        reduce: Option<&Bound<'_, PyAny>>,
+        prob_hit: f64,
+        prob_miss: f64,
+        clamping_min: f64,
+        clamping_max: f64,
+        occupancy_threshold: f64,
+    ) -> PyResult<Self> {
+        let params = engine::OccupancyParams::from_probabilities(
+            prob_hit,
+            prob_miss,
+            clamping_min,
+            clamping_max,
+            occupancy_threshold,
+        )
+        .map_err(|e| convert::value_error("Mapper", &e))?;
+        if let Some(r) = max_range {
+            if r.is_nan() {
+                return Err(PyValueError::new_err("max_range must not be NaN"));
+            }
+        }
+        let reduce = match reduce {
+            None => None,
+            Some(r) => {
+                let cell = match r.extract::<f64>() {
+                    Ok(c) => [c; 3],
+                    Err(_) => vec3(r, "reduce")?.into(),
+                };
+                if cell.iter().any(|c| !(c.is_finite() && *c > 0.0)) {
+                    return Err(PyValueError::new_err(format!(
+                        "reduce cell sizes must be finite and > 0, got {cell:?}"
+                    )));
+                }
+                Some(cell)
+            }
+        };
+        let pool = match threads {
+            None => None,
+            Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| PyValueError::new_err(format!("threads: {e}")))?,
+            ),
+        };
+        let options = MapperOptions {
+            resolution,
+            params,
+            max_range,
+            mode: self::mode(mode)?,
+            lazy,
+            reduce,
+            ..MapperOptions::default()
+        };
+        let mapper = Mapper::new(options).map_err(|e| convert::value_error("Mapper", &e))?;
+        Ok(PyMapper { mapper, pool })
+    }
+
+    /// Insert one frame: ``points`` (N, 3); either ``origin`` (the sensor position, points in
+    /// the world frame; default 0) or ``pose`` (points in the sensor frame; a 4x4 matrix or
+    /// (translation, quaternion (x, y, z, w))). Returns the frame's statistics. Releases the
+    /// GIL.
+    #[pyo3(signature = (points, origin=None, pose=None))]
+    fn insert<'py>(
+        &mut self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        origin: Option<&Bound<'py, PyAny>>,
+        pose: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let pts = convert::points_f32(points, "points")?;
+        let st = match (origin, pose) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err("give origin or pose, not both"));
+            }
+            (_, Some(p)) => {
+                let iso = self::pose(p)?;
+                self.run(py, move |m| m.insert_sensor_frame(&pts, &iso))
+            }
+            (o, None) => {
+                let origin = match o {
+                    Some(o) => vec3_f32(o, "origin")?,
+                    None => Point3::origin(),
+                };
+                let frame = engine::Frame::new(origin, pts);
+                self.run(py, move |m| m.insert(&frame))
+            }
+        };
+        stats_dict(py, &st)
+    }
+
+    /// Insert frames ``[(points, origin), ...]`` in order, pipelined over the threads (the
+    /// next frame's rays are cast while this one updates the tree; same map as one
+    /// ``insert`` per frame). Returns the statistics of each.
+    fn insert_frames<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: &Bound<'py, PyAny>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let mut list = Vec::new();
+        for item in frames.try_iter()? {
+            let (pts, origin): (Bound<'py, PyAny>, Bound<'py, PyAny>) = item?.extract()?;
+            list.push(engine::Frame::new(
+                vec3_f32(&origin, "origin")?,
+                convert::points_f32(&pts, "points")?,
+            ));
+        }
+        let stats = self.run(py, move |m| m.insert_frames(&list));
+        stats.iter().map(|s| stats_dict(py, s)).collect()
+    }
+
+    /// A copy of the map so far (inner nodes brought up to date first in lazy mode).
+    #[getter]
+    fn tree(&mut self, py: Python<'_>) -> PyOcTree {
+        let t = self.run(py, |m| {
+            m.finish();
+            m.tree().clone()
+        });
+        PyOcTree::wrap(t)
+    }
+
+    /// The mode's name.
+    #[getter]
+    fn mode(&self) -> &'static str {
+        self.mapper.options().mode.name()
+    }
+
+    /// Leaf size in metres.
+    #[getter]
+    fn resolution(&self) -> f64 {
+        self.mapper.options().resolution
+    }
+
+    /// Totals over every frame inserted so far.
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.mapper.stats();
+        let d = stats_dict(py, &s.total)?;
+        d.set_item("frames", s.frames)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        let o = self.mapper.options();
+        format!(
+            "octoquant.Mapper(resolution={}, mode={:?}, hit log-odds={})",
+            o.resolution,
+            o.mode.name(),
+            o.params.hit
+        )
+    }
+}
