@@ -17,8 +17,8 @@ pub mod treefile;
 
 pub use frame::Frame;
 pub use octoquant_octree as octree;
+pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};
 /// OctoMap's rays, `castRay` and `insertPointCloud` (the `octoquant-raycast` crate), for
 /// callers that use only this crate (the Python bindings).
 pub use octoquant_raycast as raycast;
-pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};
 pub use parry3d;

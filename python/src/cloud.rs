@@ -4,6 +4,9 @@
 use crate::engine::{probability, OcTree, TREE_DEPTH};
 use nalgebra::Point3;
 
+/// Rows of points.
+pub type Rows = Vec<[f64; 3]>;
+
 /// Not enough memory for a result; the caller raises `MemoryError`.
 #[derive(Debug)]
 pub struct TooLarge(pub u128);
@@ -11,7 +14,7 @@ pub struct TooLarge(pub u128);
 /// octomap-python's `extractPointCloud`: every leaf as the centres of the voxels it covers,
 /// occupied and free apart, in leaf order, with its exact floating-point arithmetic (the
 /// resolution as float32, centres as float32, then double maths).
-pub fn extract_point_cloud(tree: &OcTree) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>), TooLarge> {
+pub fn extract_point_cloud(tree: &OcTree) -> Result<(Rows, Rows), TooLarge> {
     let conv = tree.converter();
     let res = conv.resolution() as f32 as f64;
     let thres = tree.params().occupancy_threshold;
@@ -32,7 +35,7 @@ pub fn extract_point_cloud(tree: &OcTree) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]
             n_free += d * d * d;
         }
     }
-    let alloc = |n: u128| -> Result<Vec<[f64; 3]>, TooLarge> {
+    let alloc = |n: u128| -> Result<Rows, TooLarge> {
         let mut v = Vec::new();
         let len = usize::try_from(n).map_err(|_| TooLarge(n))?;
         v.try_reserve_exact(len).map_err(|_| TooLarge(n))?;

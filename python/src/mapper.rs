@@ -20,7 +20,8 @@ use pyo3::types::PyDict;
 /// one number or three). The sensor model is OctoMap's unless given.
 #[pyclass(module = "octoquant", name = "Mapper")]
 pub struct PyMapper {
-    mapper: Mapper,
+    /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
+    mapper: Box<Mapper>,
     pool: Option<rayon::ThreadPool>,
 }
 
@@ -172,7 +173,10 @@ impl PyMapper {
             ..MapperOptions::default()
         };
         let mapper = Mapper::new(options).map_err(|e| convert::value_error("Mapper", &e))?;
-        Ok(PyMapper { mapper, pool })
+        Ok(PyMapper {
+            mapper: Box::new(mapper),
+            pool,
+        })
     }
 
     /// Insert one frame: ``points`` (N, 3); either ``origin`` (the sensor position, points in

@@ -28,6 +28,12 @@ pub struct PyOcTree {
     pub bbx: Bbx,
 }
 
+/// `cast_rays`' result: hit flags and end points.
+type CastArrays<'py> = (Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>);
+
+/// `extractPointCloud`'s result: occupied and free voxel centres.
+type CloudArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
 /// A key-or-point argument (`updateNode`, `search`, ...).
 enum Target {
     Key(Key),
@@ -173,7 +179,7 @@ impl PyOcTree {
     fn read_binary(&mut self, py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<bool> {
         let mut tree = Self::load(py, filename, true)?;
         tree.set_params(*self.tree.params());
-        self.tree = Box::new(tree);
+        *self.tree = tree;
         Ok(true)
     }
 
@@ -209,8 +215,8 @@ impl PyOcTree {
 
     /// The tree serialized: ``kind="bt"`` (max-likelihood, pruned first, like
     /// ``writeBinary``) or ``"ot"`` (full, like ``write``).
-    #[pyo3(signature = (kind="bt"))]
-    fn to_bytes<'py>(&mut self, py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyBytes>> {
+    #[pyo3(name = "to_bytes", signature = (kind="bt"))]
+    fn serialize<'py>(&mut self, py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyBytes>> {
         let tree = &mut self.tree;
         let data = match kind {
             "bt" => py.detach(|| engine::write_bt(tree)),
@@ -319,7 +325,7 @@ impl PyOcTree {
         directions: &Bound<'py, PyAny>,
         ignore_unknown: bool,
         max_range: Option<f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>)> {
+    ) -> PyResult<CastArrays<'py>> {
         let dirs = convert::points_f32(directions, "directions")?;
         let origins = match vec3_f32(origins, "origins") {
             Ok(o) => vec![o; dirs.len()],
@@ -450,7 +456,7 @@ impl PyOcTree {
 
     /// Set every node to the clamping bound on its side of the threshold.
     #[pyo3(name = "toMaxLikelihood")]
-    fn to_max_likelihood(&mut self, py: Python<'_>) {
+    fn max_likelihood(&mut self, py: Python<'_>) {
         let tree = &mut self.tree;
         py.detach(|| tree.to_max_likelihood());
     }
@@ -496,10 +502,7 @@ impl PyOcTree {
     /// ``(occupied, empty)``: float64 (N, 3) arrays of the centres of every voxel inside the
     /// occupied and the free leaves (a pruned leaf gives all the voxels it covers).
     #[pyo3(name = "extractPointCloud")]
-    fn extract_point_cloud<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    fn extract_point_cloud<'py>(&self, py: Python<'py>) -> PyResult<CloudArrays<'py>> {
         let tree = &self.tree;
         let (occ, free) = py
             .detach(|| cloud::extract_point_cloud(tree))
