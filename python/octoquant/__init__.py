@@ -15,6 +15,7 @@ from octoquant._octoquant import (
     iterator_base,
     leaf_bbx_iterator,
     leaf_iterator,
+    read_frames,
     tree_iterator,
 )
 
@@ -27,5 +28,6 @@ __all__ = [
     "iterator_base",
     "leaf_bbx_iterator",
     "leaf_iterator",
+    "read_frames",
     "tree_iterator",
 ]

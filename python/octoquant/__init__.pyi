@@ -223,3 +223,44 @@ class OcTree:
     def changedKeys(self) -> list[tuple[OcTreeKey, bool]]: ...
     def __copy__(self) -> OcTree: ...
     def __deepcopy__(self, memo: dict[int, Any]) -> OcTree: ...
+
+class Mapper:
+    """Builds a map from frames with octoquant's pipeline (see the module README)."""
+
+    def __init__(
+        self,
+        resolution: float = 0.1,
+        mode: Literal["exact", "discretize", "quantized", "quantized+bresenham", "simple"] = "exact",
+        max_range: Optional[float] = None,
+        threads: Optional[int] = None,
+        lazy: bool = False,
+        reduce: Union[None, float, Vec3] = None,
+        prob_hit: float = 0.7,
+        prob_miss: float = 0.4,
+        clamping_min: float = 0.1192,
+        clamping_max: float = 0.971,
+        occupancy_threshold: float = 0.5,
+    ) -> None: ...
+    def insert(
+        self,
+        points: Points,
+        origin: Optional[Vec3] = None,
+        pose: Union[None, NDArray[np.floating[Any]], Sequence[Sequence[float]], tuple[Vec3, Sequence[float]]] = None,
+    ) -> dict[str, Any]:
+        """Insert one frame (world points + origin, or sensor points + pose); its statistics."""
+    def insert_frames(self, frames: Sequence[tuple[Points, Vec3]]) -> list[dict[str, Any]]:
+        """Insert frames in order, pipelined; the statistics of each."""
+    @property
+    def tree(self) -> OcTree:
+        """A copy of the map so far."""
+    @property
+    def mode(self) -> str: ...
+    @property
+    def resolution(self) -> float: ...
+    def stats(self) -> dict[str, Any]:
+        """Totals over every frame inserted so far."""
+
+def read_frames(
+    path: StrOrBytesPath, format: Optional[str] = None
+) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
+    """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI reads."""

@@ -16,6 +16,27 @@ pub use octoquant::octree::{
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;
 
+/// Read a sensor file (or scan directory) as frames in world coordinates, in the format named
+/// (the CLI's short names) or detected from the path. Errors are messages naming the file.
+pub fn read_frames(path: &Path, format: Option<&str>) -> Result<Vec<Frame>, String> {
+    use octoquant::formats::{self, InputFormat, ReadOptions};
+    let format = match format {
+        None => None,
+        Some(name) => Some(InputFormat::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = InputFormat::ALL.iter().map(|f| f.name()).collect();
+            format!(
+                "unknown format {name:?}; expected one of {}",
+                names.join(", ")
+            )
+        })?),
+    };
+    let options = ReadOptions {
+        format,
+        ..ReadOptions::default()
+    };
+    formats::read_frames(path, &options).map_err(|e| e.to_string())
+}
+
 /// Every insertion mode, for looking one up by its name.
 pub const INSERT_MODES: [InsertMode; 5] = [
     InsertMode::Exact,

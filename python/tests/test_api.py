@@ -279,3 +279,18 @@ def test_insert_releases_the_gil():
     elapsed = time.perf_counter() - start
     # the main thread kept running while the insertion did
     assert elapsed < 0.05 or ticks > 5
+
+
+def test_read_frames_errors(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        octoquant.read_frames(tmp_path / "nope.pcd")
+    bad = tmp_path / "bad.pcd"
+    bad.write_text("this is not a pcd file\n")
+    with pytest.raises(ValueError, match="bad.pcd"):
+        octoquant.read_frames(bad)
+    txt = tmp_path / "pts.txt"
+    txt.write_text("1 2 3\n4 5 6\n")
+    ((pts, origin),) = octoquant.read_frames(txt)
+    assert pts.tolist() == [[1, 2, 3], [4, 5, 6]] and origin.tolist() == [0, 0, 0]
+    with pytest.raises(ValueError, match="unknown format"):
+        octoquant.read_frames(txt, format="xml")

@@ -357,3 +357,20 @@ def test_clear_and_prune_expand(octomap, scan_dat):
     assert_same_tree(a, b)
     assert b.getTreeDepth() == a.getTreeDepth()
     assert b.getTreeType() == a.getTreeType()
+
+
+def test_frames_read_by_the_rust_readers(octomap, data_dir, scan_dat):
+    """Frames from octoquant.read_frames (the CLI's readers) inserted into both trees."""
+    scan = octoquant.read_frames(data_dir / "lidar3d" / "octomap_scan_dat" / "scan.dat.bz2")
+    assert len(scan) == 1
+    pts, origin = scan[0]
+    assert pts.dtype == np.float32 and pts.shape == scan_dat.shape
+    np.testing.assert_allclose(pts, scan_dat, rtol=1e-6)
+    graph = octoquant.read_frames(data_dir / "octomap_reference" / "spherical_scan.graph")
+    assert len(graph) == 1 and graph[0][0].shape == (10201, 3)
+    a, b = both(octomap, 0.2)
+    for pts, origin in graph + scan:
+        a.insertPointCloud(pts.astype(np.float64), origin.astype(np.float64), 8.0)
+        b.insertPointCloud(pts, origin, 8.0)
+    assert_same_tree(a, b)
+    assert b.writeBinary() == a.writeBinary()
