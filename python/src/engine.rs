@@ -1,8 +1,9 @@
-//! The one place that calls the octoquant Rust library.
+//! The one place that names the octoquant Rust library's paths and free functions.
 //!
-//! Every other file of the bindings deals in Python objects and these functions and
-//! re-exports; when a path or signature of the library changes, the fix is here, one line per
-//! call. Nothing here touches Python.
+//! The other files of the bindings deal in Python objects, in the types re-exported here and
+//! their methods, and in these functions; when a path or a signature of the library changes
+//! (a crate split, an options struct instead of trailing arguments), the fix is here, one
+//! line per call. Nothing here touches Python.
 
 use nalgebra::Point3;
 use octoquant::octree::io;

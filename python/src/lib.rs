@@ -1,10 +1,10 @@
 //! The `octoquant._octoquant` extension module: octoquant's occupancy octree for Python, a
 //! drop-in for octomap-python (`octoquant.OcTree`) with NumPy in and out.
 //!
-//! Layout: [`engine`] is the only file that calls the octoquant library; [`convert`] checks
-//! and converts Python arguments; [`tree`], [`node`], [`iter`] and [`mapper`] are the Python
-//! classes;
-//! [`cloud`] and [`bbx`] hold the array queries and the bounding-box insertion they call.
+//! Layout: [`engine`] is the only file that names the octoquant library's paths and free
+//! functions; [`convert`] checks and converts Python arguments; [`tree`], [`node`], [`iter`]
+//! and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
+//! bounding-box insertion they call.
 #![deny(missing_docs)]
 
 mod bbx;
