@@ -2,9 +2,8 @@
 
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
-use crate::leaves::{Adder, Outcome};
-use crate::node::{MemoryUsage, NodeRef, NodeStore, NO_BLOCK};
 use crate::params::OccupancyParams;
+use crate::store::{Adder, MemoryUsage, NodeRef, NodeStore, Outcome, NO_BLOCK};
 use nalgebra::Point3;
 
 /// One occupancy observation of a voxel.

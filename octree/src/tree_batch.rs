@@ -15,8 +15,7 @@
 //! gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
-use crate::leaves::{Adder, Outcome};
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::store::{present, Adder, NodeRef, Outcome, NO_BLOCK};
 use crate::tree::{OcTree, Update};
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.

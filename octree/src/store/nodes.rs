@@ -3,11 +3,11 @@
 //! Children of one node live together in a block. Nodes at depths 1..=15 sit in 64-byte
 //! [`InnerBlock`]s (eight `f32` log-odds plus eight child-block indices, one cache line); nodes
 //! at depth 16 can have no children and sit in 16-byte blocks of palette indices (see
-//! [`crate::leaves`]). A missing child is marked by a reserved NaN bit pattern in its value
+//! [`super::voxel_blocks`]). A missing child is marked by a reserved NaN bit pattern in its value
 //! slot, a node without children by [`NO_BLOCK`]. On real maps this costs about 6-8 bytes per
 //! node, against OctoMap's ~27.
 
-use crate::leaves::{Adder, Leaves, Outcome, PALETTE_LIMIT};
+use super::voxel_blocks::{Adder, Leaves, Outcome, PALETTE_LIMIT};
 
 /// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
 /// never stores, since NaN log-odds are rejected at the API).

@@ -15,7 +15,7 @@
 //! (`shrink_to_fit`) rebuilds the palette from the values in use and goes back to narrow
 //! storage when they fit again.
 
-use crate::node::{max_present, present, Arena, ABSENT};
+use super::nodes::{max_present, present, Arena, ABSENT};
 
 /// Index of an absent slot in a narrow block (palette entry: [`ABSENT`]).
 const ABSENT_IDX: u16 = 0;
@@ -708,7 +708,7 @@ mod tests {
 
     use super::*;
     use crate::io::{read_ot, write_bt, write_ot};
-    use crate::node::{max_present, present};
+    use crate::store::nodes::{max_present, present};
     use crate::validate::check_well_formed;
     use crate::{Key, OcTree, Update};
     use proptest::prelude::*;
