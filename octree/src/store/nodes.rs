@@ -5,7 +5,7 @@
 //! at depth 16 can have no children and sit in 16-byte blocks of palette indices (see
 //! [`super::voxel_blocks`]). A missing child is marked by a reserved NaN bit pattern in its
 //! value slot (see [`super::slot`]), a node without children by [`NO_BLOCK`]. On real maps this
-//! costs about 6-8 bytes per node, against OctoMap's ~27.
+//! costs 4-8 bytes per node, against OctoMap's ~27.
 
 use super::arena::{Arena, NO_BLOCK};
 use super::memory::MemoryUsage;
