@@ -15,8 +15,7 @@
 //! gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
-use crate::leaves::{Adder, Outcome};
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::store::{present, Adder, NodeRef, Outcome, NO_BLOCK};
 use crate::tree::{OcTree, Update};
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.
@@ -273,7 +272,7 @@ impl Walk {
             let j = rest.trailing_zeros() as usize / 8;
             let byte = (rest >> (8 * j)) as u8;
             rest &= !(0xff << (8 * j));
-            applied |= self.leaf_group::<TRACK>(t, code, kb, j, byte);
+            applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
             if !self.lazy {
@@ -288,7 +287,7 @@ impl Walk {
     /// `kb`, creating or expanding that node as needed, then prune or refresh it; returns
     /// whether any update was applied.
     #[inline(always)]
-    fn leaf_group<const TRACK: bool>(
+    fn voxel_group<const TRACK: bool>(
         &mut self,
         t: &mut OcTree,
         code: u64,
@@ -323,9 +322,15 @@ impl Walk {
         while bits != 0 {
             let s = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            let old = if TRACK { t.store.leaf.get(lb, s) } else { 0.0 };
+            let old = if TRACK {
+                t.store.voxels.get(lb, s)
+            } else {
+                0.0
+            };
             let Outcome::Applied(created) =
-                t.store.leaf.update(lb, s, &self.add, false, &mut self.memo)
+                t.store
+                    .voxels
+                    .update(lb, s, &self.add, false, &mut self.memo)
             else {
                 // OctoMap's early exit at a voxel already at the clamp
                 continue;
@@ -334,7 +339,7 @@ impl Walk {
             applied = true;
             if TRACK {
                 let key = Key::from_morton((code << 6) | ((j as u64) << 3) | s as u64);
-                let v = t.store.leaf.get(lb, s);
+                let v = t.store.voxels.get(lb, s);
                 t.record_change(key, old, v, created);
             }
         }

@@ -1,41 +1,17 @@
-//! Node storage: arenas of 8-child blocks addressed by `u32` indices.
+//! The tree's nodes over the two kinds of block: [`NodeStore`] and its node handles.
 //!
 //! Children of one node live together in a block. Nodes at depths 1..=15 sit in 64-byte
 //! [`InnerBlock`]s (eight `f32` log-odds plus eight child-block indices, one cache line); nodes
 //! at depth 16 can have no children and sit in 16-byte blocks of palette indices (see
-//! [`crate::leaves`]). A missing child is marked by a reserved NaN bit pattern in its value
-//! slot, a node without children by [`NO_BLOCK`]. On real maps this costs about 6-8 bytes per
-//! node, against OctoMap's ~27.
+//! [`super::voxel_blocks`]). A missing child is marked by a reserved NaN bit pattern in its
+//! value slot (see [`super::slot`]), a node without children by [`NO_BLOCK`]. On real maps this
+//! costs 4-8 bytes per node, against OctoMap's ~27.
 
-use crate::leaves::{Adder, Leaves, Outcome, PALETTE_LIMIT};
-
-/// Bit pattern of the value slot of a child that does not exist (a quiet NaN that the tree
-/// never stores, since NaN log-odds are rejected at the API).
-pub(crate) const ABSENT_BITS: u32 = 0x7fc0_0a5e;
-/// The value of an absent slot.
-pub(crate) const ABSENT: f32 = f32::from_bits(ABSENT_BITS);
-/// Child-block index meaning "this node has no children".
-pub(crate) const NO_BLOCK: u32 = u32::MAX;
-
-/// `true` when a value slot holds a node.
-#[inline]
-pub(crate) fn present(v: f32) -> bool {
-    v.to_bits() != ABSENT_BITS
-}
-
-/// The largest present value of a child block (`-f32::MAX` when none): absent children hold
-/// a NaN, which `>` never picks, and strict `>` in child order keeps OctoMap's choice between
-/// equal values (+0.0 and -0.0).
-#[inline]
-pub(crate) fn max_present(vals: &[f32; 8]) -> f32 {
-    let mut m = -f32::MAX;
-    for &v in vals {
-        if v > m {
-            m = v;
-        }
-    }
-    m
-}
+use super::arena::{Arena, NO_BLOCK};
+use super::memory::MemoryUsage;
+use super::palette::{Adder, PALETTE_LIMIT};
+use super::slot::{max_present, present, ABSENT};
+use super::voxel_blocks::{Outcome, VoxelBlocks};
 
 /// Eight children at depths 1..=15: their log-odds and their own child blocks.
 #[derive(Clone, Copy)]
@@ -50,108 +26,15 @@ const EMPTY_INNER: InnerBlock = InnerBlock {
     kids: [NO_BLOCK; 8],
 };
 
-/// A growable pool of blocks with a free list; freed blocks are reset to empty.
-#[derive(Clone)]
-pub(crate) struct Arena<B: Copy> {
-    pub blocks: Vec<B>,
-    free: Vec<u32>,
-    empty: B,
-}
-
-impl<B: Copy> Arena<B> {
-    pub fn new(empty: B) -> Self {
-        Arena {
-            blocks: Vec::new(),
-            free: Vec::new(),
-            empty,
-        }
-    }
-
-    #[inline]
-    pub fn alloc(&mut self) -> u32 {
-        if let Some(i) = self.free.pop() {
-            i
-        } else {
-            let i = self.blocks.len();
-            assert!(
-                i < NO_BLOCK as usize,
-                "octree node arena exhausted (2^32 blocks)"
-            );
-            self.blocks.push(self.empty);
-            i as u32
-        }
-    }
-
-    #[inline]
-    pub fn release(&mut self, i: u32) {
-        self.blocks[i as usize] = self.empty;
-        self.free.push(i);
-    }
-
-    pub fn clear(&mut self) {
-        self.blocks.clear();
-        self.free.clear();
-    }
-
-    /// The same arena with every block converted by `f` (indices and free list kept).
-    pub fn map_blocks<C: Copy>(&self, empty: C, f: impl Fn(&B) -> C) -> Arena<C> {
-        Arena {
-            blocks: self.blocks.iter().map(f).collect(),
-            free: self.free.clone(),
-            empty,
-        }
-    }
-
-    /// Blocks in use (allocated and not on the free list).
-    pub fn live(&self) -> usize {
-        self.blocks.len() - self.free.len()
-    }
-
-    /// Bytes held by the blocks in use, and by the freed blocks awaiting reuse with the free
-    /// list.
-    pub fn split_bytes(&self) -> (usize, usize) {
-        let size = std::mem::size_of::<B>();
-        (self.live() * size, self.free.len() * (size + 4))
-    }
-}
-
-/// Where the bytes of [`crate::OcTree::memory_usage`] go.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MemoryUsage {
-    /// Blocks of eight depth 1..=15 children in use (64 bytes each).
-    pub inner_blocks: usize,
-    /// Blocks of eight depth-16 children in use.
-    pub leaf_blocks: usize,
-    /// Bytes of one depth-16 block: 16 (palette indices), or 32 (values) once the tree holds
-    /// more distinct voxel values than the palette takes.
-    pub leaf_block_bytes: usize,
-    /// Bytes of the blocks in use.
-    pub block_bytes: usize,
-    /// Bytes of blocks freed by pruning or deletion and kept for reuse, with their free
-    /// lists (0 after [`crate::OcTree::shrink_to_fit`]).
-    pub free_bytes: usize,
-    /// Bytes of the depth-16 value palette: values, hash index, update memos (0 when wide).
-    pub palette_bytes: usize,
-    /// Distinct depth-16 values in the palette (`None` when wide).
-    pub palette_values: Option<usize>,
-    /// The fixed part: the tree and storage structs.
-    pub fixed_bytes: usize,
-}
-
-impl MemoryUsage {
-    /// All bytes: what [`crate::OcTree::memory_usage`] returns.
-    pub fn total(&self) -> usize {
-        self.block_bytes + self.free_bytes + self.palette_bytes + self.fixed_bytes
-    }
-}
-
 /// Both arenas and the root.
 #[derive(Clone)]
 pub(crate) struct NodeStore {
+    /// The blocks of the nodes at depths 1..=15.
     pub inner: Arena<InnerBlock>,
-    pub leaf: Leaves,
-    /// The most distinct leaf values narrow storage holds ([`PALETTE_LIMIT`] but in tests).
-    leaf_limit: usize,
+    /// The blocks of the depth-16 nodes (voxels).
+    pub voxels: VoxelBlocks,
+    /// The most distinct voxel values narrow storage holds ([`PALETTE_LIMIT`] but in tests).
+    palette_limit: usize,
     /// Root log-odds, or `None` for an empty tree.
     pub root_val: Option<f32>,
     /// The root's child block (in `inner`), or `NO_BLOCK`.
@@ -178,8 +61,8 @@ impl NodeStore {
     pub fn new() -> Self {
         NodeStore {
             inner: Arena::new(EMPTY_INNER),
-            leaf: Leaves::new(PALETTE_LIMIT),
-            leaf_limit: PALETTE_LIMIT,
+            voxels: VoxelBlocks::new(PALETTE_LIMIT),
+            palette_limit: PALETTE_LIMIT,
             root_val: None,
             root_kids: NO_BLOCK,
         }
@@ -187,14 +70,14 @@ impl NodeStore {
 
     /// A small palette limit, so that tests reach the wide fallback with few values.
     #[cfg(test)]
-    pub fn set_leaf_limit(&mut self, limit: usize) {
-        self.leaf_limit = limit;
+    pub fn set_palette_limit(&mut self, limit: usize) {
+        self.palette_limit = limit;
         self.compact();
     }
 
     pub fn clear(&mut self) {
         self.inner.clear();
-        self.leaf = Leaves::new(self.leaf_limit);
+        self.voxels = VoxelBlocks::new(self.palette_limit);
         self.root_val = None;
         self.root_kids = NO_BLOCK;
     }
@@ -204,7 +87,7 @@ impl NodeStore {
     pub fn value(&self, n: NodeRef) -> f32 {
         match n.depth {
             0 => self.root_val.unwrap_or(ABSENT),
-            16 => self.leaf.get(n.block, n.slot as usize),
+            16 => self.voxels.get(n.block, n.slot as usize),
             _ => self.inner.blocks[n.block as usize].vals[n.slot as usize],
         }
     }
@@ -213,7 +96,7 @@ impl NodeStore {
     pub fn set_value(&mut self, n: NodeRef, v: f32) {
         match n.depth {
             0 => self.root_val = Some(v),
-            16 => self.leaf.set(n.block, n.slot as usize, v),
+            16 => self.voxels.set(n.block, n.slot as usize, v),
             _ => self.inner.blocks[n.block as usize].vals[n.slot as usize] = v,
         }
     }
@@ -247,7 +130,7 @@ impl NodeStore {
     #[inline]
     pub fn child_vals(&self, cd: u8, b: u32) -> [f32; 8] {
         if cd == 16 {
-            self.leaf.vals(b)
+            self.voxels.vals(b)
         } else {
             self.inner.blocks[b as usize].vals
         }
@@ -257,7 +140,7 @@ impl NodeStore {
     #[inline(always)]
     pub fn child_present(&self, cd: u8, b: u32, pos: usize) -> bool {
         if cd == 16 {
-            self.leaf.is_present(b, pos)
+            self.voxels.is_present(b, pos)
         } else {
             present(self.inner.blocks[b as usize].vals[pos])
         }
@@ -266,7 +149,7 @@ impl NodeStore {
     /// Prepare voxel updates adding `delta` and clamping to `[cmin, cmax]`.
     #[inline]
     pub fn adder(&mut self, delta: f32, cmin: f32, cmax: f32) -> Adder {
-        self.leaf.adder(delta, cmin, cmax)
+        self.voxels.adder(delta, cmin, cmax)
     }
 
     /// OctoMap's `updateNodeLogOdds` with its early exit on the depth-16 node `n`; an absent
@@ -274,7 +157,7 @@ impl NodeStore {
     /// the early exit.
     /// `memo` is `add`'s transition memo, from [`NodeStore::take_memo`].
     #[inline(always)]
-    pub fn update_leaf(
+    pub fn update_voxel(
         &mut self,
         n: NodeRef,
         add: &Adder,
@@ -282,21 +165,22 @@ impl NodeStore {
         memo: &mut Vec<u16>,
     ) -> Outcome {
         debug_assert_eq!(n.depth, 16);
-        self.leaf.update(n.block, n.slot as usize, add, fresh, memo)
+        self.voxels
+            .update(n.block, n.slot as usize, add, fresh, memo)
     }
 
-    /// Take `add`'s transition memo for a batch of [`NodeStore::update_leaf`] calls (held
+    /// Take `add`'s transition memo for a batch of [`NodeStore::update_voxel`] calls (held
     /// by the caller so that the hot loop keeps it in registers); give it back with
     /// [`NodeStore::put_memo`].
     #[inline]
     pub fn take_memo(&mut self, add: &Adder) -> Vec<u16> {
-        self.leaf.take_memo(add)
+        self.voxels.take_memo(add)
     }
 
     /// Give back the memo from [`NodeStore::take_memo`].
     #[inline]
     pub fn put_memo(&mut self, add: &Adder, memo: Vec<u16>) {
-        self.leaf.put_memo(add, memo)
+        self.voxels.put_memo(add, memo)
     }
 
     /// Child `i` of `n`, if it exists.
@@ -323,7 +207,7 @@ impl NodeStore {
     pub fn alloc_kids(&mut self, n: NodeRef) -> u32 {
         debug_assert_eq!(self.kids(n), NO_BLOCK);
         let b = if n.depth == 15 {
-            self.leaf.alloc()
+            self.voxels.alloc()
         } else {
             self.inner.alloc()
         };
@@ -355,7 +239,7 @@ impl NodeStore {
             b = self.alloc_kids(n);
         }
         if n.depth == 15 {
-            self.leaf.set_zero(b, i);
+            self.voxels.set_zero(b, i);
         } else {
             self.inner.blocks[b as usize].vals[i & 7] = 0.0;
         }
@@ -372,7 +256,7 @@ impl NodeStore {
         let v = self.value(n);
         let b = self.alloc_kids(n);
         if n.depth == 15 {
-            self.leaf.fill(b, v);
+            self.voxels.fill(b, v);
         } else {
             self.inner.blocks[b as usize].vals = [v; 8];
         }
@@ -404,7 +288,7 @@ impl NodeStore {
     #[inline(always)]
     fn collapse(&mut self, n: NodeRef, b: u32, v0: f32) {
         if n.depth == 15 {
-            self.leaf.release(b);
+            self.voxels.release(b);
         } else {
             self.inner.release(b);
         }
@@ -419,7 +303,7 @@ impl NodeStore {
     #[inline(always)]
     fn uniform_in(&self, cd: u8, b: u32) -> Option<f32> {
         if cd == 16 {
-            return self.leaf.uniform(b);
+            return self.voxels.uniform(b);
         }
         let blk = &self.inner.blocks[b as usize];
         let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
@@ -450,7 +334,7 @@ impl NodeStore {
         let cd = n.depth + 1;
         if cd == 16 {
             // one look at the depth-16 block: equal children, else their max
-            return Some(match self.leaf.collapse_or_max(b) {
+            return Some(match self.voxels.collapse_or_max(b) {
                 (true, v0) => {
                     self.collapse(n, b, v0);
                     true
@@ -476,12 +360,12 @@ impl NodeStore {
     /// whether it pruned.
     #[inline(always)]
     pub fn refresh_voxel_parent(&mut self, kb: u32, j: usize, lb: u32) -> bool {
-        let (pruned, v) = self.leaf.collapse_or_max(lb);
+        let (pruned, v) = self.voxels.collapse_or_max(lb);
         let blk = &mut self.inner.blocks[kb as usize];
         blk.vals[j & 7] = v;
         if pruned {
             blk.kids[j & 7] = NO_BLOCK;
-            self.leaf.release(lb);
+            self.voxels.release(lb);
         }
         pruned
     }
@@ -499,7 +383,7 @@ impl NodeStore {
     #[inline]
     fn max_in(&self, cd: u8, b: u32) -> f32 {
         if cd == 16 {
-            self.leaf.max(b)
+            self.voxels.max(b)
         } else {
             max_present(&self.inner.blocks[b as usize].vals)
         }
@@ -518,7 +402,7 @@ impl NodeStore {
             }
         }
         if n.depth == 15 {
-            self.leaf.release(b);
+            self.voxels.release(b);
         } else {
             self.inner.release(b);
         }
@@ -535,7 +419,7 @@ impl NodeStore {
         let b = self.kids(n);
         if !(0..8).any(|i| self.child_present(n.depth + 1, b, i)) {
             if n.depth == 15 {
-                self.leaf.release(b);
+                self.voxels.release(b);
             } else {
                 self.inner.release(b);
             }
@@ -546,21 +430,21 @@ impl NodeStore {
 
     /// Copy the tree into fresh arenas in depth-first order, dropping the blocks that pruning
     /// freed and any spare capacity; indices change, the tree does not.
-    /// The leaf palette is rebuilt from the values in use (so values no voxel holds any more
-    /// are dropped), and wide leaf storage becomes narrow again when they fit.
+    /// The voxel palette is rebuilt from the values in use (so values no voxel holds any more
+    /// are dropped), and wide voxel storage becomes narrow again when they fit.
     pub fn compact(&mut self) {
         let mut inner = Arena::new(EMPTY_INNER);
-        let mut order = Vec::with_capacity(self.leaf.live());
+        let mut order = Vec::with_capacity(self.voxels.live());
         inner.blocks.reserve_exact(self.inner.live());
         if self.root_kids != NO_BLOCK {
             self.root_kids = self.copy_block(1, self.root_kids, &mut inner, &mut order);
         }
         self.inner = inner;
-        self.leaf = self.leaf.compacted(&order, self.leaf_limit);
+        self.voxels = self.voxels.compacted(&order, self.palette_limit);
     }
 
     /// Copy block `b` (holding nodes at depth `cd`) and everything below it; returns its new
-    /// index. Leaf blocks are only listed in `order` (old indices; new index = position).
+    /// index. Voxel blocks are only listed in `order` (old indices; new index = position).
     fn copy_block(
         &self,
         cd: u8,
@@ -597,21 +481,21 @@ impl NodeStore {
         if let Some(v) = self.root_val.as_mut() {
             *v = f(*v);
         }
-        self.leaf.map_values(f);
+        self.voxels.map_values(f);
     }
 
-    /// Where the bytes of the node storage go (blocks in use and freed, free lists, the leaf
+    /// Where the bytes of the node storage go (blocks in use and freed, free lists, the voxel
     /// palette, this struct).
     pub fn memory(&self) -> MemoryUsage {
         let (inner_live, inner_free) = self.inner.split_bytes();
-        let (leaf_live, leaf_free, leaf_block_bytes, palette_bytes, palette_values) =
-            self.leaf.bytes();
+        let (voxel_live, voxel_free, leaf_block_bytes, palette_bytes, palette_values) =
+            self.voxels.bytes();
         MemoryUsage {
             inner_blocks: self.inner.live(),
-            leaf_blocks: self.leaf.live(),
+            leaf_blocks: self.voxels.live(),
             leaf_block_bytes,
-            block_bytes: inner_live + leaf_live,
-            free_bytes: inner_free + leaf_free,
+            block_bytes: inner_live + voxel_live,
+            free_bytes: inner_free + voxel_free,
             palette_bytes,
             palette_values,
             fixed_bytes: std::mem::size_of::<Self>(),
