@@ -17,16 +17,16 @@
 //!   every axis is skipped for this cycle. Cells created or changed after the cycle began are
 //!   left to the next cycle.
 //!
-//! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `density_grid.rs` the
-//! store, `density_batch.rs` batch insertion (counting sort by cell, one-pass build of an
-//! empty store), `density_index.rs` the hash index, key packing and the sorts,
-//! `density_order.rs` the ordered index and distance order (compact `Vec` form after a build,
-//! B-trees once changed), `density_arena.rs` the `f32` form of the member arena,
-//! `density_output.rs` the read cycles, `density_shared.rs` the two-thread wrapper and
-//! `density_reduce.rs` the one-call helpers.
+//! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `grid.rs` the
+//! store, `batch.rs` batch insertion (counting sort by cell, one-pass build of an
+//! empty store), `index.rs` the hash index, key packing and the sorts,
+//! `order.rs` the ordered index and distance order (compact `Vec` form after a build,
+//! B-trees once changed), `arena.rs` the `f32` form of the member arena,
+//! `output.rs` the read cycles, `shared.rs` the two-thread wrapper and
+//! `reduce.rs` the one-call helpers.
 
-use crate::density_index::floor_index;
-use crate::error::QuantizeError;
+use crate::index::floor_index;
+use crate::error::DensityError;
 use std::cmp::Ordering;
 use std::fmt;
 use std::sync::Arc;
@@ -50,30 +50,30 @@ impl<const D: usize> GridSpec<D> {
     /// A grid with the given cell size and offset per axis.
     ///
     /// Sizes must be finite and positive, offsets finite, and `D >= 1`.
-    pub fn new(size: [f64; D], offset: [f64; D]) -> Result<Self, QuantizeError> {
+    pub fn new(size: [f64; D], offset: [f64; D]) -> Result<Self, DensityError> {
         if D == 0 {
-            return Err(QuantizeError::NoAxes);
+            return Err(DensityError::NoAxes);
         }
         for (axis, &value) in size.iter().enumerate() {
             if !(value.is_finite() && value > 0.0) {
-                return Err(QuantizeError::InvalidCellSize { axis, value });
+                return Err(DensityError::InvalidCellSize { axis, value });
             }
         }
         for (axis, &value) in offset.iter().enumerate() {
             if !value.is_finite() {
-                return Err(QuantizeError::InvalidOffset { axis, value });
+                return Err(DensityError::InvalidOffset { axis, value });
             }
         }
         Ok(GridSpec { size, offset })
     }
 
     /// A grid with per-axis sizes and offset 0 on every axis.
-    pub fn with_sizes(size: [f64; D]) -> Result<Self, QuantizeError> {
+    pub fn with_sizes(size: [f64; D]) -> Result<Self, DensityError> {
         Self::new(size, [0.0; D])
     }
 
     /// A grid with the same cell size on every axis and offset 0.
-    pub fn cubic(size: f64) -> Result<Self, QuantizeError> {
+    pub fn cubic(size: f64) -> Result<Self, DensityError> {
         Self::new([size; D], [0.0; D])
     }
 
@@ -216,6 +216,3 @@ pub(crate) fn sanitize_score(s: f64) -> f64 {
     }
 }
 
-#[cfg(test)]
-#[path = "density_tests.rs"]
-mod tests;

@@ -1,11 +1,11 @@
 //! The density reducer's store and its input stage: insertion and deletion with local repair.
 
-use crate::density::{
+use crate::spec::{
     cmp_points, sanitize_score, scaled_distance, CellIndex, GridSpec, Rank, Selection,
 };
-use crate::density_arena::ArenaRef;
-use crate::density_index::{hash_index, SlotTable};
-use crate::error::QuantizeError;
+use crate::arena::ArenaRef;
+use crate::index::{hash_index, SlotTable};
+use crate::error::DensityError;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -178,14 +178,14 @@ pub struct GridState<const D: usize> {
 ///   see `DensityGrid::cell`); the members
 ///   of all cells share one arena, `points`, one contiguous span per cell (or `narrow`, the
 ///   same arena in `f32`, after a batch of `f32`-exact points into an empty grid; see
-///   `density_arena.rs`).
+///   `arena.rs`).
 /// * `by_distance`: the output order.
 /// * `built`: the compact form of both orders that a batch into an empty grid leaves (see
-///   `density_order.rs`): while it is `Some`, slot order is index order and both B-trees are
+///   `order.rs`): while it is `Some`, slot order is index order and both B-trees are
 ///   empty; the first change that needs them builds them.
 ///
 /// Insertion and deletion are the input stage; [`DensityGrid::begin_cycle`] starts the output
-/// stage (see `density_output.rs`). For two threads wrap it in
+/// stage (see `output.rs`). For two threads wrap it in
 /// [`SharedDensityGrid`](crate::SharedDensityGrid).
 #[derive(Debug, Clone)]
 pub struct DensityGrid<const D: usize> {
@@ -203,7 +203,7 @@ pub struct DensityGrid<const D: usize> {
     pub(crate) free: Vec<u32>,
     /// Member arena: every cell's members, one contiguous span per cell.
     pub(crate) points: Vec<[f64; D]>,
-    /// The arena in `f32` form, when `Some` (`points` is then empty; see `density_arena.rs`).
+    /// The arena in `f32` form, when `Some` (`points` is then empty; see `arena.rs`).
     pub(crate) narrow: Option<Vec<[f32; D]>>,
     /// Sum of the live cells' `cap`: the arena beyond it is abandoned spans.
     pub(crate) reserved: usize,
@@ -764,8 +764,8 @@ impl<const D: usize> DensityGrid<D> {
     /// Check every store invariant: both indexes, the cells, the arena and the distance order
     /// agree, spans do not overlap, every member lies in its cell, and each representative is
     /// the best member under the selection rule.
-    pub fn validate(&self) -> Result<(), QuantizeError> {
-        let bad = |what: String| Err(QuantizeError::Invariant { what });
+    pub fn validate(&self) -> Result<(), DensityError> {
+        let bad = |what: String| Err(DensityError::Invariant { what });
         self.validate_orders().or_else(bad)?;
         let cells = self.cell_count();
         let distance_entries = match &self.built {

@@ -8,8 +8,8 @@
 //! adds, removes or re-ranks a cell, and only then builds the B-trees, which support changes in
 //! O(log n). A one-shot reduction (one batch, one read cycle) never builds a tree.
 
-use crate::density::CellIndex;
-use crate::density_grid::{DensityGrid, Hot};
+use crate::spec::CellIndex;
+use crate::grid::{DensityGrid, Hot};
 use std::collections::{btree_map, btree_set, BTreeMap, BTreeSet};
 use std::iter::{Copied, Map};
 use std::ops::{Bound, Range};

@@ -5,7 +5,7 @@
 //! distinct cells), and a bucket sort of `(distance, slot)` pairs (the distance order of a
 //! build).
 
-use crate::density::CellIndex;
+use crate::spec::CellIndex;
 
 /// Hash of a cell index: multiply-rotate over the axes, then a 64-bit finaliser so that small,
 /// dense indexes spread over all bits.

@@ -12,10 +12,10 @@
 //! Into a non-empty grid each run goes to its cell as in [`DensityGrid::insert`], one look-up
 //! per cell.
 
-use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
-use crate::density_arena::{narrow_point, widen_point};
-use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
-use crate::density_index::{
+use crate::spec::{CellIndex, Selection, MAX_CELL_INDEX};
+use crate::arena::{narrow_point, widen_point};
+use crate::grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
+use crate::index::{
     all_finite, floor_trunc, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
 };
 
@@ -26,7 +26,7 @@ struct SortedBatch<const D: usize> {
     /// The points in cell order, unless they are in `narrow`.
     points: Vec<[f64; D]>,
     /// The points in cell order as `f32`, when all are exact in `f32` and the batch goes into
-    /// an empty grid (the narrow arena, see `density_arena.rs`).
+    /// an empty grid (the narrow arena, see `arena.rs`).
     narrow: Option<Vec<[f32; D]>>,
     runs: Runs<D>,
     /// The key table's buckets, handed on as the hash index's storage (already faulted in).

@@ -6,7 +6,7 @@
 //! that form (field `narrow`, the `f64` arena `points` then empty) until the first change to a
 //! cell's members, which widens the arena to `f64` once.
 
-use crate::density_grid::DensityGrid;
+use crate::grid::DensityGrid;
 use std::ops::Range;
 use std::slice;
 
