@@ -1,11 +1,9 @@
 //! The output stage: read cycles over the cells in ascending distance, with the
 //! minimum-difference check against the 3^D - 1 neighbouring cells.
 
-use crate::spec::CellIndex;
-use crate::grid::DensityGrid;
-use crate::index::hash_index;
-use crate::order::distance_slots_after;
 use crate::error::DensityError;
+use crate::grid::{distance_slots_after, hash_index, DensityGrid};
+use crate::spec::CellIndex;
 
 /// Counts of one output cycle so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

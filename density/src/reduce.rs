@@ -1,8 +1,8 @@
 //! One-call helpers: fill a grid, run one read cycle, report the counts.
 
-use crate::spec::GridSpec;
-use crate::grid::DensityGrid;
 use crate::error::DensityError;
+use crate::grid::DensityGrid;
+use crate::spec::GridSpec;
 use nalgebra::Point3;
 
 /// Point counts through the two stages of a reduction.

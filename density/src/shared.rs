@@ -4,9 +4,9 @@
 //! output thread locks it per step of a read cycle, so insertion goes on between steps and
 //! whatever arrives during a cycle is deferred to the next one by the cycle's horizon.
 
+use crate::error::DensityError;
 use crate::grid::{DensityGrid, InsertOutcome};
 use crate::output::{CycleCounts, OutputCycle};
-use crate::error::DensityError;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// A [`DensityGrid`] shared between an input and an output thread (clone the handle).

@@ -1,35 +1,8 @@
-//! Online grid density reducer: grid geometry and point selection rules.
-//!
-//! The reducer ("An online density reduction algorithm for non-homogenous multidimensional
-//! datasets") thins dense regions to about one point per grid cell while sparse regions keep
-//! every point, and it never invents points. It runs in two stages that may overlap in time:
-//!
-//! * **input** ([`DensityGrid::insert`], [`DensityGrid::remove`]): each point goes to the cell
-//!   `floor((x - offset) / size)` per axis. The cells sit in an ordered index (a `BTreeMap`
-//!   keyed by the cell index, the paper's red-black tree; after a batch into an empty grid
-//!   simply the slot order until the first change) and, for look-ups, in a hash index over
-//!   the same keys. A cell keeps the member chosen by its [`Selection`] rule, and all
-//!   cells stay sorted by the distance of that point to the cell centre. Deleting a point
-//!   repairs only its own cell.
-//! * **output** ([`DensityGrid::begin_cycle`], [`DensityGrid::step_cycle`]): a read cycle with
-//!   its own id visits the cells in ascending distance; each visited point is emitted, and a
-//!   point of any of the 3^D - 1 neighbouring cells that lies closer than half a cell size on
-//!   every axis is skipped for this cycle. Cells created or changed after the cycle began are
-//!   left to the next cycle.
-//!
-//! Files: this one holds the geometry ([`GridSpec`]) and [`Selection`]; `grid.rs` the
-//! store, `batch.rs` batch insertion (counting sort by cell, one-pass build of an
-//! empty store), `index.rs` the hash index, key packing and the sorts,
-//! `order.rs` the ordered index and distance order (compact `Vec` form after a build,
-//! B-trees once changed), `arena.rs` the `f32` form of the member arena,
-//! `output.rs` the read cycles, `shared.rs` the two-thread wrapper and
-//! `reduce.rs` the one-call helpers.
+//! Grid geometry: the cell of a point, a cell's centre, distances in cell units, and the exact
+//! `floor` behind the cell index.
 
-use crate::index::floor_index;
 use crate::error::DensityError;
 use std::cmp::Ordering;
-use std::fmt;
-use std::sync::Arc;
 
 /// The index of a cell: one signed integer per axis, `floor((x - offset) / size)`.
 pub type CellIndex<const D: usize> = [i64; D];
@@ -144,75 +117,102 @@ pub(crate) fn cmp_points<const D: usize>(a: &[f64; D], b: &[f64; D]) -> Ordering
     Ordering::Equal
 }
 
-/// A caller-supplied score: lower is better; NaN counts as `+inf`.
-pub type ScoreFn<const D: usize> = Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>;
+/// `floor(q)` as an integer when `|floor(q)| <= limit` (`limit < 2^62`), else `None` (also for
+/// NaN and infinities). Exactly `q.floor()`, without the libm call that `f64::floor` becomes on
+/// x86-64 targets without SSE4.1.
+#[inline]
+pub(crate) fn floor_index(q: f64, limit: i64) -> Option<i64> {
+    // 2^62: beyond it every f64 is an integer far out of range; NaN fails the comparison too.
+    if q.is_nan() || q.abs() >= 4_611_686_018_427_387_904.0 {
+        return None;
+    }
+    let t = floor_trunc(q);
+    (t.abs() <= limit).then_some(t)
+}
 
-/// Which member of a cell represents it.
+/// `floor(q)` as an `i64`, exact for `|q| < 2^63` (saturating beyond, 0 for NaN), inline.
 ///
-/// Ties are broken by the distance to the cell centre, then by the lexicographic order of the
-/// coordinates, so the choice never depends on insertion order.
-#[derive(Clone, Default)]
-pub enum Selection<const D: usize> {
-    /// The point closest to the cell centre (the paper's rule). O(1) per insertion.
-    #[default]
-    CentreClosest,
-    /// The member closest to the mean of the cell's members: a real input point standing for
-    /// the centroid. Costs O(members of the cell) per insertion and deletion.
-    MeanClosest,
-    /// The member with the lowest caller-supplied score (e.g. lowest height, best intensity).
-    Score(ScoreFn<D>),
-}
-
-impl<const D: usize> Selection<D> {
-    /// A [`Selection::Score`] from a closure.
-    pub fn score(f: impl Fn(&[f64; D]) -> f64 + Send + Sync + 'static) -> Self {
-        Selection::Score(Arc::new(f))
-    }
-
-    /// `true` when the choice depends on the other members of the cell (only the mean rule).
-    pub(crate) fn needs_members(&self) -> bool {
-        matches!(self, Selection::MeanClosest)
+/// Truncation toward zero is exact; at or above 2^52 `q` is already an integer, below it the
+/// truncation converts back exactly, so one comparison decides floor vs. truncation.
+#[inline(always)]
+pub(crate) fn floor_trunc(q: f64) -> i64 {
+    let t = q as i64;
+    if (t as f64) > q {
+        t.saturating_sub(1)
+    } else {
+        t
     }
 }
 
-impl<const D: usize> fmt::Debug for Selection<D> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Selection::CentreClosest => f.write_str("CentreClosest"),
-            Selection::MeanClosest => f.write_str("MeanClosest"),
-            Selection::Score(_) => f.write_str("Score(..)"),
+/// `true` when no coordinate of `p` is NaN or infinite, with one branch: `x * 0` is (a signed)
+/// 0 for a finite `x` and NaN otherwise.
+#[inline]
+pub(crate) fn all_finite<const D: usize>(p: &[f64; D]) -> bool {
+    let mut z = 0.0;
+    for v in p {
+        z += v * 0.0;
+    }
+    z == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_index_is_floor() {
+        let limit = 1i64 << 53;
+        let cases = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.0000001,
+            2.9999999,
+            -7.5,
+            4503599627370495.5,
+            -4503599627370495.5,
+            9007199254740992.0,
+            -9007199254740992.0,
+            9007199254740994.0,
+            1e17,
+            -1e300,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for q in cases {
+            let f = q.floor();
+            let want = (f.is_finite() && f.abs() <= limit as f64).then_some(f as i64);
+            assert_eq!(floor_index(q, limit), want, "{q}");
+        }
+    }
+
+    #[test]
+    fn all_finite_is_is_finite_on_every_axis() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.5,
+            -1e300,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE / 4.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for &a in &vals {
+            for &b in &vals {
+                for &c in &vals {
+                    let p = [a, b, c];
+                    assert_eq!(all_finite(&p), p.iter().all(|v| v.is_finite()), "{p:?}");
+                }
+            }
         }
     }
 }
-
-/// Ranking key of a candidate: primary criterion, centre distance, then coordinates.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Rank {
-    pub primary: f64,
-    pub centre: f64,
-}
-
-impl Rank {
-    /// `Less` when `(self, a)` should be kept over `(other, b)`.
-    pub(crate) fn cmp_with<const D: usize>(
-        &self,
-        a: &[f64; D],
-        other: &Rank,
-        b: &[f64; D],
-    ) -> Ordering {
-        self.primary
-            .total_cmp(&other.primary)
-            .then(self.centre.total_cmp(&other.centre))
-            .then_with(|| cmp_points(a, b))
-    }
-}
-
-/// NaN scores sort last.
-pub(crate) fn sanitize_score(s: f64) -> f64 {
-    if s.is_nan() {
-        f64::INFINITY
-    } else {
-        s
-    }
-}
-

@@ -1,9 +1,8 @@
 //! Unit tests of the density reducer: geometry, the 2D worked example, selection rules,
 //! deletion and read cycles.
 
-use super::*;
 use crate::output::for_each_lean_neighbour;
-use crate::{DensityGrid, InsertOutcome, DensityError};
+use crate::{DensityError, DensityGrid, GridSpec, InsertOutcome, Selection};
 
 fn grid_8_17() -> GridSpec<2> {
     GridSpec::with_sizes([8.0, 17.0]).unwrap()
