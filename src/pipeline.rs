@@ -330,7 +330,7 @@ fn reduce(points: &[Point3<f32>], cell: [f64; 3], st: &mut FrameStats) -> Vec<Po
         .count();
     st.non_finite = points.len() - finite;
     // cell sizes were validated when the options were built; fall back to no reduction
-    let out = octoquant_quantize::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
+    let out = octoquant_density::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
     st.reduced = out.len();
     out
 }

@@ -6,7 +6,7 @@ use nalgebra::Point3;
 use octoquant::formats::compress::logical_extension;
 use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_quantize::{DensityGrid, GridSpec};
+use octoquant_density::{DensityGrid, GridSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

@@ -1,6 +1,6 @@
 //! Property tests of the density reducer against naive definitions.
 
-use octoquant_quantize::{DensityGrid, GridSpec, Selection};
+use octoquant_density::{DensityGrid, GridSpec, Selection};
 use proptest::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BTreeMap;

@@ -1,11 +1,9 @@
 //! The output stage: read cycles over the cells in ascending distance, with the
 //! minimum-difference check against the 3^D - 1 neighbouring cells.
 
-use crate::density::CellIndex;
-use crate::density_grid::DensityGrid;
-use crate::density_index::hash_index;
-use crate::density_order::distance_slots_after;
-use crate::error::QuantizeError;
+use crate::error::DensityError;
+use crate::grid::{distance_slots_after, hash_index, DensityGrid};
+use crate::spec::CellIndex;
 
 /// Counts of one output cycle so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -71,9 +69,9 @@ impl<const D: usize> DensityGrid<D> {
         cycle: &mut OutputCycle<D>,
         max_cells: usize,
         out: &mut Vec<[f64; D]>,
-    ) -> Result<bool, QuantizeError> {
+    ) -> Result<bool, DensityError> {
         if cycle.id != self.cycle {
-            return Err(QuantizeError::StaleCycle {
+            return Err(DensityError::StaleCycle {
                 cycle: cycle.id,
                 current: self.cycle,
             });

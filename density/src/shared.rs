@@ -4,9 +4,9 @@
 //! output thread locks it per step of a read cycle, so insertion goes on between steps and
 //! whatever arrives during a cycle is deferred to the next one by the cycle's horizon.
 
-use crate::density_grid::{DensityGrid, InsertOutcome};
-use crate::density_output::{CycleCounts, OutputCycle};
-use crate::error::QuantizeError;
+use crate::error::DensityError;
+use crate::grid::{DensityGrid, InsertOutcome};
+use crate::output::{CycleCounts, OutputCycle};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// A [`DensityGrid`] shared between an input and an output thread (clone the handle).
@@ -55,13 +55,13 @@ impl<const D: usize> SharedDensityGrid<D> {
         cycle: &mut OutputCycle<D>,
         max_cells: usize,
         out: &mut Vec<[f64; D]>,
-    ) -> Result<bool, QuantizeError> {
+    ) -> Result<bool, DensityError> {
         self.lock().step_cycle(cycle, max_cells, out)
     }
 
     /// Output stage: a whole read cycle in steps of `step` cells (at least 1), releasing the
     /// lock between steps so that input continues.
-    pub fn run_cycle(&self, step: usize) -> Result<(Vec<[f64; D]>, CycleCounts), QuantizeError> {
+    pub fn run_cycle(&self, step: usize) -> Result<(Vec<[f64; D]>, CycleCounts), DensityError> {
         let mut cycle = self.begin_cycle();
         let mut out = Vec::new();
         while !self.step_cycle(&mut cycle, step.max(1), &mut out)? {}

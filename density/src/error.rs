@@ -3,7 +3,7 @@
 /// Errors from building or driving a density grid.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
-pub enum QuantizeError {
+pub enum DensityError {
     /// A grid needs at least one axis.
     #[error("a grid needs at least one axis")]
     NoAxes,

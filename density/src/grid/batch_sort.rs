@@ -1,40 +1,36 @@
-//! The input stage for whole batches: sort the batch by cell, then fill each cell once.
+//! A batch sorted by cell, for [`DensityGrid::extend`].
 //!
 //! A counting sort. One pass gives each point a batch-local cell id through a hash table keyed
-//! by the cell index packed into a `u64`, relative to the first finite point's cell (integer
-//! order = lexicographic order); the distinct cells' keys are repacked relative to their own
-//! box and alone sorted (radix sort); a last pass moves each point into its cell's run. A batch
-//! reaching beyond the first pass's window is measured first (its finite points' bounding box
-//! bounds its cells), and one whose box does not pack into 63 bits is sorted by comparison.
-//! Into an empty grid the runs build the store in one pass: the sorted batch becomes the member
-//! arena, slot order is index order (so the ordered index needs no tree), the distance order is
-//! one bucket-sorted `Vec`, and under the closest-to-centre rule the cells' records stay packed.
-//! Into a non-empty grid each run goes to its cell as in [`DensityGrid::insert`], one look-up
-//! per cell.
+//! by the cell index packed into a `u64` (`key_table.rs`, `packing.rs`), relative to the first
+//! finite point's cell (integer order = lexicographic order); the distinct cells' keys are
+//! repacked relative to their own box and alone sorted (`radix_sort.rs`); a last pass moves
+//! each point into its cell's run. A batch reaching beyond the first pass's window is measured
+//! first (its finite points' bounding box bounds its cells), and one whose box does not pack
+//! into 63 bits is sorted by comparison.
 
-use crate::density::{CellIndex, Selection, MAX_CELL_INDEX};
-use crate::density_arena::{narrow_point, widen_point};
-use crate::density_grid::{centre_closest, new_slot, to_u32, Cell, DensityGrid, Hot, PackedCell};
-use crate::density_index::{
-    all_finite, floor_trunc, hash_index, radix_sort_bits, DistanceSort, Packing, SlotTable,
-};
+use super::arena::narrow_point;
+use super::key_table::KeyTable;
+use super::packing::Packing;
+use super::radix_sort::radix_sort_bits;
+use super::store::{to_u32, DensityGrid};
+use crate::spec::{all_finite, floor_trunc, CellIndex, MAX_CELL_INDEX};
 
 /// A batch sorted by cell: the points in cell order and its cells' runs.
-struct SortedBatch<const D: usize> {
+pub(super) struct SortedBatch<const D: usize> {
     /// Accepted points.
-    len: usize,
+    pub(super) len: usize,
     /// The points in cell order, unless they are in `narrow`.
-    points: Vec<[f64; D]>,
+    pub(super) points: Vec<[f64; D]>,
     /// The points in cell order as `f32`, when all are exact in `f32` and the batch goes into
-    /// an empty grid (the narrow arena, see `density_arena.rs`).
-    narrow: Option<Vec<[f32; D]>>,
-    runs: Runs<D>,
+    /// an empty grid (the narrow arena, see `arena.rs`).
+    pub(super) narrow: Option<Vec<[f32; D]>>,
+    pub(super) runs: Runs<D>,
     /// The key table's buckets, handed on as the hash index's storage (already faulted in).
-    spare: Vec<u64>,
+    pub(super) spare: Vec<u64>,
 }
 
 /// The cells of a [`SortedBatch`] in index order, each with the end of its run in `points`.
-enum Runs<const D: usize> {
+pub(super) enum Runs<const D: usize> {
     /// From the counting sort: `order` lists the batch-local cell ids in index order; cell `id`
     /// has the packed key `keys[id]` and its run ends at `ends[id]`.
     Packed {
@@ -49,7 +45,7 @@ enum Runs<const D: usize> {
 
 impl<const D: usize> Runs<D> {
     /// Number of cells.
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         match self {
             Runs::Packed { order, .. } => order.len(),
             Runs::Listed(v) => v.len(),
@@ -58,7 +54,7 @@ impl<const D: usize> Runs<D> {
 
     /// The `k`-th cell in index order and the end of its run.
     #[inline]
-    fn get(&self, k: usize) -> (CellIndex<D>, usize) {
+    pub(super) fn get(&self, k: usize) -> (CellIndex<D>, usize) {
         match self {
             Runs::Packed {
                 packing,
@@ -75,57 +71,6 @@ impl<const D: usize> Runs<D> {
 }
 
 impl<const D: usize> DensityGrid<D> {
-    /// Insert a batch of points; returns how many were rejected.
-    ///
-    /// The batch is sorted by cell index first (as PCL's VoxelGrid sorts), so each cell is
-    /// looked up once per batch; the resulting state is the same as inserting one by one.
-    /// The points are copied once; for a batch that can be walked again (a slice iterator,
-    /// possibly mapped) [`DensityGrid::extend_rewalk`] avoids that copy.
-    pub fn extend<I: IntoIterator<Item = [f64; D]>>(&mut self, points: I) -> u64 {
-        let batch: Vec<[f64; D]> = points.into_iter().collect();
-        self.extend_rewalk(batch.iter().copied())
-    }
-
-    /// [`DensityGrid::extend`] for an iterator that can be cloned and walked again: the batch
-    /// is read three times (bounding box, cell ids, placement) instead of being copied first.
-    /// Same result as [`DensityGrid::extend`].
-    pub fn extend_rewalk<I>(&mut self, points: I) -> u64
-    where
-        I: IntoIterator<Item = [f64; D]>,
-        I::IntoIter: Clone,
-    {
-        let points = points.into_iter();
-        // a batch that could take the grid past its capacity goes in point by point, so that
-        // exactly the points a one-by-one insertion would refuse are refused
-        let room = self.max_points - self.point_count();
-        let fits = match points.size_hint() {
-            (_, Some(upper)) => upper as u64 <= room,
-            (_, None) => points.clone().count() as u64 <= room,
-        };
-        if !fits {
-            let before = self.counts.rejected;
-            for p in points {
-                self.insert(p);
-            }
-            return self.counts.rejected - before;
-        }
-        let (batch, rejected) = self.sort_batch(points);
-        self.counts.rejected += rejected;
-        self.counts.inserted += batch.len as u64;
-        if self.is_empty() {
-            self.build(batch);
-        } else {
-            let mut start = 0;
-            for k in 0..batch.runs.len() {
-                let (index, end) = batch.runs.get(k);
-                self.insert_run(index, &batch.points[start..end]);
-                start = end;
-            }
-            self.maybe_compact();
-        }
-        rejected
-    }
-
     /// Counting sort of a batch by cell, dropping (and counting) the rejected points.
     ///
     /// Usually one pass gives each point a batch-local cell id through a hash table keyed by
@@ -137,7 +82,7 @@ impl<const D: usize> DensityGrid<D> {
     /// instead: its finite points' bounding box bounds its cells (the cell index is monotone in
     /// each coordinate), whose indexes then pack relative to that box; a box that does not
     /// pack into 63 bits is sorted by comparison.
-    fn sort_batch<It>(&self, points: It) -> (SortedBatch<D>, u64)
+    pub(super) fn sort_batch<It>(&self, points: It) -> (SortedBatch<D>, u64)
     where
         It: Iterator<Item = [f64; D]> + Clone,
     {
@@ -349,98 +294,6 @@ impl<const D: usize> DensityGrid<D> {
             rejected,
         )
     }
-
-    /// Build the store of an empty grid from a sorted batch in one pass.
-    fn build(&mut self, batch: SortedBatch<D>) {
-        debug_assert!(self.is_empty());
-        self.hot.clear();
-        self.slots.clear();
-        self.packed = None;
-        self.free.clear();
-        self.index.clear();
-        self.by_distance.clear();
-        self.last = None;
-        self.points = batch.points;
-        self.narrow = batch.narrow;
-        self.reserved = batch.len;
-        let cells = batch.runs.len();
-        self.hot.reserve(cells);
-        // Under the closest-to-centre rule the cells' records are kept packed (the rank's
-        // primary criterion is the centre distance; spans are back to back, without room).
-        let mut packed: Option<Vec<PackedCell>> =
-            matches!(self.selection, Selection::CentreClosest).then(|| Vec::with_capacity(cells));
-        if packed.is_none() {
-            self.slots.reserve(cells);
-        }
-        self.lookup = SlotTable::with_buffer(batch.spare, cells);
-        // Fill the hash index first, in its own pass, while its freshly cleared buckets are
-        // still in cache (the cell loop below streams the arena and the new records).
-        for k in 0..cells {
-            let (index, _) = batch.runs.get(k);
-            self.lookup
-                .insert_with_room(hash_index(&index), new_slot(k));
-        }
-        // Slots are created in index order, so slot order is index order. The distance order
-        // is counted here and placed from the cells' ranks below (no list of pairs in between);
-        // a representative lies in its cell, so its distance is at most about D / 4.
-        let mut distance = DistanceSort::new(cells, D as f64 / 4.0);
-        let mut start = 0;
-        for k in 0..cells {
-            let (index, end) = batch.runs.get(k);
-            let (sel, rank) = match (&self.selection, &self.narrow) {
-                // The usual case, without the arena form's dispatch per member.
-                (Selection::CentreClosest, Some(arena)) => centre_closest(
-                    &self.spec.cell_centre(&index),
-                    self.spec.size(),
-                    arena[start..end].iter().map(widen_point),
-                ),
-                _ => self.best_of(&index, self.arena().members(start..end)),
-            };
-            self.generation += 1;
-            self.hot.push(Hot {
-                index,
-                point: self.arena().get(start + sel),
-                stamp: self.generation,
-                mark: 0,
-            });
-            match &mut packed {
-                Some(packed) => packed.push(PackedCell {
-                    end: to_u32(end),
-                    selected: to_u32(sel),
-                    centre: rank.centre,
-                }),
-                None => self.slots.push(Cell {
-                    start,
-                    len: to_u32(end - start),
-                    cap: to_u32(end - start),
-                    selected: to_u32(sel),
-                    rank,
-                }),
-            }
-            distance.count(rank.centre.to_bits());
-            start = end;
-        }
-        // Ascending distance, ties by slot (= by index here). Distances are non-negative, so
-        // their bits sort as the values do.
-        let distance = match &packed {
-            Some(packed) => distance.place(
-                packed
-                    .iter()
-                    .enumerate()
-                    .map(|(s, c)| (c.centre.to_bits(), s as u32)),
-            ),
-            None => distance.place(
-                self.slots
-                    .iter()
-                    .enumerate()
-                    .map(|(s, c)| (c.rank.centre.to_bits(), s as u32)),
-            ),
-        };
-        self.packed = packed;
-        // The ordered index is the slot order: both orders stay in this compact form until a
-        // change needs the B-trees.
-        self.built = Some(distance);
-    }
 }
 
 /// A batch's points' cell ids being assigned: one per point (`u32::MAX` for a rejected point),
@@ -546,116 +399,5 @@ fn sort_keys(keys: &[u64]) -> Vec<u32> {
         let mut ids: Vec<u32> = (0..keys.len() as u32).collect();
         ids.sort_unstable_by_key(|&id| keys[id as usize]);
         ids
-    }
-}
-
-/// Hash table from a packed cell key to a batch-local id (`keys[id]` is the key): open
-/// addressing, linear probing, at most half full, over 8-byte buckets `fingerprint | id`
-/// (the id in the low `id_bits`, hash bits above). A bucket whose fingerprint matches is
-/// confirmed against `keys`.
-struct KeyTable {
-    buckets: Vec<u64>,
-    len: usize,
-    shift: u32,
-    id_mask: u64,
-    /// About how many points the batch has (sizes the growth).
-    points: usize,
-}
-
-/// An empty [`KeyTable`] bucket: no id reaches `id_mask`, so no entry is all ones.
-const FREE: u64 = u64::MAX;
-
-impl KeyTable {
-    /// A table for the ids of a batch of about `n` points (`n` only sizes it).
-    fn new(n: usize) -> Self {
-        // Ids are `u32` below `u32::MAX` (see `new_slot`), so `id < id_mask` and no entry
-        // equals `FREE`; 32 fingerprint bits remain.
-        let id_bits = 32;
-        // Room for n / 16 cells at first (real scans hold 5-30 % as many cells as points), so
-        // that the table rarely grows; between 2^10 and 2^22 buckets.
-        let log = (n / 8).next_power_of_two().trailing_zeros().clamp(10, 22);
-        KeyTable {
-            buckets: vec![FREE; 1 << log],
-            len: 0,
-            shift: 64 - log,
-            id_mask: (1u64 << id_bits) - 1,
-            points: n,
-        }
-    }
-
-    /// Number of keys the table holds before it first grows.
-    fn expected(&self) -> usize {
-        self.buckets.len() / 2
-    }
-
-    #[inline]
-    fn hash(key: u64) -> u64 {
-        (key ^ (key >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-    }
-
-    /// Home bucket (high hash bits) and fingerprint (other hash bits, above the id).
-    #[inline]
-    fn place_of(&self, key: u64) -> (usize, u64) {
-        let h = Self::hash(key);
-        (
-            (h >> self.shift) as usize,
-            h.rotate_right(32) & !self.id_mask,
-        )
-    }
-
-    /// The id of `key`; a new key gets the id `keys.len()` and is appended to `keys`.
-    #[inline]
-    fn get_or_insert(&mut self, key: u64, keys: &mut Vec<u64>) -> u32 {
-        let mask = self.buckets.len() - 1;
-        let (mut i, fp) = self.place_of(key);
-        loop {
-            let e = self.buckets[i];
-            if e == FREE {
-                let id = new_slot(keys.len());
-                keys.push(key);
-                self.buckets[i] = fp | u64::from(id);
-                self.len += 1;
-                if 2 * self.len > self.buckets.len() {
-                    self.grow(keys);
-                }
-                return id;
-            }
-            if e & !self.id_mask == fp {
-                let id = (e & self.id_mask) as u32;
-                if keys[id as usize] == key {
-                    return id;
-                }
-            }
-            i = (i + 1) & mask;
-        }
-    }
-
-    /// Double the table, or quadruple it while it is small next to the batch (fewer rehashes
-    /// for batches with many cells per point).
-    fn grow(&mut self, keys: &[u64]) {
-        let step = if self.buckets.len().saturating_mul(4) <= self.points && self.shift > 2 {
-            2
-        } else {
-            1
-        };
-        let size = self.buckets.len() << step;
-        let old = std::mem::replace(&mut self.buckets, vec![FREE; size]);
-        self.shift -= step;
-        let mask = size - 1;
-        for e in old {
-            if e != FREE {
-                let (mut i, _) = self.place_of(keys[(e & self.id_mask) as usize]);
-                while self.buckets[i] != FREE {
-                    i = (i + 1) & mask;
-                }
-                // The fingerprint does not depend on the table size.
-                self.buckets[i] = e;
-            }
-        }
-    }
-
-    /// The bucket storage, for reuse.
-    fn into_buffer(self) -> Vec<u64> {
-        self.buckets
     }
 }

@@ -1,9 +1,8 @@
 //! Unit tests of the density reducer: geometry, the 2D worked example, selection rules,
 //! deletion and read cycles.
 
-use super::*;
-use crate::density_output::for_each_lean_neighbour;
-use crate::{DensityGrid, InsertOutcome, QuantizeError};
+use crate::output::for_each_lean_neighbour;
+use crate::{DensityError, DensityGrid, GridSpec, InsertOutcome, Selection};
 
 fn grid_8_17() -> GridSpec<2> {
     GridSpec::with_sizes([8.0, 17.0]).unwrap()
@@ -113,7 +112,7 @@ fn worked_example_2d_run() {
 fn invalid_specs_are_errors() {
     assert_eq!(
         GridSpec::<2>::with_sizes([1.0, 0.0]),
-        Err(QuantizeError::InvalidCellSize {
+        Err(DensityError::InvalidCellSize {
             axis: 1,
             value: 0.0
         })
@@ -121,7 +120,7 @@ fn invalid_specs_are_errors() {
     assert!(GridSpec::<1>::with_sizes([f64::NAN]).is_err());
     assert!(GridSpec::<1>::with_sizes([-1.0]).is_err());
     assert!(GridSpec::<1>::new([1.0], [f64::INFINITY]).is_err());
-    assert_eq!(GridSpec::<0>::with_sizes([]), Err(QuantizeError::NoAxes));
+    assert_eq!(GridSpec::<0>::with_sizes([]), Err(DensityError::NoAxes));
 }
 
 #[test]
@@ -266,7 +265,7 @@ fn points_added_during_a_cycle_wait_for_the_next() {
     // A stale cycle is refused.
     assert!(matches!(
         g.step_cycle(&mut cycle, 1, &mut out),
-        Err(QuantizeError::StaleCycle { .. })
+        Err(DensityError::StaleCycle { .. })
     ));
 }
 

@@ -1,8 +1,8 @@
 //! One-call helpers: fill a grid, run one read cycle, report the counts.
 
-use crate::density::GridSpec;
-use crate::density_grid::DensityGrid;
-use crate::error::QuantizeError;
+use crate::error::DensityError;
+use crate::grid::DensityGrid;
+use crate::spec::GridSpec;
 use nalgebra::Point3;
 
 /// Point counts through the two stages of a reduction.
@@ -51,7 +51,7 @@ fn finish<const D: usize>(mut grid: DensityGrid<D>) -> (Vec<[f64; D]>, ReduceCou
 pub fn reduce_points_counted(
     points: &[Point3<f32>],
     cell: [f64; 3],
-) -> Result<(Vec<Point3<f32>>, ReduceCounts), QuantizeError> {
+) -> Result<(Vec<Point3<f32>>, ReduceCounts), DensityError> {
     let mut grid = DensityGrid::new(GridSpec::with_sizes(cell)?);
     grid.extend_rewalk(
         points
@@ -72,6 +72,6 @@ pub fn reduce_points_counted(
 pub fn reduce_points(
     points: &[Point3<f32>],
     cell: [f64; 3],
-) -> Result<Vec<Point3<f32>>, QuantizeError> {
+) -> Result<Vec<Point3<f32>>, DensityError> {
     reduce_points_counted(points, cell).map(|(p, _)| p)
 }

@@ -1,12 +1,14 @@
-//! The member arena's narrow form.
+//! The member arena: every cell's members in one contiguous span (`Cell::span`), a full span
+//! moved to the end of the arena with room to double, and the arena rewritten once abandoned
+//! spans make up most of it.
 //!
-//! A batch into an empty grid whose points are all exactly representable in `f32` (every
+//! Its narrow form: a batch into an empty grid whose points are all exactly representable in `f32` (every
 //! cloud read from an `f32` file) stores its members as `[f32; D]`: half the memory to fill and
 //! fault in, and the same `f64` values when read back (`f32 -> f64` is exact). The grid keeps
 //! that form (field `narrow`, the `f64` arena `points` then empty) until the first change to a
 //! cell's members, which widens the arena to `f64` once.
 
-use crate::density_grid::DensityGrid;
+use super::store::{to_u32, DensityGrid};
 use std::ops::Range;
 use std::slice;
 
@@ -111,5 +113,60 @@ impl<const D: usize> DensityGrid<D> {
     #[inline]
     pub(crate) fn members_of(&self, s: usize) -> Members<'_, D> {
         self.arena().members(self.cell(s).span())
+    }
+
+    /// Append `run` to the members of slot `s`, moving the cell's span to the end of the arena
+    /// (with room to double) when it is full.
+    pub(crate) fn push_members(&mut self, s: usize, run: &[[f64; D]]) {
+        self.widen();
+        let (start, len, cap) = {
+            let c = &self.slots[s];
+            (c.start, c.len as usize, c.cap as usize)
+        };
+        let need = len + run.len();
+        if start + cap == self.points.len() {
+            // Last span of the arena: grow in place.
+            self.points.truncate(start + len);
+            self.points.extend_from_slice(run);
+            self.reserved = self.reserved - cap + need;
+            let c = &mut self.slots[s];
+            c.len = to_u32(need);
+            c.cap = c.len;
+        } else if need <= cap {
+            self.points[start + len..start + need].copy_from_slice(run);
+            self.slots[s].len = to_u32(need);
+        } else {
+            let new_cap = need.max(2 * len);
+            let new_start = self.points.len();
+            self.points.extend_from_within(start..start + len);
+            self.points.extend_from_slice(run);
+            let pad = self.points[new_start];
+            self.points.resize(new_start + new_cap, pad);
+            self.reserved = self.reserved - cap + new_cap;
+            let c = &mut self.slots[s];
+            c.start = new_start;
+            c.len = to_u32(need);
+            c.cap = to_u32(new_cap);
+        }
+    }
+
+    /// Rewrite the arena without abandoned spans and spare room once they make up most of it.
+    pub(crate) fn maybe_compact(&mut self) {
+        let live = self.point_count() as usize;
+        if self.arena().len() <= 2 * live + 4096 {
+            return;
+        }
+        self.widen();
+        let mut arena = Vec::with_capacity(live);
+        let order: Vec<u32> = self.index_slots().collect();
+        for slot in order {
+            let c = &mut self.slots[slot as usize];
+            let start = arena.len();
+            arena.extend_from_slice(&self.points[c.span()]);
+            c.start = start;
+            c.cap = c.len;
+        }
+        self.points = arena;
+        self.reserved = live;
     }
 }

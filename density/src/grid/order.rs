@@ -8,8 +8,8 @@
 //! adds, removes or re-ranks a cell, and only then builds the B-trees, which support changes in
 //! O(log n). A one-shot reduction (one batch, one read cycle) never builds a tree.
 
-use crate::density::CellIndex;
-use crate::density_grid::{DensityGrid, Hot};
+use super::store::{DensityGrid, Hot};
+use crate::spec::CellIndex;
 use std::collections::{btree_map, btree_set, BTreeMap, BTreeSet};
 use std::iter::{Copied, Map};
 use std::ops::{Bound, Range};
@@ -114,39 +114,6 @@ impl<const D: usize> DensityGrid<D> {
             }
             None => self.by_distance.contains(&(d, *index, slot)),
         }
-    }
-
-    /// Check the compact form's own invariants (the trees are checked by the caller): every slot once, both
-    /// orders strictly ascending, no free slot.
-    pub(crate) fn validate_orders(&self) -> Result<(), String> {
-        let Some(by_distance) = &self.built else {
-            return Ok(());
-        };
-        if !self.index.is_empty() || !self.by_distance.is_empty() {
-            return Err("compact order beside non-empty trees".to_string());
-        }
-        if by_distance.len() != self.hot.len() || !self.free.is_empty() {
-            return Err(format!(
-                "compact order of {} cells over {} slots ({} free)",
-                by_distance.len(),
-                self.hot.len(),
-                self.free.len()
-            ));
-        }
-        if self.hot.windows(2).any(|w| w[0].index >= w[1].index) {
-            return Err("compact order: slots not in index order".to_string());
-        }
-        if by_distance.windows(2).any(|w| w[0] >= w[1]) {
-            return Err("compact order: distances not ascending".to_string());
-        }
-        let mut seen = vec![false; by_distance.len()];
-        for &(_, s) in by_distance {
-            match seen.get_mut(s as usize) {
-                Some(f) if !*f => *f = true,
-                _ => return Err(format!("compact order: slot {s} missing or repeated")),
-            }
-        }
-        Ok(())
     }
 }
 
