@@ -7,8 +7,8 @@
 //! 0.0856 s past the second and sorts last by name but 9th by time), and frames come out in
 //! time order. World point = R(q)·p + t computed in `f64`, stored as `f32`; origin = t.
 
-use super::compress::read_all;
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
+use crate::source::read_all;
 use crate::Frame;
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use std::collections::HashMap;
@@ -256,7 +256,7 @@ const COLUMNS: [&str; 9] = [
 /// `header.stamp.nanosec`, `pose.pose.position.{x,y,z}` and `pose.pose.orientation.{x,y,z,w}`,
 /// in any order. Rows come back in file order.
 pub fn read_trajectory_csv(path: &Path) -> Result<Vec<StampedPose>, FormatError> {
-    let mut lines = super::compress::LineReader::open(path)?;
+    let mut lines = crate::source::LineReader::open(path)?;
     let (_, header) = lines
         .next_line()?
         .ok_or_else(|| FormatError::syntax(path, Location::Line(1), "empty trajectory file"))?;
@@ -346,7 +346,7 @@ pub fn list_scans(scans_dir: &Path) -> Result<Vec<(u64, u32, PathBuf)>, FormatEr
         let entry = entry.map_err(|e| FormatError::io(scans_dir, Location::File, e))?;
         let path = entry.path();
         let name = entry.file_name().to_string_lossy().into_owned();
-        if super::compress::logical_extension(&path).as_deref() != Some("vtk") {
+        if crate::source::logical_extension(&path).as_deref() != Some("vtk") {
             continue;
         }
         let (sec, nsec) = parse_scan_stamp(&name).ok_or_else(|| {

@@ -11,8 +11,8 @@
 //! `Pointcloud::transform(pose)` in `f32`, and the sensor origin is the pose translation
 //! computed the way graph2tree does (through the inverse pose and back).
 
-use super::compress::{read_all, ByteReader};
-use super::error::FormatError;
+use crate::error::FormatError;
+use crate::source::{read_all, ByteReader};
 use crate::Frame;
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::io::{self, Write};

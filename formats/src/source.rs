@@ -1,7 +1,7 @@
 //! Opening input files: transparent `.gz`/`.bz2` decompression, plus the line and byte cursors
 //! every reader shares, so each reports the file and the line or byte offset of a problem.
 
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;

@@ -1,5 +1,5 @@
 //! CARMEN log files: the 2D laser scans of `FLASER` and `ROBOTLASER1` lines, each with its
-//! laser pose. `.gz`/`.bz2` logs are decompressed on the fly ([`super::compress::open`]).
+//! laser pose. `.gz`/`.bz2` logs are decompressed on the fly ([`crate::source::open`]).
 //!
 //! * `FLASER n r_1 .. r_n x y theta odom_x odom_y odom_theta ipc_ts host logger_ts`: the first
 //!   pose is the laser pose, the second the odometry. The message has no angles: the beams
@@ -14,8 +14,8 @@
 //! scanner's maximum range ("no return") is kept in [`LaserScan::ranges`] but flagged invalid
 //! by [`LaserScan::is_valid`].
 
-use super::compress;
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
+use crate::source;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
@@ -128,7 +128,7 @@ pub struct CarmenReader {
 impl CarmenReader {
     /// Open `path`, decompressing `.gz`/`.bz2` by extension.
     pub fn open(path: &Path) -> Result<Self, FormatError> {
-        Ok(Self::new(path, compress::open(path)?))
+        Ok(Self::new(path, source::open(path)?))
     }
 
     /// Read a log from any buffered reader; `path` only names it in errors.

@@ -5,8 +5,8 @@
 //! per frame `f32` origin x, y, z, `u32` n, then n × (`f32` x, y, z). Time stamps are not
 //! stored.
 
-use super::compress::{read_all, ByteReader};
-use super::error::FormatError;
+use crate::error::FormatError;
+use crate::source::{read_all, ByteReader};
 use crate::Frame;
 use nalgebra::Point3;
 use std::io::{self, Write};
@@ -27,7 +27,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
     if version != FRAMES_VERSION {
         return Err(FormatError::unsupported(
             path,
-            super::Location::Byte(8),
+            crate::Location::Byte(8),
             format!(".frames version {version} (only {FRAMES_VERSION})"),
         ));
     }

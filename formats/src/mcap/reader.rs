@@ -26,7 +26,7 @@
 //! The whole file is read into memory (MCAP's chunk index needs random access); chunks may
 //! be uncompressed or zstd-compressed (lz4 is not built in).
 
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
 use crate::Frame;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use std::collections::{BTreeMap, HashMap};
@@ -477,7 +477,7 @@ pub fn decode_tf_message(msg: &[u8], encoding: Encoding) -> Result<Vec<Transform
 const CLOUD_SCHEMAS: [&str; 2] = ["sensor_msgs/PointCloud2", "sensor_msgs/msg/PointCloud2"];
 const TF_SCHEMAS: [&str; 2] = ["tf2_msgs/TFMessage", "tf2_msgs/msg/TFMessage"];
 
-fn mcap_err(path: &Path, e: mcap::McapError) -> FormatError {
+fn mcap_err(path: &Path, e: ::mcap::McapError) -> FormatError {
     FormatError::syntax(
         path,
         Location::File,
@@ -499,26 +499,26 @@ fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
 /// is larger. No record can be longer than that in a valid file.
 fn for_each_message<F>(path: &Path, bytes: &[u8], mut visit: F) -> Result<(), FormatError>
 where
-    F: FnMut(usize, &mcap::Message<'static>) -> Result<(), FormatError>,
+    F: FnMut(usize, &::mcap::Message<'static>) -> Result<(), FormatError>,
 {
     let largest_chunk = check_chunk_sizes(path, bytes)?;
     let limit = usize::try_from(largest_chunk)
         .unwrap_or(usize::MAX)
         .max(bytes.len());
-    let mut reader = mcap::sans_io::MessageReader::new_with_options(
-        mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
+    let mut reader = ::mcap::sans_io::MessageReader::new_with_options(
+        ::mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
     );
     let mut rest = bytes;
     let mut index = 0;
     while let Some(event) = reader.next_event() {
         match event.map_err(|e| mcap_err(path, e))? {
-            mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
+            ::mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
                 let n = need.min(rest.len());
                 reader.insert(n).copy_from_slice(&rest[..n]);
                 reader.notify_read(n);
                 rest = &rest[n..];
             }
-            mcap::sans_io::MessageReadEvent::Message(m) => {
+            ::mcap::sans_io::MessageReadEvent::Message(m) => {
                 visit(index, &m)?;
                 index += 1;
             }
@@ -606,7 +606,7 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
 
 fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
     let mut map: BTreeMap<String, TopicInfo> = BTreeMap::new();
-    let mut add = |c: &mcap::Channel| {
+    let mut add = |c: &::mcap::Channel| {
         map.entry(c.topic.clone()).or_insert_with(|| TopicInfo {
             topic: c.topic.clone(),
             schema: c
@@ -617,7 +617,7 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
             encoding: c.message_encoding.clone(),
         });
     };
-    match mcap::Summary::read(bytes) {
+    match ::mcap::Summary::read(bytes) {
         Ok(Some(summary)) if !summary.channels.is_empty() => {
             for c in summary.channels.values() {
                 add(c);
