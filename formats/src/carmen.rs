@@ -19,6 +19,8 @@ use crate::source;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
+pub use crate::pose::Pose2;
+
 /// Which message a scan came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ScanKind {
@@ -26,25 +28,6 @@ pub enum ScanKind {
     Flaser,
     /// `ROBOTLASER1` (laser message with its own angles, range limit and poses).
     RobotLaser1,
-}
-
-/// A planar pose: metres and radians (counter-clockwise from +x).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose2 {
-    /// x, metres.
-    pub x: f64,
-    /// y, metres.
-    pub y: f64,
-    /// Heading, radians.
-    pub theta: f64,
-}
-
-impl Pose2 {
-    /// `p` (in this pose's frame) in the world frame.
-    pub fn transform(&self, p: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.theta.sin_cos();
-        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
-    }
 }
 
 /// One laser scan from a CARMEN log.

@@ -20,8 +20,10 @@
 //!
 //! Every file may be `.gz`/`.bz2` compressed ([`source`]). Errors are one [`FormatError`]
 //! naming the file and the line or byte; no input makes a reader panic, and counts read from
-//! a file never reserve more memory than the file's bytes can fill. Files are written through
-//! [`output::write_atomic`], so a failed write never leaves a half-written file.
+//! a file never reserve more memory than the file's bytes can fill. The pose maths of every
+//! reader (OctoMap's exact `f32` poses, rigid `f64` poses, planar poses) is in [`pose`]. Files
+//! are written through [`output::write_atomic`], so a failed write never leaves a
+//! half-written file.
 #![deny(missing_docs)]
 
 pub mod carmen;
@@ -34,6 +36,7 @@ pub mod mcap;
 pub mod output;
 pub mod pcd;
 pub mod ply;
+pub mod pose;
 pub mod source;
 pub mod text;
 pub mod tum;

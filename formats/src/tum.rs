@@ -12,8 +12,8 @@
 
 use crate::error::{FormatError, Location};
 use crate::frame::CameraPixels;
+use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{open, LineReader};
-use crate::vtk::{rigid_transform, unit_quaternion};
 use crate::Frame;
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use octoquant_raycast::PinholeCamera;

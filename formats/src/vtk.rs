@@ -8,9 +8,10 @@
 //! time order. World point = R(q)·p + t computed in `f64`, stored as `f32`; origin = t.
 
 use crate::error::{FormatError, Location};
+use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::read_all;
 use crate::Frame;
-use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -222,22 +223,6 @@ impl StampedPose {
     pub fn transform(&self, p: &Point3<f64>) -> Point3<f32> {
         rigid_transform(&self.rotation, &self.translation, p)
     }
-}
-
-/// `R(q)·p + t` in `f64` through the rotation matrix, rounded to `f32` at the end.
-pub(crate) fn rigid_transform(
-    q: &UnitQuaternion<f64>,
-    t: &Vector3<f64>,
-    p: &Point3<f64>,
-) -> Point3<f32> {
-    (q.to_rotation_matrix() * p + t).cast::<f32>()
-}
-
-/// A unit quaternion from (w, x, y, z), or `None` when it is not finite or has zero norm.
-pub(crate) fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Option<UnitQuaternion<f64>> {
-    let q = Quaternion::new(w, x, y, z);
-    let n = q.norm();
-    (n.is_finite() && n > 0.0).then(|| UnitQuaternion::from_quaternion(q))
 }
 
 const COLUMNS: [&str; 9] = [

@@ -6,6 +6,7 @@ use super::cdr::{DecodeError, Encoding};
 use super::pointcloud2::{decode_point_cloud2, CloudStats, PointCloud2, CLOUD_SCHEMAS};
 use super::tf::{decode_tf_message, TfTree, TF_SCHEMAS};
 use crate::error::{FormatError, Location};
+use crate::pose::isometry_transform;
 use crate::Frame;
 use nalgebra::{Isometry3, Point3};
 use std::collections::BTreeMap;
@@ -335,10 +336,10 @@ pub fn read_mcap(
         })?;
         let points = pts
             .into_iter()
-            .map(|p| (pose * p.cast::<f64>()).cast::<f32>())
+            .map(|p| isometry_transform(&pose, &p))
             .collect();
         frames.push(Frame {
-            origin: (pose * Point3::origin()).cast::<f32>(),
+            origin: isometry_transform(&pose, &Point3::origin()),
             points,
             stamp: Some(cloud.stamp),
             camera: None,

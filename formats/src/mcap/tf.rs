@@ -2,7 +2,8 @@
 //! ([`TfTree`]) that composes the recorded transforms between two frames at a time.
 
 use super::cdr::{DecodeError, Encoding, Reader};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+use crate::pose::isometry;
+use nalgebra::{Isometry3, Quaternion, Vector3};
 use std::collections::HashMap;
 
 /// The schema names of tf channels (ROS 1, ROS 2).
@@ -40,10 +41,7 @@ pub fn decode_tf_message(msg: &[u8], encoding: Encoding) -> Result<Vec<Transform
         out.push(Transform {
             parent,
             child,
-            transform: Isometry3::from_parts(
-                Translation3::new(v[0], v[1], v[2]),
-                UnitQuaternion::from_quaternion(q),
-            ),
+            transform: isometry(Vector3::new(v[0], v[1], v[2]), q),
         });
     }
     Ok(out)
