@@ -6,6 +6,7 @@
 //! stored.
 
 use crate::error::FormatError;
+use crate::output::write_atomic;
 use crate::source::{read_all, ByteReader};
 use crate::Frame;
 use nalgebra::Point3;
@@ -93,12 +94,7 @@ pub fn write_frames(w: &mut (impl Write + ?Sized), frames: &[Frame]) -> io::Resu
 
 /// Write frames to `path` atomically (temporary file, then rename).
 pub fn write_frames_file(path: &Path, frames: &[Frame]) -> Result<(), FormatError> {
-    crate::output::write_atomic(path, |w| write_frames(w, frames)).map_err(|e| match e {
-        crate::output::OutputError::Io { source, .. } => FormatError::Write {
-            path: path.to_path_buf(),
-            source,
-        },
-    })
+    Ok(write_atomic(path, |w| write_frames(w, frames))?)
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@
 //! computed the way graph2tree does (through the inverse pose and back).
 
 use crate::error::FormatError;
+use crate::output::write_atomic;
 use crate::source::{read_all, ByteReader};
 use crate::Frame;
 use nalgebra::{Point3, Quaternion, Vector3};
@@ -245,12 +246,7 @@ pub fn write_graph(w: &mut (impl Write + ?Sized), graph: &ScanGraph) -> io::Resu
 
 /// Write `graph` to `path` atomically (temporary file, then rename).
 pub fn write_graph_file(path: &Path, graph: &ScanGraph) -> Result<(), FormatError> {
-    crate::output::write_atomic(path, |w| write_graph(w, graph)).map_err(|e| match e {
-        crate::output::OutputError::Io { source, .. } => FormatError::Write {
-            path: path.to_path_buf(),
-            source,
-        },
-    })
+    Ok(write_atomic(path, |w| write_graph(w, graph))?)
 }
 
 #[cfg(test)]

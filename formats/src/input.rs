@@ -2,9 +2,11 @@
 //! it as frames ([`read_frames`] with [`ReadOptions`]).
 
 use crate::error::{FormatError, Location};
-use crate::Frame;
+use crate::frame::Frame;
+use crate::graph::GraphOptions;
+use crate::pcd::PcdOptions;
+use crate::tum::TumOptions;
 use crate::{frames, graph, mcap, pcd, ply, source, text, tum, vtk};
-use crate::{GraphOptions, PcdOptions, TumOptions};
 use std::path::{Path, PathBuf};
 
 /// The input formats [`read_frames`] understands.
@@ -51,7 +53,7 @@ impl InputFormat {
     ];
 
     /// The short name used on the command line (`graph`, `frames`, `text`, `vtk`, `vtk-seq`,
-    /// `pcd`, `tum-png`, `tum`).
+    /// `pcd`, `tum-png`, `tum`, `mcap`, `ply`).
     pub fn name(self) -> &'static str {
         match self {
             InputFormat::Graph => "graph",
