@@ -5,10 +5,10 @@
 //! per frame `f32` origin x, y, z, `u32` n, then n × (`f32` x, y, z). Time stamps are not
 //! stored.
 
-use crate::error::FormatError;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::output::write_atomic;
 use crate::source::{read_all, ByteReader};
-use crate::Frame;
 use nalgebra::Point3;
 use std::io::{self, Write};
 use std::path::Path;
@@ -28,7 +28,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
     if version != FRAMES_VERSION {
         return Err(FormatError::unsupported(
             path,
-            crate::Location::Byte(8),
+            Location::Byte(8),
             format!(".frames version {version} (only {FRAMES_VERSION})"),
         ));
     }

@@ -12,9 +12,9 @@
 //! computed the way graph2tree does (through the inverse pose and back).
 
 use crate::error::FormatError;
+use crate::frame::Frame;
 use crate::output::write_atomic;
 use crate::source::{read_all, ByteReader};
-use crate::Frame;
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::io::{self, Write};
 use std::path::Path;

@@ -18,9 +18,9 @@
 //! Invalid points (NaN) are kept; insertion skips and counts them.
 
 use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{read_all, ByteReader};
-use crate::Frame;
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::path::Path;
 

@@ -7,9 +7,9 @@
 //! `.gz`/`.bz2` compressed. Non-finite coordinates are passed through; consumers skip them.
 
 use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::output::{write_atomic, OutputError};
 use crate::source;
-use crate::Frame;
 use nalgebra::Point3;
 use std::io::Write;
 use std::path::Path;

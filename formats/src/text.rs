@@ -15,10 +15,10 @@
 //! (`str::parse::<f32>`, as `istream >> float` does; never through `f64`), `nan`/`inf` are
 //! accepted for points, and every error names the file and line.
 
-use crate::error::FormatError;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::graph::{graph_to_frames, GraphOptions, Pose6D, ScanGraph, ScanNode};
 use crate::source::LineReader;
-use crate::Frame;
 use nalgebra::{Point3, Vector3};
 use std::path::Path;
 
@@ -49,7 +49,7 @@ enum Parsed {
     Frames(Vec<Frame>),
 }
 
-fn parse_f32(path: &Path, at: crate::Location, tok: &str) -> Result<f32, FormatError> {
+fn parse_f32(path: &Path, at: Location, tok: &str) -> Result<f32, FormatError> {
     tok.parse::<f32>()
         .map_err(|_| FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number")))
 }
@@ -57,7 +57,7 @@ fn parse_f32(path: &Path, at: crate::Location, tok: &str) -> Result<f32, FormatE
 /// Parse exactly three numbers from `toks`.
 fn parse_xyz<'a>(
     path: &Path,
-    at: crate::Location,
+    at: Location,
     mut toks: impl Iterator<Item = &'a str>,
     what: &str,
 ) -> Result<Point3<f32>, FormatError> {
@@ -78,7 +78,7 @@ fn parse_xyz<'a>(
     Ok(Point3::new(c[0], c[1], c[2]))
 }
 
-fn finite_pose(path: &Path, at: crate::Location, vals: &[f32]) -> Result<(), FormatError> {
+fn finite_pose(path: &Path, at: Location, vals: &[f32]) -> Result<(), FormatError> {
     if vals.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
@@ -203,7 +203,7 @@ pub fn read_log_graph(path: &Path) -> Result<ScanGraph, FormatError> {
         Parsed::Log(graph) => Ok(graph),
         _ => Err(FormatError::syntax(
             path,
-            crate::Location::Line(1),
+            Location::Line(1),
             "not an OctoMap log (no NODE line first)",
         )),
     }

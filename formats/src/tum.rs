@@ -11,10 +11,9 @@
 //! skipped (a subset of a sequence is the normal case).
 
 use crate::error::{FormatError, Location};
-use crate::frame::CameraPixels;
+use crate::frame::{CameraPixels, Frame};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{open, LineReader};
-use crate::Frame;
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};

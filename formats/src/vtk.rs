@@ -8,9 +8,9 @@
 //! time order. World point = R(q)·p + t computed in `f64`, stored as `f32`; origin = t.
 
 use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::read_all;
-use crate::Frame;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
