@@ -2,8 +2,9 @@
 //! pose from `/tf_static` and `/tf`. One file per part: `cdr.rs` (the ROS 1 and CDR
 //! serializations), `pointcloud2.rs`, `tf.rs` and `reader.rs` (the file and its topics).
 //!
-//! - [`read_mcap`] / [`read_mcap_frames`]: every cloud of one topic as a [`Frame`] in a fixed
-//!   frame, with per-cloud [`CloudStats`]; [`list_topics`] names what a file holds.
+//! - [`read_mcap`] / [`read_mcap_frames`]: every cloud of one topic as a
+//!   [`Frame`](crate::Frame) in a fixed frame, with per-cloud [`CloudStats`]; [`list_topics`]
+//!   names what a file holds.
 //! - [`decode_point_cloud2`]: one message, in either encoding, into a [`PointCloud2`]
 //!   whose [`PointCloud2::points`] extracts `x y z` from any field layout.
 //!
