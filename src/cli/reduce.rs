@@ -3,8 +3,8 @@
 
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
-use octoquant::formats::compress::logical_extension;
 use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
+use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant_density::{DensityGrid, GridSpec};
 use std::path::{Path, PathBuf};

@@ -5,9 +5,10 @@
 //! per frame `f32` origin x, y, z, `u32` n, then n × (`f32` x, y, z). Time stamps are not
 //! stored.
 
-use super::compress::{read_all, ByteReader};
-use super::error::FormatError;
-use crate::Frame;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::output::write_atomic;
+use crate::source::{read_all, ByteReader};
 use nalgebra::Point3;
 use std::io::{self, Write};
 use std::path::Path;
@@ -27,7 +28,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
     if version != FRAMES_VERSION {
         return Err(FormatError::unsupported(
             path,
-            super::Location::Byte(8),
+            Location::Byte(8),
             format!(".frames version {version} (only {FRAMES_VERSION})"),
         ));
     }
@@ -93,12 +94,7 @@ pub fn write_frames(w: &mut (impl Write + ?Sized), frames: &[Frame]) -> io::Resu
 
 /// Write frames to `path` atomically (temporary file, then rename).
 pub fn write_frames_file(path: &Path, frames: &[Frame]) -> Result<(), FormatError> {
-    crate::output::write_atomic(path, |w| write_frames(w, frames)).map_err(|e| match e {
-        crate::output::OutputError::Io { source, .. } => FormatError::Write {
-            path: path.to_path_buf(),
-            source,
-        },
-    })
+    Ok(write_atomic(path, |w| write_frames(w, frames))?)
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 //!   (0, 0, 0), as octovis loads it.
 //! * **Log** (`ScanGraph::readPlainASCII`, used by `log2graph`): `NODE x y z roll pitch yaw`
 //!   starts a node, then `x y z` lines in the node's sensor frame. Each node becomes a frame
-//!   exactly as graph2tree would insert it after `log2graph` (see [`super::graph`]). As in
+//!   exactly as graph2tree would insert it after `log2graph` (see [`crate::graph`]). As in
 //!   OctoMap, lines starting with a space are skipped in this mode. Unlike OctoMap, a last
 //!   line without a newline is kept, and a malformed line is an error rather than zeros.
 //! * **Reference frames**: `origin OX OY OZ` starts a frame; the following `x y z` lines are
@@ -15,10 +15,10 @@
 //! (`str::parse::<f32>`, as `istream >> float` does; never through `f64`), `nan`/`inf` are
 //! accepted for points, and every error names the file and line.
 
-use super::compress::LineReader;
-use super::error::FormatError;
-use super::graph::{graph_to_frames, GraphOptions, Pose6D, ScanGraph, ScanNode};
-use crate::Frame;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::graph::{graph_to_frames, GraphOptions, Pose6D, ScanGraph, ScanNode};
+use crate::source::LineReader;
 use nalgebra::{Point3, Vector3};
 use std::path::Path;
 
@@ -49,7 +49,7 @@ enum Parsed {
     Frames(Vec<Frame>),
 }
 
-fn parse_f32(path: &Path, at: super::Location, tok: &str) -> Result<f32, FormatError> {
+fn parse_f32(path: &Path, at: Location, tok: &str) -> Result<f32, FormatError> {
     tok.parse::<f32>()
         .map_err(|_| FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number")))
 }
@@ -57,7 +57,7 @@ fn parse_f32(path: &Path, at: super::Location, tok: &str) -> Result<f32, FormatE
 /// Parse exactly three numbers from `toks`.
 fn parse_xyz<'a>(
     path: &Path,
-    at: super::Location,
+    at: Location,
     mut toks: impl Iterator<Item = &'a str>,
     what: &str,
 ) -> Result<Point3<f32>, FormatError> {
@@ -78,7 +78,7 @@ fn parse_xyz<'a>(
     Ok(Point3::new(c[0], c[1], c[2]))
 }
 
-fn finite_pose(path: &Path, at: super::Location, vals: &[f32]) -> Result<(), FormatError> {
+fn finite_pose(path: &Path, at: Location, vals: &[f32]) -> Result<(), FormatError> {
     if vals.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
@@ -203,7 +203,7 @@ pub fn read_log_graph(path: &Path) -> Result<ScanGraph, FormatError> {
         Parsed::Log(graph) => Ok(graph),
         _ => Err(FormatError::syntax(
             path,
-            super::Location::Line(1),
+            Location::Line(1),
             "not an OctoMap log (no NODE line first)",
         )),
     }

@@ -1,5 +1,5 @@
 //! CARMEN log files: the 2D laser scans of `FLASER` and `ROBOTLASER1` lines, each with its
-//! laser pose. `.gz`/`.bz2` logs are decompressed on the fly ([`super::compress::open`]).
+//! laser pose. `.gz`/`.bz2` logs are decompressed on the fly ([`crate::source::open`]).
 //!
 //! * `FLASER n r_1 .. r_n x y theta odom_x odom_y odom_theta ipc_ts host logger_ts`: the first
 //!   pose is the laser pose, the second the odometry. The message has no angles: the beams
@@ -14,10 +14,12 @@
 //! scanner's maximum range ("no return") is kept in [`LaserScan::ranges`] but flagged invalid
 //! by [`LaserScan::is_valid`].
 
-use super::compress;
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
+use crate::source;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
+
+pub use crate::pose::Pose2;
 
 /// Which message a scan came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,25 +28,6 @@ pub enum ScanKind {
     Flaser,
     /// `ROBOTLASER1` (laser message with its own angles, range limit and poses).
     RobotLaser1,
-}
-
-/// A planar pose: metres and radians (counter-clockwise from +x).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose2 {
-    /// x, metres.
-    pub x: f64,
-    /// y, metres.
-    pub y: f64,
-    /// Heading, radians.
-    pub theta: f64,
-}
-
-impl Pose2 {
-    /// `p` (in this pose's frame) in the world frame.
-    pub fn transform(&self, p: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.theta.sin_cos();
-        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
-    }
 }
 
 /// One laser scan from a CARMEN log.
@@ -128,7 +111,7 @@ pub struct CarmenReader {
 impl CarmenReader {
     /// Open `path`, decompressing `.gz`/`.bz2` by extension.
     pub fn open(path: &Path) -> Result<Self, FormatError> {
-        Ok(Self::new(path, compress::open(path)?))
+        Ok(Self::new(path, source::open(path)?))
     }
 
     /// Read a log from any buffered reader; `path` only names it in errors.

@@ -1,5 +1,6 @@
 //! The one error type of the sensor-format readers: every variant names the file and the place.
 
+use crate::output::OutputError;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -154,6 +155,15 @@ impl FormatError {
             path: path.to_path_buf(),
             at,
             message: message.into(),
+        }
+    }
+}
+
+impl From<OutputError> for FormatError {
+    /// A failed atomic write ([`crate::output::write_atomic`]) of a format writer.
+    fn from(e: OutputError) -> Self {
+        match e {
+            OutputError::Io { path, source } => FormatError::Write { path, source },
         }
     }
 }

@@ -17,10 +17,10 @@
 //!
 //! Invalid points (NaN) are kept; insertion skips and counts them.
 
-use super::compress::{read_all, ByteReader};
-use super::error::{FormatError, Location};
-use super::vtk::{rigid_transform, unit_quaternion};
-use crate::Frame;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::pose::{rigid_transform, unit_quaternion};
+use crate::source::{read_all, ByteReader};
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::path::Path;
 

@@ -10,11 +10,10 @@
 //! `f64`, stored as `f32`, and the origin is t. Rows whose depth file does not exist are
 //! skipped (a subset of a sequence is the normal case).
 
-use super::compress::{open, LineReader};
-use super::error::{FormatError, Location};
-use super::vtk::{rigid_transform, unit_quaternion};
-use crate::frame::CameraPixels;
-use crate::Frame;
+use crate::error::{FormatError, Location};
+use crate::frame::{CameraPixels, Frame};
+use crate::pose::{rigid_transform, unit_quaternion};
+use crate::source::{open, LineReader};
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,10 @@
-//! Opening input files: transparent `.gz`/`.bz2` decompression, plus the line and byte cursors
-//! every reader shares, so each reports the file and the line or byte offset of a problem.
+//! The byte source of every reader: a file opened with transparent `.gz`/`.bz2` decompression
+//! ([`open`], [`read_all`]) and the extension that names its format ([`logical_extension`]),
+//! plus the two cursors the readers share over those bytes: a line reader (text lines with
+//! their 1-based numbers) and a byte reader (little-endian values with their offsets), so every
+//! error names the file and the line or byte of the problem.
 
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;

@@ -6,10 +6,10 @@
 //! `double` coordinates are rounded to `f32`, the precision of [`Frame`] points. Files may be
 //! `.gz`/`.bz2` compressed. Non-finite coordinates are passed through; consumers skip them.
 
-use super::compress;
-use super::error::{FormatError, Location};
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
 use crate::output::{write_atomic, OutputError};
-use crate::Frame;
+use crate::source;
 use nalgebra::Point3;
 use std::io::Write;
 use std::path::Path;
@@ -96,7 +96,7 @@ enum Format {
 
 /// Read the vertex positions of a PLY file.
 pub fn read_ply(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
-    let data = compress::read_all(path)?;
+    let data = source::read_all(path)?;
     parse_ply(path, &data)
 }
 

@@ -1,41 +1,12 @@
-//! Sensor-format readers: each turns a file (or a scan directory) into [`Frame`]s in world
-//! coordinates.
-//!
-//! Entry point: [`read_frames`] with [`ReadOptions`]; the format comes from the name
-//! ([`InputFormat::detect`]) unless given. One module per format, each with free `read_*`
-//! functions:
-//!
-//! | module | input | frames |
-//! |---|---|---|
-//! | [`graph`] | OctoMap ScanGraph `.graph` (read and write) | one per node, OctoMap's exact `f32` transform |
-//! | [`frames`] | `.frames`, the exchange format with the C++ reference program (read and write) | as stored |
-//! | [`text`] | `x y z` lists (`.dat`, `.txt`), OctoMap `NODE` logs (`.log`), `origin` frames | see the module |
-//! | [`vtk`] | legacy ASCII `.vtk`; a scan directory + trajectory `.csv` | one per scan, in time order |
-//! | [`tum`] | TUM depth `.png`; an association file with poses | one per depth image |
-//! | [`pcd`] | PCD v0.7 ascii / binary / binary_compressed | one |
-//!
-//! Every file may be `.gz`/`.bz2` compressed ([`compress`]). Errors are one
-//! [`FormatError`] naming the file and the line or byte; no input makes a reader panic, and
-//! counts read from a file never reserve more memory than the file's bytes can fill.
+//! The entry point: which [`InputFormat`] a path holds ([`InputFormat::detect`]) and reading
+//! it as frames ([`read_frames`] with [`ReadOptions`]).
 
-pub mod carmen;
-pub mod compress;
-mod error;
-pub mod frames;
-pub mod graph;
-pub mod mcap;
-pub mod pcd;
-pub mod ply;
-pub mod text;
-pub mod tum;
-pub mod vtk;
-
-pub use error::{FormatError, Location};
-pub use graph::GraphOptions;
-pub use pcd::{PcdOptions, ViewpointUse};
-pub use tum::{CameraIntrinsics, TumOptions};
-
-use crate::Frame;
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::graph::GraphOptions;
+use crate::pcd::PcdOptions;
+use crate::tum::TumOptions;
+use crate::{frames, graph, mcap, pcd, ply, source, text, tum, vtk};
 use std::path::{Path, PathBuf};
 
 /// The input formats [`read_frames`] understands.
@@ -82,7 +53,7 @@ impl InputFormat {
     ];
 
     /// The short name used on the command line (`graph`, `frames`, `text`, `vtk`, `vtk-seq`,
-    /// `pcd`, `tum-png`, `tum`).
+    /// `pcd`, `tum-png`, `tum`, `mcap`, `ply`).
     pub fn name(self) -> &'static str {
         match self {
             InputFormat::Graph => "graph",
@@ -118,7 +89,7 @@ impl InputFormat {
             path: path.to_path_buf(),
             message,
         };
-        let ext = compress::logical_extension(path)
+        let ext = source::logical_extension(path)
             .ok_or_else(|| unknown("the file name has no extension".into()))?;
         Ok(match ext.as_str() {
             "graph" => InputFormat::Graph,
@@ -228,7 +199,7 @@ fn list_dir(dir: &Path) -> Result<Vec<PathBuf>, FormatError> {
 fn has_vtk(entries: &[PathBuf]) -> bool {
     entries
         .iter()
-        .any(|p| p.is_file() && compress::logical_extension(p).as_deref() == Some("vtk"))
+        .any(|p| p.is_file() && source::logical_extension(p).as_deref() == Some("vtk"))
 }
 
 fn directory_kind(dir: &Path) -> Result<DirKind, FormatError> {
@@ -246,7 +217,7 @@ fn directory_kind(dir: &Path) -> Result<DirKind, FormatError> {
         .iter()
         .filter(|p| {
             p.is_file()
-                && compress::logical_extension(p).as_deref() == Some("txt")
+                && source::logical_extension(p).as_deref() == Some("txt")
                 && tum::is_association_file(p)
         })
         .collect();
@@ -274,7 +245,7 @@ fn find_csv(dir: &Path) -> Result<Option<PathBuf>, FormatError> {
     }
     let csvs: Vec<PathBuf> = list_dir(dir)?
         .into_iter()
-        .filter(|p| p.is_file() && compress::logical_extension(p).as_deref() == Some("csv"))
+        .filter(|p| p.is_file() && source::logical_extension(p).as_deref() == Some("csv"))
         .collect();
     Ok(if csvs.len() == 1 {
         csvs.into_iter().next()

@@ -7,10 +7,11 @@
 //! 0.0856 s past the second and sorts last by name but 9th by time), and frames come out in
 //! time order. World point = R(q)·p + t computed in `f64`, stored as `f32`; origin = t.
 
-use super::compress::read_all;
-use super::error::{FormatError, Location};
-use crate::Frame;
-use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::pose::{rigid_transform, unit_quaternion};
+use crate::source::read_all;
+use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -224,22 +225,6 @@ impl StampedPose {
     }
 }
 
-/// `R(q)·p + t` in `f64` through the rotation matrix, rounded to `f32` at the end.
-pub(crate) fn rigid_transform(
-    q: &UnitQuaternion<f64>,
-    t: &Vector3<f64>,
-    p: &Point3<f64>,
-) -> Point3<f32> {
-    (q.to_rotation_matrix() * p + t).cast::<f32>()
-}
-
-/// A unit quaternion from (w, x, y, z), or `None` when it is not finite or has zero norm.
-pub(crate) fn unit_quaternion(w: f64, x: f64, y: f64, z: f64) -> Option<UnitQuaternion<f64>> {
-    let q = Quaternion::new(w, x, y, z);
-    let n = q.norm();
-    (n.is_finite() && n > 0.0).then(|| UnitQuaternion::from_quaternion(q))
-}
-
 const COLUMNS: [&str; 9] = [
     "header.stamp.sec",
     "header.stamp.nanosec",
@@ -256,7 +241,7 @@ const COLUMNS: [&str; 9] = [
 /// `header.stamp.nanosec`, `pose.pose.position.{x,y,z}` and `pose.pose.orientation.{x,y,z,w}`,
 /// in any order. Rows come back in file order.
 pub fn read_trajectory_csv(path: &Path) -> Result<Vec<StampedPose>, FormatError> {
-    let mut lines = super::compress::LineReader::open(path)?;
+    let mut lines = crate::source::LineReader::open(path)?;
     let (_, header) = lines
         .next_line()?
         .ok_or_else(|| FormatError::syntax(path, Location::Line(1), "empty trajectory file"))?;
@@ -346,7 +331,7 @@ pub fn list_scans(scans_dir: &Path) -> Result<Vec<(u64, u32, PathBuf)>, FormatEr
         let entry = entry.map_err(|e| FormatError::io(scans_dir, Location::File, e))?;
         let path = entry.path();
         let name = entry.file_name().to_string_lossy().into_owned();
-        if super::compress::logical_extension(&path).as_deref() != Some("vtk") {
+        if crate::source::logical_extension(&path).as_deref() != Some("vtk") {
             continue;
         }
         let (sec, nsec) = parse_scan_stamp(&name).ok_or_else(|| {
