@@ -37,13 +37,14 @@ pub enum InsertMode {
 }
 
 impl InsertMode {
-    /// The name used on the command line.
+    /// The mode's one name: the `--mode` value on the command line, and the name in text and
+    /// JSON output (`exact`, `discretize`, `quantized`, `quantized-bresenham`, `simple`).
     pub fn name(self) -> &'static str {
         match self {
             InsertMode::Exact => "exact",
             InsertMode::Discretize => "discretize",
             InsertMode::Quantized => "quantized",
-            InsertMode::QuantizedBresenham => "quantized+bresenham",
+            InsertMode::QuantizedBresenham => "quantized-bresenham",
             InsertMode::Simple => "simple",
         }
     }
