@@ -38,13 +38,13 @@ pub enum InsertMode {
 
 impl InsertMode {
     /// The mode's one name: the `--mode` value on the command line, and the name in text and
-    /// JSON output (`exact`, `discretize`, `quantized`, `quantized-bresenham`, `simple`).
+    /// JSON output (`exact`, `discretize`, `quantized`, `quantized+bresenham`, `simple`).
     pub fn name(self) -> &'static str {
         match self {
             InsertMode::Exact => "exact",
             InsertMode::Discretize => "discretize",
             InsertMode::Quantized => "quantized",
-            InsertMode::QuantizedBresenham => "quantized-bresenham",
+            InsertMode::QuantizedBresenham => "quantized+bresenham",
             InsertMode::Simple => "simple",
         }
     }

@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long)]
     discretize: bool,
     /// Insertion mode; `quantized` gives the same tree as --discretize via the dense bit grid,
-    /// `quantized-bresenham` is `quantized` with --ray bresenham, `simple` is graph2tree's
+    /// `quantized+bresenham` is `quantized` with --ray bresenham, `simple` is graph2tree's
     /// -simple (no deduplication, max range ignored).
     #[arg(long, value_enum)]
     mode: Option<ModeArg>,

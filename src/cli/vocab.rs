@@ -17,6 +17,7 @@ pub enum ModeArg {
     Exact,
     Discretize,
     Quantized,
+    #[value(name = "quantized+bresenham")]
     QuantizedBresenham,
     Simple,
 }
