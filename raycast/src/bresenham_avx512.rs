@@ -10,7 +10,8 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::{mirror_mask, AXIS_MASK};
-use crate::lanes_avx512::{has_lanes, Bricks8, OctScratch};
+use crate::cpu::has_avx512;
+use crate::lanes_avx512::{Bricks8, OctScratch};
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
@@ -33,7 +34,7 @@ pub(crate) fn walk_lines<F>(
 where
     F: BrickSink,
 {
-    if !has_lanes() {
+    if !has_avx512() {
         return None;
     }
     // SAFETY: `walk_lines_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been

@@ -667,7 +667,7 @@ mod tests {
                     prop_assert_eq!(&b2[..k2], &b1[..k1]);
                     prop_assert_eq!(&m2[..k2], &m1[..k1]);
                 }
-                None => prop_assert!(!crate::lanes_avx512::has_lanes()),
+                None => prop_assert!(!crate::cpu::has_avx512()),
             }
         }
     }

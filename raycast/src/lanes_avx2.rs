@@ -81,7 +81,7 @@ pub(crate) fn walk_quads<F>(
 where
     F: BrickSink,
 {
-    if !std::arch::is_x86_feature_detected!("avx2") {
+    if !crate::cpu::has_avx2() {
         return None;
     }
     // SAFETY: `walk_quads_avx2` needs AVX2 (and the AVX it implies), and the CPU has been

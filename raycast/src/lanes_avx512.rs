@@ -7,6 +7,7 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`].
 
 use crate::brickset::BrickSink;
+use crate::cpu::has_avx512;
 use crate::dda::RaySetup;
 use crate::lanes::{first_stop, merge_runs_from, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
@@ -183,18 +184,12 @@ fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
 /// [`merge_runs`] where the CPU has the eight-lane walks, for tests against the scalar merge.
 #[cfg(test)]
 pub(crate) fn merge_runs_wide(bricks: &mut [u64], bits: &mut [u64]) -> Option<usize> {
-    if !has_lanes() {
+    if !has_avx512() {
         return None;
     }
     // SAFETY: `merge_runs` needs AVX-512 Foundation and `popcnt`, found just above.
     #[allow(unsafe_code)]
     Some(unsafe { merge_runs(bricks, bits) })
-}
-
-/// Whether this CPU runs the eight-lane walks: AVX-512 Foundation, and `popcnt` (which every
-/// such CPU has) for counting the bricks a step leaves.
-pub(crate) fn has_lanes() -> bool {
-    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("popcnt")
 }
 
 /// Walk `rays` eight at a time when this CPU has AVX-512 and return the number of degenerate
@@ -207,7 +202,7 @@ pub(crate) fn walk_octs<F>(
 where
     F: BrickSink,
 {
-    if !has_lanes() {
+    if !has_avx512() {
         return None;
     }
     // SAFETY: `walk_octs_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been
@@ -398,7 +393,7 @@ pub(crate) fn replay_rays(
     until: &[f64; REPLAY_RAYS],
     n: &mut Axes,
 ) -> Option<u32> {
-    if !has_lanes() {
+    if !has_avx512() {
         return None;
     }
     // SAFETY: `replay_avx512` needs AVX-512 Foundation, found just above; its loads and stores

@@ -52,6 +52,8 @@ mod bresenham;
 mod bresenham_avx512;
 mod brickset;
 mod cast;
+#[cfg(target_arch = "x86_64")]
+mod cpu;
 mod dda;
 mod insert;
 mod lanes;
