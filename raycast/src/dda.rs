@@ -476,7 +476,7 @@ where
     if !r.well_conditioned {
         return None;
     }
-    Some(crate::lanes::BrickWalk::start(&r, buf).finish_into(buf, &mut flush))
+    Some(crate::lanes::dispatch::BrickWalk::start(&r, buf).finish_into(buf, &mut flush))
 }
 
 /// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the

@@ -48,8 +48,6 @@
 #![deny(unsafe_code)]
 
 mod bresenham;
-#[cfg(target_arch = "x86_64")]
-mod bresenham_avx512;
 mod brickset;
 mod cast;
 #[cfg(target_arch = "x86_64")]
@@ -57,10 +55,6 @@ mod cpu;
 mod dda;
 mod insert;
 mod lanes;
-#[cfg(target_arch = "x86_64")]
-mod lanes_avx2;
-#[cfg(target_arch = "x86_64")]
-mod lanes_avx512;
 mod pixel_grid;
 mod setups;
 mod update;

@@ -5,8 +5,8 @@
 //! predictor misses about one step in two when neighbouring rays differ, and made with masks
 //! it is a chain of compare, mask and add that each step waits for. Independent walks in the
 //! lanes of one register share those instructions and overlap their chains. [`walk_all`] picks
-//! at run time the widest path the CPU has: eight lanes with AVX-512 ([`crate::lanes_avx512`]),
-//! four with AVX2 ([`crate::lanes_avx2`]), two with SSE2 (here, through `safe_arch`), or one
+//! at run time the widest path the CPU has: eight lanes with AVX-512 ([`crate::lanes::avx512`]),
+//! four with AVX2 ([`crate::lanes::avx2`]), two with SSE2 (here, through `safe_arch`), or one
 //! walk after another. The comparisons, additions and tie rules are OctoMap's, lane by lane,
 //! so every walk visits exactly the voxels of [`crate::dda::walk_ray_codes`]; only the order in
 //! which bricks reach the set changes, and a set does not depend on it.
@@ -337,9 +337,9 @@ pub(crate) struct LaneScratch {
     /// the scalar walk).
     bufs: [Vec<(u64, u64)>; 2],
     #[cfg(target_arch = "x86_64")]
-    quad: crate::lanes_avx2::QuadScratch,
+    quad: crate::lanes::avx2::QuadScratch,
     #[cfg(target_arch = "x86_64")]
-    oct: crate::lanes_avx512::OctScratch,
+    oct: crate::lanes::avx512::OctScratch,
 }
 
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
@@ -352,10 +352,10 @@ where
 {
     #[cfg(target_arch = "x86_64")]
     {
-        if let Some(degenerate) = crate::lanes_avx512::walk_octs(rays, &mut scratch.oct, flush) {
+        if let Some(degenerate) = crate::lanes::avx512::walk_octs(rays, &mut scratch.oct, flush) {
             return degenerate;
         }
-        if let Some(degenerate) = crate::lanes_avx2::walk_quads(rays, &mut scratch.quad, flush) {
+        if let Some(degenerate) = crate::lanes::avx2::walk_quads(rays, &mut scratch.quad, flush) {
             return degenerate;
         }
     }
@@ -552,17 +552,17 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             let mut s = BTreeSet::new();
-            let mut quad = crate::lanes_avx2::QuadScratch::default();
+            let mut quad = crate::lanes::avx2::QuadScratch::default();
             if let Some(d) =
-                crate::lanes_avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
+                crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
             {
                 assert_eq!(d, 0);
                 sets.push(s);
             }
             let mut s = BTreeSet::new();
-            let mut oct = crate::lanes_avx512::OctScratch::default();
+            let mut oct = crate::lanes::avx512::OctScratch::default();
             if let Some(d) =
-                crate::lanes_avx512::walk_octs(rays, &mut oct, &mut |b, m| add(&mut s, b, m))
+                crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b, m| add(&mut s, b, m))
             {
                 assert_eq!(d, 0);
                 sets.push(s);
@@ -661,7 +661,7 @@ mod tests {
             let (mut b1, mut m1): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
             let (mut b2, mut m2) = (b1.clone(), m1.clone());
             let k1 = merge_runs(&mut b1, &mut m1);
-            match crate::lanes_avx512::merge_runs_wide(&mut b2, &mut m2) {
+            match crate::lanes::avx512::merge_runs_wide(&mut b2, &mut m2) {
                 Some(k2) => {
                     prop_assert_eq!(k2, k1);
                     prop_assert_eq!(&b2[..k2], &b1[..k1]);

@@ -2,16 +2,16 @@
 //! lines of [`crate::bresenham::walk_bresenham_bricks`], voxel for voxel.
 //!
 //! Each lane keeps its line's Morton code mirrored on the axes it walks downwards (so every
-//! step is an increment, as in [`crate::lanes_avx512`]), the Morton bits of its main and two
+//! step is an increment, as in [`crate::lanes::avx512`]), the Morton bits of its main and two
 //! minor axes, its two error terms and the voxels left. A step moves the minor axes whose
 //! error term is positive (masked), then the main axis, and updates the error terms with the
 //! scalar walk's integers. Bricks are kept and handed on as in the DDA lanes; a lane whose line
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
 use crate::brickset::BrickSink;
-use crate::dda::{mirror_mask, AXIS_MASK};
 use crate::cpu::has_avx512;
-use crate::lanes_avx512::{Bricks8, OctScratch};
+use crate::dda::{mirror_mask, AXIS_MASK};
+use crate::lanes::avx512::{Bricks8, OctScratch};
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,

@@ -1,5 +1,5 @@
 //! Eight DDA brick walks at once in the 512-bit registers of AVX-512, chosen at run time: the
-//! walk of [`crate::lanes_avx2`] with twice the lanes, where comparisons give mask registers,
+//! walk of [`crate::lanes::avx2`] with twice the lanes, where comparisons give mask registers,
 //! a masked move picks each lane's new `tMax`, and the bricks the lanes leave are compressed to
 //! the front of a register by the CPU (`vpcompressq`) instead of by a permutation table.
 //!
@@ -9,7 +9,7 @@
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx512;
 use crate::dda::RaySetup;
-use crate::lanes::{first_stop, merge_runs_from, restart, LaneInit, AXIS_MASK};
+use crate::lanes::dispatch::{first_stop, merge_runs_from, restart, LaneInit, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_abs_pd, _mm512_add_epi64, _mm512_add_pd,
     _mm512_alignr_epi64, _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask,
