@@ -39,12 +39,12 @@
 //! assert_eq!(hit.end, Some(Point3::new(2.05, 0.05, 0.05)));
 //! ```
 #![deny(missing_docs)]
-// Audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
-// that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
-// `bresenham_avx512::walk_lines`, `lanes_avx512::replay_rays` and its loads and stores of
-// whole arrays, `setups::set_up`'s call of its AVX-512 build), and in tests the call of the
-// AVX-512 run merge after the same check (`lanes_avx512::merge_runs_wide`). Everything else is
-// safe code.
+// Audited exceptions: the calls into the AVX2 and AVX-512 code after the run-time checks of
+// `cpu.rs` that the CPU has it: `lanes/avx2.rs` (`walk_quads`), `lanes/avx512.rs`
+// (`walk_octs`), `lanes/bresenham_avx512.rs` (`walk_lines`), `lanes/replay_avx512.rs`
+// (`replay_rays`, and its loads and stores of whole arrays) and `setups.rs` (`set_up`'s call of
+// its AVX-512 build); in tests, the call of the AVX-512 run merge after the same check
+// (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;

@@ -151,7 +151,7 @@ struct RayScratch {
     /// Depth-image rays waiting to skip their heads (up to the time given) and be walked.
     tails: Vec<(RaySetup, f64)>,
     /// The buffers of the lane walks.
-    lanes: crate::lanes::dispatch::LaneScratch,
+    lanes: crate::lanes::LaneScratch,
     /// DDA rays waiting for their set-ups, and the set-ups.
     pending: Pending,
     setups: Setups,
@@ -164,7 +164,7 @@ struct RayScratch {
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
     #[cfg(target_arch = "x86_64")]
-    line_lanes: crate::lanes::avx512::OctScratch,
+    line_lanes: crate::lanes::OctScratch,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
@@ -308,7 +308,7 @@ fn flush_pending(
 /// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
 /// walks that degenerated (none can: see [`crate::dda`]'s brick walk).
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
-    scratch.degenerate += crate::lanes::dispatch::walk_all(&scratch.batch, &mut scratch.lanes, set);
+    scratch.degenerate += crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, set);
     scratch.batch.clear();
 }
 
@@ -323,9 +323,7 @@ fn walk_tails(set: &mut BrickSet, scratch: &mut RayScratch) {
 /// CPU has AVX-512, else one after another.
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
     #[cfg(target_arch = "x86_64")]
-    let done =
-        crate::lanes::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, set)
-            .is_some();
+    let done = crate::lanes::walk_lines(&scratch.lines, &mut scratch.line_lanes, set).is_some();
     #[cfg(not(target_arch = "x86_64"))]
     let done = false;
     if !done {

@@ -17,9 +17,10 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`]. The module's one `unsafe` is the call
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
+use super::refill::{first_stop, restart, LaneInit};
+use super::runs::hand_on_runs;
 use crate::brickset::BrickSink;
-use crate::dda::RaySetup;
-use crate::lanes::dispatch::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,

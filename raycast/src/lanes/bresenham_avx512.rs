@@ -8,10 +8,10 @@
 //! scalar walk's integers. Bricks are kept and handed on as in the DDA lanes; a lane whose line
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
+use super::avx512::{Bricks8, OctScratch};
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx512;
 use crate::dda::{mirror_mask, AXIS_MASK};
-use crate::lanes::avx512::{Bricks8, OctScratch};
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
