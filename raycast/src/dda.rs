@@ -127,6 +127,13 @@ pub(crate) fn sub_f32(a: &Point3<f32>, b: &Point3<f32>) -> [f32; 3] {
     [a.x - b.x, a.y - b.y, a.z - b.z]
 }
 
+/// Whether every coordinate of `p` is finite: points with a NaN or infinite one are skipped
+/// and counted, never inserted.
+#[inline]
+pub(crate) fn is_finite(p: &Point3<f32>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
+}
+
 /// The key of an `f32` point, checked like OctoMap's `coordToKeyChecked(point3d)`.
 #[inline(always)]
 pub(crate) fn key_of(conv: &KeyConverter, p: &Point3<f32>) -> Option<Key> {

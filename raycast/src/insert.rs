@@ -1,7 +1,8 @@
 //! Inserting a scan into a tree: OctoMap's `insertPointCloud` and `insertPointCloudRays`.
 
 use crate::dda::{compute_ray_keys, key_of, KeyRay};
-use crate::update::{compute_discrete_update, compute_update, ScanStats, ScanUpdate};
+use crate::stats::ScanStats;
+use crate::update::{compute_discrete_update, compute_update, ScanUpdate};
 use nalgebra::Point3;
 use octoquant_octree::{OcTree, Update};
 

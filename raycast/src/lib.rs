@@ -53,10 +53,12 @@ mod cast;
 #[cfg(target_arch = "x86_64")]
 mod cpu;
 mod dda;
+mod discretize;
 mod insert;
 mod lanes;
 mod pixel_grid;
 mod setups;
+mod stats;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;
@@ -64,12 +66,14 @@ pub use cast::{cast_ray, insert_ray, CastResult, CastStop};
 pub use dda::{
     compute_ray_keys, walk_ray_codes, walk_ray_keys, KeyRay, RayWalk, OCTOMAP_KEY_RAY_CAPACITY,
 };
+pub use discretize::discretize;
 pub use insert::{
     apply_update, insert_point_cloud, insert_point_cloud_rays, insert_point_cloud_reusing,
     InsertOptions, InsertStats,
 };
 pub use pixel_grid::{PinholeCamera, PixelGrid};
+pub use stats::ScanStats;
 pub use update::{
-    compute_discrete_update, compute_update, compute_update_grid, compute_update_with, discretize,
-    RayModel, ScanStats, ScanUpdate,
+    compute_discrete_update, compute_update, compute_update_grid, compute_update_with, RayModel,
+    ScanUpdate,
 };

@@ -10,43 +10,14 @@
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{coded, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::dda::{coded, is_finite, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::discretize::discretize_into;
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
 use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
+use crate::stats::ScanStats;
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 use std::sync::OnceLock;
-
-/// Counts gathered while turning a scan into key sets (and while inserting it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct ScanStats {
-    /// Points given.
-    pub points: usize,
-    /// Points with a NaN or infinite coordinate: skipped, never inserted.
-    pub non_finite: usize,
-    /// Finite points outside the map (`[-32768·res, 32768·res)` per axis). OctoMap drops them
-    /// (their ray and their hit both fail), and so do we; with `discretize`, OctoMap's
-    /// unchecked key wraps them into the map instead, and that is reproduced (they are still
-    /// counted here).
-    pub outside_map: usize,
-    /// With `discretize`: points whose voxel was already seen in this scan (no ray of their
-    /// own).
-    pub duplicates: usize,
-    /// Rays whose keys were computed (both ends inside the map), max-range rays included.
-    pub rays: usize,
-    /// Rays that could not be computed because an end lies outside the map (or the float
-    /// arithmetic degenerated); their free space is lost, exactly as in OctoMap.
-    pub failed_rays: usize,
-    /// Points beyond the maximum range: their ray was cut and they add no occupied voxel.
-    pub max_range_rays: usize,
-    /// Rays of a depth image walked only from where their neighbours stop covering them (see
-    /// [`compute_update_grid`]); the key sets are the same either way.
-    pub heads_skipped: usize,
-    /// Distinct free voxels (after removing the occupied ones), or free updates applied.
-    pub free: usize,
-    /// Distinct occupied voxels, or hit updates applied.
-    pub occupied: usize,
-}
 
 /// The free and occupied keys of one scan, plus reusable scratch space.
 ///
@@ -180,12 +151,6 @@ const PARALLEL_BLOCK: usize = 256;
 #[inline(always)]
 pub(crate) fn morton(key: Key) -> u64 {
     key.morton()
-}
-
-/// The inverse of [`morton`].
-#[inline]
-pub(crate) fn key_from_morton(code: u64) -> Key {
-    Key::from_morton(code)
 }
 
 /// The end of a max-range ray, as OctoMap computes it in `computeUpdate` and `insertRay`:
@@ -570,11 +535,6 @@ fn sample_lengths(
     plan.finish();
 }
 
-#[inline]
-fn is_finite(p: &Point3<f32>) -> bool {
-    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
-}
-
 /// OctoMap's `computeUpdate(scan, origin, free, occupied, maxrange)` (no bounding box).
 ///
 /// For each point: if it is within `max_range` of `origin` (Euclidean, `f32` differences,
@@ -748,64 +708,9 @@ fn compute(
     stats
 }
 
-/// Reduce a scan to one point per voxel, as OctoMap's `computeDiscreteUpdate` does before its
-/// `computeUpdate`: each point's key is taken unchecked (`coordToKey`; points outside the map
-/// wrap around into it, as in OctoMap), and the centre (`f32`) of every key not seen before
-/// is appended to `centres`, in first-seen order.
-///
-/// Non-finite points are skipped and counted in the returned statistics (OctoMap would map a
-/// NaN coordinate to key 32768; we refuse it instead); `outside_map` counts the wrapped ones
-/// and `duplicates` the points whose voxel was already taken. `centres` is cleared first.
-pub fn discretize(
-    conv: &KeyConverter,
-    points: &[Point3<f32>],
-    centres: &mut Vec<Point3<f32>>,
-) -> ScanStats {
-    let mut order = Vec::new();
-    discretize_into(conv, points, centres, &mut order)
-}
-
-fn discretize_into(
-    conv: &KeyConverter,
-    points: &[Point3<f32>],
-    centres: &mut Vec<Point3<f32>>,
-    order: &mut Vec<(u64, usize)>,
-) -> ScanStats {
-    centres.clear();
-    order.clear();
-    let mut stats = ScanStats {
-        points: points.len(),
-        ..ScanStats::default()
-    };
-    for (i, p) in points.iter().enumerate() {
-        if !is_finite(p) {
-            stats.non_finite += 1;
-            continue;
-        }
-        let pd = Point3::new(p.x as f64, p.y as f64, p.z as f64);
-        if conv.point_to_key(&pd).is_none() {
-            stats.outside_map += 1;
-        }
-        let k = conv.point_to_key_unchecked(&pd);
-        order.push((morton(k), i));
-    }
-    // first occurrence of every key: sort by (code, index), keep run heads, restore order
-    order.sort_unstable();
-    order.dedup_by_key(|e| e.0);
-    let kept = order.len();
-    stats.duplicates = points.len() - stats.non_finite - kept;
-    order.sort_unstable_by_key(|e| e.1);
-    centres.extend(
-        order
-            .iter()
-            .map(|&(c, _)| conv.key_to_point_f32(&key_from_morton(c))),
-    );
-    stats
-}
-
-/// OctoMap's `computeDiscreteUpdate`: [`discretize`] the points, then [`compute_update`] on the
-/// voxel centres with the same, un-discretized origin (so rays go to centres and `max_range`
-/// is measured to the centre). Clears `out` first.
+/// OctoMap's `computeDiscreteUpdate`: [`discretize`](crate::discretize) the points, then
+/// [`compute_update`] on the voxel centres with the same, un-discretized origin (so rays go to
+/// centres and `max_range` is measured to the centre). Clears `out` first.
 pub fn compute_discrete_update(
     conv: &KeyConverter,
     points: &[Point3<f32>],
