@@ -1,4 +1,5 @@
 use super::*;
+use octoquant_octree::Brick;
 use proptest::prelude::*;
 
 fn conv(res: f64) -> KeyConverter {
@@ -288,7 +289,7 @@ fn try_walk_ray_bricks<F>(
     origin: &Point3<f32>,
     origin_key: Option<Key>,
     end: &Point3<f32>,
-    buf: &mut Vec<(u64, u64)>,
+    buf: &mut Vec<Brick>,
     mut flush: F,
 ) -> Option<RayWalk>
 where
@@ -313,20 +314,14 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
     let mut got = Vec::new();
     let mut walked = Vec::new();
     let mut buf = Vec::new();
-    match try_walk_ray_bricks(
-        conv,
-        &o,
-        key_of(conv, &o),
-        &e,
-        &mut buf,
-        |brick: u64, mut bits: u64| {
-            got.push(brick);
-            while bits != 0 {
-                walked.push((brick << 6) | bits.trailing_zeros() as u64);
-                bits &= bits - 1;
-            }
-        },
-    ) {
+    match try_walk_ray_bricks(conv, &o, key_of(conv, &o), &e, &mut buf, |b: Brick| {
+        got.push(b.code);
+        let mut bits = b.voxels;
+        while bits != 0 {
+            walked.push((b.code << 6) | bits.trailing_zeros() as u64);
+            bits &= bits - 1;
+        }
+    }) {
         Some(t) => {
             // bricks are flushed as the walk leaves them: the same voxels, brick by brick
             let mut runs = want.iter().map(|c| c >> 6).collect::<Vec<_>>();

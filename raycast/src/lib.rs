@@ -71,6 +71,7 @@ pub use insert::{
     apply_update, insert_point_cloud, insert_point_cloud_rays, insert_point_cloud_reusing,
     InsertOptions, InsertStats,
 };
+pub use octoquant_octree::Brick;
 pub use pixel_grid::{PinholeCamera, PixelGrid};
 pub use stats::ScanStats;
 pub use update::{

@@ -16,7 +16,7 @@ use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
 use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
 use crate::stats::ScanStats;
 use nalgebra::Point3;
-use octoquant_octree::{Key, KeyConverter};
+use octoquant_octree::{Brick, Key, KeyConverter};
 use std::sync::OnceLock;
 
 /// The free and occupied keys of one scan, plus reusable scratch space.
@@ -37,10 +37,10 @@ pub struct ScanUpdate {
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
     /// The free voxels: sorted bricks, occupied voxels masked out, no empty mask.
-    bricks: Vec<(u64, u64)>,
+    bricks: Vec<Brick>,
     /// The occupied voxels: sorted bricks.
-    occ_bricks: Vec<(u64, u64)>,
-    merge_tmp: Vec<(u64, u64)>,
+    occ_bricks: Vec<Brick>,
+    merge_tmp: Vec<Brick>,
     /// What the rays of a depth-image frame may skip.
     plan: SkipPlan,
     centres: Vec<Point3<f32>>,
@@ -68,13 +68,13 @@ impl ScanUpdate {
     /// The free voxels as bricks of 4x4x4 voxels, sorted by code, for
     /// [`octoquant_octree::OcTree::update_bricks`]: the same voxels as [`ScanUpdate::free`]
     /// without listing them one by one.
-    pub fn free_bricks(&self) -> &[(u64, u64)] {
+    pub fn free_bricks(&self) -> &[Brick] {
         &self.bricks
     }
 
     /// The occupied voxels as bricks of 4x4x4 voxels, sorted by code (see
     /// [`ScanUpdate::free_bricks`]).
-    pub fn occupied_bricks(&self) -> &[(u64, u64)] {
+    pub fn occupied_bricks(&self) -> &[Brick] {
         &self.occ_bricks
     }
 
@@ -108,8 +108,8 @@ struct Worker {
     ray: RayScratch,
     stats: ScanStats,
     /// The worker's sets as sorted brick lists, for the merge.
-    free_sorted: Vec<(u64, u64)>,
-    occ_sorted: Vec<(u64, u64)>,
+    free_sorted: Vec<Brick>,
+    occ_sorted: Vec<Brick>,
 }
 
 /// Per-thread buffers of one ray, reused from ray to ray.
@@ -312,45 +312,48 @@ fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
 fn emit(out: &mut ScanUpdate, stats: &mut ScanStats) {
     let occ = &out.occ_bricks;
     let mut j = 0;
-    out.bricks.retain_mut(|(b, m)| {
-        while j < occ.len() && occ[j].0 < *b {
+    out.bricks.retain_mut(|b| {
+        while j < occ.len() && occ[j].code < b.code {
             j += 1;
         }
-        if j < occ.len() && occ[j].0 == *b {
-            *m &= !occ[j].1;
+        if j < occ.len() && occ[j].code == b.code {
+            b.voxels &= !occ[j].voxels;
         }
-        *m != 0
+        b.voxels != 0
     });
-    let count = |bricks: &[(u64, u64)]| bricks.iter().map(|b| b.1.count_ones() as usize).sum();
+    let count = |bricks: &[Brick]| bricks.iter().map(|b| b.voxels.count_ones() as usize).sum();
     stats.free = count(&out.bricks);
     stats.occupied = count(&out.occ_bricks);
 }
 
 /// The keys of sorted bricks, in Morton order.
-fn brick_keys(bricks: &[(u64, u64)]) -> Vec<Key> {
+fn brick_keys(bricks: &[Brick]) -> Vec<Key> {
     let mut keys = Vec::new();
-    for &(b, m) in bricks {
-        push_brick_keys(b, m, &mut keys);
+    for &b in bricks {
+        push_brick_keys(b, &mut keys);
     }
     keys
 }
 
 /// `acc := acc ∪ other` for brick lists sorted by brick (each brick once), OR-ing the bits of
 /// bricks in both; `tmp` is scratch.
-fn merge_into(acc: &mut Vec<(u64, u64)>, other: &[(u64, u64)], tmp: &mut Vec<(u64, u64)>) {
+fn merge_into(acc: &mut Vec<Brick>, other: &[Brick], tmp: &mut Vec<Brick>) {
     tmp.clear();
     tmp.reserve(acc.len() + other.len());
     let (mut i, mut j) = (0, 0);
     while i < acc.len() && j < other.len() {
         let (a, b) = (acc[i], other[j]);
-        if a.0 < b.0 {
+        if a.code < b.code {
             tmp.push(a);
             i += 1;
-        } else if b.0 < a.0 {
+        } else if b.code < a.code {
             tmp.push(b);
             j += 1;
         } else {
-            tmp.push((a.0, a.1 | b.1));
+            tmp.push(Brick {
+                code: a.code,
+                voxels: a.voxels | b.voxels,
+            });
             i += 1;
             j += 1;
         }

@@ -210,15 +210,15 @@ proptest! {
         prop_assert!(sorted_by_morton(out.occupied()));
         // the bricks the tree takes: strictly sorted, none empty, the keys' bricks
         for bricks in [out.free_bricks(), out.occupied_bricks()] {
-            prop_assert!(bricks.windows(2).all(|w| w[0].0 < w[1].0));
-            prop_assert!(bricks.iter().all(|b| b.1 != 0));
+            prop_assert!(bricks.windows(2).all(|w| w[0].code < w[1].code));
+            prop_assert!(bricks.iter().all(|b| b.voxels != 0));
         }
         for (bricks, keys) in [(out.free_bricks(), out.free()), (out.occupied_bricks(), out.occupied())] {
-            let n: u32 = bricks.iter().map(|b| b.1.count_ones()).sum();
+            let n: u32 = bricks.iter().map(|b| b.voxels.count_ones()).sum();
             prop_assert_eq!(n as usize, keys.len());
             for k in keys {
                 let code = morton(*k);
-                prop_assert!(bricks.iter().any(|b| b.0 == code >> 6 && b.1 >> (code & 63) & 1 == 1));
+                prop_assert!(bricks.iter().any(|b| b.code == code >> 6 && b.voxels >> (code & 63) & 1 == 1));
             }
         }
         prop_assert_eq!((counts.0, counts.1), (out.free().len(), out.occupied().len()));

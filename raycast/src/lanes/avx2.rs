@@ -29,6 +29,7 @@ use core::arch::x86_64::{
     _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setzero_si256, _mm256_sllv_epi64, _mm256_srli_epi64,
     _mm256_sub_epi64, _mm256_xor_si256, _CMP_GT_OQ, _CMP_LT_OQ,
 };
+use octoquant_octree::Brick;
 
 /// Bricks left by the lanes that are collected before they are handed on.
 const LEFT: usize = 1024;
@@ -300,8 +301,8 @@ where
         }
         if finished {
             let (brick, bits): (U4, U4) = (bytemuck::cast(brick), bytemuck::cast(bits));
-            for (b, m) in brick.into_iter().zip(bits) {
-                flush.put(b, m);
+            for (code, voxels) in brick.into_iter().zip(bits) {
+                flush.put(Brick { code, voxels });
             }
             return degenerate;
         }

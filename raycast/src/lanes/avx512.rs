@@ -20,6 +20,7 @@ use core::arch::x86_64::{
     _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
     _CMP_LT_OQ,
 };
+use octoquant_octree::Brick;
 
 /// Bricks left by the lanes that are collected before they are handed on.
 const LEFT: usize = 1024;
@@ -106,8 +107,8 @@ impl<'a> Bricks8<'a> {
     pub(crate) fn finish<F: BrickSink>(self, flush: &mut F) {
         hand_on(self.scratch, self.left, flush);
         let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
-        for (b, m) in brick.into_iter().zip(bits) {
-            flush.put(b, m);
+        for (code, voxels) in brick.into_iter().zip(bits) {
+            flush.put(Brick { code, voxels });
         }
     }
 }

@@ -237,12 +237,14 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use octoquant_octree::Brick;
     use proptest::prelude::*;
     use std::collections::BTreeSet;
 
-    fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
+    fn add(set: &mut BTreeSet<u64>, b: Brick) {
+        let mut m = b.voxels;
         while m != 0 {
-            set.insert((b << 6) | m.trailing_zeros() as u64);
+            set.insert((b.code << 6) | m.trailing_zeros() as u64);
             m &= m - 1;
         }
     }
@@ -264,11 +266,11 @@ mod tests {
             prop_assume!(!lines.is_empty());
             let mut want = BTreeSet::new();
             for &(a, b) in &lines {
-                crate::bresenham::walk_bresenham_bricks(a, b, &mut |b, m| add(&mut want, b, m));
+                crate::bresenham::walk_bresenham_bricks(a, b, &mut |b| add(&mut want, b));
             }
             let mut got = BTreeSet::new();
             let mut scratch = OctScratch::default();
-            if walk_lines(&lines, &mut scratch, &mut |b, m| add(&mut got, b, m)).is_some() {
+            if walk_lines(&lines, &mut scratch, &mut |b| add(&mut got, b)).is_some() {
                 prop_assert_eq!(got, want);
             }
         }

@@ -7,6 +7,7 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::{cmin, mirror_mask, RaySetup, RayWalk, AXIS_MASK};
+use octoquant_octree::Brick;
 
 /// Per axis (and a harmless fourth entry): the axis's bits of a Morton code, their
 /// complement and the axis's lowest bit; a step up is `((m | !mask) + low) & mask`.
@@ -35,8 +36,7 @@ pub(crate) fn lane_start(r: &RaySetup) -> (u64, u64, u64) {
 ///
 /// Axes stepped downwards are mirrored (their Morton bits inverted) so that every step is an
 /// increment; `m ^ flip` is the true code. Bricks are written to the walk's buffer as the walk
-/// leaves them: `(brick, bits)` for the bricks before `n`, and the current one in `brick` and
-/// `bits`.
+/// leaves them: the bricks before `n`, and the current one in `open`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BrickWalk {
     pub(super) m: u64,
@@ -45,8 +45,7 @@ pub(crate) struct BrickWalk {
     pub(super) t: [f64; 3],
     pub(super) d: [f64; 3],
     pub(super) len: f64,
-    brick: u64,
-    bits: u64,
+    open: Brick,
     n: usize,
     pub(super) budget: u32,
 }
@@ -54,10 +53,10 @@ pub(crate) struct BrickWalk {
 impl BrickWalk {
     /// The walk of a well-conditioned ray at its origin voxel; `buf` is made long enough for
     /// every brick the walk can enter (one per step, plus the origin's).
-    pub(crate) fn start(r: &RaySetup, buf: &mut Vec<(u64, u64)>) -> Self {
+    pub(crate) fn start(r: &RaySetup, buf: &mut Vec<Brick>) -> Self {
         let need = r.budget as usize + 1;
         if buf.len() < need {
-            buf.resize(need, (0, 0));
+            buf.resize(need, Brick::default());
         }
         let (m, end, flip) = lane_start(r);
         BrickWalk {
@@ -67,8 +66,7 @@ impl BrickWalk {
             t: r.t_max,
             d: r.t_delta,
             len: r.length,
-            brick: (m ^ flip) >> 6,
-            bits: 1u64 << ((m ^ flip) & 63),
+            open: Brick::of_voxel(m ^ flip),
             n: 0,
             budget: r.budget,
         }
@@ -77,23 +75,24 @@ impl BrickWalk {
     /// Record the voxel just stepped into, without a branch: the current brick is written at
     /// `n` every time and kept (`n` advanced) only when the walk left it.
     #[inline(always)]
-    pub(super) fn record(&mut self, out: &mut [(u64, u64)]) {
+    pub(super) fn record(&mut self, out: &mut [Brick]) {
         let code = self.m ^ self.flip;
         let b = code >> 6;
-        let moved = b != self.brick;
+        let moved = b != self.open.code;
         if let Some(slot) = out.get_mut(self.n) {
-            *slot = (self.brick, self.bits);
+            *slot = self.open;
         }
         self.n += moved as usize;
-        self.bits = (self.bits & (moved as u64).wrapping_sub(1)) | (1u64 << (code & 63));
-        self.brick = b;
+        self.open.voxels =
+            (self.open.voxels & (moved as u64).wrapping_sub(1)) | (1u64 << (code & 63));
+        self.open.code = b;
     }
 
     /// Write the current brick and return the number of bricks in `out`.
     #[inline(always)]
-    pub(super) fn close(&mut self, out: &mut [(u64, u64)]) -> usize {
+    pub(super) fn close(&mut self, out: &mut [Brick]) -> usize {
         if let Some(slot) = out.get_mut(self.n) {
-            *slot = (self.brick, self.bits);
+            *slot = self.open;
             self.n += 1;
         }
         self.n
@@ -101,7 +100,7 @@ impl BrickWalk {
 
     /// Walk to the end one step at a time (OctoMap's comparison chain as branches, which
     /// costs little when the steps are predictable); returns the outcome and the bricks.
-    pub(crate) fn finish(&mut self, out: &mut [(u64, u64)]) -> (RayWalk, usize) {
+    pub(crate) fn finish(&mut self, out: &mut [Brick]) -> (RayWalk, usize) {
         let [mut t0, mut t1, mut t2] = self.t;
         let [d0, d1, d2] = self.d;
         let mut walk = RayWalk::Degenerate;
@@ -138,13 +137,13 @@ impl BrickWalk {
     }
 
     /// [`BrickWalk::finish`], then hand every brick of the walk to `flush`.
-    pub(crate) fn finish_into<F>(&mut self, buf: &mut [(u64, u64)], flush: &mut F) -> RayWalk
+    pub(crate) fn finish_into<F>(&mut self, buf: &mut [Brick], flush: &mut F) -> RayWalk
     where
         F: BrickSink,
     {
         let (walk, n) = self.finish(buf);
-        for &(b, m) in &buf[..n] {
-            flush.put(b, m);
+        for &b in &buf[..n] {
+            flush.put(b);
         }
         walk
     }
@@ -152,7 +151,7 @@ impl BrickWalk {
 
 /// [`super::walk_all`] one ray after another: the path of targets without SSE2, and of batches of
 /// fewer than two rays.
-pub(super) fn walk_each<F>(rays: &[RaySetup], buf: &mut Vec<(u64, u64)>, flush: &mut F) -> usize
+pub(super) fn walk_each<F>(rays: &[RaySetup], buf: &mut Vec<Brick>, flush: &mut F) -> usize
 where
     F: BrickSink,
 {

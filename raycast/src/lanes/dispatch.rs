@@ -2,13 +2,14 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
+use octoquant_octree::Brick;
 
 /// Per-thread buffers of the lane walks, kept from batch to batch.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct LaneScratch {
     /// The bricks of the walks in progress, one buffer per SSE2 lane (the first also serves
     /// the scalar walk).
-    bufs: [Vec<(u64, u64)>; 2],
+    bufs: [Vec<Brick>; 2],
     #[cfg(target_arch = "x86_64")]
     quad: super::avx2::QuadScratch,
     #[cfg(target_arch = "x86_64")]
@@ -36,7 +37,7 @@ where
 }
 
 /// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.
-fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<(u64, u64)>; 2], flush: &mut F) -> usize
+fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<Brick>; 2], flush: &mut F) -> usize
 where
     F: BrickSink,
 {
@@ -85,26 +86,24 @@ mod tests {
     /// [`walk_each`];
     /// none may report a degenerate walk.
     fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
-        fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
+        fn add(set: &mut BTreeSet<u64>, b: Brick) {
+            let mut m = b.voxels;
             while m != 0 {
-                set.insert((b << 6) | m.trailing_zeros() as u64);
+                set.insert((b.code << 6) | m.trailing_zeros() as u64);
                 m &= m - 1;
             }
         }
         let mut sets = Vec::new();
         let mut scratch = LaneScratch::default();
         let mut s = BTreeSet::new();
-        assert_eq!(
-            walk_all(rays, &mut scratch, &mut |b, m| add(&mut s, b, m)),
-            0
-        );
+        assert_eq!(walk_all(rays, &mut scratch, &mut |b| add(&mut s, b)), 0);
         sets.push(s);
         #[cfg(target_arch = "x86_64")]
         {
             let mut s = BTreeSet::new();
             let mut quad = crate::lanes::avx2::QuadScratch::default();
             if let Some(d) =
-                crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b, m| add(&mut s, b, m))
+                crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b| add(&mut s, b))
             {
                 assert_eq!(d, 0);
                 sets.push(s);
@@ -112,7 +111,7 @@ mod tests {
             let mut s = BTreeSet::new();
             let mut oct = crate::lanes::avx512::OctScratch::default();
             if let Some(d) =
-                crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b, m| add(&mut s, b, m))
+                crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b| add(&mut s, b))
             {
                 assert_eq!(d, 0);
                 sets.push(s);
@@ -120,13 +119,13 @@ mod tests {
         }
         let mut s = BTreeSet::new();
         assert_eq!(
-            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b, m| add(&mut s, b, m)),
+            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b| add(&mut s, b)),
             0
         );
         sets.push(s);
         let mut s = BTreeSet::new();
         assert_eq!(
-            walk_each(rays, &mut scratch.bufs[0], &mut |b, m| add(&mut s, b, m)),
+            walk_each(rays, &mut scratch.bufs[0], &mut |b| add(&mut s, b)),
             0
         );
         sets.push(s);

@@ -5,6 +5,7 @@
 use super::brick_walk::lane_start;
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
+use octoquant_octree::Brick;
 
 /// One walk's state as scalars, for starting a SIMD lane on a new ray.
 pub(crate) struct LaneInit {
@@ -104,7 +105,7 @@ where
             break;
         };
         if done & (1 << l) == 0 {
-            flush.put(*code >> 6, 1u64 << (*code & 63));
+            flush.put(Brick::of_voxel(*code));
             degenerate += 1;
         }
         match next.next() {

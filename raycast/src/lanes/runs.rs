@@ -56,6 +56,7 @@ pub(crate) fn merge_runs_from(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use octoquant_octree::Brick;
     use proptest::prelude::*;
 
     proptest! {
@@ -66,7 +67,7 @@ mod tests {
         ) {
             let (mut bricks, mut bits): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
             let mut got = Vec::new();
-            hand_on_runs(&mut bricks, &mut bits, &mut |b, m| got.push((b, m)));
+            hand_on_runs(&mut bricks, &mut bits, &mut |b: Brick| got.push((b.code, b.voxels)));
             prop_assert!(got.windows(2).all(|w| w[0].0 != w[1].0));
             let union = |v: &[(u64, u64)]| {
                 let mut u = std::collections::BTreeMap::new();

@@ -4,6 +4,7 @@
 use super::brick_walk::{step_up, walk_each, BrickWalk};
 use crate::brickset::BrickSink;
 use crate::dda::{RaySetup, RayWalk};
+use octoquant_octree::Brick;
 use safe_arch::{
     add_m128d, bitand_m128d, bitandnot_m128d, bitor_m128d, cmp_eq_mask_m128d, cmp_gt_mask_m128d,
     cmp_lt_mask_m128d, m128d, min_m128d, move_mask_m128d,
@@ -17,11 +18,7 @@ fn lanes(a: &BrickWalk, b: &BrickWalk, f: impl Fn(&BrickWalk) -> f64) -> m128d {
 
 /// [`super::walk_all`] with two walks in the lanes of each register. A lane whose walk
 /// ends is flushed and refilled with the next ray; the last walk finishes alone.
-pub(super) fn walk_pairs<F>(
-    rays: &[RaySetup],
-    bufs: &mut [Vec<(u64, u64)>; 2],
-    flush: &mut F,
-) -> usize
+pub(super) fn walk_pairs<F>(rays: &[RaySetup], bufs: &mut [Vec<Brick>; 2], flush: &mut F) -> usize
 where
     F: BrickSink,
 {
@@ -89,8 +86,8 @@ where
                 degenerate += 1;
             }
             let n = walk.close(buf);
-            for &(b, m) in &buf[..n] {
-                flush.put(b, m);
+            for &b in &buf[..n] {
+                flush.put(b);
             }
             match next.next() {
                 Some(r) => *walk = BrickWalk::start(r, buf),
