@@ -175,7 +175,12 @@ pub(crate) struct RaySetup {
     pub(crate) length: f64,
     pub(crate) budget: u32,
     /// The `f32` length is finite and positive and every direction component finite: the
-    /// walk then provably ends within `budget` steps (see [`try_walk_ray_codes`]).
+    /// walk then provably ends within `budget` steps. Each axis `i` is stepped at most
+    /// `len·|dᵢ|/res + 1` times before its `tMax` passes the length, which is within two of
+    /// the key distance on that axis, so the walk ends long before the budget of the
+    /// Manhattan distance plus [`STEP_MARGIN`]; only ill-conditioned rays (a zero, infinite
+    /// or NaN length) can degenerate. Such walks need not buffer their keys (tested in
+    /// `dda_tests`, every walk against [`walk_ray_codes`]).
     pub(crate) well_conditioned: bool,
 }
 

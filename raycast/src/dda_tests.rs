@@ -276,14 +276,9 @@ fn code_walk_visits_the_same_voxels_as_the_key_walk() {
 /// the brick's visited voxels (bit `code & 63`): `flush` runs once per brick entered, not once
 /// per voxel, after the walk (which records the bricks in `buf`, kept by the caller from ray
 /// to ray). `origin_key` must be `key_of(conv, origin)`, computed once for all the rays of a
-/// scan.
-///
-/// Why it is safe to visit without buffering the keys: with a finite positive length and
-/// finite direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its
-/// `tMax` passes the length, which is within two of the key distance on that axis, so the walk
-/// ends long before the budget of the Manhattan distance plus 16. Only ill-conditioned rays (a
-/// zero, infinite or NaN length) can degenerate, and those are the ones refused here, so
-/// [`RayWalk::Degenerate`] never follows a visit.
+/// scan. It is safe to visit without buffering the keys: only the rays refused here can
+/// degenerate (see `RaySetup::well_conditioned`), so [`RayWalk::Degenerate`] never follows a
+/// visit.
 fn try_walk_ray_bricks<F>(
     conv: &KeyConverter,
     origin: &Point3<f32>,

@@ -20,7 +20,7 @@ pub struct InsertOptions {
     /// origin count as hits).
     pub max_range: Option<f64>,
     /// Reduce the scan to one ray per endpoint voxel, cast to the voxel centre (OctoMap's
-    /// `discretize`; see [`crate::discretize`]).
+    /// `discretize`; see [`discretize()`](crate::discretize())).
     pub discretize: bool,
     /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
     /// [`OcTree::update_inner_occupancy`] once after the last scan.

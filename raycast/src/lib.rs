@@ -8,7 +8,7 @@
 //!   under [`InsertRayOptions`].
 //! - [`compute_update`] / [`compute_discrete_update`]: a scan's disjoint free and occupied key
 //!   sets (`computeUpdate`, `computeDiscreteUpdate`) in a reusable [`ScanUpdate`], sorted by
-//!   Morton code instead of hashed and kept as [`Brick`]s of 4x4x4 voxels; [`discretize`]
+//!   Morton code instead of hashed and kept as [`Brick`]s of 4x4x4 voxels; [`discretize()`]
 //!   alone. [`compute_update_grid`]: the same sets for a depth image's points, faster, given
 //!   their [`PixelGrid`].
 //! - [`insert_point_cloud`]: a scan into an [`OcTree`](octoquant_octree::OcTree) under

@@ -1,5 +1,5 @@
 //! The counts of one scan: what happened to its points and rays, and how many voxels it
-//! updates. Every scan function returns them ([`crate::compute_update`], [`crate::discretize`],
+//! updates. Every scan function returns them ([`crate::compute_update`], [`crate::discretize()`],
 //! [`crate::insert_point_cloud`], ...).
 
 /// Counts gathered while turning a scan into key sets (and while inserting it).

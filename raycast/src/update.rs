@@ -271,7 +271,7 @@ fn flush_pending(
 }
 
 /// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
-/// walks that degenerated (none can: see [`crate::dda`]'s brick walk).
+/// walks that degenerated (none can: see `RaySetup::well_conditioned`).
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.degenerate += crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, set);
     scratch.batch.clear();
@@ -711,7 +711,7 @@ fn compute(
     stats
 }
 
-/// OctoMap's `computeDiscreteUpdate`: [`discretize`](crate::discretize) the points, then
+/// OctoMap's `computeDiscreteUpdate`: [`discretize`](crate::discretize()) the points, then
 /// [`compute_update`] on the voxel centres with the same, un-discretized origin (so rays go to
 /// centres and `max_range` is measured to the centre). Clears `out` first.
 pub fn compute_discrete_update(
