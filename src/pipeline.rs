@@ -11,7 +11,7 @@ use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
     apply_update, compute_discrete_update, compute_update, compute_update_grid,
-    compute_update_with, RayModel, ScanStats, ScanUpdate,
+    compute_update_with, ApplyOptions, RayModel, ScanStats, ScanUpdate,
 };
 use std::time::Instant;
 
@@ -176,7 +176,9 @@ impl Mapper {
                 &mut self.tree,
                 &points,
                 &frame.origin,
-                self.options.lazy,
+                &ApplyOptions {
+                    lazy: self.options.lazy,
+                },
             );
             st.non_finite += s.non_finite;
             st.outside_map = s.outside_map;
@@ -395,6 +397,6 @@ fn prepare(
 /// seconds it took.
 fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
     let start = Instant::now();
-    apply_update(tree, update, lazy);
+    apply_update(tree, update, &ApplyOptions { lazy });
     start.elapsed().as_secs_f64()
 }

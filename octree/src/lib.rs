@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+mod brick;
 mod compare;
 mod error;
 pub mod io;
@@ -37,6 +38,7 @@ mod tree_batch;
 mod tree_prune;
 pub mod validate;
 
+pub use brick::Brick;
 pub use compare::{compare_classes, ClassComparison, VoxelClass};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};

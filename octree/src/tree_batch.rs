@@ -51,17 +51,17 @@ impl OcTree {
         self.update_brick_iter(bricks, update, lazy)
     }
 
-    /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each entry is a brick's code
-    /// (the Morton code of its depth-14 node, i.e. `key.morton() >> 6` of any voxel in it;
-    /// bits above the 42nd are ignored) and a mask whose bit `i` selects the voxel at Morton
-    /// offset `i` inside the brick (`key.morton() & 63`). The tree ends exactly as after
-    /// [`OcTree::update_node`] on every selected voxel, brick by brick, in mask-bit order.
+    /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each [`Brick`](crate::Brick)
+    /// is a brick's code (the Morton code of its depth-14 node, i.e. `key.morton() >> 6` of any
+    /// voxel in it; bits above the 42nd are ignored) and a mask whose bit `i` selects the voxel
+    /// at Morton offset `i` inside the brick (`key.morton() & 63`). The tree ends exactly as
+    /// after [`OcTree::update_node`] on every selected voxel, brick by brick, in mask-bit order.
     ///
     /// This is the fastest way to apply a scan's key sets: bricks sorted by code visit the
     /// tree in one depth-first sweep, and each depth-15 node is reached once per brick. A NaN
     /// delta changes nothing.
-    pub fn update_bricks(&mut self, bricks: &[(u64, u64)], update: Update, lazy: bool) {
-        self.update_brick_iter(bricks.iter().copied(), update, lazy)
+    pub fn update_bricks(&mut self, bricks: &[crate::Brick], update: Update, lazy: bool) {
+        self.update_brick_iter(bricks.iter().map(|b| (b.code, b.voxels)), update, lazy)
     }
 
     /// [`OcTree::update_bricks`] over any sequence of bricks.

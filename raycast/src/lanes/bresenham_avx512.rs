@@ -2,15 +2,16 @@
 //! lines of [`crate::bresenham::walk_bresenham_bricks`], voxel for voxel.
 //!
 //! Each lane keeps its line's Morton code mirrored on the axes it walks downwards (so every
-//! step is an increment, as in [`crate::lanes_avx512`]), the Morton bits of its main and two
+//! step is an increment, as in [`crate::lanes::avx512`]), the Morton bits of its main and two
 //! minor axes, its two error terms and the voxels left. A step moves the minor axes whose
 //! error term is positive (masked), then the main axis, and updates the error terms with the
 //! scalar walk's integers. Bricks are kept and handed on as in the DDA lanes; a lane whose line
 //! ends starts the next line in the same step, its start voxel standing in for the step's.
 
+use super::avx512::{Bricks8, OctScratch};
 use crate::brickset::BrickSink;
+use crate::cpu::has_avx512;
 use crate::dda::{mirror_mask, AXIS_MASK};
-use crate::lanes_avx512::{has_lanes, Bricks8, OctScratch};
 use core::arch::x86_64::{
     __m512i, __mmask8, _mm512_add_epi64, _mm512_and_si512, _mm512_andnot_si512,
     _mm512_cmpeq_epi64_mask, _mm512_cmpgt_epi64_mask, _mm512_mask_mov_epi64, _mm512_mask_sub_epi64,
@@ -33,7 +34,7 @@ pub(crate) fn walk_lines<F>(
 where
     F: BrickSink,
 {
-    if !has_lanes() {
+    if !has_avx512() {
         return None;
     }
     // SAFETY: `walk_lines_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been
@@ -236,12 +237,14 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use octoquant_octree::Brick;
     use proptest::prelude::*;
     use std::collections::BTreeSet;
 
-    fn add(set: &mut BTreeSet<u64>, b: u64, mut m: u64) {
+    fn add(set: &mut BTreeSet<u64>, b: Brick) {
+        let mut m = b.voxels;
         while m != 0 {
-            set.insert((b << 6) | m.trailing_zeros() as u64);
+            set.insert((b.code << 6) | m.trailing_zeros() as u64);
             m &= m - 1;
         }
     }
@@ -263,11 +266,11 @@ mod tests {
             prop_assume!(!lines.is_empty());
             let mut want = BTreeSet::new();
             for &(a, b) in &lines {
-                crate::bresenham::walk_bresenham_bricks(a, b, &mut |b, m| add(&mut want, b, m));
+                crate::bresenham::walk_bresenham_bricks(a, b, &mut |b| add(&mut want, b));
             }
             let mut got = BTreeSet::new();
             let mut scratch = OctScratch::default();
-            if walk_lines(&lines, &mut scratch, &mut |b, m| add(&mut got, b, m)).is_some() {
+            if walk_lines(&lines, &mut scratch, &mut |b| add(&mut got, b)).is_some() {
                 prop_assert_eq!(got, want);
             }
         }

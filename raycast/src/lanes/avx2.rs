@@ -17,9 +17,10 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes`]. The module's one `unsafe` is the call
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
+use super::refill::{first_stop, restart, LaneInit};
+use super::runs::hand_on_runs;
 use crate::brickset::BrickSink;
-use crate::dda::RaySetup;
-use crate::lanes::{first_stop, hand_on_runs, restart, LaneInit, AXIS_MASK};
+use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_andnot_si256, _mm256_blendv_epi8, _mm256_blendv_pd,
@@ -28,6 +29,7 @@ use core::arch::x86_64::{
     _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setzero_si256, _mm256_sllv_epi64, _mm256_srli_epi64,
     _mm256_sub_epi64, _mm256_xor_si256, _CMP_GT_OQ, _CMP_LT_OQ,
 };
+use octoquant_octree::Brick;
 
 /// Bricks left by the lanes that are collected before they are handed on.
 const LEFT: usize = 1024;
@@ -81,7 +83,7 @@ pub(crate) fn walk_quads<F>(
 where
     F: BrickSink,
 {
-    if !std::arch::is_x86_feature_detected!("avx2") {
+    if !crate::cpu::has_avx2() {
         return None;
     }
     // SAFETY: `walk_quads_avx2` needs AVX2 (and the AVX it implies), and the CPU has been
@@ -299,8 +301,8 @@ where
         }
         if finished {
             let (brick, bits): (U4, U4) = (bytemuck::cast(brick), bytemuck::cast(bits));
-            for (b, m) in brick.into_iter().zip(bits) {
-                flush.put(b, m);
+            for (code, voxels) in brick.into_iter().zip(bits) {
+                flush.put(Brick { code, voxels });
             }
             return degenerate;
         }
