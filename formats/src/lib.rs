@@ -25,6 +25,7 @@
 //! are written through [`output::write_atomic`], so a failed write never leaves a
 //! half-written file.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod carmen;
 mod error;
