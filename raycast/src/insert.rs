@@ -27,9 +27,10 @@ pub struct InsertOptions {
     pub lazy: bool,
 }
 
-/// How updates are applied to the tree by [`apply_update`] and [`insert_point_cloud_rays`],
-/// whose rays are already computed or take no other option; `Default` gives OctoMap's
-/// default (`lazy_eval = false`).
+/// How [`apply_update`] and [`insert_point_cloud_rays`] update the tree; `Default` gives
+/// OctoMap's default (`lazy_eval = false`). Neither takes a range or `discretize`: the key
+/// sets of the first are computed already, and OctoMap's `insertPointCloudRays` ignores its
+/// range.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ApplyOptions {
     /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
