@@ -8,7 +8,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_quantize::{DensityGrid, GridSpec};
+use octoquant_density::{DensityGrid, GridSpec};
 use std::hint::black_box;
 use std::path::PathBuf;
 

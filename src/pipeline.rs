@@ -11,7 +11,7 @@ use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
     apply_update, compute_discrete_update, compute_update, compute_update_grid,
-    compute_update_with, RayModel, ScanStats, ScanUpdate,
+    compute_update_with, ApplyOptions, RayModel, ScanStats, ScanUpdate,
 };
 use std::time::Instant;
 
@@ -37,7 +37,8 @@ pub enum InsertMode {
 }
 
 impl InsertMode {
-    /// The name used on the command line.
+    /// The mode's one name: the `--mode` value on the command line, and the name in text and
+    /// JSON output (`exact`, `discretize`, `quantized`, `quantized+bresenham`, `simple`).
     pub fn name(self) -> &'static str {
         match self {
             InsertMode::Exact => "exact",
@@ -175,7 +176,9 @@ impl Mapper {
                 &mut self.tree,
                 &points,
                 &frame.origin,
-                self.options.lazy,
+                &ApplyOptions {
+                    lazy: self.options.lazy,
+                },
             );
             st.non_finite += s.non_finite;
             st.outside_map = s.outside_map;
@@ -330,7 +333,7 @@ fn reduce(points: &[Point3<f32>], cell: [f64; 3], st: &mut FrameStats) -> Vec<Po
         .count();
     st.non_finite = points.len() - finite;
     // cell sizes were validated when the options were built; fall back to no reduction
-    let out = octoquant_quantize::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
+    let out = octoquant_density::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
     st.reduced = out.len();
     out
 }
@@ -394,6 +397,6 @@ fn prepare(
 /// seconds it took.
 fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
     let start = Instant::now();
-    apply_update(tree, update, lazy);
+    apply_update(tree, update, &ApplyOptions { lazy });
     start.elapsed().as_secs_f64()
 }

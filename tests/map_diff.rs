@@ -560,7 +560,7 @@ fn cli_bench_matches_octomap_and_measures_agreement() {
             assert_eq!(field(run, "bt_identical_to_octomap"), "true", "{run}");
             assert_eq!(agree_q, 1.0);
         } else {
-            assert!(run.starts_with("\"quant+bres\""), "{run}");
+            assert!(run.starts_with("\"quantized+bresenham\""), "{run}");
             assert!(agree_q > 0.5 && agree_q < 1.0, "{run}");
         }
     }

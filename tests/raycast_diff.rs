@@ -7,8 +7,8 @@ use crate::common;
 use nalgebra::Point3;
 use octoquant_octree::{io, Key, KeyConverter, OcTree, OccupancyParams};
 use octoquant_raycast::{
-    cast_ray, compute_ray_keys, insert_point_cloud_rays, insert_point_cloud_reusing, CastStop,
-    InsertOptions, KeyRay, ScanUpdate,
+    cast_ray, compute_ray_keys, insert_point_cloud_rays, insert_point_cloud_reusing, ApplyOptions,
+    CastOptions, CastStop, InsertOptions, KeyRay, ScanUpdate,
 };
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -580,7 +580,8 @@ impl Case {
         let mut buffers = ScanUpdate::new();
         for f in frames {
             if self.simple {
-                insert_point_cloud_rays(&mut tree, &f.points, &f.origin, self.lazy);
+                let apply = ApplyOptions { lazy: self.lazy };
+                insert_point_cloud_rays(&mut tree, &f.points, &f.origin, &apply);
             } else {
                 insert_point_cloud_reusing(&mut tree, &f.points, &f.origin, &opts, &mut buffers);
             }
@@ -856,7 +857,12 @@ fn compare_casts(
     for (i, (o, d, ignore, m)) in rays.iter().enumerate() {
         let hit = r.u8() == 1;
         let end = [r.f32(), r.f32(), r.f32()];
-        let mine = cast_ray(tree, o, d, *ignore, *m);
+        // OctoMap's `maxRange`: a limit only when positive
+        let options = CastOptions {
+            ignore_unknown: *ignore,
+            max_range: (*m > 0.0).then_some(*m),
+        };
+        let mine = cast_ray(tree, o, d, &options);
         *stops.entry(mine.stop).or_insert(0) += 1;
         // OctoMap leaves `end` untouched (the reference's zero-initialised point) when it
         // returns before walking

@@ -4,7 +4,7 @@ use crate::common;
 use nalgebra::Point3;
 use octoquant::formats::ply::{read_ply, write_ply, PlyEncoding};
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_quantize::{reduce_points_counted, DensityGrid, GridSpec};
+use octoquant_density::{reduce_points_counted, DensityGrid, GridSpec};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::process::Command;

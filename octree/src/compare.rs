@@ -8,7 +8,7 @@
 
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::store::{present, NodeRef, NO_BLOCK};
 use crate::tree::OcTree;
 
 /// What a map says about a voxel.

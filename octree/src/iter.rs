@@ -1,7 +1,7 @@
 //! Leaf and node iteration in OctoMap's order: depth-first pre-order, children 0..7.
 
 use crate::key::{Key, KEY_CENTER, TREE_DEPTH};
-use crate::node::NodeRef;
+use crate::store::NodeRef;
 use crate::tree::OcTree;
 
 /// A node visited by an iterator.

@@ -25,23 +25,24 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+mod brick;
 mod compare;
 mod error;
 pub mod io;
 mod iter;
 mod key;
-mod leaves;
-mod node;
 mod params;
+mod store;
 mod tree;
 mod tree_batch;
 mod tree_prune;
 pub mod validate;
 
+pub use brick::Brick;
 pub use compare::{compare_classes, ClassComparison, VoxelClass};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
-pub use node::MemoryUsage;
 pub use params::{logodds, probability, OccupancyParams};
+pub use store::MemoryUsage;
 pub use tree::{Counts, NodeInfo, OcTree, Update};

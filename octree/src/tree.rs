@@ -2,9 +2,8 @@
 
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
-use crate::leaves::{Adder, Outcome};
-use crate::node::{MemoryUsage, NodeRef, NodeStore, NO_BLOCK};
 use crate::params::OccupancyParams;
+use crate::store::{Adder, MemoryUsage, NodeRef, NodeStore, Outcome, NO_BLOCK};
 use nalgebra::Point3;
 
 /// One occupancy observation of a voxel.
@@ -48,7 +47,7 @@ pub struct Counts {
 
 /// What `descend_and_apply` does to the voxel.
 #[derive(Clone, Copy)]
-enum LeafOp {
+enum VoxelOp {
     /// Add a delta and clamp (`updateNode`).
     Add(Adder),
     /// Set a value (`setNodeValue`).
@@ -173,7 +172,7 @@ impl OcTree {
         }
         let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
         let add = self.store.adder(delta, cmin, cmax);
-        self.descend_and_apply(key, lazy, LeafOp::Add(add))
+        self.descend_and_apply(key, lazy, VoxelOp::Add(add))
     }
 
     /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
@@ -183,7 +182,7 @@ impl OcTree {
             return Err(OctreeError::NanValue);
         }
         let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
-        Ok(self.descend_and_apply(key, lazy, LeafOp::Set(v)))
+        Ok(self.descend_and_apply(key, lazy, VoxelOp::Set(v)))
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.
@@ -200,7 +199,7 @@ impl OcTree {
     /// The shared descent of `updateNodeRecurs` / `setNodeValueRecurs`: create or expand the
     /// path to `key`, apply `op` to the voxel, then (unless lazy) prune or refresh every
     /// ancestor bottom-up, root included.
-    fn descend_and_apply(&mut self, key: Key, lazy: bool, op: LeafOp) -> f32 {
+    fn descend_and_apply(&mut self, key: Key, lazy: bool, op: VoxelOp) -> f32 {
         let mut just_created = false;
         if self.store.root_val.is_none() {
             self.store.root_val = Some(0.0);
@@ -235,16 +234,16 @@ impl OcTree {
         }
         let old = self.store.value(cur);
         match op {
-            LeafOp::Add(add) => {
+            VoxelOp::Add(add) => {
                 // the early exit was taken above, before anything was created
                 let mut memo = self.store.take_memo(&add);
-                let out = self.store.update_leaf(cur, &add, just_created, &mut memo);
+                let out = self.store.update_voxel(cur, &add, just_created, &mut memo);
                 self.store.put_memo(&add, memo);
                 if out == Outcome::Exit {
                     return old;
                 }
             }
-            LeafOp::Set(v) => self.store.set_value(cur, v),
+            VoxelOp::Set(v) => self.store.set_value(cur, v),
         }
         let v = self.store.value(cur);
         self.record_change(key, old, v, just_created);
@@ -504,7 +503,7 @@ impl OcTree {
     /// Blocks in use: (inner blocks of 64 bytes, depth-16 blocks of 16 bytes, or 32 bytes
     /// once the tree holds too many distinct voxel values for the palette).
     pub fn live_blocks(&self) -> (usize, usize) {
-        (self.store.inner.live(), self.store.leaf.live())
+        (self.store.inner.live(), self.store.voxels.live())
     }
 
     /// Axis-aligned bounds of all leaves, free and occupied (OctoMap's `getMetricMin/Max`);
@@ -546,3 +545,7 @@ impl OcTree {
         s[0] * s[1] * s[2]
     }
 }
+
+#[cfg(test)]
+#[path = "tree_tests.rs"]
+mod tests;

@@ -15,8 +15,7 @@
 //! gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
-use crate::leaves::{Adder, Outcome};
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::store::{present, Adder, NodeRef, Outcome, NO_BLOCK};
 use crate::tree::{OcTree, Update};
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.
@@ -52,17 +51,17 @@ impl OcTree {
         self.update_brick_iter(bricks, update, lazy)
     }
 
-    /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each entry is a brick's code
-    /// (the Morton code of its depth-14 node, i.e. `key.morton() >> 6` of any voxel in it;
-    /// bits above the 42nd are ignored) and a mask whose bit `i` selects the voxel at Morton
-    /// offset `i` inside the brick (`key.morton() & 63`). The tree ends exactly as after
-    /// [`OcTree::update_node`] on every selected voxel, brick by brick, in mask-bit order.
+    /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each [`Brick`](crate::Brick)
+    /// is a brick's code (the Morton code of its depth-14 node, i.e. `key.morton() >> 6` of any
+    /// voxel in it; bits above the 42nd are ignored) and a mask whose bit `i` selects the voxel
+    /// at Morton offset `i` inside the brick (`key.morton() & 63`). The tree ends exactly as
+    /// after [`OcTree::update_node`] on every selected voxel, brick by brick, in mask-bit order.
     ///
     /// This is the fastest way to apply a scan's key sets: bricks sorted by code visit the
     /// tree in one depth-first sweep, and each depth-15 node is reached once per brick. A NaN
     /// delta changes nothing.
-    pub fn update_bricks(&mut self, bricks: &[(u64, u64)], update: Update, lazy: bool) {
-        self.update_brick_iter(bricks.iter().copied(), update, lazy)
+    pub fn update_bricks(&mut self, bricks: &[crate::Brick], update: Update, lazy: bool) {
+        self.update_brick_iter(bricks.iter().map(|b| (b.code, b.voxels)), update, lazy)
     }
 
     /// [`OcTree::update_bricks`] over any sequence of bricks.
@@ -273,7 +272,7 @@ impl Walk {
             let j = rest.trailing_zeros() as usize / 8;
             let byte = (rest >> (8 * j)) as u8;
             rest &= !(0xff << (8 * j));
-            applied |= self.leaf_group::<TRACK>(t, code, kb, j, byte);
+            applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
             if !self.lazy {
@@ -288,7 +287,7 @@ impl Walk {
     /// `kb`, creating or expanding that node as needed, then prune or refresh it; returns
     /// whether any update was applied.
     #[inline(always)]
-    fn leaf_group<const TRACK: bool>(
+    fn voxel_group<const TRACK: bool>(
         &mut self,
         t: &mut OcTree,
         code: u64,
@@ -323,9 +322,15 @@ impl Walk {
         while bits != 0 {
             let s = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            let old = if TRACK { t.store.leaf.get(lb, s) } else { 0.0 };
+            let old = if TRACK {
+                t.store.voxels.get(lb, s)
+            } else {
+                0.0
+            };
             let Outcome::Applied(created) =
-                t.store.leaf.update(lb, s, &self.add, false, &mut self.memo)
+                t.store
+                    .voxels
+                    .update(lb, s, &self.add, false, &mut self.memo)
             else {
                 // OctoMap's early exit at a voxel already at the clamp
                 continue;
@@ -334,7 +339,7 @@ impl Walk {
             applied = true;
             if TRACK {
                 let key = Key::from_morton((code << 6) | ((j as u64) << 3) | s as u64);
-                let v = t.store.leaf.get(lb, s);
+                let v = t.store.voxels.get(lb, s);
                 t.record_change(key, old, v, created);
             }
         }

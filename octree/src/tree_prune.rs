@@ -1,7 +1,7 @@
 //! Whole-tree passes: prune, expand, max-likelihood conversion and inner-node refresh.
 
 use crate::key::TREE_DEPTH;
-use crate::node::NodeRef;
+use crate::store::NodeRef;
 use crate::tree::OcTree;
 
 impl OcTree {

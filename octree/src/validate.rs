@@ -1,6 +1,6 @@
 //! Structural checks for tests: the invariants every tree must keep.
 
-use crate::node::{present, NodeRef, NO_BLOCK};
+use crate::store::{present, NodeRef, NO_BLOCK};
 use crate::tree::OcTree;
 
 /// Check the tree's invariants, returning a description of the first violation:

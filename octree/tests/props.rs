@@ -2,7 +2,7 @@
 
 use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
 use octoquant_octree::validate::assert_well_formed;
-use octoquant_octree::{Key, KeyConverter, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{Brick, Key, KeyConverter, OcTree, Update, TREE_DEPTH};
 use proptest::prelude::*;
 use std::collections::HashMap;
 
@@ -212,13 +212,15 @@ fn cube_keys(region: u8, seed: u64) -> Vec<Key> {
 }
 
 /// `keys` as bricks for [`OcTree::update_bricks`]: consecutive keys of one brick in one mask.
-fn bricks_of(keys: &[Key]) -> Vec<(u64, u64)> {
-    let mut out: Vec<(u64, u64)> = Vec::new();
+fn bricks_of(keys: &[Key]) -> Vec<Brick> {
+    let mut out: Vec<Brick> = Vec::new();
     for k in keys {
-        let (code, bit) = (k.morton() >> 6, 1u64 << (k.morton() & 63));
+        let b = Brick::of_voxel(k.morton());
         match out.last_mut() {
-            Some((c, m)) if *c == code && *m & bit == 0 => *m |= bit,
-            _ => out.push((code, bit)),
+            Some(last) if last.code == b.code && last.voxels & b.voxels == 0 => {
+                last.voxels |= b.voxels
+            }
+            _ => out.push(b),
         }
     }
     out

@@ -64,7 +64,12 @@ pub fn cast_ray(
     ignore_unknown: bool,
     max_range: f64,
 ) -> Cast {
-    let r = raycast::cast_ray(tree, origin, direction, ignore_unknown, max_range);
+    // OctoMap's maxRange <= 0 (its -1 default) means no limit
+    let options = raycast::CastOptions {
+        ignore_unknown,
+        max_range: (max_range > 0.0).then_some(max_range),
+    };
+    let r = raycast::cast_ray(tree, origin, direction, &options);
     Cast {
         hit: r.hit,
         end: r.end,

@@ -10,7 +10,7 @@
 
 use crate::brickset::BrickSink;
 use crate::dda::AxisStep;
-use octoquant_octree::Key;
+use octoquant_octree::{Brick, Key};
 
 /// The axis a line steps every time: the one with the largest key distance `ad`, ties to x,
 /// then y.
@@ -74,7 +74,10 @@ pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, flush: &mut impl Brick
     let mut bits = 0u64;
     for _ in 0..n {
         if code >> 6 != brick {
-            flush.put(brick, bits);
+            flush.put(Brick {
+                code: brick,
+                voxels: bits,
+            });
             brick = code >> 6;
             bits = 0;
         }
@@ -92,7 +95,10 @@ pub(crate) fn walk_bresenham_bricks(start: Key, end: Key, flush: &mut impl Brick
         code = sm.apply(code);
     }
     if bits != 0 {
-        flush.put(brick, bits);
+        flush.put(Brick {
+            code: brick,
+            voxels: bits,
+        });
     }
     n as u32
 }
@@ -129,16 +135,16 @@ mod tests {
             let start = Key(a);
             let end = Key([0, 1, 2].map(|i| (a[i] as i32 + d[i] as i32 / 64).clamp(0, 65535) as u16));
             let keys = line(start, end);
-            let mut want: Vec<(u64, u64)> = Vec::new();
+            let mut want: Vec<Brick> = Vec::new();
             for k in &keys {
-                let c = k.morton();
+                let b = Brick::of_voxel(k.morton());
                 match want.last_mut() {
-                    Some(last) if last.0 == c >> 6 => last.1 |= 1 << (c & 63),
-                    _ => want.push((c >> 6, 1 << (c & 63))),
+                    Some(last) if last.code == b.code => last.voxels |= b.voxels,
+                    _ => want.push(b),
                 }
             }
             let mut got = Vec::new();
-            let n = walk_bresenham_bricks(start, end, &mut |b, m| got.push((b, m)));
+            let n = walk_bresenham_bricks(start, end, &mut |b| got.push(b));
             prop_assert_eq!(n as usize, keys.len());
             prop_assert_eq!(got, want);
         }

@@ -7,20 +7,27 @@
 //! sorted and then their bits in order yields the keys in Morton order, the tree's own
 //! depth-first order, without sorting every key.
 
-use octoquant_octree::Key;
+use octoquant_octree::{Brick, Key};
 
+/// The code of an empty slot (no brick has it: codes have 42 bits).
 const EMPTY: u64 = u64::MAX;
+/// An empty slot.
+const VACANT: Brick = Brick {
+    code: EMPTY,
+    voxels: 0,
+};
 
 /// The key set. `clear` keeps the allocation for the next frame.
 ///
-/// Each slot holds `(brick, bits)` side by side, so a probe touches one cache line. A small
+/// Each slot holds a [`Brick`] (code and voxels side by side), so a probe touches one cache
+/// line. A small
 /// table is kept at most a quarter full (see [`fill_limit`]), so that a brick already in it
 /// almost always sits in one of its first two slots, which are looked at without a branch
 /// ([`near_slot`]): on dense depth images the lookups repeat the same few thousand bricks
 /// millions of times, and a mispredicted probe loop cost more there than the larger table.
 #[derive(Debug, Clone)]
 pub(crate) struct BrickSet {
-    slots: Vec<(u64, u64)>,
+    slots: Vec<Brick>,
     len: usize,
     /// Slot of the brick touched last (a cache for ray walks).
     last: usize,
@@ -29,7 +36,7 @@ pub(crate) struct BrickSet {
 impl Default for BrickSet {
     fn default() -> Self {
         BrickSet {
-            slots: vec![(EMPTY, 0); 1024],
+            slots: vec![VACANT; 1024],
             len: 0,
             last: 0,
         }
@@ -55,10 +62,10 @@ const SPARSE_UP_TO: usize = 1 << 16;
 /// The slot of `brick` when it sits in one of its first two slots (`h`, the brick's hash, or
 /// the next), found without a branch: which of the two is data, not a guess.
 #[inline(always)]
-fn near_slot(slots: &[(u64, u64)], brick: u64, h: usize) -> Option<usize> {
+fn near_slot(slots: &[Brick], brick: u64, h: usize) -> Option<usize> {
     let mask = slots.len() - 1;
-    let j = (h + (slots[h].0 != brick) as usize) & mask;
-    (slots[j].0 == brick).then_some(j)
+    let j = (h + (slots[h].code != brick) as usize) & mask;
+    (slots[j].code == brick).then_some(j)
 }
 
 #[inline(always)]
@@ -70,7 +77,7 @@ impl BrickSet {
     /// Remove every key, keeping the table's size.
     pub fn clear(&mut self) {
         if self.len > 0 {
-            self.slots.fill((EMPTY, 0));
+            self.slots.fill(VACANT);
         }
         self.len = 0;
         self.last = 0;
@@ -79,39 +86,39 @@ impl BrickSet {
     /// Add the key with Morton code `code`.
     #[inline(always)]
     pub fn insert(&mut self, code: u64) {
-        self.insert_bits(code >> 6, 1u64 << (code & 63));
+        self.insert_brick(Brick::of_voxel(code));
     }
 
-    /// Add the keys of `bit` (a mask) in brick `brick`.
+    /// Add the voxels of `brick`.
     #[inline(always)]
-    pub fn insert_bits(&mut self, brick: u64, bit: u64) {
-        if self.slots[self.last].0 == brick {
-            self.slots[self.last].1 |= bit;
+    pub fn insert_brick(&mut self, brick: Brick) {
+        if self.slots[self.last].code == brick.code {
+            self.slots[self.last].voxels |= brick.voxels;
             return;
         }
-        self.insert_bits_hashed(brick, bit);
+        self.insert_brick_hashed(brick);
     }
 
-    /// [`BrickSet::insert_bits`] without the check of the brick touched last, for callers
+    /// [`BrickSet::insert_brick`] without the check of the brick touched last, for callers
     /// whose bricks rarely repeat one after another.
     #[inline(always)]
-    pub fn insert_bits_hashed(&mut self, brick: u64, bit: u64) {
+    pub fn insert_brick_hashed(&mut self, brick: Brick) {
         let mask = self.slots.len() - 1;
-        let mut i = hash(brick, mask);
-        if let Some(j) = near_slot(&self.slots, brick, i) {
-            self.slots[j].1 |= bit;
+        let mut i = hash(brick.code, mask);
+        if let Some(j) = near_slot(&self.slots, brick.code, i) {
+            self.slots[j].voxels |= brick.voxels;
             self.last = j;
             return;
         }
         loop {
             let slot = &mut self.slots[i];
-            if slot.0 == brick {
-                slot.1 |= bit;
+            if slot.code == brick.code {
+                slot.voxels |= brick.voxels;
                 self.last = i;
                 return;
             }
-            if slot.0 == EMPTY {
-                *slot = (brick, bit);
+            if slot.code == EMPTY {
+                *slot = brick;
                 self.len += 1;
                 self.last = i;
                 if self.len * fill_limit(self.slots.len()) > self.slots.len() {
@@ -129,11 +136,11 @@ impl BrickSet {
         let mask = self.slots.len() - 1;
         let mut i = hash(brick, mask);
         loop {
-            let (b, m) = self.slots[i];
-            if b == brick {
-                return m;
+            let Brick { code, voxels } = self.slots[i];
+            if code == brick {
+                return voxels;
             }
-            if b == EMPTY {
+            if code == EMPTY {
                 return 0;
             }
             i = (i + 1) & mask;
@@ -142,61 +149,62 @@ impl BrickSet {
 
     fn grow(&mut self) {
         let n = self.slots.len() * 2;
-        let old = std::mem::replace(&mut self.slots, vec![(EMPTY, 0); n]);
+        let old = std::mem::replace(&mut self.slots, vec![VACANT; n]);
         let mask = n - 1;
-        for (b, m) in old {
-            if b != EMPTY {
-                let mut i = hash(b, mask);
-                while self.slots[i].0 != EMPTY {
+        for b in old {
+            if b.code != EMPTY {
+                let mut i = hash(b.code, mask);
+                while self.slots[i].code != EMPTY {
                     i = (i + 1) & mask;
                 }
-                self.slots[i] = (b, m);
+                self.slots[i] = b;
             }
         }
         self.last = 0;
     }
 
-    /// The non-empty bricks as `(brick, bits)`, sorted by brick (that is, in Morton order).
-    pub fn sorted(&self, out: &mut Vec<(u64, u64)>) {
+    /// The non-empty bricks, sorted by code (that is, in Morton order).
+    pub fn sorted(&self, out: &mut Vec<Brick>) {
         out.clear();
         out.reserve(self.len);
-        out.extend(self.slots.iter().filter(|(b, _)| *b != EMPTY).copied());
-        out.sort_unstable_by_key(|e| e.0);
+        out.extend(self.slots.iter().filter(|b| b.code != EMPTY).copied());
+        out.sort_unstable_by_key(|b| b.code);
     }
 }
 
-/// Where walks hand the bricks they entered, as `(brick, bits)`: one at a time, or a batch at
-/// once. Any `FnMut(u64, u64)` is a sink (tests collect into their own sets); the brick set is
-/// one with a batch insert that keeps the table's address and size in registers.
+/// Where walks hand the bricks they entered: one [`Brick`] at a time, or a batch at once. Any
+/// `FnMut(Brick)` is a sink (tests collect into their own sets); the brick set is one with a
+/// batch insert that keeps the table's address and size in registers.
 pub(crate) trait BrickSink {
-    /// Add the voxels `bits` of brick `brick`.
-    fn put(&mut self, brick: u64, bits: u64);
+    /// Add the voxels of `brick`.
+    fn put(&mut self, brick: Brick);
 
-    /// Add `(bricks[i], bits[i])` for every `i`.
+    /// Add the brick of code `bricks[i]` and voxels `bits[i]` for every `i`: the SIMD lanes
+    /// collect the bricks they leave as two arrays, one register store each.
     #[inline]
     fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
-        for (&b, &m) in bricks.iter().zip(bits) {
-            self.put(b, m);
+        for (&code, &voxels) in bricks.iter().zip(bits) {
+            self.put(Brick { code, voxels });
         }
     }
 }
 
-impl<F: FnMut(u64, u64)> BrickSink for F {
+impl<F: FnMut(Brick)> BrickSink for F {
     #[inline(always)]
-    fn put(&mut self, brick: u64, bits: u64) {
-        self(brick, bits)
+    fn put(&mut self, brick: Brick) {
+        self(brick)
     }
 }
 
 impl BrickSink for BrickSet {
     #[inline(always)]
-    fn put(&mut self, brick: u64, bits: u64) {
-        self.insert_bits_hashed(brick, bits)
+    fn put(&mut self, brick: Brick) {
+        self.insert_brick_hashed(brick)
     }
 
     /// Bricks already in the set, found in one of their first two slots, are added in a
     /// tight loop; anything else (a new brick, a longer probe, growth) goes through
-    /// [`BrickSet::insert_bits_hashed`] and the loop resumes.
+    /// [`BrickSet::insert_brick_hashed`] and the loop resumes.
     #[inline]
     fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
         let n = bricks.len().min(bits.len());
@@ -208,11 +216,11 @@ impl BrickSink for BrickSet {
                 let Some(j) = near_slot(slots, b, hash(b, mask)) else {
                     break;
                 };
-                slots[j].1 |= m;
+                slots[j].voxels |= m;
                 i += 1;
             }
-            if let (Some(&b), Some(&m)) = (bricks.get(i), bits.get(i)) {
-                self.insert_bits_hashed(b, m);
+            if let (Some(&code), Some(&voxels)) = (bricks.get(i), bits.get(i)) {
+                self.insert_brick_hashed(Brick { code, voxels });
                 i += 1;
             }
         }
@@ -235,11 +243,12 @@ const BRICK_OFFSET: [[u16; 3]; 64] = {
     t
 };
 
-/// Append the keys of a brick's set bits, in Morton order: the brick's first key decoded once,
+/// Append the keys of a brick's voxels, in Morton order: the brick's first key decoded once,
 /// each voxel's offset inside the brick (0 to 3 per axis) looked up.
 #[inline]
-pub(crate) fn push_brick_keys(brick: u64, mut bits: u64, out: &mut Vec<Key>) {
-    let base = Key::from_morton(brick << 6);
+pub(crate) fn push_brick_keys(brick: Brick, out: &mut Vec<Key>) {
+    let base = Key::from_morton(brick.code << 6);
+    let mut bits = brick.voxels;
     out.reserve(bits.count_ones() as usize);
     while bits != 0 {
         let o = BRICK_OFFSET[bits.trailing_zeros() as usize];
@@ -277,9 +286,9 @@ mod tests {
             let mut bricks = Vec::new();
             set.sorted(&mut bricks);
             let mut keys = Vec::new();
-            for (b, m) in bricks {
-                assert_eq!(set.get(b), m);
-                push_brick_keys(b, m, &mut keys);
+            for b in bricks {
+                assert_eq!(set.get(b.code), b.voxels);
+                push_brick_keys(b, &mut keys);
             }
             let want: Vec<Key> = naive.iter().map(|c| Key::from_morton(*c)).collect();
             assert_eq!(keys, want);
@@ -307,7 +316,7 @@ mod tests {
                 let m = 1u64 << (s >> 58);
                 bricks.push(b);
                 bits.push(m);
-                single.insert_bits_hashed(b, m);
+                single.insert_brick_hashed(Brick { code: b, voxels: m });
                 *naive.entry(b).or_insert(0u64) |= m;
             }
             batched.put_all(&bricks, &bits);
@@ -316,7 +325,11 @@ mod tests {
         batched.sorted(&mut a);
         single.sorted(&mut b);
         assert_eq!(a, b);
-        assert_eq!(a, naive.into_iter().collect::<Vec<_>>());
+        let naive: Vec<Brick> = naive
+            .into_iter()
+            .map(|(code, voxels)| Brick { code, voxels })
+            .collect();
+        assert_eq!(a, naive);
         assert!(batched.slots.len() > 1024, "the set grew");
     }
 }

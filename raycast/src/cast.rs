@@ -51,6 +51,19 @@ impl CastResult {
     }
 }
 
+/// How [`cast_ray`] walks; `Default` gives OctoMap's defaults (`ignoreUnknown = false`,
+/// `maxRange = -1`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CastOptions {
+    /// Walk on through unknown voxels instead of stopping at the first (OctoMap's
+    /// `ignoreUnknown`).
+    pub ignore_unknown: bool,
+    /// Stop at the first voxel whose centre is farther than this from the origin. `None` is
+    /// OctoMap's `-1` (no limit); as OctoMap tests `maxRange > 0`, `Some` of zero, of a
+    /// negative value or of NaN means no limit too.
+    pub max_range: Option<f64>,
+}
+
 /// OctoMap's `castRay(origin, direction, end, ignoreUnknown, maxRange)`: follow a ray from
 /// `origin` along `direction` until the first occupied voxel.
 ///
@@ -58,16 +71,19 @@ impl CastResult {
 /// border adds the half-resolution in `f64` (no `f32` narrowing), and the map bounds are
 /// checked before every step. The origin voxel itself counts: if it is occupied the result is
 /// a hit there, and if it is unknown (and `ignore_unknown` is off) the cast stops there. It
-/// stops at an unknown voxel unless `ignore_unknown`, and, when `max_range > 0`, at the first
-/// voxel whose centre is farther than `max_range` from the origin (distance squared, per-axis
-/// differences in `f32`). `direction` need not be normalised. Never panics or loops forever.
+/// stops at an unknown voxel unless [`CastOptions::ignore_unknown`], and, when
+/// [`CastOptions::max_range`] is `Some(m)` with `m > 0`, at the first voxel whose centre is
+/// farther than `m` from the origin (distance squared, per-axis differences in `f32`).
+/// `direction` need not be normalised. Never panics or loops forever.
 pub fn cast_ray(
     tree: &OcTree,
     origin: &Point3<f32>,
     direction: &Point3<f32>,
-    ignore_unknown: bool,
-    max_range: f64,
+    options: &CastOptions,
 ) -> CastResult {
+    let ignore_unknown = options.ignore_unknown;
+    // OctoMap's `-1`: no limit
+    let max_range = options.max_range.unwrap_or(-1.0);
     let conv = tree.converter();
     let params = tree.params();
     let Some(mut current) = key_of(conv, origin) else {
@@ -165,21 +181,35 @@ pub fn cast_ray(
     }
 }
 
+/// How [`insert_ray`] updates the tree; `Default` gives OctoMap's defaults (`maxrange = -1`,
+/// `lazy_eval = false`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct InsertRayOptions {
+    /// Cut rays longer than this: only their misses up to this distance are applied, without
+    /// a hit. `None` is OctoMap's `-1` (no limit). OctoMap's test here is `maxrange > 0`, so
+    /// `Some(0.0)` (or a negative value) means no limit too, unlike
+    /// [`InsertOptions::max_range`](crate::InsertOptions::max_range) where `0` is a real
+    /// limit.
+    pub max_range: Option<f64>,
+    /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
+    /// [`OcTree::update_inner_occupancy`] once after the last ray.
+    pub lazy: bool,
+}
+
 /// OctoMap's `insertRay(origin, end, maxrange, lazy)`: misses along the ray, then a hit at
 /// `end`; the ray is not deduplicated against anything.
 ///
-/// When `max_range` is `Some(m)` with `m > 0` and the segment is longer than `m`, only the
-/// misses along `origin -> origin + m·direction` are applied, without a hit. Note OctoMap's
-/// test here is `maxrange > 0`, so `Some(0.0)` (or a negative value) means no limit, unlike
-/// [`crate::compute_update`] where `0` is a real limit. Returns `false`, changing nothing,
-/// when an end of the (cut) ray is outside the map or not finite.
+/// When [`InsertRayOptions::max_range`] is `Some(m)` with `m > 0` and the segment is longer
+/// than `m`, only the misses along `origin -> origin + m·direction` are applied, without a
+/// hit. Returns `false`, changing nothing, when an end of the (cut) ray is outside the map or
+/// not finite.
 pub fn insert_ray(
     tree: &mut OcTree,
     origin: &Point3<f32>,
     end: &Point3<f32>,
-    max_range: Option<f64>,
-    lazy: bool,
+    options: &InsertRayOptions,
 ) -> bool {
+    let (max_range, lazy) = (options.max_range, options.lazy);
     let diff = sub_f32(end, origin);
     let mut ray = KeyRay::new();
     let conv = tree.converter().clone();

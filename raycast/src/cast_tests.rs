@@ -10,10 +10,37 @@ fn wall_tree() -> OcTree {
         &mut t,
         &origin,
         &Point3::new(2.05, 0.05, 0.05),
-        None,
-        false
+        &InsertRayOptions::default()
     ));
     t
+}
+
+/// OctoMap's defaults.
+const DEFAULTS: CastOptions = CastOptions {
+    ignore_unknown: false,
+    max_range: None,
+};
+
+/// OctoMap's defaults, but through unknown space.
+const IGNORE: CastOptions = CastOptions {
+    ignore_unknown: true,
+    max_range: None,
+};
+
+/// OctoMap's defaults, but with a maximum range.
+fn within(max_range: f64) -> CastOptions {
+    CastOptions {
+        max_range: Some(max_range),
+        ..DEFAULTS
+    }
+}
+
+/// `insertRay` with a maximum range.
+fn cut_at(max_range: f64) -> InsertRayOptions {
+    InsertRayOptions {
+        max_range: Some(max_range),
+        lazy: false,
+    }
 }
 
 fn p(x: f32, y: f32, z: f32) -> Point3<f32> {
@@ -23,7 +50,7 @@ fn p(x: f32, y: f32, z: f32) -> Point3<f32> {
 #[test]
 fn hits_the_first_occupied_voxel() {
     let t = wall_tree();
-    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(3.0, 0.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(3.0, 0.0, 0.0), &DEFAULTS);
     assert_eq!(r.stop, CastStop::Occupied);
     assert!(r.hit);
     assert_eq!(r.end, Some(p(2.05, 0.05, 0.05)));
@@ -34,10 +61,10 @@ fn hits_the_first_occupied_voxel() {
 fn origin_voxel_counts() {
     let t = wall_tree();
     // starting inside the occupied voxel: a hit at its centre
-    let r = cast_ray(&t, &p(2.01, 0.02, 0.09), &p(-1.0, 0.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &p(2.01, 0.02, 0.09), &p(-1.0, 0.0, 0.0), &DEFAULTS);
     assert_eq!((r.hit, r.end), (true, Some(p(2.05, 0.05, 0.05))));
     // starting in unknown space: stop there unless unknown is ignored
-    let r = cast_ray(&t, &p(0.05, 5.0, 0.05), &p(1.0, 0.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &p(0.05, 5.0, 0.05), &p(1.0, 0.0, 0.0), &DEFAULTS);
     assert_eq!(
         (r.stop, r.end),
         (CastStop::Unknown, Some(p(0.05, 5.05, 0.05)))
@@ -49,22 +76,22 @@ fn origin_voxel_counts() {
 fn unknown_max_range_and_ignore_unknown() {
     let t = wall_tree();
     // leaving the corridor sideways: unknown
-    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(0.0, 1.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(0.0, 1.0, 0.0), &DEFAULTS);
     assert_eq!(
         (r.stop, r.end),
         (CastStop::Unknown, Some(p(0.05, 0.15, 0.05)))
     );
     // max range: the voxel centre 1.0 away is beyond 0.95
-    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(1.0, 0.0, 0.0), false, 0.95);
+    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(1.0, 0.0, 0.0), &within(0.95));
     assert_eq!(
         (r.stop, r.end),
         (CastStop::MaxRange, Some(p(1.05, 0.05, 0.05)))
     );
     // max range 0 means none (OctoMap tests `maxRange > 0`)
-    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(1.0, 0.0, 0.0), false, 0.0);
+    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(1.0, 0.0, 0.0), &within(0.0));
     assert_eq!(r.stop, CastStop::Occupied);
     // ignoring unknown space, a ray along -y runs to the map boundary
-    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(0.0, -1.0, 0.0), true, -1.0);
+    let r = cast_ray(&t, &p(0.05, 0.05, 0.05), &p(0.0, -1.0, 0.0), &IGNORE);
     assert_eq!(r.stop, CastStop::MapBoundary);
     assert_eq!(r.key, Some(Key::new(32768, 0, 32768)));
     assert!(!r.hit);
@@ -80,18 +107,18 @@ fn bad_inputs_leave_end_untouched() {
         p(f32::INFINITY, 0.0, 0.0),
         p(f32::INFINITY, 1.0, -1.0),
     ] {
-        let r = cast_ray(&t, &o, &d, false, -1.0);
+        let r = cast_ray(&t, &o, &d, &DEFAULTS);
         assert_eq!(
             (r.stop, r.end, r.hit),
             (CastStop::BadDirection, None, false)
         );
     }
-    let r = cast_ray(&t, &p(1e6, 0.0, 0.0), &p(1.0, 0.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &p(1e6, 0.0, 0.0), &p(1.0, 0.0, 0.0), &DEFAULTS);
     assert_eq!((r.stop, r.end), (CastStop::OriginOutsideMap, None));
-    let r = cast_ray(&t, &p(f32::NAN, 0.0, 0.0), &p(1.0, 0.0, 0.0), true, -1.0);
+    let r = cast_ray(&t, &p(f32::NAN, 0.0, 0.0), &p(1.0, 0.0, 0.0), &IGNORE);
     assert_eq!(r.stop, CastStop::OriginOutsideMap);
     // a NaN component only disables its axis, as in OctoMap
-    let r = cast_ray(&t, &o, &p(f32::NAN, 1.0, 0.0), false, -1.0);
+    let r = cast_ray(&t, &o, &p(f32::NAN, 1.0, 0.0), &DEFAULTS);
     assert_eq!(
         (r.stop, r.end),
         (CastStop::Unknown, Some(p(0.05, 0.15, 0.05)))
@@ -103,7 +130,7 @@ fn a_walk_that_cannot_move_stops() {
     // the half-voxel is astronomically large and the direction subnormal: tMax overflows,
     // so only axes that cannot step get chosen; OctoMap would spin forever
     let t = OcTree::new(1e300).unwrap();
-    let r = cast_ray(&t, &p(0.0, 0.0, 0.0), &p(1e-45, 0.0, 0.0), true, -1.0);
+    let r = cast_ray(&t, &p(0.0, 0.0, 0.0), &p(1e-45, 0.0, 0.0), &IGNORE);
     assert_eq!(r.stop, CastStop::Stalled);
     assert!(!r.hit);
 }
@@ -112,13 +139,7 @@ fn a_walk_that_cannot_move_stops() {
 fn insert_ray_cuts_at_max_range() {
     let mut t = OcTree::new(0.1).unwrap();
     let o = p(0.05, 0.05, 0.05);
-    assert!(insert_ray(
-        &mut t,
-        &o,
-        &p(1.05, 0.05, 0.05),
-        Some(0.5),
-        false
-    ));
+    assert!(insert_ray(&mut t, &o, &p(1.05, 0.05, 0.05), &cut_at(0.5)));
     let c = t.converter().clone();
     // misses on 32768..=32772, no hit, the cut voxel untouched
     for x in 32768..=32772u16 {
@@ -130,23 +151,21 @@ fn insert_ray_cuts_at_max_range() {
         None
     );
     // Some(0) and negative: no cut (OctoMap's `maxrange > 0`)
-    assert!(insert_ray(
-        &mut t,
-        &o,
-        &p(1.05, 0.05, 0.05),
-        Some(0.0),
-        false
-    ));
+    assert!(insert_ray(&mut t, &o, &p(1.05, 0.05, 0.05), &cut_at(0.0)));
     assert_eq!(t.is_occupied(Key::new(32778, 32768, 32768)), Some(true));
     // outside the map: nothing happens
     let before = t.size();
-    assert!(!insert_ray(&mut t, &o, &p(1e6, 0.0, 0.0), None, false));
+    assert!(!insert_ray(
+        &mut t,
+        &o,
+        &p(1e6, 0.0, 0.0),
+        &InsertRayOptions::default()
+    ));
     assert!(!insert_ray(
         &mut t,
         &o,
         &p(f32::NAN, 0.0, 0.0),
-        Some(2.0),
-        false
+        &cut_at(2.0)
     ));
     assert_eq!(t.size(), before);
     assert_well_formed(&t, false);
@@ -174,10 +193,15 @@ proptest! {
             s ^= s << 13; s ^= s >> 7; s ^= s << 17;
             let a = (s % 628) as f32 / 100.0;
             let b = ((s >> 20) % 300) as f32 / 100.0 - 1.5;
-            insert_ray(&mut t, &origin, &p(1.2 * a.cos(), 1.2 * a.sin(), b * 0.5), None, false);
+            insert_ray(&mut t, &origin, &p(1.2 * a.cos(), 1.2 * a.sin(), b * 0.5), &InsertRayOptions::default());
         }
         let po = Point3::from(o);
-        let r = cast_ray(&t, &po, &Point3::from(d), ignore, max_range);
+        let r = cast_ray(
+            &t,
+            &po,
+            &Point3::from(d),
+            &CastOptions { ignore_unknown: ignore, max_range: Some(max_range) },
+        );
         let c = t.converter();
         if let (Some(k), Some(e)) = (r.key, r.end) {
             prop_assert_eq!(c.key_to_point_f32(&k), e);

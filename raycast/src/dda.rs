@@ -127,6 +127,13 @@ pub(crate) fn sub_f32(a: &Point3<f32>, b: &Point3<f32>) -> [f32; 3] {
     [a.x - b.x, a.y - b.y, a.z - b.z]
 }
 
+/// Whether every coordinate of `p` is finite: points with a NaN or infinite one are skipped
+/// and counted, never inserted.
+#[inline]
+pub(crate) fn is_finite(p: &Point3<f32>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
+}
+
 /// The key of an `f32` point, checked like OctoMap's `coordToKeyChecked(point3d)`.
 #[inline(always)]
 pub(crate) fn key_of(conv: &KeyConverter, p: &Point3<f32>) -> Option<Key> {
@@ -168,7 +175,12 @@ pub(crate) struct RaySetup {
     pub(crate) length: f64,
     pub(crate) budget: u32,
     /// The `f32` length is finite and positive and every direction component finite: the
-    /// walk then provably ends within `budget` steps (see [`try_walk_ray_codes`]).
+    /// walk then provably ends within `budget` steps. Each axis `i` is stepped at most
+    /// `len·|dᵢ|/res + 1` times before its `tMax` passes the length, which is within two of
+    /// the key distance on that axis, so the walk ends long before the budget of the
+    /// Manhattan distance plus [`STEP_MARGIN`]; only ill-conditioned rays (a zero, infinite
+    /// or NaN length) can degenerate. Such walks need not buffer their keys (tested in
+    /// `dda_tests`, every walk against [`walk_ray_codes`]).
     pub(crate) well_conditioned: bool,
 }
 
@@ -441,42 +453,6 @@ impl AxisStep {
         ((((code & self.keep) | self.fill).wrapping_add(self.add)) & self.mask)
             | (code & !self.mask)
     }
-}
-
-/// [`walk_ray_codes`] for set-building callers that cannot take keys back: `None` (nothing
-/// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
-/// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
-/// the brick's visited voxels (bit `code & 63`): `flush` runs once per brick entered, not once
-/// per voxel, after the walk (which records the bricks in `buf`, kept by the caller from ray
-/// to ray). `origin_key` must be `key_of(conv, origin)`, computed once for all the rays of a
-/// scan.
-///
-/// Why it is safe to visit without buffering the keys: with a finite positive length and
-/// finite direction, each axis `i` is stepped at most `len·|dᵢ|/res + 1` times before its
-/// `tMax` passes the length, which is within two of the key distance on that axis, so the walk
-/// ends long before the budget of the Manhattan distance plus 16. Only ill-conditioned rays (a
-/// zero, infinite or NaN length) can degenerate, and those are the ones refused here, so
-/// [`RayWalk::Degenerate`] never follows a visit.
-#[cfg(test)]
-pub(crate) fn try_walk_ray_bricks<F>(
-    conv: &KeyConverter,
-    origin: &Point3<f32>,
-    origin_key: Option<Key>,
-    end: &Point3<f32>,
-    buf: &mut Vec<(u64, u64)>,
-    mut flush: F,
-) -> Option<RayWalk>
-where
-    F: crate::brickset::BrickSink,
-{
-    let r = match setup_from(conv, origin, origin_key, end) {
-        Ok(r) => r,
-        Err(w) => return Some(w),
-    };
-    if !r.well_conditioned {
-        return None;
-    }
-    Some(crate::lanes::BrickWalk::start(&r, buf).finish_into(buf, &mut flush))
 }
 
 /// OctoMap's `computeRayKeys(origin, end, ray)`: fill `ray` with the keys of the voxels the

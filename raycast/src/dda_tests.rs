@@ -1,4 +1,5 @@
 use super::*;
+use octoquant_octree::Brick;
 use proptest::prelude::*;
 
 fn conv(res: f64) -> KeyConverter {
@@ -269,6 +270,36 @@ fn code_walk_visits_the_same_voxels_as_the_key_walk() {
     }
 }
 
+/// [`walk_ray_codes`] for set-building callers that cannot take keys back: `None` (nothing
+/// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
+/// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
+/// the brick's visited voxels (bit `code & 63`): `flush` runs once per brick entered, not once
+/// per voxel, after the walk (which records the bricks in `buf`, kept by the caller from ray
+/// to ray). `origin_key` must be `key_of(conv, origin)`, computed once for all the rays of a
+/// scan. It is safe to visit without buffering the keys: only the rays refused here can
+/// degenerate (see `RaySetup::well_conditioned`), so [`RayWalk::Degenerate`] never follows a
+/// visit.
+fn try_walk_ray_bricks<F>(
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    origin_key: Option<Key>,
+    end: &Point3<f32>,
+    buf: &mut Vec<Brick>,
+    mut flush: F,
+) -> Option<RayWalk>
+where
+    F: crate::brickset::BrickSink,
+{
+    let r = match setup_from(conv, origin, origin_key, end) {
+        Ok(r) => r,
+        Err(w) => return Some(w),
+    };
+    if !r.well_conditioned {
+        return None;
+    }
+    Some(crate::lanes::BrickWalk::start(&r, buf).finish_into(buf, &mut flush))
+}
+
 /// The unbuffered walk agrees with the buffered one whenever it accepts a ray, never ends
 /// `Degenerate` after a visit, and refuses only rays whose length or direction is not finite
 /// and positive.
@@ -278,20 +309,14 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
     let mut got = Vec::new();
     let mut walked = Vec::new();
     let mut buf = Vec::new();
-    match try_walk_ray_bricks(
-        conv,
-        &o,
-        key_of(conv, &o),
-        &e,
-        &mut buf,
-        |brick: u64, mut bits: u64| {
-            got.push(brick);
-            while bits != 0 {
-                walked.push((brick << 6) | bits.trailing_zeros() as u64);
-                bits &= bits - 1;
-            }
-        },
-    ) {
+    match try_walk_ray_bricks(conv, &o, key_of(conv, &o), &e, &mut buf, |b: Brick| {
+        got.push(b.code);
+        let mut bits = b.voxels;
+        while bits != 0 {
+            walked.push((b.code << 6) | bits.trailing_zeros() as u64);
+            bits &= bits - 1;
+        }
+    }) {
         Some(t) => {
             // bricks are flushed as the walk leaves them: the same voxels, brick by brick
             let mut runs = want.iter().map(|c| c >> 6).collect::<Vec<_>>();
@@ -311,7 +336,7 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
                 return Err(format!("{o:?} -> {e:?}: accepted but degenerate"));
             }
             // the eight-lane walk skips its end checks until three steps before the Manhattan
-            // distance (`lanes_avx512::first_stop`): no accepted walk may stop earlier
+            // distance (`lanes::refill::first_stop`): no accepted walk may stop earlier
             if let Ok(r) = setup_from(conv, &o, key_of(conv, &o), &e) {
                 let manhattan = (r.budget - STEP_MARGIN) as usize;
                 if want.len() + 3 < manhattan {

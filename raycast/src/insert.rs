@@ -1,7 +1,8 @@
 //! Inserting a scan into a tree: OctoMap's `insertPointCloud` and `insertPointCloudRays`.
 
 use crate::dda::{compute_ray_keys, key_of, KeyRay};
-use crate::update::{compute_discrete_update, compute_update, ScanStats, ScanUpdate};
+use crate::stats::ScanStats;
+use crate::update::{compute_discrete_update, compute_update, ScanUpdate};
 use nalgebra::Point3;
 use octoquant_octree::{OcTree, Update};
 
@@ -19,8 +20,19 @@ pub struct InsertOptions {
     /// origin count as hits).
     pub max_range: Option<f64>,
     /// Reduce the scan to one ray per endpoint voxel, cast to the voxel centre (OctoMap's
-    /// `discretize`; see [`crate::discretize`]).
+    /// `discretize`; see [`discretize()`](crate::discretize())).
     pub discretize: bool,
+    /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
+    /// [`OcTree::update_inner_occupancy`] once after the last scan.
+    pub lazy: bool,
+}
+
+/// How [`apply_update`] and [`insert_point_cloud_rays`] update the tree; `Default` gives
+/// OctoMap's default (`lazy_eval = false`). Neither takes a range or `discretize`: the key
+/// sets of the first are computed already, and OctoMap's `insertPointCloudRays` ignores its
+/// range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ApplyOptions {
     /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
     /// [`OcTree::update_inner_occupancy`] once after the last scan.
     pub lazy: bool,
@@ -31,7 +43,8 @@ pub struct InsertOptions {
 ///
 /// The order differs from OctoMap's hash-set order, but within one scan the voxels are
 /// disjoint and each is updated once, so the final tree is the same.
-pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) {
+pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, options: &ApplyOptions) {
+    let lazy = options.lazy;
     // batched by brick: consecutive bricks share their path from the root, which Morton
     // order maximises
     tree.update_bricks(update.free_bricks(), Update::Miss, lazy);
@@ -70,7 +83,7 @@ pub fn insert_point_cloud_reusing(
     } else {
         compute_update(&conv, points, origin, options.max_range, buffers)
     };
-    apply_update(tree, buffers, options.lazy);
+    apply_update(tree, buffers, &ApplyOptions { lazy: options.lazy });
     stats
 }
 
@@ -85,8 +98,9 @@ pub fn insert_point_cloud_rays(
     tree: &mut OcTree,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
-    lazy: bool,
+    options: &ApplyOptions,
 ) -> InsertStats {
+    let lazy = options.lazy;
     let conv = tree.converter().clone();
     let mut stats = InsertStats {
         points: points.len(),
@@ -195,7 +209,7 @@ mod tests {
         let mut tree = OcTree::new(0.1).unwrap();
         let origin = Point3::new(0.05f32, 0.05, 0.05);
         let pts = vec![Point3::new(0.55f32, 0.05, 0.05); 3];
-        let s = insert_point_cloud_rays(&mut tree, &pts, &origin, false);
+        let s = insert_point_cloud_rays(&mut tree, &pts, &origin, &ApplyOptions::default());
         assert_eq!(s.rays, 3);
         assert_eq!(s.free, 15);
         let conv = tree.converter().clone();

@@ -1,23 +1,44 @@
 //! Rays and scan insertion for the octoquant octree, bit-identical to OctoMap 1.9.7.
 //!
+//! Entry points:
 //! - [`walk_ray_keys`] / [`compute_ray_keys`]: the voxels a segment crosses, by OctoMap's 3D
 //!   DDA (`computeRayKeys`), into a visitor or a reusable [`KeyRay`].
-//! - [`cast_ray`]: the first occupied voxel along a ray (`castRay`), as a [`CastResult`];
-//!   [`insert_ray`]: misses along one ray and a hit at its end (`insertRay`).
+//! - [`cast_ray`]: the first occupied voxel along a ray (`castRay`) under [`CastOptions`], as a
+//!   [`CastResult`]; [`insert_ray`]: misses along one ray and a hit at its end (`insertRay`)
+//!   under [`InsertRayOptions`].
 //! - [`compute_update`] / [`compute_discrete_update`]: a scan's disjoint free and occupied key
 //!   sets (`computeUpdate`, `computeDiscreteUpdate`) in a reusable [`ScanUpdate`], sorted by
-//!   Morton code instead of hashed; [`discretize`] alone. [`compute_update_grid`]: the same
-//!   sets for a depth image's points, faster, given their [`PixelGrid`].
-//! - [`insert_point_cloud`]: a scan into an [`OcTree`](octoquant_octree::OcTree) under [`InsertOptions`]
-//!   (`insertPointCloud`); [`insert_point_cloud_rays`] for graph2tree's `-simple` mode.
+//!   Morton code instead of hashed and kept as [`Brick`]s of 4x4x4 voxels; [`discretize()`]
+//!   alone. [`compute_update_grid`]: the same sets for a depth image's points, faster, given
+//!   their [`PixelGrid`].
+//! - [`insert_point_cloud`]: a scan into an [`OcTree`](octoquant_octree::OcTree) under
+//!   [`InsertOptions`] (`insertPointCloud`); [`apply_update`] for sets already computed and
+//!   [`insert_point_cloud_rays`] for graph2tree's `-simple` mode, under [`ApplyOptions`].
 //!
 //! Everything takes `f32` points (OctoMap's `point3d`) in the map frame and never panics:
-//! NaN/infinite and out-of-map points are skipped and counted in [`ScanStats`].
+//! NaN/infinite and out-of-map points are skipped and counted in [`ScanStats`]. Optional
+//! ranges are `Option<f64>` (`None` for OctoMap's `-1`).
+//!
+//! Layout (`src/`), from the entry points down:
+//! - `insert.rs`: a scan into a tree; `cast.rs`: one ray into or through a tree.
+//! - `update.rs`: a scan's key sets; `discretize.rs`: OctoMap's `discretize` (one point per
+//!   voxel); `stats.rs`: the counts of a scan; `brickset.rs`: the key sets as hashed bricks.
+//! - `pixel_grid.rs`: which stretch of a depth image's rays their neighbours cover;
+//!   `setups.rs`: the DDA set-ups of many rays at once.
+//! - `dda.rs`: OctoMap's DDA, one ray at a time, and the ray set-up every walk starts from;
+//!   `bresenham.rs`: the opt-in Bresenham lines.
+//! - `lanes/`: many walks at once in the lanes of SIMD registers (`dispatch.rs` picks the
+//!   widest path: `avx512.rs`, `avx2.rs`, `sse2.rs` or `brick_walk.rs`, one at a time; the
+//!   Bresenham lines in `bresenham_avx512.rs`; the depth-image replay in
+//!   `replay_avx512.rs`; `refill.rs` and `runs.rs` shared by the AVX2 and AVX-512 lanes).
+//! - `cpu.rs`: the run-time checks of the CPU's vector extensions, the one place that asks.
 //!
 //! ```
 //! use nalgebra::Point3;
 //! use octoquant_octree::OcTree;
-//! use octoquant_raycast::{cast_ray, compute_ray_keys, insert_point_cloud, InsertOptions, KeyRay};
+//! use octoquant_raycast::{
+//!     cast_ray, compute_ray_keys, insert_point_cloud, CastOptions, InsertOptions, KeyRay,
+//! };
 //!
 //! let mut tree = OcTree::new(0.1).unwrap();
 //! let origin = Point3::new(0.05f32, 0.05, 0.05);
@@ -34,46 +55,47 @@
 //! let stats = insert_point_cloud(&mut tree, &wall, &origin, &InsertOptions::default());
 //! assert_eq!(stats.occupied, 400);
 //!
-//! let hit = cast_ray(&tree, &origin, &Point3::new(1.0, 0.0, 0.0), false, -1.0);
+//! let hit = cast_ray(&tree, &origin, &Point3::new(1.0, 0.0, 0.0), &CastOptions::default());
 //! assert!(hit.hit);
 //! assert_eq!(hit.end, Some(Point3::new(2.05, 0.05, 0.05)));
 //! ```
 #![deny(missing_docs)]
-// Audited exceptions: the calls into the AVX2 and AVX-512 ray walks after the run-time checks
-// that the CPU has them (`lanes_avx2::walk_quads`, `lanes_avx512::walk_octs`,
-// `bresenham_avx512::walk_lines`, `lanes_avx512::replay_rays` and its loads and stores of
-// whole arrays, `setups::set_up`'s call of its AVX-512 build), and in tests the call of the
-// AVX-512 run merge after the same check (`lanes_avx512::merge_runs_wide`). Everything else is
-// safe code.
+// Audited exceptions: the calls into the AVX2 and AVX-512 code after the run-time checks of
+// `cpu.rs` that the CPU has it: `lanes/avx2.rs` (`walk_quads`), `lanes/avx512.rs`
+// (`walk_octs`), `lanes/bresenham_avx512.rs` (`walk_lines`), `lanes/replay_avx512.rs`
+// (`replay_rays`, and its loads and stores of whole arrays) and `setups.rs` (`set_up`'s call of
+// its AVX-512 build); in tests, the call of the AVX-512 run merge after the same check
+// (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;
-#[cfg(target_arch = "x86_64")]
-mod bresenham_avx512;
 mod brickset;
 mod cast;
+#[cfg(target_arch = "x86_64")]
+mod cpu;
 mod dda;
+mod discretize;
 mod insert;
 mod lanes;
-#[cfg(target_arch = "x86_64")]
-mod lanes_avx2;
-#[cfg(target_arch = "x86_64")]
-mod lanes_avx512;
 mod pixel_grid;
 mod setups;
+mod stats;
 mod update;
 
 pub use bresenham::walk_bresenham_keys;
-pub use cast::{cast_ray, insert_ray, CastResult, CastStop};
+pub use cast::{cast_ray, insert_ray, CastOptions, CastResult, CastStop, InsertRayOptions};
 pub use dda::{
     compute_ray_keys, walk_ray_codes, walk_ray_keys, KeyRay, RayWalk, OCTOMAP_KEY_RAY_CAPACITY,
 };
+pub use discretize::discretize;
 pub use insert::{
     apply_update, insert_point_cloud, insert_point_cloud_rays, insert_point_cloud_reusing,
-    InsertOptions, InsertStats,
+    ApplyOptions, InsertOptions, InsertStats,
 };
+pub use octoquant_octree::Brick;
 pub use pixel_grid::{PinholeCamera, PixelGrid};
+pub use stats::ScanStats;
 pub use update::{
-    compute_discrete_update, compute_update, compute_update_grid, compute_update_with, discretize,
-    RayModel, ScanStats, ScanUpdate,
+    compute_discrete_update, compute_update, compute_update_grid, compute_update_with, RayModel,
+    ScanUpdate,
 };

@@ -43,7 +43,7 @@
 
 use crate::dda::{min_axis, step_budget, RaySetup};
 #[cfg(target_arch = "x86_64")]
-use crate::lanes_avx512::REPLAY_RAYS;
+use crate::lanes::REPLAY_RAYS;
 #[cfg(not(target_arch = "x86_64"))]
 const REPLAY_RAYS: usize = 16;
 use nalgebra::Rotation3;
@@ -445,7 +445,7 @@ fn jump_with(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>, wide: bool) -> u
         }
         #[cfg(target_arch = "x86_64")]
         let done = wide
-            .then(|| crate::lanes_avx512::replay_rays(&mut t, &d, &step, &until, &mut n))
+            .then(|| crate::lanes::replay_rays(&mut t, &d, &step, &until, &mut n))
             .flatten();
         #[cfg(not(target_arch = "x86_64"))]
         let done: Option<u32> = None;

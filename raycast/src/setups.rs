@@ -190,7 +190,7 @@ impl Shared {
 /// the CPU has AVX-512, else with the target's own vectors.
 pub(crate) fn set_up(p: &Pending, s: &Shared, out: &mut Setups) {
     #[cfg(target_arch = "x86_64")]
-    if crate::lanes_avx512::has_lanes() {
+    if crate::cpu::has_avx512() {
         // SAFETY: `set_up_avx512` needs AVX-512 Foundation, found just above; it is the
         // safe `set_up_lanes` compiled for it.
         #[allow(unsafe_code)]

@@ -10,43 +10,14 @@
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{coded, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::dda::{coded, is_finite, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::discretize::discretize_into;
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
 use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
+use crate::stats::ScanStats;
 use nalgebra::Point3;
-use octoquant_octree::{Key, KeyConverter};
+use octoquant_octree::{Brick, Key, KeyConverter};
 use std::sync::OnceLock;
-
-/// Counts gathered while turning a scan into key sets (and while inserting it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct ScanStats {
-    /// Points given.
-    pub points: usize,
-    /// Points with a NaN or infinite coordinate: skipped, never inserted.
-    pub non_finite: usize,
-    /// Finite points outside the map (`[-32768·res, 32768·res)` per axis). OctoMap drops them
-    /// (their ray and their hit both fail), and so do we; with `discretize`, OctoMap's
-    /// unchecked key wraps them into the map instead, and that is reproduced (they are still
-    /// counted here).
-    pub outside_map: usize,
-    /// With `discretize`: points whose voxel was already seen in this scan (no ray of their
-    /// own).
-    pub duplicates: usize,
-    /// Rays whose keys were computed (both ends inside the map), max-range rays included.
-    pub rays: usize,
-    /// Rays that could not be computed because an end lies outside the map (or the float
-    /// arithmetic degenerated); their free space is lost, exactly as in OctoMap.
-    pub failed_rays: usize,
-    /// Points beyond the maximum range: their ray was cut and they add no occupied voxel.
-    pub max_range_rays: usize,
-    /// Rays of a depth image walked only from where their neighbours stop covering them (see
-    /// [`compute_update_grid`]); the key sets are the same either way.
-    pub heads_skipped: usize,
-    /// Distinct free voxels (after removing the occupied ones), or free updates applied.
-    pub free: usize,
-    /// Distinct occupied voxels, or hit updates applied.
-    pub occupied: usize,
-}
 
 /// The free and occupied keys of one scan, plus reusable scratch space.
 ///
@@ -66,10 +37,10 @@ pub struct ScanUpdate {
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
     /// The free voxels: sorted bricks, occupied voxels masked out, no empty mask.
-    bricks: Vec<(u64, u64)>,
+    bricks: Vec<Brick>,
     /// The occupied voxels: sorted bricks.
-    occ_bricks: Vec<(u64, u64)>,
-    merge_tmp: Vec<(u64, u64)>,
+    occ_bricks: Vec<Brick>,
+    merge_tmp: Vec<Brick>,
     /// What the rays of a depth-image frame may skip.
     plan: SkipPlan,
     centres: Vec<Point3<f32>>,
@@ -97,13 +68,13 @@ impl ScanUpdate {
     /// The free voxels as bricks of 4x4x4 voxels, sorted by code, for
     /// [`octoquant_octree::OcTree::update_bricks`]: the same voxels as [`ScanUpdate::free`]
     /// without listing them one by one.
-    pub fn free_bricks(&self) -> &[(u64, u64)] {
+    pub fn free_bricks(&self) -> &[Brick] {
         &self.bricks
     }
 
     /// The occupied voxels as bricks of 4x4x4 voxels, sorted by code (see
     /// [`ScanUpdate::free_bricks`]).
-    pub fn occupied_bricks(&self) -> &[(u64, u64)] {
+    pub fn occupied_bricks(&self) -> &[Brick] {
         &self.occ_bricks
     }
 
@@ -137,8 +108,8 @@ struct Worker {
     ray: RayScratch,
     stats: ScanStats,
     /// The worker's sets as sorted brick lists, for the merge.
-    free_sorted: Vec<(u64, u64)>,
-    occ_sorted: Vec<(u64, u64)>,
+    free_sorted: Vec<Brick>,
+    occ_sorted: Vec<Brick>,
 }
 
 /// Per-thread buffers of one ray, reused from ray to ray.
@@ -164,7 +135,7 @@ struct RayScratch {
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
     #[cfg(target_arch = "x86_64")]
-    line_lanes: crate::lanes_avx512::OctScratch,
+    line_lanes: crate::lanes::OctScratch,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
@@ -180,12 +151,6 @@ const PARALLEL_BLOCK: usize = 256;
 #[inline(always)]
 pub(crate) fn morton(key: Key) -> u64 {
     key.morton()
-}
-
-/// The inverse of [`morton`].
-#[inline]
-pub(crate) fn key_from_morton(code: u64) -> Key {
-    Key::from_morton(code)
 }
 
 /// The end of a max-range ray, as OctoMap computes it in `computeUpdate` and `insertRay`:
@@ -306,7 +271,7 @@ fn flush_pending(
 }
 
 /// Walk the queued rays into `set` and empty the queue, counting in `scratch.degenerate` the
-/// walks that degenerated (none can: see [`crate::dda`]'s brick walk).
+/// walks that degenerated (none can: see `RaySetup::well_conditioned`).
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.degenerate += crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, set);
     scratch.batch.clear();
@@ -323,8 +288,7 @@ fn walk_tails(set: &mut BrickSet, scratch: &mut RayScratch) {
 /// CPU has AVX-512, else one after another.
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
     #[cfg(target_arch = "x86_64")]
-    let done =
-        crate::bresenham_avx512::walk_lines(&scratch.lines, &mut scratch.line_lanes, set).is_some();
+    let done = crate::lanes::walk_lines(&scratch.lines, &mut scratch.line_lanes, set).is_some();
     #[cfg(not(target_arch = "x86_64"))]
     let done = false;
     if !done {
@@ -348,45 +312,48 @@ fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
 fn emit(out: &mut ScanUpdate, stats: &mut ScanStats) {
     let occ = &out.occ_bricks;
     let mut j = 0;
-    out.bricks.retain_mut(|(b, m)| {
-        while j < occ.len() && occ[j].0 < *b {
+    out.bricks.retain_mut(|b| {
+        while j < occ.len() && occ[j].code < b.code {
             j += 1;
         }
-        if j < occ.len() && occ[j].0 == *b {
-            *m &= !occ[j].1;
+        if j < occ.len() && occ[j].code == b.code {
+            b.voxels &= !occ[j].voxels;
         }
-        *m != 0
+        b.voxels != 0
     });
-    let count = |bricks: &[(u64, u64)]| bricks.iter().map(|b| b.1.count_ones() as usize).sum();
+    let count = |bricks: &[Brick]| bricks.iter().map(|b| b.voxels.count_ones() as usize).sum();
     stats.free = count(&out.bricks);
     stats.occupied = count(&out.occ_bricks);
 }
 
 /// The keys of sorted bricks, in Morton order.
-fn brick_keys(bricks: &[(u64, u64)]) -> Vec<Key> {
+fn brick_keys(bricks: &[Brick]) -> Vec<Key> {
     let mut keys = Vec::new();
-    for &(b, m) in bricks {
-        push_brick_keys(b, m, &mut keys);
+    for &b in bricks {
+        push_brick_keys(b, &mut keys);
     }
     keys
 }
 
 /// `acc := acc ∪ other` for brick lists sorted by brick (each brick once), OR-ing the bits of
 /// bricks in both; `tmp` is scratch.
-fn merge_into(acc: &mut Vec<(u64, u64)>, other: &[(u64, u64)], tmp: &mut Vec<(u64, u64)>) {
+fn merge_into(acc: &mut Vec<Brick>, other: &[Brick], tmp: &mut Vec<Brick>) {
     tmp.clear();
     tmp.reserve(acc.len() + other.len());
     let (mut i, mut j) = (0, 0);
     while i < acc.len() && j < other.len() {
         let (a, b) = (acc[i], other[j]);
-        if a.0 < b.0 {
+        if a.code < b.code {
             tmp.push(a);
             i += 1;
-        } else if b.0 < a.0 {
+        } else if b.code < a.code {
             tmp.push(b);
             j += 1;
         } else {
-            tmp.push((a.0, a.1 | b.1));
+            tmp.push(Brick {
+                code: a.code,
+                voxels: a.voxels | b.voxels,
+            });
             i += 1;
             j += 1;
         }
@@ -571,11 +538,6 @@ fn sample_lengths(
     plan.finish();
 }
 
-#[inline]
-fn is_finite(p: &Point3<f32>) -> bool {
-    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
-}
-
 /// OctoMap's `computeUpdate(scan, origin, free, occupied, maxrange)` (no bounding box).
 ///
 /// For each point: if it is within `max_range` of `origin` (Euclidean, `f32` differences,
@@ -749,64 +711,9 @@ fn compute(
     stats
 }
 
-/// Reduce a scan to one point per voxel, as OctoMap's `computeDiscreteUpdate` does before its
-/// `computeUpdate`: each point's key is taken unchecked (`coordToKey`; points outside the map
-/// wrap around into it, as in OctoMap), and the centre (`f32`) of every key not seen before
-/// is appended to `centres`, in first-seen order.
-///
-/// Non-finite points are skipped and counted in the returned statistics (OctoMap would map a
-/// NaN coordinate to key 32768; we refuse it instead); `outside_map` counts the wrapped ones
-/// and `duplicates` the points whose voxel was already taken. `centres` is cleared first.
-pub fn discretize(
-    conv: &KeyConverter,
-    points: &[Point3<f32>],
-    centres: &mut Vec<Point3<f32>>,
-) -> ScanStats {
-    let mut order = Vec::new();
-    discretize_into(conv, points, centres, &mut order)
-}
-
-fn discretize_into(
-    conv: &KeyConverter,
-    points: &[Point3<f32>],
-    centres: &mut Vec<Point3<f32>>,
-    order: &mut Vec<(u64, usize)>,
-) -> ScanStats {
-    centres.clear();
-    order.clear();
-    let mut stats = ScanStats {
-        points: points.len(),
-        ..ScanStats::default()
-    };
-    for (i, p) in points.iter().enumerate() {
-        if !is_finite(p) {
-            stats.non_finite += 1;
-            continue;
-        }
-        let pd = Point3::new(p.x as f64, p.y as f64, p.z as f64);
-        if conv.point_to_key(&pd).is_none() {
-            stats.outside_map += 1;
-        }
-        let k = conv.point_to_key_unchecked(&pd);
-        order.push((morton(k), i));
-    }
-    // first occurrence of every key: sort by (code, index), keep run heads, restore order
-    order.sort_unstable();
-    order.dedup_by_key(|e| e.0);
-    let kept = order.len();
-    stats.duplicates = points.len() - stats.non_finite - kept;
-    order.sort_unstable_by_key(|e| e.1);
-    centres.extend(
-        order
-            .iter()
-            .map(|&(c, _)| conv.key_to_point_f32(&key_from_morton(c))),
-    );
-    stats
-}
-
-/// OctoMap's `computeDiscreteUpdate`: [`discretize`] the points, then [`compute_update`] on the
-/// voxel centres with the same, un-discretized origin (so rays go to centres and `max_range`
-/// is measured to the centre). Clears `out` first.
+/// OctoMap's `computeDiscreteUpdate`: [`discretize`](crate::discretize()) the points, then
+/// [`compute_update`] on the voxel centres with the same, un-discretized origin (so rays go to
+/// centres and `max_range` is measured to the centre). Clears `out` first.
 pub fn compute_discrete_update(
     conv: &KeyConverter,
     points: &[Point3<f32>],

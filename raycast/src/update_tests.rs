@@ -1,5 +1,6 @@
 use super::*;
 use crate::dda::{compute_ray_keys, KeyRay};
+use crate::discretize::discretize;
 use proptest::prelude::*;
 use std::collections::HashSet;
 
@@ -62,14 +63,14 @@ fn morton_round_trips_and_interleaves() {
         s ^= s << 17;
         let k = Key::new(s as u16, (s >> 16) as u16, (s >> 32) as u16);
         assert_eq!(morton(k), naive(k), "{k:?}");
-        assert_eq!(key_from_morton(morton(k)), k);
+        assert_eq!(Key::from_morton(morton(k)), k);
     }
     for k in [
         Key::new(0, 0, 0),
         Key::new(65535, 65535, 65535),
         Key::new(1, 0, 65535),
     ] {
-        assert_eq!(key_from_morton(morton(k)), k);
+        assert_eq!(Key::from_morton(morton(k)), k);
     }
     // the tree's child order: x is the lowest bit of a triple, z the highest
     assert!(morton(Key::new(1, 0, 0)) < morton(Key::new(0, 1, 0)));
@@ -154,32 +155,6 @@ fn max_range_zero_and_nan() {
     assert_eq!((s.occupied, s.free), (2, 9));
 }
 
-#[test]
-fn discretize_keeps_first_seen_centres() {
-    let c = conv(0.1);
-    let pts = [
-        Point3::new(0.31f32, 0.0, 0.0),
-        Point3::new(-0.01, 0.0, 0.0),
-        Point3::new(0.39, 0.05, 0.01),
-        Point3::new(f32::NAN, 0.0, 0.0),
-        Point3::new(-0.05, 0.02, 0.03),
-    ];
-    let mut centres = Vec::new();
-    let s = discretize(&c, &pts, &mut centres);
-    assert_eq!(
-        centres,
-        vec![
-            Point3::new(0.35f32, 0.05, 0.05),
-            Point3::new(-0.05, 0.05, 0.05)
-        ]
-    );
-    assert_eq!((s.points, s.non_finite, s.duplicates), (5, 1, 2));
-    // outside the map the unchecked key wraps, as in OctoMap
-    let s = discretize(&c, &[Point3::new(3276.85f32, 0.0, 0.0)], &mut centres);
-    assert_eq!(s.outside_map, 1);
-    assert_eq!(centres, vec![Point3::new(-3276.75f32, 0.05, 0.05)]);
-}
-
 fn point_strategy() -> impl Strategy<Value = Point3<f32>> {
     prop_oneof![
         30 => prop::array::uniform3(-2.0f32..2.0).prop_map(Point3::from),
@@ -235,15 +210,15 @@ proptest! {
         prop_assert!(sorted_by_morton(out.occupied()));
         // the bricks the tree takes: strictly sorted, none empty, the keys' bricks
         for bricks in [out.free_bricks(), out.occupied_bricks()] {
-            prop_assert!(bricks.windows(2).all(|w| w[0].0 < w[1].0));
-            prop_assert!(bricks.iter().all(|b| b.1 != 0));
+            prop_assert!(bricks.windows(2).all(|w| w[0].code < w[1].code));
+            prop_assert!(bricks.iter().all(|b| b.voxels != 0));
         }
         for (bricks, keys) in [(out.free_bricks(), out.free()), (out.occupied_bricks(), out.occupied())] {
-            let n: u32 = bricks.iter().map(|b| b.1.count_ones()).sum();
+            let n: u32 = bricks.iter().map(|b| b.voxels.count_ones()).sum();
             prop_assert_eq!(n as usize, keys.len());
             for k in keys {
                 let code = morton(*k);
-                prop_assert!(bricks.iter().any(|b| b.0 == code >> 6 && b.1 >> (code & 63) & 1 == 1));
+                prop_assert!(bricks.iter().any(|b| b.code == code >> 6 && b.voxels >> (code & 63) & 1 == 1));
             }
         }
         prop_assert_eq!((counts.0, counts.1), (out.free().len(), out.occupied().len()));

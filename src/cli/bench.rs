@@ -1,9 +1,9 @@
 //! `octoquant bench INPUT... --res R`: the insertion modes side by side on the same frames,
 //! optionally against the C++ OctoMap reference program, as ratios.
 
+use super::args::{InputArgs, TreeArgs};
 use super::json_number;
 use anyhow::{bail, Context, Result};
-use octoquant::formats::{read_frames, ReadOptions};
 use octoquant::octree::io::write_bt;
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
 use octoquant::Frame;
@@ -12,14 +12,8 @@ use std::process::Command;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input files, as for `octoquant map`.
-    inputs: Vec<PathBuf>,
-    /// Leaf size in metres.
-    #[arg(long, default_value_t = 0.1)]
-    res: f64,
-    /// Maximum range in metres.
-    #[arg(long)]
-    max_range: Option<f64>,
+    #[command(flatten)]
+    tree: TreeArgs,
     /// Threads for the multi-threaded runs (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -29,9 +23,8 @@ pub struct Args {
     /// Use only the first N frames.
     #[arg(long)]
     frames: Option<usize>,
-    /// Use only every N-th pixel of TUM depth images.
-    #[arg(long, default_value_t = 1)]
-    pixel_step: u32,
+    #[command(flatten)]
+    input: InputArgs,
     /// Repeat every run (each mode, and OctoMap) this many times, interleaved, and take
     /// medians over all of them: single-frame inputs then still give a stable figure.
     #[arg(long, default_value_t = 3)]
@@ -42,7 +35,7 @@ pub struct Args {
 }
 
 struct Run {
-    name: String,
+    mode: InsertMode,
     threads: usize,
     /// Frame times of every repetition.
     frame_ms: Vec<f64>,
@@ -75,7 +68,7 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
-fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) -> Result<Run> {
+fn run_mode(frames: &[Frame], opts: &MapperOptions, threads: usize) -> Result<Run> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -98,7 +91,7 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, name: &str, threads: usize) 
     write_bt(tree, &mut bt)?;
     let tree = mapper.into_tree();
     Ok(Run {
-        name: name.into(),
+        mode: opts.mode,
         threads,
         frame_ms,
         ray_s: vec![st.total.ray_seconds],
@@ -126,24 +119,29 @@ impl Run {
     }
 }
 
-/// Time OctoMap's insertPointCloud per frame with the reference program; returns the frame
-/// times in ms and the .bt it wrote.
+/// Time OctoMap's insertPointCloud per frame with the reference program, at the resolution
+/// and maximum range of `opts`, with `discretize` when its mode is
+/// [`InsertMode::Discretize`]; returns the frame times in ms and the .bt it wrote.
 fn run_reference(
     prog: &Path,
     frames_file: &Path,
-    a: &Args,
-    discretize: bool,
+    opts: &MapperOptions,
     dir: &Path,
 ) -> Result<(Vec<f64>, Vec<u8>)> {
+    let discretize = opts.mode == InsertMode::Discretize;
     let bt = dir.join(if discretize { "ref_disc.bt" } else { "ref.bt" });
     let mut ins = format!("insert {}", frames_file.display());
-    if let Some(m) = a.max_range {
+    if let Some(m) = opts.max_range {
         ins.push_str(&format!(" maxrange {m:.17e}"));
     }
     if discretize {
         ins.push_str(" discretize");
     }
-    let script = format!("tree {:.17e}\n{ins}\nwrite_bt {}\n", a.res, bt.display());
+    let script = format!(
+        "tree {:.17e}\n{ins}\nwrite_bt {}\n",
+        opts.resolution,
+        bt.display()
+    );
     let sp = dir.join("bench_script.txt");
     std::fs::write(&sp, script)?;
     let out = Command::new(prog)
@@ -169,35 +167,25 @@ fn run_reference(
 }
 
 pub fn run(a: &Args) -> Result<()> {
-    if a.inputs.is_empty() {
+    if a.input.inputs.is_empty() {
         bail!("bench needs input files (see `octoquant bench --help`)");
     }
-    let read = ReadOptions {
-        tum: octoquant::formats::TumOptions {
-            pixel_step: a.pixel_step.max(1),
-            ..Default::default()
-        },
-        ..Default::default()
+    let base = MapperOptions {
+        resolution: a.tree.res,
+        max_range: a.tree.max_range()?,
+        ..MapperOptions::default()
     };
-    let mut frames = Vec::new();
-    for p in &a.inputs {
-        frames.extend(read_frames(p, &read)?);
-    }
+    let mut frames = a.input.read_frames()?;
     if let Some(n) = a.frames {
         frames.truncate(n);
     }
     let all = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let base = MapperOptions {
-        resolution: a.res,
-        max_range: a.max_range,
-        ..MapperOptions::default()
-    };
     let modes = [
-        ("exact", InsertMode::Exact),
-        ("quantized", InsertMode::Quantized),
-        ("quant+bres", InsertMode::QuantizedBresenham),
+        InsertMode::Exact,
+        InsertMode::Quantized,
+        InsertMode::QuantizedBresenham,
     ];
     let thread_counts = if all > 1 { vec![1, all] } else { vec![1] };
     let mut runs: Vec<Run> = Vec::new();
@@ -213,12 +201,12 @@ pub fn run(a: &Args) -> Result<()> {
     for rep in 0..a.repeat.max(1) {
         let mut i = 0;
         for &threads in &thread_counts {
-            for (name, mode) in modes {
+            for mode in modes {
                 let opts = MapperOptions {
                     mode,
                     ..base.clone()
                 };
-                let run = run_mode(&frames, &opts, name, threads)?;
+                let run = run_mode(&frames, &opts, threads)?;
                 if rep == 0 {
                     runs.push(run);
                 } else {
@@ -228,8 +216,12 @@ pub fn run(a: &Args) -> Result<()> {
             }
         }
         if let Some(prog) = &a.reference {
-            let exact = run_reference(prog, &ff, a, false, &dir)?;
-            let disc = run_reference(prog, &ff, a, true, &dir)?;
+            let exact = run_reference(prog, &ff, &base, &dir)?;
+            let discretize = MapperOptions {
+                mode: InsertMode::Discretize,
+                ..base.clone()
+            };
+            let disc = run_reference(prog, &ff, &discretize, &dir)?;
             match &mut reference {
                 None => reference = Some((exact, disc)),
                 Some(((e, _), (d, _))) => {
@@ -251,7 +243,7 @@ pub fn run(a: &Args) -> Result<()> {
         let vs_octomap = reference.as_ref().map(|((e, ebt), (d, dbt))| {
             // exact and Bresenham against OctoMap's default insertion, quantized against
             // OctoMap's discretize; "same .bt" only means something for the exact modes
-            let (ms, bt) = if r.name == "quantized" {
+            let (ms, bt) = if r.mode == InsertMode::Quantized {
                 (d, dbt)
             } else {
                 (e, ebt)
@@ -261,13 +253,13 @@ pub fn run(a: &Args) -> Result<()> {
         // share of voxels with the same class (unknown/free/occupied) as the exact map
         let exact = runs
             .iter()
-            .find(|x| x.name == "exact" && x.threads == r.threads)
+            .find(|x| x.mode == InsertMode::Exact && x.threads == r.threads)
             .unwrap_or(&runs[0]);
         let classes = octoquant::octree::compare_classes(&exact.tree, &r.tree)?;
         // and with the quantized map: the same end points, DDA rays
         let quantized = runs
             .iter()
-            .find(|x| x.name == "quantized" && x.threads == r.threads)
+            .find(|x| x.mode == InsertMode::Quantized && x.threads == r.threads)
             .unwrap_or(&runs[0]);
         let vs_quantized = octoquant::octree::compare_classes(&quantized.tree, &r.tree)?;
         rows.push((r, med, total_s, vs_octomap, classes, vs_quantized));
@@ -278,8 +270,8 @@ pub fn run(a: &Args) -> Result<()> {
             frames.len(),
             a.repeat.max(1),
             points,
-            json_number(a.res),
-            a.max_range.map_or("null".into(), json_number)
+            json_number(base.resolution),
+            base.max_range.map_or("null".into(), json_number)
         );
         for (i, (r, med, total_s, vs, classes, vs_q)) in rows.iter().enumerate() {
             if i > 0 {
@@ -287,7 +279,7 @@ pub fn run(a: &Args) -> Result<()> {
             }
             s.push_str(&format!(
                 "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"rays\":{},\"heads_skipped\":{},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
-                r.name, r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
+                r.mode.name(), r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
                 r.rays, r.heads_skipped, r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
             ));
             let c = &classes.counts;
@@ -320,8 +312,8 @@ pub fn run(a: &Args) -> Result<()> {
         "{} frames, {} points, res {} m, max range {}, {} repetitions (medians over all)",
         frames.len(),
         points,
-        a.res,
-        a.max_range.map_or("off".into(), |m| format!("{m} m")),
+        base.resolution,
+        base.max_range.map_or("off".into(), |m| format!("{m} m")),
         a.repeat.max(1)
     )?;
     if let Some(((e, _), (d, _))) = &reference {
@@ -332,7 +324,7 @@ pub fn run(a: &Args) -> Result<()> {
         )?;
     }
     outln!(
-        "{:<11} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9} {:>8} {:>8}",
+        "{:<19} {:>7} {:>10} {:>12} {:>8} {:>8} {:>10} {:>7} {:>9} {:>10} {:>9} {:>8} {:>8}",
         "mode",
         "threads",
         "ms/frame",
@@ -349,8 +341,8 @@ pub fn run(a: &Args) -> Result<()> {
     )?;
     for (r, med, total_s, vs, classes, vs_q) in &rows {
         outln!(
-            "{:<11} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9} {:>8.3} {:>8.3}",
-            r.name,
+            "{:<19} {:>7} {:>10.2} {:>12.0} {:>8.3} {:>8.3} {:>10} {:>7.2} {:>8.2}x {:>10} {:>9} {:>8.3} {:>8.3}",
+            r.mode.name(),
             r.threads,
             med,
             r.points as f64 / total_s.max(1e-12),
@@ -373,7 +365,7 @@ pub fn run(a: &Args) -> Result<()> {
     // depth images: how many exact rays were walked only where their neighbours do not cover
     if let Some(r) = runs
         .iter()
-        .find(|r| r.name == "exact" && r.heads_skipped > 0)
+        .find(|r| r.mode == InsertMode::Exact && r.heads_skipped > 0)
     {
         outln!(
             "exact: {} of the {} rays skipped their heads (depth images: covered by neighbouring pixels' rays)",
@@ -382,10 +374,12 @@ pub fn run(a: &Args) -> Result<()> {
         )?;
     }
     // where the Bresenham map's classes differ from the exact one's
-    if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.name == "quant+bres") {
+    let bresenham = InsertMode::QuantizedBresenham;
+    if let Some((r, _, _, _, c, _)) = rows.iter().find(|row| row.0.mode == bresenham) {
         use octoquant::octree::VoxelClass::{Free, Occupied, Unknown};
         outln!(
-            "quant+bres vs exact ({} thread): voxels free in exact but unknown {} / occupied {}; occupied in exact but unknown {} / free {}; unknown in exact but free {} / occupied {}",
+            "{} vs exact ({} thread): voxels free in exact but unknown {} / occupied {}; occupied in exact but unknown {} / free {}; unknown in exact but free {} / occupied {}",
+            bresenham.name(),
             r.threads,
             c.count(Free, Unknown),
             c.count(Free, Occupied),

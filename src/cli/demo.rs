@@ -1,6 +1,7 @@
 //! `octoquant demo --out DIR`: scan the built-in scene, build the map in each insertion mode,
 //! write `map.bt` and `map.png`, print a timing table. `octoquant` alone runs it into `.`.
 
+use super::args::TreeArgs;
 use anyhow::{Context, Result};
 use clap::Parser;
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
@@ -22,9 +23,8 @@ pub struct Args {
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Map resolution, metres.
-    #[arg(long, default_value_t = 0.1)]
-    res: f64,
+    #[command(flatten)]
+    tree: TreeArgs,
     /// Range noise (standard deviation), metres.
     #[arg(long, default_value_t = 0.01)]
     noise: f64,
@@ -70,7 +70,7 @@ pub fn run_default() -> Result<()> {
 }
 
 struct Row {
-    mode: &'static str,
+    label: String,
     seconds: f64,
     tree: OcTree,
 }
@@ -94,7 +94,10 @@ pub fn run(a: &Args) -> Result<()> {
     lidar.frame_spacing = a.spacing;
     let mut tls = TerrestrialScanner::builtin(&scene);
     tls.angular_step_deg = a.step;
-    let max_range = lidar.max_range.max(tls.max_range);
+    // the scanners return their misses beyond this range; insertion clears space up to it
+    // unless --max-range says otherwise
+    let scan_range = lidar.max_range.max(tls.max_range);
+    let max_range = a.tree.max_range()?.unwrap_or(scan_range);
 
     let mut frames: Vec<Frame> = Vec::new();
     let mut stats: Vec<ScanStats> = Vec::new();
@@ -132,7 +135,7 @@ pub fn run(a: &Args) -> Result<()> {
         hits,
         misses,
         if a.carve_misses {
-            format!("returned beyond {max_range} m to carve free space")
+            format!("returned beyond {scan_range} m to carve free space")
         } else {
             "dropped; --carve-misses to carve free space with them".to_string()
         }
@@ -141,17 +144,18 @@ pub fn run(a: &Args) -> Result<()> {
         outln!("  simulated {name:<12} {n:>4} frames in {s:>7.3} s")?;
     }
 
-    let modes: [(&str, InsertMode, bool); 5] = [
-        ("exact", InsertMode::Exact, false),
-        ("exact+lazy", InsertMode::Exact, true),
-        ("discretize", InsertMode::Discretize, false),
-        ("quantized", InsertMode::Quantized, false),
-        ("quant+bresenham", InsertMode::QuantizedBresenham, false),
+    // (mode, lazy insertion)
+    let modes = [
+        (InsertMode::Exact, false),
+        (InsertMode::Exact, true),
+        (InsertMode::Discretize, false),
+        (InsertMode::Quantized, false),
+        (InsertMode::QuantizedBresenham, false),
     ];
     let mut rows = Vec::new();
-    for (name, mode, lazy) in modes {
+    for (mode, lazy) in modes {
         let mut mapper = Mapper::new(MapperOptions {
-            resolution: a.res,
+            resolution: a.tree.res,
             max_range: Some(max_range),
             mode,
             lazy,
@@ -163,7 +167,11 @@ pub fn run(a: &Args) -> Result<()> {
         }
         let tree = mapper.into_tree();
         rows.push(Row {
-            mode: name,
+            label: if lazy {
+                format!("{} --lazy", mode.name())
+            } else {
+                mode.name().to_string()
+            },
             seconds: t.elapsed().as_secs_f64(),
             tree,
         });
@@ -171,7 +179,7 @@ pub fn run(a: &Args) -> Result<()> {
 
     outln!()?;
     outln!(
-        "{:<16} {:>9} {:>12} {:>9} {:>11} {:>10} {:>10}",
+        "{:<20} {:>9} {:>12} {:>9} {:>11} {:>10} {:>10}",
         "mode",
         "seconds",
         "points/s",
@@ -184,8 +192,8 @@ pub fn run(a: &Args) -> Result<()> {
     for r in &rows {
         let c = r.tree.counts();
         outln!(
-            "{:<16} {:>9.3} {:>12.0} {:>8.2}x {:>11} {:>10} {:>10}",
-            r.mode,
+            "{:<20} {:>9.3} {:>12.0} {:>8.2}x {:>11} {:>10} {:>10}",
+            r.label,
             r.seconds,
             points as f64 / r.seconds.max(1e-9),
             exact_s / r.seconds.max(1e-9),

@@ -1,40 +1,35 @@
 //! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
 
+use super::args::{InputArgs, TreeArgs};
+use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
-use octoquant::formats::{read_frames, InputFormat, ReadOptions};
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
 use octoquant::treefile::write_tree_file;
 use octoquant::{Frame, OccupancyParams};
+use octoquant_raycast::RayModel;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input files (.graph, .frames, .txt/.dat/.log, .vtk or a VTK scan directory, .pcd, TUM
-    /// association file or depth .png; .gz/.bz2 are read transparently). None: the built-in
-    /// scene.
-    inputs: Vec<PathBuf>,
-    /// Leaf size in metres.
-    #[arg(long, default_value_t = 0.1)]
-    res: f64,
-    /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange).
-    #[arg(long)]
-    max_range: Option<f64>,
+    #[command(flatten)]
+    tree: TreeArgs,
     /// OctoMap's discretize: one ray per end-point voxel, to its centre.
     #[arg(long)]
     discretize: bool,
     /// Insertion mode; `quantized` gives the same tree as --discretize via the dense bit grid,
-    /// `simple` is graph2tree's -simple (no deduplication, max range ignored).
-    #[arg(long, value_parser = ["exact", "discretize", "quantized", "simple"])]
-    mode: Option<String>,
+    /// `quantized+bresenham` is `quantized` with --ray bresenham, `simple` is graph2tree's
+    /// -simple (no deduplication, max range ignored).
+    #[arg(long, value_enum)]
+    mode: Option<ModeArg>,
     /// Ray model: `dda` (OctoMap's, exact) or `bresenham` (integer lines between voxel keys,
     /// implies the quantization pre-pass; faster, slightly less free space).
-    #[arg(long, value_parser = ["dda", "bresenham"], default_value = "dda")]
-    ray: String,
+    #[arg(long, value_enum, default_value = "dda")]
+    ray: RayArg,
     /// Lazy insertion: inner nodes are updated once at the end.
     #[arg(long)]
     lazy: bool,
@@ -47,21 +42,8 @@ pub struct Args {
     /// Thin each frame with the online density reducer first (cell size, metres).
     #[arg(long)]
     reduce: Option<f64>,
-    /// Input format, instead of guessing from the file name.
-    #[arg(long)]
-    format: Option<String>,
-    /// For .graph input: points are already in world coordinates (graph2tree -g).
-    #[arg(long)]
-    global: bool,
-    /// MCAP input: the PointCloud2 topic (default: the only one).
-    #[arg(long)]
-    topic: Option<String>,
-    /// MCAP input: express clouds in this tf frame (default: the root of the tf tree).
-    #[arg(long)]
-    fixed_frame: Option<String>,
-    /// Use only every N-th pixel of TUM depth images.
-    #[arg(long, default_value_t = 1)]
-    pixel_step: usize,
+    #[command(flatten)]
+    input: InputArgs,
     /// Output .bt (max-likelihood, pruned, as OctoMap writes it).
     #[arg(short, long, default_value = "map.bt")]
     output: PathBuf,
@@ -81,28 +63,26 @@ fn builtin_frames() -> Result<Vec<Frame>> {
     Ok(frames)
 }
 
-fn mapper_options(a: &Args) -> Result<MapperOptions> {
-    let mode = match a.mode.as_deref() {
+/// The insertion mode that --mode, --discretize and --ray ask for together.
+fn insert_mode(a: &Args) -> Result<InsertMode> {
+    let mode = match a.mode {
         None if a.discretize => InsertMode::Discretize,
-        None | Some("exact") => InsertMode::Exact,
-        Some("discretize") => InsertMode::Discretize,
-        Some("quantized") => InsertMode::Quantized,
-        Some("simple") => InsertMode::Simple,
-        Some(m) => bail!("unknown mode {m}"),
+        None => InsertMode::Exact,
+        Some(ModeArg::Exact) if a.discretize => bail!("--discretize contradicts --mode exact"),
+        Some(m) => m.into(),
     };
-    let mode = if a.ray == "bresenham" {
-        match mode {
-            InsertMode::Exact | InsertMode::Discretize | InsertMode::Quantized => {
-                InsertMode::QuantizedBresenham
-            }
-            m => bail!("--ray bresenham does not apply to --mode {}", m.name()),
+    match (RayModel::from(a.ray), mode) {
+        (RayModel::Dda, m) => Ok(m),
+        (RayModel::Bresenham, InsertMode::Simple) => {
+            bail!("--ray bresenham does not apply to --mode {}", mode.name())
         }
-    } else {
-        mode
-    };
-    if a.discretize && mode == InsertMode::Exact && a.mode.is_some() {
-        bail!("--discretize contradicts --mode exact");
+        (RayModel::Bresenham, _) => Ok(InsertMode::QuantizedBresenham),
     }
+}
+
+/// The mapper settings the arguments ask for, checked.
+fn mapper_options(a: &Args) -> Result<MapperOptions> {
+    let mode = insert_mode(a)?;
     let (pmin, pmax) = match &a.clamping {
         Some(v) => (v[0], v[1]),
         None => (0.1192, 0.971),
@@ -118,15 +98,10 @@ fn mapper_options(a: &Args) -> Result<MapperOptions> {
             bail!("--reduce needs a positive cell size, got {c}");
         }
     }
-    if let Some(m) = a.max_range {
-        if m.is_nan() {
-            bail!("--max-range is NaN");
-        }
-    }
     Ok(MapperOptions {
-        resolution: a.res,
+        resolution: a.tree.res,
         params,
-        max_range: a.max_range,
+        max_range: a.tree.max_range()?,
         mode,
         lazy: a.lazy,
         reduce: a.reduce.map(|c| [c; 3]),
@@ -137,25 +112,14 @@ fn mapper_options(a: &Args) -> Result<MapperOptions> {
 pub fn run(a: &Args) -> Result<()> {
     let options = mapper_options(a)?;
     let mut mapper = Mapper::new(options).context("invalid --res")?;
-    let mut read = ReadOptions::default();
-    if let Some(f) = &a.format {
-        read.format =
-            Some(InputFormat::from_name(f).with_context(|| format!("unknown --format {f}"))?);
-    }
-    read.graph.points_global = a.global;
-    read.mcap.topic = a.topic.clone();
-    read.mcap.fixed_frame = a.fixed_frame.clone();
-    read.tum.pixel_step = a.pixel_step.max(1) as u32;
 
     let t_load = Instant::now();
-    let mut frames = Vec::new();
-    if a.inputs.is_empty() {
+    let frames = if a.input.inputs.is_empty() {
         errln!("no input given: mapping the built-in scene (pass files to map your own data)");
-        frames = builtin_frames()?;
-    }
-    for p in &a.inputs {
-        frames.extend(read_frames(p, &read)?);
-    }
+        builtin_frames()?
+    } else {
+        a.input.read_frames()?
+    };
     let load_s = t_load.elapsed().as_secs_f64();
     let progress = std::io::stderr().is_terminal() && !a.json;
     // pipelined in chunks, so that progress can still be shown

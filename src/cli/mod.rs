@@ -28,6 +28,7 @@ macro_rules! err {
     }};
 }
 
+mod args;
 mod bench;
 mod convert;
 mod demo;
@@ -37,6 +38,7 @@ mod map;
 mod reduce;
 mod render;
 mod segment;
+mod vocab;
 
 use clap::{Parser, Subcommand};
 

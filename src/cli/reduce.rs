@@ -1,12 +1,13 @@
 //! `octoquant reduce INPUT --cell SIZE[,SIZE...] -o OUTPUT [--json]`: the online grid density
 //! reducer over a whole cloud, written as PLY.
 
+use super::args::ReadArgs;
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
-use octoquant::formats::compress::logical_extension;
 use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
+use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_quantize::{DensityGrid, GridSpec};
+use octoquant_density::{DensityGrid, GridSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -21,6 +22,8 @@ pub struct Args {
     /// Grid offset: one value for all axes, or three.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     offset: Vec<f64>,
+    #[command(flatten)]
+    read: ReadArgs,
     /// Output PLY file (written atomically).
     #[arg(short, long)]
     output: PathBuf,
@@ -41,11 +44,11 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
     }
 }
 
-fn read_points(path: &Path) -> Result<Vec<Point3<f32>>> {
-    if logical_extension(path).as_deref() == Some("ply") {
+fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
+    if read.format.is_none() && logical_extension(path).as_deref() == Some("ply") {
         return Ok(read_ply(path)?);
     }
-    let frames = read_frames(path, &ReadOptions::default())?;
+    let frames = read_frames(path, read)?;
     let mut points = Vec::with_capacity(frames.iter().map(|f| f.points.len()).sum());
     for f in frames {
         points.extend(f.points);
@@ -59,7 +62,7 @@ pub fn run(a: &Args) -> Result<()> {
     let spec = GridSpec::new(cell, offset).context("invalid grid")?;
 
     let t0 = Instant::now();
-    let points = read_points(&a.input)?;
+    let points = read_points(&a.input, &a.read.options())?;
     let t_read = t0.elapsed().as_secs_f64();
 
     let t1 = Instant::now();

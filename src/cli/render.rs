@@ -1,16 +1,10 @@
 //! `octoquant render MAP -o OUT.png [--view top|front|side] [--slice C]`.
 
+use super::vocab::ViewArg;
 use anyhow::Result;
-use octoquant::render::{render_png_file, RenderOptions, View};
+use octoquant::render::{render_png_file, RenderOptions};
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum ViewArg {
-    Top,
-    Front,
-    Side,
-}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -36,11 +30,7 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<()> {
     let tree = read_tree_file(&a.map)?;
     let options = RenderOptions {
-        view: match a.view {
-            ViewArg::Top => View::Top,
-            ViewArg::Front => View::Front,
-            ViewArg::Side => View::Side,
-        },
+        view: a.view.into(),
         slice: a.slice,
         map_pixels: a.size,
         show_free: !a.no_free,

@@ -7,8 +7,8 @@
 //!   elevation from a few stations, so point density falls with range as on real scanners.
 //! - [`SpinningLidar`]: a multi-beam spinning LiDAR (rings × columns per revolution) carried
 //!   along a path at a fixed height above the ground, one frame per revolution.
-//! - [`scan_terrestrial`] / [`scan_lidar`] turn either into [`Frame`]s in world coordinates
-//!   under [`ScanOptions`] (seed, range noise, what to do with misses).
+//! - [`scan_terrestrial`] / [`scan_lidar`] turn either into [`Frame`](crate::Frame)s in world
+//!   coordinates under [`ScanOptions`] (seed, range noise, what to do with misses).
 //!
 //! Everything is deterministic for a seed: the noise comes from a small built-in generator
 //! seeded per frame, so the same options give the same points, bit for bit, on every run.

@@ -4,7 +4,7 @@ use super::header::{read_header, write_header};
 use super::stream::Stream;
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
-use crate::node::NodeRef;
+use crate::store::NodeRef;
 use crate::tree::OcTree;
 use std::io::{Read, Write};
 

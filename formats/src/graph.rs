@@ -1,0 +1,289 @@
+//! OctoMap ScanGraph `.graph` files (`ScanGraph::readBinary` / `writeBinary`), their poses in
+//! OctoMap's exact `f32` arithmetic ([`Pose6D`], from [`crate::pose`]).
+//!
+//! Layout (little-endian): `u32` node count; per node a point cloud (`u32 n`, then n ×
+//! (`i32 3` + 3 × `f64`)), a pose (`i32 3` + 3 × `f64` translation, `i32 4` + 4 × `f64`
+//! quaternion w, x, y, z) and a `u32` id; then a `u32` edge count and per edge `u32 first`,
+//! `u32 second`, a pose and an `f64` weight. Doubles are cast to `f32` on reading, as OctoMap
+//! stores them.
+//!
+//! [`graph_to_frames`] reproduces graph2tree: each node's points go through
+//! `Pointcloud::transform(pose)` in `f32`, and the sensor origin is the pose translation
+//! computed the way graph2tree does (through the inverse pose and back).
+
+use crate::error::FormatError;
+use crate::frame::Frame;
+use crate::output::write_atomic;
+use crate::source::{read_all, ByteReader};
+use nalgebra::{Point3, Quaternion, Vector3};
+use std::io::{self, Write};
+use std::path::Path;
+
+pub use crate::pose::{quaternion_from_euler, rotate, Pose6D};
+
+/// One ScanGraph node: a point cloud in the node's local (sensor) frame and the sensor pose.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ScanNode {
+    /// The node id as stored.
+    pub id: u32,
+    /// The sensor pose in the world.
+    pub pose: Pose6D,
+    /// Points in the sensor frame (or already global, see [`GraphOptions::points_global`]).
+    pub points: Vec<Point3<f32>>,
+}
+
+/// One ScanGraph edge (graph2tree ignores edges; they are kept for round trips).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanEdge {
+    /// Id of the first node.
+    pub first: u32,
+    /// Id of the second node.
+    pub second: u32,
+    /// Relative pose constraint.
+    pub constraint: Pose6D,
+    /// Edge weight.
+    pub weight: f64,
+}
+
+/// An OctoMap ScanGraph: nodes and edges in file order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ScanGraph {
+    /// Nodes in file order.
+    pub nodes: Vec<ScanNode>,
+    /// Edges in file order.
+    pub edges: Vec<ScanEdge>,
+}
+
+/// How graph nodes become frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct GraphOptions {
+    /// Points are already in world coordinates (graph2tree `-g`): they are not transformed
+    /// and the origin is the pose translation as stored.
+    pub points_global: bool,
+}
+
+const POINT_BYTES: usize = 4 + 3 * 8;
+const POSE_BYTES: usize = 4 + 3 * 8 + 4 + 4 * 8;
+
+fn read_vector3(r: &mut ByteReader<'_>, what: &str) -> Result<Vector3<f32>, FormatError> {
+    let tag = r.i32(what)?;
+    if tag != 3 {
+        return Err(r.error_at(4, format!("{what}: element count {tag}, expected 3")));
+    }
+    let x = r.f64(what)? as f32;
+    let y = r.f64(what)? as f32;
+    let z = r.f64(what)? as f32;
+    Ok(Vector3::new(x, y, z))
+}
+
+fn read_pose(r: &mut ByteReader<'_>, what: &str) -> Result<Pose6D, FormatError> {
+    let translation = read_vector3(r, what)?;
+    let tag = r.i32(what)?;
+    if tag != 4 {
+        return Err(r.error_at(
+            4,
+            format!("{what} quaternion: element count {tag}, expected 4"),
+        ));
+    }
+    let mut q = [0f32; 4];
+    for c in &mut q {
+        *c = r.f64(what)? as f32;
+    }
+    Ok(Pose6D {
+        translation,
+        rotation: Quaternion::new(q[0], q[1], q[2], q[3]),
+    })
+}
+
+/// Parse a `.graph` from its bytes; `path` only names the file in errors.
+///
+/// Stricter than OctoMap, which stops quietly at the first bad node: any truncation or wrong
+/// element count is an error naming the byte offset.
+pub fn parse_graph(path: &Path, data: &[u8]) -> Result<ScanGraph, FormatError> {
+    let mut r = ByteReader::new(path, data);
+    let n_nodes = r.u32("node count")?;
+    let mut nodes = Vec::with_capacity(r.capacity_for(n_nodes.into(), 4 + POSE_BYTES + 4));
+    for i in 0..n_nodes {
+        let n = r.u32(&format!("point count of node {i}"))?;
+        let needed = u64::from(n) * POINT_BYTES as u64;
+        if (r.remaining() as u64) < needed {
+            return Err(FormatError::Truncated {
+                path: path.to_path_buf(),
+                offset: data.len() as u64,
+                what: format!(
+                    "{n} points of node {i} ({needed} bytes from byte {})",
+                    r.pos()
+                ),
+            });
+        }
+        let mut points = Vec::with_capacity(n as usize);
+        for _ in 0..n {
+            points.push(Point3::from(read_vector3(&mut r, "point")?));
+        }
+        let pose = read_pose(&mut r, &format!("pose of node {i}"))?;
+        let id = r.u32(&format!("id of node {i}"))?;
+        nodes.push(ScanNode { id, pose, points });
+    }
+    let n_edges = r.u32("edge count")?;
+    let mut edges = Vec::with_capacity(r.capacity_for(n_edges.into(), 8 + POSE_BYTES + 8));
+    for i in 0..n_edges {
+        let what = format!("edge {i}");
+        let first = r.u32(&what)?;
+        let second = r.u32(&what)?;
+        let constraint = read_pose(&mut r, &what)?;
+        let weight = r.f64(&what)?;
+        edges.push(ScanEdge {
+            first,
+            second,
+            constraint,
+            weight,
+        });
+    }
+    if r.remaining() != 0 {
+        return Err(r.error_at(
+            0,
+            format!("{} bytes of trailing data after the graph", r.remaining()),
+        ));
+    }
+    Ok(ScanGraph { nodes, edges })
+}
+
+/// Read a `.graph` file (optionally `.gz`/`.bz2`).
+pub fn read_graph(path: &Path) -> Result<ScanGraph, FormatError> {
+    parse_graph(path, &read_all(path)?)
+}
+
+/// Frames as graph2tree inserts them: one per node, in file order.
+///
+/// Unless `points_global`, points are transformed by `Pose6D::transform` and the origin is
+/// [`Pose6D::graph2tree_origin`]; with it, points are kept and the origin is the translation.
+pub fn graph_to_frames(graph: &ScanGraph, options: &GraphOptions) -> Vec<Frame> {
+    graph
+        .nodes
+        .iter()
+        .map(|node| {
+            if options.points_global {
+                Frame::new(Point3::from(node.pose.translation), node.points.clone())
+            } else {
+                let points = node.points.iter().map(|p| node.pose.transform(p)).collect();
+                Frame::new(node.pose.graph2tree_origin(), points)
+            }
+        })
+        .collect()
+}
+
+/// Read a `.graph` file straight into frames (see [`graph_to_frames`]).
+pub fn read_graph_frames(path: &Path, options: &GraphOptions) -> Result<Vec<Frame>, FormatError> {
+    Ok(graph_to_frames(&read_graph(path)?, options))
+}
+
+/// A graph holding world-coordinate frames for graph2tree `-g`: node i has id i, the
+/// frame's points unchanged, and pose (origin, identity). Consecutive nodes get no edges.
+pub fn graph_from_frames(frames: &[Frame]) -> ScanGraph {
+    let nodes = frames
+        .iter()
+        .zip(0u32..)
+        .map(|(f, id)| ScanNode {
+            id,
+            pose: Pose6D::from_translation(f.origin.coords),
+            points: f.points.clone(),
+        })
+        .collect();
+    ScanGraph {
+        nodes,
+        edges: Vec::new(),
+    }
+}
+
+fn write_vector3(w: &mut (impl Write + ?Sized), v: &Vector3<f32>) -> io::Result<()> {
+    w.write_all(&3i32.to_le_bytes())?;
+    for c in [v.x, v.y, v.z] {
+        w.write_all(&f64::from(c).to_le_bytes())?;
+    }
+    Ok(())
+}
+
+fn write_pose(w: &mut (impl Write + ?Sized), p: &Pose6D) -> io::Result<()> {
+    write_vector3(w, &p.translation)?;
+    w.write_all(&4i32.to_le_bytes())?;
+    let q = &p.rotation;
+    for c in [q.w, q.i, q.j, q.k] {
+        w.write_all(&f64::from(c).to_le_bytes())?;
+    }
+    Ok(())
+}
+
+fn count_u32(n: usize, what: &str) -> io::Result<u32> {
+    u32::try_from(n).map_err(|_| {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("too many {what} for a .graph file: {n}"),
+        )
+    })
+}
+
+/// Write `graph` in OctoMap's binary layout (`ScanGraph::writeBinary`), `f32` values widened
+/// to `f64`. Fails only on I/O or a count above `u32::MAX`.
+pub fn write_graph(w: &mut (impl Write + ?Sized), graph: &ScanGraph) -> io::Result<()> {
+    w.write_all(&count_u32(graph.nodes.len(), "nodes")?.to_le_bytes())?;
+    for node in &graph.nodes {
+        w.write_all(&count_u32(node.points.len(), "points")?.to_le_bytes())?;
+        for p in &node.points {
+            write_vector3(w, &p.coords)?;
+        }
+        write_pose(w, &node.pose)?;
+        w.write_all(&node.id.to_le_bytes())?;
+    }
+    w.write_all(&count_u32(graph.edges.len(), "edges")?.to_le_bytes())?;
+    for e in &graph.edges {
+        w.write_all(&e.first.to_le_bytes())?;
+        w.write_all(&e.second.to_le_bytes())?;
+        write_pose(w, &e.constraint)?;
+        w.write_all(&e.weight.to_le_bytes())?;
+    }
+    Ok(())
+}
+
+/// Write `graph` to `path` atomically (temporary file, then rename).
+pub fn write_graph_file(path: &Path, graph: &ScanGraph) -> Result<(), FormatError> {
+    Ok(write_atomic(path, |w| write_graph(w, graph))?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn write_then_parse_round_trips() {
+        let g = ScanGraph {
+            nodes: vec![ScanNode {
+                id: 7,
+                pose: Pose6D::from_euler(Vector3::new(1.0, 2.0, 3.0), 0.1, -0.2, 0.3),
+                points: vec![
+                    Point3::new(1.5, -2.25, 1e-3),
+                    Point3::new(f32::NAN, 0.0, 0.0),
+                ],
+            }],
+            edges: vec![ScanEdge {
+                first: 7,
+                second: 7,
+                constraint: Pose6D::default(),
+                weight: 0.5,
+            }],
+        };
+        let mut bytes = Vec::new();
+        write_graph(&mut bytes, &g).ok();
+        assert_eq!(bytes.len(), 4 + 4 + 2 * 28 + 64 + 4 + 4 + 8 + 64 + 8);
+        let back = parse_graph(Path::new("t.graph"), &bytes);
+        let back = back.as_ref().map(|b| &b.nodes[0]);
+        assert!(matches!(back, Ok(n) if n.id == 7 && n.points[0] == g.nodes[0].points[0]));
+    }
+
+    #[test]
+    fn absurd_point_count_is_an_error_not_an_allocation() {
+        let mut bytes = 1u32.to_le_bytes().to_vec();
+        bytes.extend_from_slice(&u32::MAX.to_le_bytes());
+        let e = parse_graph(Path::new("bad.graph"), &bytes);
+        assert!(matches!(e, Err(FormatError::Truncated { .. })));
+    }
+}

@@ -1,0 +1,300 @@
+//! The entry point: which [`InputFormat`] a path holds ([`InputFormat::detect`]) and reading
+//! it as frames ([`read_frames`] with [`ReadOptions`]).
+
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::graph::GraphOptions;
+use crate::pcd::PcdOptions;
+use crate::tum::TumOptions;
+use crate::{frames, graph, mcap, pcd, ply, source, text, tum, vtk};
+use std::path::{Path, PathBuf};
+
+/// The input formats [`read_frames`] understands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum InputFormat {
+    /// OctoMap ScanGraph binary (`.graph`).
+    Graph,
+    /// Reference-program frames (`.frames`).
+    Frames,
+    /// Text: point list, OctoMap log or `origin` frames (`.txt`, `.dat`, `.log`, `.xyz`).
+    Text,
+    /// One legacy VTK file, origin (0, 0, 0), no pose (`.vtk`).
+    Vtk,
+    /// A directory of `_<sec>_<nanosec>.vtk` scans with a trajectory CSV (a `.csv`, or a
+    /// directory holding `scans/` or `.vtk` files).
+    VtkSequence,
+    /// PCD v0.7 (`.pcd`).
+    Pcd,
+    /// One TUM depth PNG in the camera frame (`.png`).
+    TumDepth,
+    /// A TUM association file with poses (a `.txt` whose rows name two `.png`s, or a
+    /// directory holding one).
+    TumAssociation,
+    /// `sensor_msgs/PointCloud2` messages from a ROS 1 or ROS 2 bag in MCAP (`.mcap`).
+    Mcap,
+    /// A PLY point cloud (`.ply`), origin (0, 0, 0).
+    Ply,
+}
+
+impl InputFormat {
+    /// Every format, for listing in help texts.
+    pub const ALL: [InputFormat; 10] = [
+        InputFormat::Graph,
+        InputFormat::Frames,
+        InputFormat::Text,
+        InputFormat::Vtk,
+        InputFormat::VtkSequence,
+        InputFormat::Pcd,
+        InputFormat::TumDepth,
+        InputFormat::TumAssociation,
+        InputFormat::Mcap,
+        InputFormat::Ply,
+    ];
+
+    /// The short name used on the command line (`graph`, `frames`, `text`, `vtk`, `vtk-seq`,
+    /// `pcd`, `tum-png`, `tum`, `mcap`, `ply`).
+    pub fn name(self) -> &'static str {
+        match self {
+            InputFormat::Graph => "graph",
+            InputFormat::Frames => "frames",
+            InputFormat::Text => "text",
+            InputFormat::Vtk => "vtk",
+            InputFormat::VtkSequence => "vtk-seq",
+            InputFormat::Pcd => "pcd",
+            InputFormat::TumDepth => "tum-png",
+            InputFormat::TumAssociation => "tum",
+            InputFormat::Mcap => "mcap",
+            InputFormat::Ply => "ply",
+        }
+    }
+
+    /// The format with this short name (see [`InputFormat::name`]), case-insensitive.
+    pub fn from_name(name: &str) -> Option<InputFormat> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name().eq_ignore_ascii_case(name))
+    }
+
+    /// Tell the format from the path: the extension (after any `.gz`/`.bz2`), a directory's
+    /// contents, or for `.txt` whether its first data row looks like a TUM association.
+    pub fn detect(path: &Path) -> Result<InputFormat, FormatError> {
+        if path.is_dir() {
+            return Ok(match directory_kind(path)? {
+                DirKind::Vtk { .. } => InputFormat::VtkSequence,
+                DirKind::Tum(_) => InputFormat::TumAssociation,
+            });
+        }
+        let unknown = |message: String| FormatError::UnknownFormat {
+            path: path.to_path_buf(),
+            message,
+        };
+        let ext = source::logical_extension(path)
+            .ok_or_else(|| unknown("the file name has no extension".into()))?;
+        Ok(match ext.as_str() {
+            "graph" => InputFormat::Graph,
+            "frames" => InputFormat::Frames,
+            "dat" | "log" | "xyz" => InputFormat::Text,
+            "txt" => {
+                if tum::is_association_file(path) {
+                    InputFormat::TumAssociation
+                } else {
+                    InputFormat::Text
+                }
+            }
+            "vtk" => InputFormat::Vtk,
+            "csv" => InputFormat::VtkSequence,
+            "pcd" => InputFormat::Pcd,
+            "png" => InputFormat::TumDepth,
+            "mcap" => InputFormat::Mcap,
+            "ply" => InputFormat::Ply,
+            other => return Err(unknown(format!("unknown extension .{other}"))),
+        })
+    }
+}
+
+impl std::fmt::Display for InputFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Options for [`read_frames`]; the defaults follow each format's conventions.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// Force a format instead of detecting it.
+    pub format: Option<InputFormat>,
+    /// `.graph` options (graph2tree `-g`).
+    pub graph: GraphOptions,
+    /// PCD options (use of VIEWPOINT).
+    pub pcd: PcdOptions,
+    /// TUM depth options (intrinsics, depth scale, pixel step).
+    pub tum: TumOptions,
+    /// The trajectory CSV of a VTK sequence, when it is not `trajectory.csv` (or the only
+    /// `.csv`) in the input directory or its parent.
+    pub trajectory: Option<PathBuf>,
+    /// MCAP options (topic, fixed frame, sensor pose).
+    pub mcap: mcap::McapOptions,
+}
+
+/// Read `path` as frames in world coordinates, in the format given or detected.
+pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, FormatError> {
+    let format = match options.format {
+        Some(f) => f,
+        None => InputFormat::detect(path)?,
+    };
+    match format {
+        InputFormat::Graph => graph::read_graph_frames(path, &options.graph),
+        InputFormat::Frames => frames::read_frames_file(path),
+        InputFormat::Text => text::read_text(path),
+        InputFormat::Vtk => vtk::read_vtk(path),
+        InputFormat::VtkSequence => {
+            let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref())?;
+            vtk::read_vtk_sequence(&scans, &csv)
+        }
+        InputFormat::Pcd => pcd::read_pcd(path, &options.pcd),
+        InputFormat::TumDepth => tum::read_tum_depth(path, &options.tum),
+        InputFormat::TumAssociation => {
+            let assoc = if path.is_dir() {
+                match directory_kind(path)? {
+                    DirKind::Tum(a) => a,
+                    DirKind::Vtk { .. } => {
+                        return Err(FormatError::UnknownFormat {
+                            path: path.to_path_buf(),
+                            message: "directory holds VTK scans, not a TUM association".into(),
+                        })
+                    }
+                }
+            } else {
+                path.to_path_buf()
+            };
+            tum::read_tum_sequence(&assoc, &options.tum)
+        }
+        InputFormat::Mcap => mcap::read_mcap_frames(path, &options.mcap),
+        InputFormat::Ply => ply::read_ply_frames(path),
+    }
+}
+
+enum DirKind {
+    /// Scans directory.
+    Vtk { scans: PathBuf },
+    /// Association file.
+    Tum(PathBuf),
+}
+
+fn list_dir(dir: &Path) -> Result<Vec<PathBuf>, FormatError> {
+    let rd = std::fs::read_dir(dir).map_err(|e| FormatError::io(dir, Location::File, e))?;
+    let mut out = Vec::new();
+    for entry in rd {
+        out.push(
+            entry
+                .map_err(|e| FormatError::io(dir, Location::File, e))?
+                .path(),
+        );
+    }
+    out.sort();
+    Ok(out)
+}
+
+fn has_vtk(entries: &[PathBuf]) -> bool {
+    entries
+        .iter()
+        .any(|p| p.is_file() && source::logical_extension(p).as_deref() == Some("vtk"))
+}
+
+fn directory_kind(dir: &Path) -> Result<DirKind, FormatError> {
+    let entries = list_dir(dir)?;
+    let scans = dir.join("scans");
+    if scans.is_dir() && has_vtk(&list_dir(&scans)?) {
+        return Ok(DirKind::Vtk { scans });
+    }
+    if has_vtk(&entries) {
+        return Ok(DirKind::Vtk {
+            scans: dir.to_path_buf(),
+        });
+    }
+    let assoc: Vec<&PathBuf> = entries
+        .iter()
+        .filter(|p| {
+            p.is_file()
+                && source::logical_extension(p).as_deref() == Some("txt")
+                && tum::is_association_file(p)
+        })
+        .collect();
+    match assoc.as_slice() {
+        [one] => Ok(DirKind::Tum((*one).clone())),
+        [] => Err(FormatError::UnknownFormat {
+            path: dir.to_path_buf(),
+            message: "directory has no .vtk scans and no TUM association .txt".into(),
+        }),
+        _ => Err(FormatError::UnknownFormat {
+            path: dir.to_path_buf(),
+            message: format!(
+                "directory has {} TUM association files; name one",
+                assoc.len()
+            ),
+        }),
+    }
+}
+
+/// The trajectory CSV in `dir`: `trajectory.csv`, else the only `.csv`.
+fn find_csv(dir: &Path) -> Result<Option<PathBuf>, FormatError> {
+    let t = dir.join("trajectory.csv");
+    if t.is_file() {
+        return Ok(Some(t));
+    }
+    let csvs: Vec<PathBuf> = list_dir(dir)?
+        .into_iter()
+        .filter(|p| p.is_file() && source::logical_extension(p).as_deref() == Some("csv"))
+        .collect();
+    Ok(if csvs.len() == 1 {
+        csvs.into_iter().next()
+    } else {
+        None
+    })
+}
+
+/// (scans directory, trajectory CSV) for a VTK sequence given as a directory or a CSV.
+fn vtk_sequence_inputs(
+    path: &Path,
+    trajectory: Option<&Path>,
+) -> Result<(PathBuf, PathBuf), FormatError> {
+    let parent_of = |p: &Path| {
+        p.parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+    };
+    if path.is_dir() {
+        let scans = match directory_kind(path)? {
+            DirKind::Vtk { scans } => scans,
+            DirKind::Tum(_) => {
+                return Err(FormatError::UnknownFormat {
+                    path: path.to_path_buf(),
+                    message: "directory holds a TUM association, not VTK scans".into(),
+                })
+            }
+        };
+        let csv = match trajectory {
+            Some(t) => Some(t.to_path_buf()),
+            None => match find_csv(path)? {
+                Some(c) => Some(c),
+                None => find_csv(&parent_of(path))?,
+            },
+        };
+        let csv = csv.ok_or_else(|| {
+            FormatError::missing_pose(
+                path,
+                Location::File,
+                "no trajectory.csv (or single .csv) found; pass the trajectory",
+            )
+        })?;
+        return Ok((scans, csv));
+    }
+    let dir = parent_of(path);
+    let scans = dir.join("scans");
+    let scans = if scans.is_dir() { scans } else { dir };
+    Ok((
+        scans,
+        trajectory.map_or_else(|| path.to_path_buf(), Path::to_path_buf),
+    ))
+}

@@ -1,0 +1,355 @@
+//! Reading an MCAP file: its topics ([`list_topics`]) and every cloud of one topic posed in a
+//! fixed frame ([`read_mcap`]), through the chunk-size checks that keep a damaged file from
+//! aborting the process.
+
+use super::cdr::{DecodeError, Encoding};
+use super::pointcloud2::{decode_point_cloud2, CloudStats, PointCloud2, CLOUD_SCHEMAS};
+use super::tf::{decode_tf_message, TfTree, TF_SCHEMAS};
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::pose::isometry_transform;
+use nalgebra::{Isometry3, Point3};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// How [`read_mcap`] selects and places clouds.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct McapOptions {
+    /// The PointCloud2 topic; `None` picks the only one (an error when there are several).
+    pub topic: Option<String>,
+    /// Express points in this tf frame; `None`: the root of the cloud frame's tf tree (or
+    /// the cloud frame itself when the file has no transforms).
+    pub fixed_frame: Option<String>,
+    /// Pose of the fixed frame in the world, applied last (identity by default).
+    pub sensor_pose: Option<Isometry3<f64>>,
+}
+
+/// A topic of an MCAP file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TopicInfo {
+    /// Topic name.
+    pub topic: String,
+    /// Schema name (message type), empty when the channel has no schema.
+    pub schema: String,
+    /// Message encoding (`ros1`, `cdr`, ...).
+    pub encoding: String,
+}
+
+fn mcap_err(path: &Path, e: ::mcap::McapError) -> FormatError {
+    FormatError::syntax(
+        path,
+        Location::File,
+        format!("not a readable MCAP file: {e}"),
+    )
+}
+
+fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
+    std::fs::read(path).map_err(|e| FormatError::io(path, Location::File, e))
+}
+
+/// Every message of an MCAP file in file order, with its channel, through `visit`.
+///
+/// The `mcap` crate's `MessageStream` sets no limit on the length a record inside a chunk may
+/// declare, and allocates (and zero-fills) that length before reading it: one damaged length
+/// field (say 2^59 bytes) aborts the process. So the chunk headers are checked first
+/// ([`check_chunk_sizes`]), and the messages are read with the crate's `MessageReader` under a
+/// record length limit: the file's size or the largest chunk's decompressed size, whichever
+/// is larger. No record can be longer than that in a valid file.
+fn for_each_message<F>(path: &Path, bytes: &[u8], mut visit: F) -> Result<(), FormatError>
+where
+    F: FnMut(usize, &::mcap::Message<'static>) -> Result<(), FormatError>,
+{
+    let largest_chunk = check_chunk_sizes(path, bytes)?;
+    let limit = usize::try_from(largest_chunk)
+        .unwrap_or(usize::MAX)
+        .max(bytes.len());
+    let mut reader = ::mcap::sans_io::MessageReader::new_with_options(
+        ::mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
+    );
+    let mut rest = bytes;
+    let mut index = 0;
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| mcap_err(path, e))? {
+            ::mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
+                let n = need.min(rest.len());
+                reader.insert(n).copy_from_slice(&rest[..n]);
+                reader.notify_read(n);
+                rest = &rest[n..];
+            }
+            ::mcap::sans_io::MessageReadEvent::Message(m) => {
+                visit(index, &m)?;
+                index += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The largest decompressed size a chunk may declare, given its compressed size: 1024 times
+/// that (real sensor data compresses two- to tenfold) and at least 64 MiB.
+fn chunk_size_limit(compressed: u64) -> u64 {
+    compressed.saturating_mul(1024).max(64 << 20)
+}
+
+/// Refuse compressed chunks whose header declares an absurd decompressed size (see
+/// [`chunk_size_limit`]), and return the largest size a chunk's records take decompressed (0
+/// without chunks). The `mcap` crate allocates (and zero-fills) that size
+/// before decompressing, so a damaged size field would abort the process instead of failing.
+/// Walks the records (opcode, `u64` length, content) from the leading magic to the footer;
+/// anything else malformed is left for the crate to report.
+fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
+    const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    const OP_FOOTER: u8 = 0x02;
+    const OP_CHUNK: u8 = 0x06;
+    let mut largest = 0;
+    if !bytes.starts_with(MAGIC) {
+        return Ok(largest);
+    }
+    let u64_at = |b: &[u8], at: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(
+            b.get(at..at.checked_add(8)?)?.try_into().ok()?,
+        ))
+    };
+    let u32_at = |b: &[u8], at: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(
+            b.get(at..at.checked_add(4)?)?.try_into().ok()?,
+        ))
+    };
+    let mut pos = MAGIC.len();
+    while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(bytes, pos + 1)) {
+        let start = pos + 9;
+        let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)) else {
+            break;
+        };
+        if end > bytes.len() || op == OP_FOOTER {
+            break;
+        }
+        if op == OP_CHUNK {
+            // start time, end time, uncompressed size, uncompressed CRC, compression string,
+            // then the compressed records with their u64 length
+            // (read within the record only: a chunk too short for them is the crate's to report)
+            let rec = &bytes[start..end];
+            let declared = u64_at(rec, 16);
+            let name_len = u32_at(rec, 28).map(|n| n as usize);
+            let records = name_len.and_then(|n| u64_at(rec, 32usize.checked_add(n)?));
+            let compression = name_len.and_then(|n| rec.get(32..32usize.checked_add(n)?));
+            if let (Some(declared), Some(records), Some(compression)) =
+                (declared, records, compression)
+            {
+                // an uncompressed chunk's records are read as they lie in the file, whatever
+                // size its header declares
+                if compression.is_empty() {
+                    largest = largest.max(records);
+                    pos = end;
+                    continue;
+                }
+                if declared > chunk_size_limit(records) {
+                    return Err(FormatError::syntax(
+                        path,
+                        Location::Byte(pos as u64),
+                        format!(
+                            "chunk declares {declared} bytes decompressed from {records} ({}); \
+                             the size field is damaged",
+                            String::from_utf8_lossy(compression)
+                        ),
+                    ));
+                }
+                largest = largest.max(declared);
+            }
+        }
+        pos = end;
+    }
+    Ok(largest)
+}
+
+fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
+    let mut map: BTreeMap<String, TopicInfo> = BTreeMap::new();
+    let mut add = |c: &::mcap::Channel| {
+        map.entry(c.topic.clone()).or_insert_with(|| TopicInfo {
+            topic: c.topic.clone(),
+            schema: c
+                .schema
+                .as_ref()
+                .map(|s| s.name.clone())
+                .unwrap_or_default(),
+            encoding: c.message_encoding.clone(),
+        });
+    };
+    match ::mcap::Summary::read(bytes) {
+        Ok(Some(summary)) if !summary.channels.is_empty() => {
+            for c in summary.channels.values() {
+                add(c);
+            }
+        }
+        _ => {
+            for_each_message(path, bytes, |_, m| {
+                add(&m.channel);
+                Ok(())
+            })?;
+        }
+    }
+    Ok(map.into_values().collect())
+}
+
+/// The topics of an MCAP file with their message types and encodings, sorted by name.
+pub fn list_topics(path: &Path) -> Result<Vec<TopicInfo>, FormatError> {
+    let bytes = read_bytes(path)?;
+    topics_of(path, &bytes)
+}
+
+fn describe(topics: &[TopicInfo]) -> String {
+    topics
+        .iter()
+        .map(|t| format!("{} ({})", t.topic, t.schema))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Every cloud of the selected topic as a frame, with per-cloud counts.
+///
+/// Errors name the file and what is wrong: unreadable MCAP, unknown topic (listing the
+/// topics), a topic that is not PointCloud2, an unknown message encoding, a malformed
+/// message (with its index and byte), a fixed frame not connected to the cloud's frame.
+pub fn read_mcap(
+    path: &Path,
+    options: &McapOptions,
+) -> Result<(Vec<Frame>, Vec<CloudStats>), FormatError> {
+    let bytes = read_bytes(path)?;
+    let topics = topics_of(path, &bytes)?;
+    let topic = match &options.topic {
+        Some(t) => {
+            let info = topics.iter().find(|i| &i.topic == t).ok_or_else(|| {
+                FormatError::InvalidOption {
+                    path: path.to_path_buf(),
+                    message: format!("no topic {t:?}; the file has: {}", describe(&topics)),
+                }
+            })?;
+            if !CLOUD_SCHEMAS.contains(&info.schema.as_str()) {
+                return Err(FormatError::InvalidOption {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "topic {t:?} carries {:?}, not sensor_msgs/PointCloud2",
+                        info.schema
+                    ),
+                });
+            }
+            t.clone()
+        }
+        None => {
+            let clouds: Vec<&TopicInfo> = topics
+                .iter()
+                .filter(|i| CLOUD_SCHEMAS.contains(&i.schema.as_str()))
+                .collect();
+            match clouds.as_slice() {
+                [one] => one.topic.clone(),
+                [] => {
+                    return Err(FormatError::InvalidOption {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "no sensor_msgs/PointCloud2 topic; the file has: {}",
+                            describe(&topics)
+                        ),
+                    })
+                }
+                many => {
+                    return Err(FormatError::InvalidOption {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "several PointCloud2 topics ({}); choose one",
+                            many.iter()
+                                .map(|i| i.topic.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    })
+                }
+            }
+        }
+    };
+
+    let mut tf = TfTree::default();
+    let mut clouds: Vec<(u64, PointCloud2)> = Vec::new();
+    for_each_message(path, &bytes, |index, m| {
+        let ch = &m.channel;
+        let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
+        let is_cloud = ch.topic == topic;
+        let is_tf = TF_SCHEMAS.contains(&schema) && (ch.topic == "/tf" || ch.topic == "/tf_static");
+        if !is_cloud && !is_tf {
+            return Ok(());
+        }
+        let encoding = Encoding::from_mcap(&ch.message_encoding).ok_or_else(|| {
+            FormatError::unsupported(
+                path,
+                Location::File,
+                format!(
+                    "topic {:?} uses message encoding {:?}; only \"ros1\" and \"cdr\" are supported",
+                    ch.topic, ch.message_encoding
+                ),
+            )
+        })?;
+        let bad = |e: DecodeError| {
+            FormatError::syntax(
+                path,
+                Location::File,
+                format!("message {index} on {:?}: {e}", ch.topic),
+            )
+        };
+        if is_cloud {
+            clouds.push((
+                m.log_time,
+                decode_point_cloud2(&m.data, encoding).map_err(bad)?,
+            ));
+        } else {
+            for t in decode_tf_message(&m.data, encoding).map_err(bad)? {
+                tf.add(t, m.log_time, ch.topic == "/tf_static");
+            }
+        }
+        Ok(())
+    })?;
+
+    let world = options.sensor_pose.unwrap_or_else(Isometry3::identity);
+    let mut frames = Vec::with_capacity(clouds.len());
+    let mut stats = Vec::with_capacity(clouds.len());
+    for (i, (time, cloud)) in clouds.iter().enumerate() {
+        let fixed = options
+            .fixed_frame
+            .clone()
+            .unwrap_or_else(|| tf.root(&cloud.frame_id));
+        let to_fixed = tf.lookup(&fixed, &cloud.frame_id, *time).ok_or_else(|| {
+            FormatError::missing_pose(
+                path,
+                Location::File,
+                format!(
+                    "cloud {i} on {topic:?}: no transform chain from {:?} to {fixed:?} (frames in tf: {})",
+                    cloud.frame_id,
+                    tf.frames().join(", ")
+                ),
+            )
+        })?;
+        let pose = world * to_fixed;
+        let (pts, st) = cloud.points().map_err(|message| {
+            FormatError::syntax(
+                path,
+                Location::File,
+                format!("cloud {i} on {topic:?}: {message}"),
+            )
+        })?;
+        let points = pts
+            .into_iter()
+            .map(|p| isometry_transform(&pose, &p))
+            .collect();
+        frames.push(Frame {
+            origin: isometry_transform(&pose, &Point3::origin()),
+            points,
+            stamp: Some(cloud.stamp),
+            camera: None,
+        });
+        stats.push(st);
+    }
+    Ok((frames, stats))
+}
+
+/// [`read_mcap`] without the counts.
+pub fn read_mcap_frames(path: &Path, options: &McapOptions) -> Result<Vec<Frame>, FormatError> {
+    read_mcap(path, options).map(|(f, _)| f)
+}

@@ -1,0 +1,550 @@
+//! PLY point clouds: read `x y z` of the `vertex` element, write `x y z` float vertices.
+//!
+//! Reads `ascii` and `binary_little_endian` 1.0 with any scalar properties besides
+//! `x`, `y`, `z` (which must be `float` or `double`), and other elements before or after
+//! `vertex` (list properties included). `binary_big_endian` is reported as unsupported.
+//! `double` coordinates are rounded to `f32`, the precision of [`Frame`] points. Files may be
+//! `.gz`/`.bz2` compressed. Non-finite coordinates are passed through; consumers skip them.
+
+use crate::error::{FormatError, Location};
+use crate::frame::Frame;
+use crate::output::{write_atomic, OutputError};
+use crate::source;
+use nalgebra::Point3;
+use std::io::Write;
+use std::path::Path;
+
+/// PLY body encodings this module writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlyEncoding {
+    /// `format ascii 1.0`: one `x y z` line per vertex, shortest round-trip decimal.
+    Ascii,
+    /// `format binary_little_endian 1.0`: 12 bytes per vertex.
+    #[default]
+    BinaryLittleEndian,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Scalar> {
+        Some(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    /// Little-endian value at the start of `b` (which holds at least `size()` bytes).
+    fn read_le(self, b: &[u8]) -> f64 {
+        match self {
+            Scalar::I8 => f64::from(b[0] as i8),
+            Scalar::U8 => f64::from(b[0]),
+            Scalar::I16 => f64::from(i16::from_le_bytes([b[0], b[1]])),
+            Scalar::U16 => f64::from(u16::from_le_bytes([b[0], b[1]])),
+            Scalar::I32 => f64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            Scalar::U32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            Scalar::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            Scalar::F64 => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Property {
+    Scalar(Scalar, String),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Debug, Clone)]
+struct Element {
+    name: String,
+    count: u64,
+    props: Vec<Property>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Ascii,
+    BinaryLe,
+}
+
+/// Read the vertex positions of a PLY file.
+pub fn read_ply(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
+    let data = source::read_all(path)?;
+    parse_ply(path, &data)
+}
+
+/// Read a PLY file as one frame with origin (0, 0, 0) and no stamp.
+pub fn read_ply_frames(path: &Path) -> Result<Vec<Frame>, FormatError> {
+    Ok(vec![Frame::new(Point3::origin(), read_ply(path)?)])
+}
+
+/// Parse PLY bytes; `path` only names the input in errors.
+pub fn parse_ply(path: &Path, data: &[u8]) -> Result<Vec<Point3<f32>>, FormatError> {
+    let (format, elements, body) = parse_header(path, data)?;
+    match format {
+        Format::Ascii => read_ascii(path, data, body, &elements),
+        Format::BinaryLe => read_binary(path, data, body, &elements),
+    }
+}
+
+/// Returns the format, the elements and the byte offset of the body.
+fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize), FormatError> {
+    let mut pos = 0usize;
+    let mut line_no = 0u64;
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let Some(len) = data[pos..].iter().position(|&b| b == b'\n') else {
+            return Err(FormatError::Truncated {
+                path: path.to_path_buf(),
+                offset: data.len() as u64,
+                what: "a PLY header ending in end_header".into(),
+            });
+        };
+        line_no += 1;
+        let at = Location::Line(line_no);
+        let line = std::str::from_utf8(&data[pos..pos + len])
+            .map_err(|_| FormatError::syntax(path, at, "header is not text"))?
+            .trim_end_matches('\r');
+        pos += len + 1;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        if line_no == 1 {
+            if words != ["ply"] {
+                return Err(FormatError::syntax(
+                    path,
+                    at,
+                    "not a PLY file (no `ply` line)",
+                ));
+            }
+            continue;
+        }
+        match words.first().copied() {
+            None | Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                format = Some(match (words.get(1).copied(), words.get(2).copied()) {
+                    (Some("ascii"), Some("1.0")) => Format::Ascii,
+                    (Some("binary_little_endian"), Some("1.0")) => Format::BinaryLe,
+                    (Some("binary_big_endian"), _) => {
+                        return Err(FormatError::unsupported(path, at, "binary_big_endian PLY"))
+                    }
+                    _ => {
+                        return Err(FormatError::syntax(
+                            path,
+                            at,
+                            format!("bad format line `{line}`"),
+                        ))
+                    }
+                });
+            }
+            Some("element") => {
+                let (Some(name), Some(count), None) = (words.get(1), words.get(2), words.get(3))
+                else {
+                    return Err(FormatError::syntax(
+                        path,
+                        at,
+                        "expected `element NAME COUNT`",
+                    ));
+                };
+                let count: u64 = count
+                    .parse()
+                    .map_err(|_| FormatError::syntax(path, at, format!("bad count `{count}`")))?;
+                elements.push(Element {
+                    name: (*name).to_string(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            Some("property") => {
+                let Some(el) = elements.last_mut() else {
+                    return Err(FormatError::syntax(path, at, "property before any element"));
+                };
+                let scalar = |s: &str| {
+                    Scalar::parse(s).ok_or_else(|| {
+                        FormatError::syntax(path, at, format!("unknown property type `{s}`"))
+                    })
+                };
+                let prop = match words.as_slice() {
+                    ["property", "list", c, i, _name] => Property::List {
+                        count: scalar(c)?,
+                        item: scalar(i)?,
+                    },
+                    ["property", t, name] => Property::Scalar(scalar(t)?, (*name).to_string()),
+                    _ => {
+                        return Err(FormatError::syntax(
+                            path,
+                            at,
+                            format!("bad property line `{line}`"),
+                        ))
+                    }
+                };
+                el.props.push(prop);
+            }
+            Some("end_header") => break,
+            Some(other) => {
+                return Err(FormatError::syntax(
+                    path,
+                    at,
+                    format!("unknown header keyword `{other}`"),
+                ))
+            }
+        }
+    }
+    let Some(format) = format else {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            "no format line in the header",
+        ));
+    };
+    if !elements.iter().any(|e| e.name == "vertex") {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            "no vertex element",
+        ));
+    }
+    Ok((format, elements, pos))
+}
+
+/// Positions of x, y, z among the vertex's scalar properties (by property number).
+fn xyz_props(path: &Path, el: &Element) -> Result<[usize; 3], FormatError> {
+    let mut idx = [usize::MAX; 3];
+    for (k, p) in el.props.iter().enumerate() {
+        if let Property::Scalar(t, name) = p {
+            let axis = match name.as_str() {
+                "x" => 0,
+                "y" => 1,
+                "z" => 2,
+                _ => continue,
+            };
+            if !matches!(t, Scalar::F32 | Scalar::F64) {
+                return Err(FormatError::unsupported(
+                    path,
+                    Location::File,
+                    format!("vertex property {name} is not float or double"),
+                ));
+            }
+            idx[axis] = k;
+        }
+    }
+    if idx.contains(&usize::MAX) {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            "vertex lacks x, y or z",
+        ));
+    }
+    Ok(idx)
+}
+
+fn read_binary(
+    path: &Path,
+    data: &[u8],
+    mut pos: usize,
+    elements: &[Element],
+) -> Result<Vec<Point3<f32>>, FormatError> {
+    let truncated = |offset: usize, what: &str| FormatError::Truncated {
+        path: path.to_path_buf(),
+        offset: offset as u64,
+        what: what.into(),
+    };
+    for el in elements {
+        let is_vertex = el.name == "vertex";
+        let xyz = if is_vertex {
+            Some(xyz_props(path, el)?)
+        } else {
+            None
+        };
+        let fixed: Option<usize> = el
+            .props
+            .iter()
+            .map(|p| match p {
+                Property::Scalar(t, _) => Some(t.size()),
+                Property::List { .. } => None,
+            })
+            .sum();
+        let remaining = (data.len() - pos) as u64;
+        if let Some(size) = fixed {
+            if size as u64 * el.count > remaining {
+                return Err(truncated(
+                    data.len(),
+                    &format!("{} {} records", el.count, el.name),
+                ));
+            }
+        } else if el.count > remaining {
+            return Err(truncated(
+                data.len(),
+                &format!("{} {} records", el.count, el.name),
+            ));
+        }
+        let mut points = Vec::new();
+        if is_vertex {
+            points.reserve(el.count as usize);
+        }
+        for _ in 0..el.count {
+            let mut xyz_v = [0f64; 3];
+            for (k, p) in el.props.iter().enumerate() {
+                match p {
+                    Property::Scalar(t, _) => {
+                        let end = pos + t.size();
+                        if end > data.len() {
+                            return Err(truncated(pos, &format!("a {} property", el.name)));
+                        }
+                        if let Some(xyz) = &xyz {
+                            if let Some(a) = xyz.iter().position(|&i| i == k) {
+                                xyz_v[a] = t.read_le(&data[pos..end]);
+                            }
+                        }
+                        pos = end;
+                    }
+                    Property::List { count, item } => {
+                        let end = pos + count.size();
+                        if end > data.len() {
+                            return Err(truncated(pos, "a list count"));
+                        }
+                        let n = count.read_le(&data[pos..end]);
+                        if !(0.0..=1e12).contains(&n) {
+                            return Err(FormatError::syntax(
+                                path,
+                                Location::Byte(pos as u64),
+                                format!("bad list count {n}"),
+                            ));
+                        }
+                        let bytes = n as usize * item.size();
+                        if bytes > data.len() - end {
+                            return Err(truncated(end, "list items"));
+                        }
+                        pos = end + bytes;
+                    }
+                }
+            }
+            if is_vertex {
+                points.push(Point3::new(
+                    xyz_v[0] as f32,
+                    xyz_v[1] as f32,
+                    xyz_v[2] as f32,
+                ));
+            }
+        }
+        if is_vertex {
+            return Ok(points);
+        }
+    }
+    Ok(Vec::new())
+}
+
+fn read_ascii(
+    path: &Path,
+    data: &[u8],
+    body: usize,
+    elements: &[Element],
+) -> Result<Vec<Point3<f32>>, FormatError> {
+    let text = std::str::from_utf8(&data[body..])
+        .map_err(|_| FormatError::syntax(path, Location::Byte(body as u64), "body is not text"))?;
+    let header_lines = data[..body].iter().filter(|&&b| b == b'\n').count() as u64;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (header_lines + 1 + i as u64, l))
+        .filter(|(_, l)| !l.trim().is_empty());
+    for el in elements {
+        let is_vertex = el.name == "vertex";
+        let xyz = if is_vertex {
+            Some(xyz_props(path, el)?)
+        } else {
+            None
+        };
+        let mut points = Vec::new();
+        if is_vertex {
+            // Never reserve more than the text could hold (at least 6 bytes per vertex).
+            points.reserve((el.count as usize).min(text.len() / 6));
+        }
+        for _ in 0..el.count {
+            let Some((no, line)) = lines.next() else {
+                return Err(FormatError::Truncated {
+                    path: path.to_path_buf(),
+                    offset: data.len() as u64,
+                    what: format!("{} {} lines", el.count, el.name),
+                });
+            };
+            if let Some(xyz) = &xyz {
+                let words: Vec<&str> = line.split_whitespace().collect();
+                let mut v = [0f32; 3];
+                for (a, &k) in xyz.iter().enumerate() {
+                    let w = words.get(k).ok_or_else(|| {
+                        FormatError::syntax(path, Location::Line(no), "too few values")
+                    })?;
+                    let x: f64 = w.parse().map_err(|_| {
+                        FormatError::syntax(path, Location::Line(no), format!("bad number `{w}`"))
+                    })?;
+                    v[a] = x as f32;
+                }
+                points.push(Point3::new(v[0], v[1], v[2]));
+            }
+        }
+        if is_vertex {
+            return Ok(points);
+        }
+    }
+    Ok(Vec::new())
+}
+
+/// Write `points` as a PLY with one `vertex` element of `float x, y, z`.
+pub fn write_ply<W: Write + ?Sized>(
+    w: &mut W,
+    points: &[Point3<f32>],
+    encoding: PlyEncoding,
+) -> std::io::Result<()> {
+    let format = match encoding {
+        PlyEncoding::Ascii => "ascii",
+        PlyEncoding::BinaryLittleEndian => "binary_little_endian",
+    };
+    write!(
+        w,
+        "ply\nformat {format} 1.0\ncomment written by octoquant\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nend_header\n",
+        points.len()
+    )?;
+    match encoding {
+        PlyEncoding::Ascii => {
+            for p in points {
+                writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
+            }
+        }
+        PlyEncoding::BinaryLittleEndian => {
+            let mut buf = Vec::with_capacity(12 * points.len().min(1 << 16));
+            for chunk in points.chunks(1 << 16) {
+                buf.clear();
+                for p in chunk {
+                    buf.extend_from_slice(&p.x.to_le_bytes());
+                    buf.extend_from_slice(&p.y.to_le_bytes());
+                    buf.extend_from_slice(&p.z.to_le_bytes());
+                }
+                w.write_all(&buf)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Write `points` to `path` atomically (temporary file, then rename).
+pub fn write_ply_file(
+    path: &Path,
+    points: &[Point3<f32>],
+    encoding: PlyEncoding,
+) -> Result<(), OutputError> {
+    write_atomic(path, |w| write_ply(w, points, encoding))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pts() -> Vec<Point3<f32>> {
+        vec![
+            Point3::new(1.0, -2.5, 3.25),
+            Point3::new(0.1, 1e-7, -1e6),
+            Point3::new(f32::MAX, f32::MIN_POSITIVE, -0.0),
+        ]
+    }
+
+    fn bits(p: &[Point3<f32>]) -> Vec<[u32; 3]> {
+        p.iter()
+            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+            .collect()
+    }
+
+    #[test]
+    fn round_trip_both_encodings_bit_exact() {
+        for enc in [PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian] {
+            let mut buf = Vec::new();
+            write_ply(&mut buf, &pts(), enc).unwrap();
+            let back = parse_ply(Path::new("t.ply"), &buf).unwrap();
+            assert_eq!(bits(&back), bits(&pts()), "{enc:?}");
+        }
+    }
+
+    #[test]
+    fn reads_doubles_extra_properties_and_other_elements() {
+        let mut b = b"ply\r\nformat binary_little_endian 1.0\r\ncomment x\r\n\
+            element camera 1\r\nproperty list uchar int idx\r\nproperty uchar k\r\n\
+            element vertex 2\r\nproperty uchar red\r\nproperty double z\r\nproperty double x\r\n\
+            property short s\r\nproperty double y\r\nelement face 1\r\n\
+            property list uchar int vertex_indices\r\nend_header\r\n"
+            .to_vec();
+        b.extend_from_slice(&[2, 1, 0, 0, 0, 2, 0, 0, 0, 9]); // camera: list of 2 ints, k
+        for (x, y, z) in [(1.5f64, 2.5f64, 3.5f64), (-1.0, 0.25, 1e-3)] {
+            b.push(255);
+            b.extend_from_slice(&z.to_le_bytes());
+            b.extend_from_slice(&x.to_le_bytes());
+            b.extend_from_slice(&(-3i16).to_le_bytes());
+            b.extend_from_slice(&y.to_le_bytes());
+        }
+        let p = parse_ply(Path::new("t.ply"), &b).unwrap();
+        assert_eq!(
+            p,
+            vec![
+                Point3::new(1.5, 2.5, 3.5),
+                Point3::new(-1.0, 0.25, 1e-3f64 as f32)
+            ]
+        );
+        let ascii = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n\
+            property uchar q\nproperty float y\nproperty float z\nelement face 0\n\
+            property list uchar int vertex_indices\nend_header\n1 7 2 3\n\n-4 0 5.5 nan\n";
+        let p = parse_ply(Path::new("a.ply"), ascii).unwrap();
+        assert_eq!(p[0], Point3::new(1.0, 2.0, 3.0));
+        assert_eq!((p[1].x, p[1].y), (-4.0, 5.5));
+        assert!(p[1].z.is_nan());
+    }
+
+    #[test]
+    fn malformed_files_are_errors_naming_the_place() {
+        let path = Path::new("bad.ply");
+        let cases: &[(&[u8], &str)] = &[
+            (b"", "truncated"),
+            (b"plx\n", "line 1"),
+            (b"ply\nformat binary_big_endian 1.0\nend_header\n", "unsupported"),
+            (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty int x\nproperty float y\nproperty float z\nend_header\n1 2 3\n", "not float"),
+            (b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n", "truncated"),
+            (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 zz 3\n", "line 8"),
+            (b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n", "truncated"),
+            (b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n\x00\x00", "truncated"),
+            (b"ply\nformat ascii 1.0\nend_header\n", "no vertex"),
+            (b"ply\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n", "no format"),
+        ];
+        for (data, want) in cases {
+            let e = parse_ply(path, data).unwrap_err().to_string();
+            assert!(
+                e.contains("bad.ply") && e.contains(want),
+                "{e:?} lacks {want:?}"
+            );
+        }
+    }
+}

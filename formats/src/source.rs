@@ -1,0 +1,252 @@
+//! The byte source of every reader: a file opened with transparent `.gz`/`.bz2` decompression
+//! ([`open`], [`read_all`]) and the extension that names its format ([`logical_extension`]),
+//! plus the two cursors the readers share over those bytes: a line reader (text lines with
+//! their 1-based numbers) and a byte reader (little-endian values with their offsets), so every
+//! error names the file and the line or byte of the problem.
+
+use crate::error::{FormatError, Location};
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+/// The compression of an input file, told from its last extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compression {
+    /// Plain file.
+    None,
+    /// gzip (`.gz`), possibly several concatenated members.
+    Gzip,
+    /// bzip2 (`.bz2`), possibly several concatenated streams.
+    Bzip2,
+}
+
+/// The compression of `path` from its extension (case-insensitive).
+pub fn compression_of(path: &Path) -> Compression {
+    match lower_ext(path).as_deref() {
+        Some("gz") => Compression::Gzip,
+        Some("bz2") => Compression::Bzip2,
+        _ => Compression::None,
+    }
+}
+
+/// The extension that names the format, lower-case, after removing a `.gz`/`.bz2` suffix:
+/// `scan.dat.bz2` gives `dat`.
+pub fn logical_extension(path: &Path) -> Option<String> {
+    match compression_of(path) {
+        Compression::None => lower_ext(path),
+        _ => path.file_stem().and_then(|s| lower_ext(Path::new(s))),
+    }
+}
+
+fn lower_ext(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+}
+
+/// Open `path` for buffered reading, decompressing `.gz` and `.bz2` on the fly.
+pub fn open(path: &Path) -> Result<Box<dyn BufRead + Send>, FormatError> {
+    let file = File::open(path).map_err(|e| FormatError::io(path, Location::File, e))?;
+    let raw = BufReader::with_capacity(1 << 16, file);
+    Ok(match compression_of(path) {
+        Compression::None => Box::new(raw),
+        Compression::Gzip => Box::new(BufReader::with_capacity(
+            1 << 16,
+            flate2::bufread::MultiGzDecoder::new(raw),
+        )),
+        Compression::Bzip2 => Box::new(BufReader::with_capacity(
+            1 << 16,
+            bzip2::bufread::MultiBzDecoder::new(raw),
+        )),
+    })
+}
+
+/// The whole (decompressed) contents of `path`. A read or decompression error reports the
+/// number of decompressed bytes obtained before it.
+pub fn read_all(path: &Path) -> Result<Vec<u8>, FormatError> {
+    let mut r = open(path)?;
+    let mut data = Vec::new();
+    if compression_of(path) == Compression::None {
+        if let Ok(m) = std::fs::metadata(path) {
+            data.reserve(usize::try_from(m.len()).unwrap_or(0));
+        }
+    }
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        match r.read(&mut buf) {
+            Ok(0) => return Ok(data),
+            Ok(n) => data.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(FormatError::io(path, Location::Byte(data.len() as u64), e)),
+        }
+    }
+}
+
+/// Reads a text file line by line, keeping the 1-based line number for error messages.
+pub(crate) struct LineReader<'p> {
+    path: &'p Path,
+    inner: Box<dyn BufRead + Send>,
+    buf: Vec<u8>,
+    line_no: u64,
+}
+
+impl<'p> LineReader<'p> {
+    /// Open `path` (decompressing as needed).
+    pub(crate) fn open(path: &'p Path) -> Result<Self, FormatError> {
+        Ok(LineReader {
+            path,
+            inner: open(path)?,
+            buf: Vec::new(),
+            line_no: 0,
+        })
+    }
+
+    /// The next line without its `\n` / `\r\n` and with its location, or `None` at the end
+    /// of the file.
+    pub(crate) fn next_line(&mut self) -> Result<Option<(Location, &str)>, FormatError> {
+        self.buf.clear();
+        let n = self
+            .inner
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|e| FormatError::io(self.path, Location::Line(self.line_no + 1), e))?;
+        if n == 0 {
+            return Ok(None);
+        }
+        self.line_no += 1;
+        if self.buf.last() == Some(&b'\n') {
+            self.buf.pop();
+        }
+        if self.buf.last() == Some(&b'\r') {
+            self.buf.pop();
+        }
+        let at = Location::Line(self.line_no);
+        std::str::from_utf8(&self.buf)
+            .map(|l| Some((at, l)))
+            .map_err(|_| FormatError::syntax(self.path, at, "not valid UTF-8 text"))
+    }
+}
+
+/// A little-endian cursor over a byte buffer whose errors name the file and offset.
+pub(crate) struct ByteReader<'a> {
+    path: &'a Path,
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> ByteReader<'a> {
+    /// A cursor at the start of `data`, which was read from `path`.
+    pub(crate) fn new(path: &'a Path, data: &'a [u8]) -> Self {
+        ByteReader { path, data, pos: 0 }
+    }
+
+    /// Current offset.
+    pub(crate) fn pos(&self) -> usize {
+        self.pos
+    }
+
+    /// Bytes left.
+    pub(crate) fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+
+    /// The next `n` bytes.
+    pub(crate) fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], FormatError> {
+        if self.remaining() < n {
+            return Err(FormatError::Truncated {
+                path: self.path.to_path_buf(),
+                offset: self.data.len() as u64,
+                what: format!("{what} ({n} bytes from byte {})", self.pos),
+            });
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+
+    /// The next `n` bytes for a length computed from file data (which may be absurd).
+    pub(crate) fn take_checked(&mut self, n: u64, what: &str) -> Result<&'a [u8], FormatError> {
+        match usize::try_from(n) {
+            Ok(n) => self.take(n, what),
+            Err(_) => Err(FormatError::Truncated {
+                path: self.path.to_path_buf(),
+                offset: self.data.len() as u64,
+                what: format!("{what} ({n} bytes from byte {})", self.pos),
+            }),
+        }
+    }
+
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
+        let s = self.take(N, what)?;
+        let mut a = [0u8; N];
+        a.copy_from_slice(s);
+        Ok(a)
+    }
+
+    /// A little-endian `u32`.
+    pub(crate) fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        self.array(what).map(u32::from_le_bytes)
+    }
+
+    /// A little-endian `i32`.
+    pub(crate) fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
+        self.array(what).map(i32::from_le_bytes)
+    }
+
+    /// A little-endian `f32`.
+    pub(crate) fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
+        self.array(what).map(f32::from_le_bytes)
+    }
+
+    /// A little-endian `f64`.
+    pub(crate) fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
+        self.array(what).map(f64::from_le_bytes)
+    }
+
+    /// A syntax error at the current offset (or `back` bytes before it).
+    pub(crate) fn error_at(&self, back: usize, message: impl Into<String>) -> FormatError {
+        FormatError::syntax(
+            self.path,
+            Location::Byte(self.pos.saturating_sub(back) as u64),
+            message,
+        )
+    }
+
+    /// A capacity for `count` records of `record_bytes` each that the remaining data can hold,
+    /// so a corrupt count never makes a huge allocation.
+    pub(crate) fn capacity_for(&self, count: u64, record_bytes: usize) -> usize {
+        let fit = self.remaining() / record_bytes.max(1);
+        usize::try_from(count).unwrap_or(usize::MAX).min(fit)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn logical_extension_strips_compression() {
+        assert_eq!(
+            logical_extension(Path::new("a/scan.dat.bz2")).as_deref(),
+            Some("dat")
+        );
+        assert_eq!(
+            logical_extension(Path::new("x.GRAPH.gz")).as_deref(),
+            Some("graph")
+        );
+        assert_eq!(
+            logical_extension(Path::new("x.pcd")).as_deref(),
+            Some("pcd")
+        );
+        assert_eq!(logical_extension(Path::new("x.gz")), None);
+    }
+
+    #[test]
+    fn byte_reader_reports_truncation() {
+        let data = [1u8, 0, 0, 0, 7];
+        let mut r = ByteReader::new(Path::new("f.bin"), &data);
+        assert_eq!(r.u32("count").ok(), Some(1));
+        let e = r.u32("id").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("f.bin") && e.contains("truncated"), "{e}");
+        assert_eq!(r.capacity_for(u64::from(u32::MAX), 12), 0);
+    }
+}

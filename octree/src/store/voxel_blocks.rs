@@ -1,0 +1,487 @@
+//! Depth-16 node storage: blocks of eight voxels, as `u16` indices into the tree's palette of
+//! values (see [`super::palette`]) or, past the palette's limit, as values.
+//!
+//! A depth-16 block stores eight 2-byte palette indices (16 bytes) instead of eight `f32`s
+//! (32 bytes). A tree that needs more than
+//! [`PALETTE_LIMIT`](super::palette::PALETTE_LIMIT) distinct voxel values (arbitrary
+//! `set_node_value`s, an `.ot` file from elsewhere) switches to wide storage: blocks of eight
+//! `f32` at the same block indices, so nothing that refers to a block changes. Compaction
+//! (`shrink_to_fit`) rebuilds the palette from the values in use and goes back to narrow
+//! storage when they fit again.
+
+use super::arena::Arena;
+use super::palette::{Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX};
+use super::slot::{max_present, present, ABSENT};
+
+/// Eight depth-16 children as palette indices ([`ABSENT_IDX`] for a missing child).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+pub(crate) struct NarrowBlock {
+    pub idx: [u16; 8],
+}
+
+/// Eight depth-16 children as values (the wide fallback; absent children hold [`ABSENT`]).
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+pub(crate) struct WideBlock {
+    pub vals: [f32; 8],
+}
+
+const EMPTY_NARROW: NarrowBlock = NarrowBlock {
+    idx: [ABSENT_IDX; 8],
+};
+const EMPTY_WIDE: WideBlock = WideBlock { vals: [ABSENT; 8] };
+
+/// What [`VoxelBlocks::update`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Outcome {
+    /// Nothing: OctoMap's early exit.
+    Exit,
+    /// The update was applied; `true` when the voxel is new.
+    Applied(bool),
+}
+
+/// The depth-16 blocks of a tree: narrow (palette indices) or, past the palette limit, wide.
+#[derive(Clone)]
+pub(crate) struct VoxelBlocks {
+    /// Blocks of palette indices (empty when wide, so that an index into it fails there).
+    narrow: Arena<NarrowBlock>,
+    /// The values `narrow` indexes.
+    palette: Palette,
+    /// Blocks of values, once the palette overflowed.
+    wide: Option<Arena<WideBlock>>,
+}
+
+/// The storage in use: narrow blocks and their palette, or wide blocks.
+pub(crate) enum View<A, P, W> {
+    /// Blocks of palette indices.
+    Narrow(A, P),
+    /// Blocks of values.
+    Wide(W),
+}
+
+impl VoxelBlocks {
+    /// Empty narrow storage whose palette holds at most `limit` values.
+    pub fn new(limit: usize) -> Self {
+        VoxelBlocks {
+            narrow: Arena::new(EMPTY_NARROW),
+            palette: Palette::new(limit),
+            wide: None,
+        }
+    }
+
+    /// The storage in use.
+    #[inline(always)]
+    pub fn view(&self) -> View<&Arena<NarrowBlock>, &Palette, &Arena<WideBlock>> {
+        match &self.wide {
+            None => View::Narrow(&self.narrow, &self.palette),
+            Some(w) => View::Wide(w),
+        }
+    }
+
+    /// The storage in use, mutably.
+    #[inline(always)]
+    fn view_mut(&mut self) -> View<&mut Arena<NarrowBlock>, &mut Palette, &mut Arena<WideBlock>> {
+        match &mut self.wide {
+            None => View::Narrow(&mut self.narrow, &mut self.palette),
+            Some(w) => View::Wide(w),
+        }
+    }
+
+    /// `true` for the wide fallback.
+    #[cfg(test)]
+    pub fn is_wide(&self) -> bool {
+        self.wide.is_some()
+    }
+
+    /// Distinct values in the palette (0 when wide).
+    #[cfg(test)]
+    pub fn palette_len(&self) -> usize {
+        match self.view() {
+            View::Narrow(_, palette) => palette.len(),
+            View::Wide(_) => 0,
+        }
+    }
+
+    /// A new empty block.
+    #[inline]
+    pub fn alloc(&mut self) -> u32 {
+        match self.view_mut() {
+            View::Narrow(arena, _) => arena.alloc(),
+            View::Wide(arena) => arena.alloc(),
+        }
+    }
+
+    /// Free block `b` (reset to empty, kept for reuse).
+    #[inline]
+    pub fn release(&mut self, b: u32) {
+        match self.view_mut() {
+            View::Narrow(arena, _) => arena.release(b),
+            View::Wide(arena) => arena.release(b),
+        }
+    }
+
+    /// Blocks in use.
+    pub fn live(&self) -> usize {
+        match self.view() {
+            View::Narrow(arena, _) => arena.live(),
+            View::Wide(arena) => arena.live(),
+        }
+    }
+
+    /// Bytes held: (live blocks, freed blocks and free list, one block, palette, number of
+    /// palette values or `None` when wide).
+    pub fn bytes(&self) -> (usize, usize, usize, usize, Option<usize>) {
+        match self.view() {
+            View::Narrow(arena, palette) => {
+                let (live, free) = arena.split_bytes();
+                (live, free, 16, palette.bytes(), Some(palette.len()))
+            }
+            View::Wide(arena) => {
+                let (live, free) = arena.split_bytes();
+                (live, free, 32, 0, None)
+            }
+        }
+    }
+
+    /// Value of slot `s` of block `b` ([`ABSENT`] when the child does not exist).
+    #[inline(always)]
+    pub fn get(&self, b: u32, s: usize) -> f32 {
+        match self.view() {
+            View::Narrow(arena, palette) => {
+                palette.vals[arena.blocks[b as usize].idx[s & 7] as usize]
+            }
+            View::Wide(arena) => arena.blocks[b as usize].vals[s & 7],
+        }
+    }
+
+    /// Whether slot `s` of block `b` holds a child.
+    #[inline(always)]
+    pub fn is_present(&self, b: u32, s: usize) -> bool {
+        match self.view() {
+            View::Narrow(arena, _) => arena.blocks[b as usize].idx[s & 7] != ABSENT_IDX,
+            View::Wide(arena) => present(arena.blocks[b as usize].vals[s & 7]),
+        }
+    }
+
+    /// The eight values of block `b`.
+    #[inline]
+    pub fn vals(&self, b: u32) -> [f32; 8] {
+        match self.view() {
+            View::Narrow(arena, palette) => arena.blocks[b as usize]
+                .idx
+                .map(|i| palette.vals[i as usize]),
+            View::Wide(arena) => arena.blocks[b as usize].vals,
+        }
+    }
+
+    /// Set slot `s` of block `b` to `v` (not NaN, or [`ABSENT`] to remove the child); switches
+    /// to wide storage when the palette is full.
+    #[inline]
+    pub fn set(&mut self, b: u32, s: usize, v: f32) {
+        if let View::Narrow(arena, palette) = self.view_mut() {
+            let i = if v.to_bits() == 0 {
+                Some(ZERO_IDX)
+            } else if present(v) {
+                palette.intern(v)
+            } else {
+                Some(ABSENT_IDX)
+            };
+            match i {
+                Some(i) => {
+                    arena.blocks[b as usize].idx[s & 7] = i;
+                    return;
+                }
+                None => self.widen(),
+            }
+        }
+        if let View::Wide(arena) = self.view_mut() {
+            arena.blocks[b as usize].vals[s & 7] = v;
+        }
+    }
+
+    /// Set all eight slots of block `b` to `v` (present, not NaN).
+    pub fn fill(&mut self, b: u32, v: f32) {
+        self.set(b, 0, v);
+        match self.view_mut() {
+            View::Narrow(arena, _) => {
+                let blk = &mut arena.blocks[b as usize];
+                blk.idx = [blk.idx[0]; 8];
+            }
+            View::Wide(arena) => arena.blocks[b as usize].vals = [v; 8],
+        }
+    }
+
+    /// Slot `s` of block `b` becomes a new child with value 0.
+    #[inline]
+    pub fn set_zero(&mut self, b: u32, s: usize) {
+        match self.view_mut() {
+            View::Narrow(arena, _) => arena.blocks[b as usize].idx[s & 7] = ZERO_IDX,
+            View::Wide(arena) => arena.blocks[b as usize].vals[s & 7] = 0.0,
+        }
+    }
+
+    /// Prepare voxel updates by `delta` clamped to `[cmin, cmax]`.
+    pub fn adder(&mut self, delta: f32, cmin: f32, cmax: f32) -> Adder {
+        match self.view_mut() {
+            View::Narrow(_, palette) => palette.adder(delta, cmin, cmax),
+            View::Wide(_) => Adder::new(delta, cmin, cmax),
+        }
+    }
+
+    /// Take the transition memo of `add` out of the palette, to pass to
+    /// [`VoxelBlocks::update`] for a batch of updates (empty when wide); give it back with
+    /// [`VoxelBlocks::put_memo`].
+    pub fn take_memo(&mut self, add: &Adder) -> Vec<u16> {
+        match self.view_mut() {
+            View::Narrow(_, palette) => palette.take_memo(add),
+            View::Wide(_) => Vec::new(),
+        }
+    }
+
+    /// Give back the memo taken by [`VoxelBlocks::take_memo`] (dropped when the storage became
+    /// wide meanwhile).
+    pub fn put_memo(&mut self, add: &Adder, next: Vec<u16>) {
+        if let View::Narrow(_, palette) = self.view_mut() {
+            palette.put_memo(add, next);
+        }
+    }
+
+    /// OctoMap's `updateNodeLogOdds` on slot `s` of block `b`: a voxel that is absent, or
+    /// `fresh` (just created with value 0), gets `0 + delta` clamped; an existing one takes the
+    /// early exit at the clamp the update pushes towards, else gets `v + delta` clamped.
+    /// `memo` is `add`'s transition memo (from [`VoxelBlocks::take_memo`]).
+    #[inline(always)]
+    pub fn update(
+        &mut self,
+        b: u32,
+        s: usize,
+        add: &Adder,
+        fresh: bool,
+        memo: &mut Vec<u16>,
+    ) -> Outcome {
+        // wide storage keeps no narrow blocks, so this look-up is also the mode test
+        if let Some(blk) = self.narrow.blocks.get_mut(b as usize) {
+            let slot = &mut blk.idx[s & 7];
+            let i = if fresh { ABSENT_IDX } else { *slot };
+            let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
+            if n.wrapping_sub(1) < EXIT - 1 {
+                // neither UNKNOWN nor EXIT: a known transition
+                *slot = n;
+                return Outcome::Applied(i == ABSENT_IDX);
+            }
+            if n == EXIT {
+                return Outcome::Exit;
+            }
+        }
+        self.update_slow(b, s, add, fresh, memo)
+    }
+
+    /// [`VoxelBlocks::update`] without a memo entry, or on wide storage.
+    #[inline(never)]
+    fn update_slow(
+        &mut self,
+        b: u32,
+        s: usize,
+        add: &Adder,
+        fresh: bool,
+        memo: &mut Vec<u16>,
+    ) -> Outcome {
+        if let View::Narrow(arena, palette) = self.view_mut() {
+            let slot = &mut arena.blocks[b as usize].idx[s & 7];
+            let i = if fresh { ABSENT_IDX } else { *slot };
+            if let Some(n) = palette.step_slow(i, add, memo) {
+                if n == EXIT {
+                    return Outcome::Exit;
+                }
+                *slot = n;
+                return Outcome::Applied(i == ABSENT_IDX);
+            }
+            self.widen();
+        }
+        match self.view_mut() {
+            View::Wide(arena) => {
+                let slot = &mut arena.blocks[b as usize].vals[s & 7];
+                let created = fresh || !present(*slot);
+                let old = if created { 0.0 } else { *slot };
+                if !created && add.exits_at(old) {
+                    return Outcome::Exit;
+                }
+                *slot = add.apply(old);
+                Outcome::Applied(created)
+            }
+            View::Narrow(..) => unreachable!("widened above"),
+        }
+    }
+
+    /// The value all eight children of block `b` share when they exist and are equal under
+    /// float `==` (OctoMap's prune test); `None` otherwise.
+    #[inline]
+    pub fn uniform(&self, b: u32) -> Option<f32> {
+        match self.view() {
+            View::Narrow(arena, palette) => {
+                let idx = arena.blocks[b as usize].idx;
+                let i0 = idx[0];
+                if idx == [i0; 8] {
+                    return (i0 != ABSENT_IDX).then(|| palette.vals[i0 as usize]);
+                }
+                if !palette.neg_zero {
+                    return None;
+                }
+                // +0.0 and -0.0 have different indices but are equal
+                uniform_vals(&idx.map(|i| palette.vals[i as usize]))
+            }
+            View::Wide(arena) => uniform_vals(&arena.blocks[b as usize].vals),
+        }
+    }
+
+    /// `(true, v)` when the eight children of block `b` exist and equal `v` under float `==`
+    /// ([`VoxelBlocks::uniform`]), else `(false, their max)` ([`VoxelBlocks::max`]).
+    #[inline(always)]
+    pub fn collapse_or_max(&self, b: u32) -> (bool, f32) {
+        if let View::Narrow(arena, palette) = self.view() {
+            let idx = arena.blocks[b as usize].idx;
+            let i0 = idx[0];
+            if idx == [i0; 8] && i0 != ABSENT_IDX {
+                return (true, palette.vals[i0 as usize]);
+            }
+            if !palette.neg_zero {
+                let mut m = -f32::MAX;
+                for i in idx {
+                    let v = palette.vals[i as usize];
+                    if v > m {
+                        m = v;
+                    }
+                }
+                return (false, m);
+            }
+        }
+        match self.uniform(b) {
+            Some(v0) => (true, v0),
+            None => (false, self.max(b)),
+        }
+    }
+
+    /// The largest present value of block `b` (`-f32::MAX` when none), first in child order
+    /// among equal values.
+    #[inline]
+    pub fn max(&self, b: u32) -> f32 {
+        match self.view() {
+            View::Narrow(arena, palette) => {
+                let mut m = -f32::MAX;
+                for &i in &arena.blocks[b as usize].idx {
+                    let v = palette.vals[i as usize];
+                    if v > m {
+                        m = v;
+                    }
+                }
+                m
+            }
+            View::Wide(arena) => max_present(&arena.blocks[b as usize].vals),
+        }
+    }
+
+    /// Replace every present value `v` by `f(v)` (`f` must not return NaN).
+    pub fn map_values(&mut self, f: impl Fn(f32) -> f32) {
+        match self.view_mut() {
+            View::Narrow(arena, palette) => {
+                let mut fresh = Palette::new(palette.limit);
+                let mut remap = vec![ABSENT_IDX];
+                for &v in &palette.vals[1..] {
+                    match fresh.intern(f(v)) {
+                        Some(i) => remap.push(i),
+                        None => {
+                            // more distinct results than fit: convert value by value
+                            self.widen();
+                            return self.map_values(f);
+                        }
+                    }
+                }
+                for blk in &mut arena.blocks {
+                    for i in &mut blk.idx {
+                        *i = remap[*i as usize];
+                    }
+                }
+                *palette = fresh;
+            }
+            View::Wide(arena) => {
+                for blk in &mut arena.blocks {
+                    for v in &mut blk.vals {
+                        if present(*v) {
+                            *v = f(*v);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Switch to wide storage: every block keeps its index, every slot its value.
+    #[cold]
+    #[inline(never)]
+    fn widen(&mut self) {
+        if self.wide.is_some() {
+            return;
+        }
+        let palette = &self.palette;
+        let wide = self.narrow.map_blocks(EMPTY_WIDE, |blk| WideBlock {
+            vals: blk.idx.map(|i| palette.vals[i as usize]),
+        });
+        self.wide = Some(wide);
+        self.narrow = Arena::new(EMPTY_NARROW);
+        self.palette = Palette::new(self.palette.limit);
+    }
+
+    /// New compact storage holding the blocks `order` (old indices) at indices 0, 1, ...:
+    /// narrow with a palette of just the values still in use when at most `limit` distinct
+    /// values are, else wide.
+    pub fn compacted(&self, order: &[u32], limit: usize) -> VoxelBlocks {
+        let mut palette = Palette::new(limit);
+        let mut arena = Arena::new(EMPTY_NARROW);
+        arena.blocks.reserve_exact(order.len());
+        let mut fits = true;
+        'blocks: for &b in order {
+            let mut blk = EMPTY_NARROW;
+            for (s, v) in self.vals(b).into_iter().enumerate() {
+                if present(v) {
+                    match palette.intern(v) {
+                        Some(i) => blk.idx[s] = i,
+                        None => {
+                            fits = false;
+                            break 'blocks;
+                        }
+                    }
+                }
+            }
+            arena.blocks.push(blk);
+        }
+        if fits {
+            palette.vals.shrink_to_fit();
+            return VoxelBlocks {
+                narrow: arena,
+                palette,
+                wide: None,
+            };
+        }
+        let mut wide = Arena::new(EMPTY_WIDE);
+        wide.blocks.reserve_exact(order.len());
+        wide.blocks
+            .extend(order.iter().map(|&b| WideBlock { vals: self.vals(b) }));
+        VoxelBlocks {
+            narrow: Arena::new(EMPTY_NARROW),
+            palette: Palette::new(limit),
+            wide: Some(wide),
+        }
+    }
+}
+
+/// `Some(v0)` when all eight values are present and equal to the first under `==`.
+#[inline]
+fn uniform_vals(vals: &[f32; 8]) -> Option<f32> {
+    let v0 = vals[0];
+    (present(v0) && vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
+}
+
+#[cfg(test)]
+#[path = "voxel_blocks_tests.rs"]
+mod tests;

@@ -1,0 +1,191 @@
+//! Whole trees whose voxel palette holds only a few values (so they switch to wide voxel
+//! storage and, on `shrink_to_fit`, back) against trees with the real limit and a flat voxel
+//! map; and a tree past the real limit.
+
+use super::*;
+use crate::io::{read_ot, write_bt, write_ot};
+use crate::store::PALETTE_LIMIT;
+use crate::validate::check_well_formed;
+use proptest::prelude::*;
+use std::collections::HashMap;
+
+/// A small set of values with repeats, both zeros and values that clamp.
+const VALS: [f32; 9] = [0.0, -0.0, 0.85, -0.4, 1.7, -2.0, 3.5, 0.45, 1e-30];
+
+/// Tree operations for the whole-tree test.
+#[derive(Debug, Clone)]
+enum TreeOp {
+    Update(Key, bool),
+    Batch(Vec<Key>, bool),
+    Set(Key, usize),
+    Delete(Key, u8),
+    Prune,
+    Expand,
+    MaxLikelihood,
+    Shrink,
+}
+
+fn key() -> impl Strategy<Value = Key> {
+    (0u16..6, 0u16..6, 0u16..6).prop_map(|(x, y, z)| Key::new(32764 + x, 32764 + y, 32764 + z))
+}
+
+fn tree_op() -> impl Strategy<Value = TreeOp> {
+    prop_oneof![
+        8 => (key(), any::<bool>()).prop_map(|(k, h)| TreeOp::Update(k, h)),
+        4 => (prop::collection::vec(key(), 0..30), any::<bool>()).prop_map(|(k, h)| TreeOp::Batch(k, h)),
+        4 => (key(), 0usize..VALS.len()).prop_map(|(k, v)| TreeOp::Set(k, v)),
+        1 => (key(), 13u8..=16).prop_map(|(k, d)| TreeOp::Delete(k, d)),
+        1 => Just(TreeOp::Prune),
+        1 => Just(TreeOp::Expand),
+        1 => Just(TreeOp::MaxLikelihood),
+        1 => Just(TreeOp::Shrink),
+    ]
+}
+
+/// What a voxel reads in the flat model: unknown voxels start at 0, updates at the clamp
+/// they push towards are ignored, otherwise add then clamp; set clamps.
+fn model_update(model: &mut HashMap<Key, f32>, t: &OcTree, k: Key, hit: bool) {
+    let p = t.params();
+    let d = if hit { p.hit } else { p.miss };
+    let v = model.entry(k).or_insert(0.0);
+    if !((d >= 0.0 && *v >= p.clamp_max) || (d <= 0.0 && *v <= p.clamp_min)) {
+        *v = (*v + d).clamp(p.clamp_min, p.clamp_max);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// A tree whose palette holds only `limit` values (so it switches to wide storage
+    /// and, on `shrink_to_fit`, back) writes the same `.ot` and `.bt` bytes after every
+    /// operation as a tree with the real limit, both stay well formed, and every voxel
+    /// reads what a flat per-voxel map says.
+    #[test]
+    fn small_palette_tree_equals_normal_tree(limit in 1usize..6, ops in prop::collection::vec(tree_op(), 1..40)) {
+        let mut small = OcTree::new(0.1).unwrap();
+        small.store.set_palette_limit(limit);
+        let mut normal = OcTree::new(0.1).unwrap();
+        let mut model: HashMap<Key, f32> = HashMap::new();
+        let mut model_valid = true;
+        let mut lazy_ok = false;
+        for op in ops {
+            // expanding a shallow leaf (a root left childless by deletes) would build
+            // 8^16 voxels
+            if matches!(op, TreeOp::Expand) && normal.leaves().any(|l| l.depth < 13) {
+                continue;
+            }
+            for t in [&mut small, &mut normal] {
+                match &op {
+                    TreeOp::Update(k, h) => {
+                        t.update_node(*k, if *h { Update::Hit } else { Update::Miss }, false);
+                    }
+                    TreeOp::Batch(ks, h) => t.update_keys(ks, if *h { Update::Hit } else { Update::Miss }, false),
+                    TreeOp::Set(k, v) => {
+                        t.set_node_value(*k, VALS[*v], false).unwrap();
+                    }
+                    TreeOp::Delete(k, d) => {
+                        t.delete_node(*k, *d);
+                    }
+                    TreeOp::Prune => t.prune(),
+                    TreeOp::Expand => t.expand(),
+                    TreeOp::MaxLikelihood => t.to_max_likelihood(),
+                    TreeOp::Shrink => t.shrink_to_fit(),
+                }
+            }
+            match &op {
+                TreeOp::Update(k, h) => model_update(&mut model, &normal, *k, *h),
+                TreeOp::Batch(ks, h) => ks.iter().for_each(|k| model_update(&mut model, &normal, *k, *h)),
+                TreeOp::Set(k, v) => {
+                    let p = normal.params();
+                    model.insert(*k, VALS[*v].max(p.clamp_min).min(p.clamp_max));
+                }
+                TreeOp::Delete(..) | TreeOp::MaxLikelihood => model_valid = false,
+                _ => {}
+            }
+            // prune may stop early, expand leaves equal siblings, delete refreshes only the
+            // parent (as OctoMap's deleteNodeRecurs): shapes only the lazy check accepts
+            lazy_ok |= matches!(
+                op,
+                TreeOp::Prune | TreeOp::Expand | TreeOp::MaxLikelihood | TreeOp::Delete(..)
+            );
+            if let Err(e) = check_well_formed(&small, lazy_ok) {
+                return Err(TestCaseError::fail(e));
+            }
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            write_ot(&small, &mut a).unwrap();
+            write_ot(&normal, &mut b).unwrap();
+            prop_assert!(a == b, ".ot bytes differ after {:?}", op);
+            prop_assert_eq!(small.size(), normal.size());
+            prop_assert_eq!(read_ot(&a[..]).map(|t| t.size()).ok(), Some(small.size()));
+        }
+        if model_valid {
+            for (k, v) in &model {
+                let n = small.search(*k, 16).expect("updated voxel is known");
+                prop_assert_eq!(n.value.to_bits(), v.to_bits(), "voxel {:?}", k);
+            }
+        }
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        write_bt(&mut small, &mut a).unwrap();
+        write_bt(&mut normal, &mut b).unwrap();
+        prop_assert!(a == b);
+    }
+}
+
+/// Past the real palette limit: 70 000 distinct voxel values force the wide fallback;
+/// every value reads back, updates keep working, `.ot` round-trips, and after
+/// `to_max_likelihood` compaction returns to narrow storage and less memory.
+#[test]
+fn more_values_than_the_palette_holds() {
+    let mut t = OcTree::new(0.1).unwrap();
+    let n = 70_000u32;
+    let key = |i: u32| {
+        Key::new(
+            30000 + (i % 64) as u16,
+            30000 + (i / 64 % 64) as u16,
+            30000 + (i / 4096) as u16,
+        )
+    };
+    let val = |i: u32| -1.5 + i as f32 * 4e-5;
+    for i in 0..n {
+        t.set_node_value(key(i), val(i), false).unwrap();
+        if i as usize == PALETTE_LIMIT - 2 {
+            assert!(!t.store.voxels.is_wide());
+        }
+    }
+    assert!(t.store.voxels.is_wide());
+    for i in (0..n).step_by(97) {
+        assert_eq!(
+            t.search(key(i), 16).unwrap().value.to_bits(),
+            val(i).to_bits()
+        );
+    }
+    let keys: Vec<Key> = (0..n).step_by(3).map(key).collect();
+    t.update_keys(&keys, Update::Hit, false);
+    for i in (0..n).step_by(3) {
+        let p = t.params();
+        let want = (val(i) + p.hit).clamp(p.clamp_min, p.clamp_max);
+        assert_eq!(
+            t.search(key(i), 16).unwrap().value.to_bits(),
+            want.to_bits()
+        );
+    }
+    crate::validate::assert_well_formed(&t, false);
+    let mut ot = Vec::new();
+    write_ot(&t, &mut ot).unwrap();
+    let mut back = read_ot(&ot[..]).unwrap();
+    assert!(back.store.voxels.is_wide());
+    let mut ot2 = Vec::new();
+    write_ot(&back, &mut ot2).unwrap();
+    assert_eq!(ot, ot2);
+    // still too many values: compaction keeps it wide
+    back.shrink_to_fit();
+    assert!(back.store.voxels.is_wide());
+    t.shrink_to_fit();
+    let wide_bytes = t.memory_usage();
+    t.to_max_likelihood();
+    t.shrink_to_fit();
+    assert!(!t.store.voxels.is_wide());
+    assert!(t.store.voxels.palette_len() <= 3);
+    assert!(t.memory_usage() < wide_bytes);
+    crate::validate::assert_well_formed(&t, true);
+}

@@ -1,0 +1,397 @@
+//! Eight DDA brick walks at once in the 512-bit registers of AVX-512, chosen at run time: the
+//! walk of [`crate::lanes::avx2`] with twice the lanes, where comparisons give mask registers,
+//! a masked move picks each lane's new `tMax`, and the bricks the lanes leave are compressed to
+//! the front of a register by the CPU (`vpcompressq`) instead of by a permutation table.
+//!
+//! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
+//! exactly the voxels of [`crate::dda::walk_ray_codes`].
+
+use super::refill::{first_stop, restart, LaneInit};
+use super::runs::merge_runs_from;
+use crate::brickset::BrickSink;
+use crate::cpu::has_avx512;
+use crate::dda::{RaySetup, AXIS_MASK};
+use core::arch::x86_64::{
+    __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_alignr_epi64,
+    _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask,
+    _mm512_cmpneq_epu64_mask, _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64,
+    _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512,
+    _mm512_permutexvar_epi64, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
+    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
+    _CMP_LT_OQ,
+};
+use octoquant_octree::Brick;
+
+/// Bricks left by the lanes that are collected before they are handed on.
+const LEFT: usize = 1024;
+
+type U8 = [u64; 8];
+
+/// The per-thread buffers of the eight-lane walks (DDA and Bresenham), kept from batch to
+/// batch: the bricks the lanes left and their voxels, side by side, with room for one more
+/// step's eight. Fixed-size, so a step's store needs no bounds check.
+#[derive(Debug, Clone)]
+pub(crate) struct OctScratch {
+    bricks: Box<[u64; LEFT + 8]>,
+    bits: Box<[u64; LEFT + 8]>,
+}
+
+impl Default for OctScratch {
+    fn default() -> Self {
+        OctScratch {
+            bricks: Box::new([0; LEFT + 8]),
+            bits: Box::new([0; LEFT + 8]),
+        }
+    }
+}
+
+/// The eight lanes' open bricks and the voxels met in them, and the bricks the lanes left,
+/// collected in the scratch buffers until they are handed on.
+///
+/// Nothing takes its address in the step loop (the hand-on gets its fields), so the open
+/// bricks stay in registers from step to step.
+pub(crate) struct Bricks8<'a> {
+    brick: __m512i,
+    bits: __m512i,
+    left: usize,
+    scratch: &'a mut OctScratch,
+}
+
+impl<'a> Bricks8<'a> {
+    /// Each lane's open brick holding the voxel of `first` (one code per lane).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) fn new(first: __m512i, scratch: &'a mut OctScratch) -> Self {
+        Bricks8 {
+            brick: _mm512_srli_epi64::<6>(first),
+            bits: _mm512_sllv_epi64(
+                _mm512_set1_epi64(1),
+                _mm512_and_si512(first, _mm512_set1_epi64(63)),
+            ),
+            left: 0,
+            scratch,
+        }
+    }
+
+    /// Add each lane's voxel `codes`: it joins the lane's open brick, or the lane leaves that
+    /// brick, which is compressed to the front with the others left (`vpcompressq`) and
+    /// appended with one store; full buffers go to `flush`.
+    #[inline]
+    #[target_feature(enable = "avx512f,popcnt")]
+    pub(crate) fn push<F: BrickSink>(&mut self, codes: __m512i, flush: &mut F) {
+        let b = _mm512_srli_epi64::<6>(codes);
+        let moved = _mm512_cmpneq_epu64_mask(b, self.brick);
+        let left_b: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.brick));
+        let left_m: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(moved, self.bits));
+        // `left` stays below LEFT between steps; the `min` lets the compiler see it
+        let i = self.left.min(LEFT);
+        let s = &mut *self.scratch;
+        s.bricks[i..i + 8].copy_from_slice(&left_b);
+        s.bits[i..i + 8].copy_from_slice(&left_m);
+        self.left = i + moved.count_ones() as usize;
+        let voxel = _mm512_sllv_epi64(
+            _mm512_set1_epi64(1),
+            _mm512_and_si512(codes, _mm512_set1_epi64(63)),
+        );
+        // a lane that stayed adds its voxel to the open brick's; one that moved starts anew
+        self.bits = _mm512_mask_or_epi64(voxel, !moved, self.bits, voxel);
+        self.brick = b;
+        if self.left >= LEFT {
+            hand_on(self.scratch, self.left, flush);
+            self.left = 0;
+        }
+    }
+
+    /// Hand every brick to `flush`: those left, then the open ones.
+    #[target_feature(enable = "avx512f,popcnt")]
+    pub(crate) fn finish<F: BrickSink>(self, flush: &mut F) {
+        hand_on(self.scratch, self.left, flush);
+        let (brick, bits): (U8, U8) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
+        for (code, voxels) in brick.into_iter().zip(bits) {
+            flush.put(Brick { code, voxels });
+        }
+    }
+}
+
+/// Hand the first `n` bricks left in `s` to `flush`, each run of one brick merged first
+/// ([`merge_runs`]).
+#[target_feature(enable = "avx512f,popcnt")]
+fn hand_on<F: BrickSink>(s: &mut OctScratch, n: usize, flush: &mut F) {
+    let n = n.min(LEFT + 8);
+    let k = merge_runs(&mut s.bricks[..n], &mut s.bits[..n]);
+    flush.put_all(&s.bricks[..k], &s.bits[..k]);
+}
+
+/// [`crate::lanes::runs::merge_runs`] eight entries at a time: a segmented OR scan over each
+/// register of entries (three shifted ORs, each under the mask of lanes whose run reaches that
+/// far back) and one compressed store of the runs that end in it. The run still open at a
+/// register's last lane is carried into the next; the last few entries go through the scalar
+/// merge.
+#[target_feature(enable = "avx512f,popcnt")]
+fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
+    let n = bricks.len().min(bits.len());
+    if n == 0 {
+        return 0;
+    }
+    let first = bricks[0];
+    // the open run: a register whose last lane is its brick, and its bits in every lane (kept
+    // in registers, so a register's scan does not wait for the previous one's)
+    let mut prev = _mm512_set1_epi64(first as i64);
+    let mut open = _mm512_setzero_si512();
+    let last = _mm512_set1_epi64(7);
+    let zero = _mm512_setzero_si512();
+    let mut k = 0;
+    let mut i = 0;
+    while i + 8 <= n {
+        let b: __m512i = bytemuck::cast(<U8>::try_from(&bricks[i..i + 8]).unwrap_or_default());
+        let mut m: __m512i = bytemuck::cast(<U8>::try_from(&bits[i..i + 8]).unwrap_or_default());
+        // lane j continues the run of lane j - 1 (lane 0: the open run)
+        let same = _mm512_cmpeq_epu64_mask(b, _mm512_alignr_epi64::<7>(b, prev));
+        // the open run ends before this register when lane 0 starts a new one; it is
+        // written at `k` either way (below every entry not yet read) and kept only then
+        let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
+        bricks[k] = pb[7];
+        bits[k] = om[0];
+        k += (same & 1 == 0) as usize;
+        // OR within runs: lane j takes lane j - d where its run reaches d lanes back
+        let c1 = same & 0xfe;
+        m = _mm512_mask_or_epi64(m, c1, m, _mm512_alignr_epi64::<7>(m, zero));
+        let c2 = c1 & (c1 << 1);
+        m = _mm512_mask_or_epi64(m, c2, m, _mm512_alignr_epi64::<6>(m, zero));
+        let c4 = c2 & (c2 << 2);
+        m = _mm512_mask_or_epi64(m, c4, m, _mm512_alignr_epi64::<4>(m, zero));
+        // the leading lanes that continue the open run take its bits
+        let joined = ((1u32 << (!same).trailing_zeros()) - 1) as __mmask8;
+        m = _mm512_mask_or_epi64(m, joined, m, open);
+        // lanes 0..7 whose next lane starts a new run end theirs here
+        let ends = !(same >> 1) & 0x7f;
+        let eb: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, b));
+        let em: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, m));
+        // k + 8 <= i + 8: the store covers only this register's entries, already read
+        bricks[k..k + 8].copy_from_slice(&eb);
+        bits[k..k + 8].copy_from_slice(&em);
+        k += ends.count_ones() as usize;
+        open = _mm512_permutexvar_epi64(last, m);
+        prev = b;
+        i += 8;
+    }
+    let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
+    let (cb, cm) = (pb[7], om[0]);
+    merge_runs_from(bricks, bits, i, k, cb, cm)
+}
+
+/// [`merge_runs`] where the CPU has the eight-lane walks, for tests against the scalar merge.
+#[cfg(test)]
+pub(crate) fn merge_runs_wide(bricks: &mut [u64], bits: &mut [u64]) -> Option<usize> {
+    if !has_avx512() {
+        return None;
+    }
+    // SAFETY: `merge_runs` needs AVX-512 Foundation and `popcnt`, found just above.
+    #[allow(unsafe_code)]
+    Some(unsafe { merge_runs(bricks, bits) })
+}
+
+/// Walk `rays` eight at a time when this CPU has AVX-512 and return the number of degenerate
+/// walks, or `None` (nothing done) on CPUs without it.
+pub(crate) fn walk_octs<F>(
+    rays: &[RaySetup],
+    scratch: &mut OctScratch,
+    flush: &mut F,
+) -> Option<usize>
+where
+    F: BrickSink,
+{
+    if !has_avx512() {
+        return None;
+    }
+    // SAFETY: `walk_octs_avx512` needs AVX-512 Foundation and `popcnt`, and the CPU has been
+    // found to support both just above. Nothing else in it is unsafe.
+    #[allow(unsafe_code)]
+    let degenerate = unsafe { walk_octs_avx512(rays, scratch, flush) };
+    Some(degenerate)
+}
+
+/// The eight lanes' registers, in memory only while lanes restart: the step loop keeps them
+/// in registers and writes back what it changed (`t`, `m`) before a restart.
+struct Lanes {
+    t: [__m512d; 3],
+    d: [__m512d; 3],
+    len: __m512d,
+    m: __m512i,
+    end: __m512i,
+    flip: __m512i,
+    /// The step at which each lane's walk runs out of budget (`u64::MAX`: never).
+    due: __m512i,
+    /// The lanes that walk a ray (bit `l` for lane `l`); the others idle.
+    active: __mmask8,
+}
+
+impl Lanes {
+    /// Overwrite lane `l` with `s` (once per walk, at step `now`) by masked moves of
+    /// broadcasts.
+    #[target_feature(enable = "avx512f")]
+    fn set(&mut self, l: usize, s: &LaneInit, active: bool, now: u64) {
+        let k: __mmask8 = 1 << (l & 7);
+        let put_f = |v: &mut __m512d, x: f64| *v = _mm512_mask_mov_pd(*v, k, _mm512_set1_pd(x));
+        let put_u = |v: &mut __m512i, x: u64| {
+            *v = _mm512_mask_mov_epi64(*v, k, _mm512_set1_epi64(x as i64))
+        };
+        for i in 0..3 {
+            put_f(&mut self.t[i], s.t[i]);
+            put_f(&mut self.d[i], s.d[i]);
+        }
+        put_f(&mut self.len, s.len);
+        put_u(&mut self.m, s.m);
+        put_u(&mut self.end, s.end);
+        put_u(&mut self.flip, s.flip);
+        put_u(&mut self.due, s.due(now));
+        self.active = (self.active & !k) | if active { k } else { 0 };
+    }
+
+    /// The first step at which some lane runs out of budget.
+    fn next_due(&self) -> u64 {
+        let due: U8 = bytemuck::cast(self.due);
+        due.into_iter().min().unwrap_or(u64::MAX)
+    }
+}
+
+/// [`walk_octs`] once AVX-512 is known to be there.
+#[target_feature(enable = "avx512f,popcnt")]
+fn walk_octs_avx512<F>(rays: &[RaySetup], scratch: &mut OctScratch, flush: &mut F) -> usize
+where
+    F: BrickSink,
+{
+    let Some(first) = rays.first() else {
+        return 0;
+    };
+    let mut next = rays.iter();
+    let zero_f = _mm512_set1_pd(0.0);
+    let zero_i = _mm512_setzero_si512();
+    let mut q = Lanes {
+        t: [zero_f; 3],
+        d: [zero_f; 3],
+        len: zero_f,
+        m: zero_i,
+        end: zero_i,
+        flip: zero_i,
+        due: zero_i,
+        active: 0,
+    };
+    // idle lanes repeat the first walk's origin voxel, which is recorded
+    let idle_code = LaneInit::new(first).origin;
+    let mut first_code = [idle_code; 8];
+    let mut live = 8;
+    // the steps taken so far; each lane's budget is the step it runs out at (`LaneInit::due`)
+    let mut now = 0u64;
+    restart(
+        &mut first_code,
+        0xFF,
+        0xFF,
+        &mut next,
+        idle_code,
+        &mut live,
+        flush,
+        |l, s, a| q.set(l, s, a, 0),
+    );
+    let mut due = q.next_due();
+    let mut near = first_stop(due);
+    let ones_i = _mm512_set1_epi64(-1);
+    let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
+    let [mut t0, mut t1, mut t2] = q.t;
+    let [mut d0, mut d1, mut d2] = q.d;
+    let (mut len, mut m, mut end, mut flip, mut active) = (q.len, q.m, q.end, q.flip, q.active);
+    // each lane's open brick starts with its origin voxel
+    let mut bricks = Bricks8::new(bytemuck::cast(first_code), scratch);
+    let mut degenerate = 0;
+    loop {
+        now += 1;
+        // OctoMap's chain per lane: x when t0 < t1 and t0 < t2, else y when t1 < t2, else z
+        let (n0, n1, n2) = (
+            _mm512_add_pd(t0, d0),
+            _mm512_add_pd(t1, d1),
+            _mm512_add_pd(t2, d2),
+        );
+        let lt01 = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t1);
+        let s0 = lt01 & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t2);
+        let s1 = !lt01 & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t1, t2);
+        let s01 = s0 | s1;
+        t0 = _mm512_mask_mov_pd(t0, s0, n0);
+        t1 = _mm512_mask_mov_pd(t1, s1, n1);
+        t2 = _mm512_mask_mov_pd(n2, s01, t2);
+        // the chosen axis's Morton bits (none in idle lanes), and their lowest bit: a step up
+        // is `((m | !mask) + low) & mask` on those bits, the others kept
+        let mask = _mm512_maskz_mov_epi64(
+            active,
+            _mm512_mask_mov_epi64(_mm512_mask_mov_epi64(axis[2], s1, axis[1]), s0, axis[0]),
+        );
+        let low = _mm512_and_si512(mask, _mm512_sub_epi64(zero_i, mask));
+        let up = _mm512_add_epi64(_mm512_or_si512(m, _mm512_xor_si512(mask, ones_i)), low);
+        m = _mm512_or_si512(_mm512_and_si512(up, mask), _mm512_andnot_si512(mask, m));
+        // a walk is over on its end voxel or once the smallest tMax passes the length (no
+        // lane holds a NaN); it is cut off (degenerate) when its budget runs out
+        let mut codes = _mm512_xor_si512(m, flip);
+        let mut finished = false;
+        if now < near {
+            // no walk can stop yet (see `first_stop`)
+            bricks.push(codes, flush);
+            continue;
+        }
+        let tmin = _mm512_min_pd(_mm512_min_pd(t0, t1), t2);
+        let done = _mm512_cmpeq_epu64_mask(m, end) | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(tmin, len);
+        if done != 0 || now == due {
+            // the rare step where walks end: restart those lanes on the next rays
+            let stopped = done | _mm512_cmpeq_epu64_mask(q.due, _mm512_set1_epi64(now as i64));
+            let mut written: U8 = bytemuck::cast(codes);
+            (q.t, q.m) = ([t0, t1, t2], m);
+            degenerate += restart(
+                &mut written,
+                stopped as u32,
+                done as u32,
+                &mut next,
+                idle_code,
+                &mut live,
+                flush,
+                |l, s, a| q.set(l, s, a, now),
+            );
+            due = q.next_due();
+            near = first_stop(due);
+            [t0, t1, t2] = q.t;
+            [d0, d1, d2] = q.d;
+            (len, m, end, flip, active) = (q.len, q.m, q.end, q.flip, q.active);
+            codes = bytemuck::cast(written);
+            finished = live == 0;
+        }
+        bricks.push(codes, flush);
+        if finished {
+            bricks.finish(flush);
+            return degenerate;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lanes::runs::merge_runs as scalar_merge;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The eight-lane merge gives the scalar merge's entries, in order.
+        #[test]
+        fn wide_merge_matches_the_scalar_merge(
+            entries in prop::collection::vec((0u64..3, any::<u64>()), 0..80),
+        ) {
+            let (mut b1, mut m1): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
+            let (mut b2, mut m2) = (b1.clone(), m1.clone());
+            let k1 = scalar_merge(&mut b1, &mut m1);
+            match merge_runs_wide(&mut b2, &mut m2) {
+                Some(k2) => {
+                    prop_assert_eq!(k2, k1);
+                    prop_assert_eq!(&b2[..k2], &b1[..k1]);
+                    prop_assert_eq!(&m2[..k2], &m1[..k1]);
+                }
+                None => prop_assert!(!crate::cpu::has_avx512()),
+            }
+        }
+    }
+}

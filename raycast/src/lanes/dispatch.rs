@@ -1,0 +1,196 @@
+//! The choice of lanes: [`walk_all`] walks a batch of rays with the widest path the CPU has.
+
+use crate::brickset::BrickSink;
+use crate::dda::RaySetup;
+use octoquant_octree::Brick;
+
+/// Per-thread buffers of the lane walks, kept from batch to batch.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LaneScratch {
+    /// The bricks of the walks in progress, one buffer per SSE2 lane (the first also serves
+    /// the scalar walk).
+    bufs: [Vec<Brick>; 2],
+    #[cfg(target_arch = "x86_64")]
+    quad: super::avx2::QuadScratch,
+    #[cfg(target_arch = "x86_64")]
+    oct: super::avx512::OctScratch,
+}
+
+/// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
+/// `flush` as `(brick, bits)`: eight at a time where the CPU has AVX-512, four with AVX2, two
+/// with SSE2, else one after another. Returns how many walks degenerated (none can; they are
+/// counted rather than trusted).
+pub(crate) fn walk_all<F>(rays: &[RaySetup], scratch: &mut LaneScratch, flush: &mut F) -> usize
+where
+    F: BrickSink,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if let Some(degenerate) = super::avx512::walk_octs(rays, &mut scratch.oct, flush) {
+            return degenerate;
+        }
+        if let Some(degenerate) = super::avx2::walk_quads(rays, &mut scratch.quad, flush) {
+            return degenerate;
+        }
+    }
+    walk_pairs_or_each(rays, &mut scratch.bufs, flush)
+}
+
+/// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.
+fn walk_pairs_or_each<F>(rays: &[RaySetup], bufs: &mut [Vec<Brick>; 2], flush: &mut F) -> usize
+where
+    F: BrickSink,
+{
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        super::sse2::walk_pairs(rays, bufs, flush)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        super::brick_walk::walk_each(rays, &mut bufs[0], flush)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dda::{key_of, setup_from, walk_ray_codes};
+    use crate::lanes::brick_walk::walk_each;
+    use nalgebra::Point3;
+    use octoquant_octree::KeyConverter;
+    use proptest::prelude::*;
+    use std::collections::BTreeSet;
+
+    /// The keys of every ray by the reference walk, as a set.
+    fn want(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> BTreeSet<u64> {
+        let mut s = BTreeSet::new();
+        for e in ends {
+            walk_ray_codes(conv, o, e, |c| {
+                s.insert(c);
+            });
+        }
+        s
+    }
+
+    /// The well-conditioned set-ups of the rays `o -> e`.
+    fn setups(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> Vec<RaySetup> {
+        let ok = key_of(conv, o);
+        ends.iter()
+            .filter_map(|e| setup_from(conv, o, ok, e).ok())
+            .filter(|r| r.well_conditioned)
+            .collect()
+    }
+
+    /// The voxels each way of walking a batch visits, as sets: [`walk_all`] (the fastest path
+    /// the CPU has), the AVX2 and AVX-512 lanes where the CPU has them, the SSE2 lanes and
+    /// [`walk_each`];
+    /// none may report a degenerate walk.
+    fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
+        fn add(set: &mut BTreeSet<u64>, b: Brick) {
+            let mut m = b.voxels;
+            while m != 0 {
+                set.insert((b.code << 6) | m.trailing_zeros() as u64);
+                m &= m - 1;
+            }
+        }
+        let mut sets = Vec::new();
+        let mut scratch = LaneScratch::default();
+        let mut s = BTreeSet::new();
+        assert_eq!(walk_all(rays, &mut scratch, &mut |b| add(&mut s, b)), 0);
+        sets.push(s);
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut s = BTreeSet::new();
+            let mut quad = crate::lanes::avx2::QuadScratch::default();
+            if let Some(d) =
+                crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b| add(&mut s, b))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+            let mut s = BTreeSet::new();
+            let mut oct = crate::lanes::avx512::OctScratch::default();
+            if let Some(d) =
+                crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b| add(&mut s, b))
+            {
+                assert_eq!(d, 0);
+                sets.push(s);
+            }
+        }
+        let mut s = BTreeSet::new();
+        assert_eq!(
+            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b| add(&mut s, b)),
+            0
+        );
+        sets.push(s);
+        let mut s = BTreeSet::new();
+        assert_eq!(
+            walk_each(rays, &mut scratch.bufs[0], &mut |b| add(&mut s, b)),
+            0
+        );
+        sets.push(s);
+        sets
+    }
+
+    /// Rays from a voxel centre to voxel centres cross voxel corners and edges, where the
+    /// tie rules decide: every lane must follow them.
+    #[test]
+    fn lattice_rays_keep_the_tie_rules() {
+        let conv = KeyConverter::new(0.1).unwrap();
+        let o = Point3::new(0.05f32, 0.05, 0.05);
+        let c = |i: i32| i as f32 * 0.1 + 0.05;
+        let ends: Vec<Point3<f32>> = (-6..6)
+            .flat_map(|i| {
+                (-6..6).flat_map(move |j| (-6..6).map(move |k| Point3::new(c(i), c(j), c(k))))
+            })
+            .collect();
+        let want = want(&conv, &o, &ends);
+        assert!(want.len() > 1000);
+        for got in all_paths(&setups(&conv, &o, &ends)) {
+            assert_eq!(got, want);
+        }
+    }
+
+    /// Rays that stop on their length three steps before the Manhattan distance (the
+    /// diagonal across the map through voxel corners, at each resolution), next to rays that
+    /// stop on their end voxel: every lane must stop where the reference does, although the
+    /// eight lanes skip their end checks until shortly before.
+    #[test]
+    fn lanes_stop_where_the_reference_stops() {
+        for res in [0.01, 0.1, 1.0] {
+            let conv = KeyConverter::new(res).unwrap();
+            let edge = (32767.0 * res) as f32;
+            let o = Point3::new(-edge, -edge, -edge);
+            let mut ends = vec![Point3::new(edge, edge, edge)];
+            for i in 1..12 {
+                let f = edge * (i as f32 / 12.0);
+                ends.push(Point3::new(f, f, f));
+                ends.push(Point3::new(f, -f * 0.5, f * 0.25));
+            }
+            let rays = setups(&conv, &o, &ends);
+            assert_eq!(rays.len(), ends.len());
+            let want = want(&conv, &o, &ends);
+            for got in all_paths(&rays) {
+                assert_eq!(got, want);
+            }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn batches_visit_the_reference_voxels(
+            o in prop::array::uniform3(-3.0f32..3.0),
+            ends in prop::collection::vec(prop::array::uniform3(-6.0f32..6.0), 0..40),
+            res in prop::sample::select(vec![0.05, 0.1, 0.2]),
+        ) {
+            let conv = KeyConverter::new(res).unwrap();
+            let o = Point3::from(o);
+            let ends: Vec<Point3<f32>> = ends.into_iter().map(Point3::from).collect();
+            let setups = setups(&conv, &o, &ends);
+            let want = want(&conv, &o, &ends);
+            for got in all_paths(&setups) {
+                prop_assert_eq!(&got, &want);
+            }
+        }
+    }
+}

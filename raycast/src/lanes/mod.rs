@@ -1,0 +1,52 @@
+//! Many ray walks at once, in the lanes of SIMD registers: the DDA brick walk of
+//! [`crate::dda`] and the Bresenham lines of [`crate::bresenham`] for a batch of rays, as many
+//! side by side as the CPU has lanes for, and the replay of depth-image rays' skipped heads.
+//!
+//! One walk's axis choice (OctoMap's `tMax` comparison chain) is a three-way branch the
+//! predictor misses about one step in two when neighbouring rays differ, and made with masks
+//! it is a chain of compare, mask and add that each step waits for. Independent walks in the
+//! lanes of one register share those instructions and overlap their chains. [`walk_all`] picks
+//! at run time (through [`crate::cpu`]) the widest path the CPU has. The comparisons, additions
+//! and tie rules are OctoMap's, lane by lane, so every walk visits exactly the voxels of
+//! [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes, and a
+//! set does not depend on it.
+//!
+//! - `dispatch`: [`walk_all`] and its per-thread [`LaneScratch`]: the choice of path.
+//! - `brick_walk`: one walk at a time (the scalar path, and the state of each SSE2 lane).
+//! - `sse2`: two walks at once with SSE2, through `safe_arch` (no unsafe code).
+//! - `avx2`: four DDA walks at once with AVX2.
+//! - `avx512`: eight DDA walks at once with AVX-512, and the eight lanes' bricks ([`OctScratch`]).
+//! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512 ([`walk_lines`]).
+//! - `replay_avx512`: sixteen depth-image rays moved to the end of their heads at once
+//!   ([`replay_rays`], for [`crate::pixel_grid`]).
+//! - `refill` and `runs`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes
+//!   on rays, and merging the runs of one brick among the bricks the lanes leave.
+
+mod brick_walk;
+mod dispatch;
+#[cfg(target_arch = "x86_64")]
+mod refill;
+#[cfg(target_arch = "x86_64")]
+mod runs;
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+mod sse2;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod bresenham_avx512;
+#[cfg(target_arch = "x86_64")]
+mod replay_avx512;
+
+#[cfg(test)]
+pub(crate) use brick_walk::BrickWalk;
+pub(crate) use dispatch::{walk_all, LaneScratch};
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx512::OctScratch;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use bresenham_avx512::walk_lines;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use replay_avx512::{replay_rays, REPLAY_RAYS};

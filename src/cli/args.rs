@@ -1,0 +1,91 @@
+//! Argument groups shared by several commands (flattened into their `Args` with
+//! `#[command(flatten)]`), so that an option is spelled, defaulted and explained once, and
+//! their resolution into the library's settings (`ReadOptions`, the tree's size and range).
+
+use super::vocab::FormatArg;
+use anyhow::{bail, Result};
+use octoquant::formats::{read_frames, ReadOptions};
+use octoquant::Frame;
+use std::path::PathBuf;
+
+/// How sensor files are read: the options of every command that reads them (`map`, `bench`,
+/// `reduce`).
+#[derive(clap::Args)]
+pub struct ReadArgs {
+    /// Input format, instead of guessing from the file name.
+    #[arg(long, value_enum, ignore_case = true)]
+    format: Option<FormatArg>,
+    /// For .graph input: points are already in world coordinates (graph2tree -g).
+    #[arg(long)]
+    global: bool,
+    /// MCAP input: the PointCloud2 topic (default: the only one).
+    #[arg(long)]
+    topic: Option<String>,
+    /// MCAP input: express clouds in this tf frame (default: the root of the tf tree).
+    #[arg(long)]
+    fixed_frame: Option<String>,
+    /// Use only every N-th pixel of TUM depth images.
+    #[arg(long, default_value_t = 1)]
+    pixel_step: u32,
+}
+
+impl ReadArgs {
+    /// The reader settings these arguments ask for.
+    pub fn options(&self) -> ReadOptions {
+        let mut read = ReadOptions {
+            format: self.format.map(Into::into),
+            ..ReadOptions::default()
+        };
+        read.graph.points_global = self.global;
+        read.mcap.topic = self.topic.clone();
+        read.mcap.fixed_frame = self.fixed_frame.clone();
+        read.tum.pixel_step = self.pixel_step.max(1);
+        read
+    }
+}
+
+/// Sensor files and how to read them: the inputs of `map` and `bench`.
+#[derive(clap::Args)]
+pub struct InputArgs {
+    /// Input files (.graph, .frames, .txt/.dat/.log, .vtk or a VTK scan directory, .pcd, TUM
+    /// association file or depth .png, .mcap, .ply; .gz/.bz2 are read transparently). `map`
+    /// without any maps the built-in scene.
+    pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+impl InputArgs {
+    /// Every input's frames, in the order given (none without inputs).
+    pub fn read_frames(&self) -> Result<Vec<Frame>> {
+        let read = self.read.options();
+        let mut frames = Vec::new();
+        for p in &self.inputs {
+            frames.extend(read_frames(p, &read)?);
+        }
+        Ok(frames)
+    }
+}
+
+/// The map's leaf size and the sensor's range: the options of every command that builds
+/// maps (`map`, `bench`, `demo`).
+#[derive(clap::Args)]
+pub struct TreeArgs {
+    /// Leaf size in metres.
+    #[arg(long, default_value_t = 0.1)]
+    pub res: f64,
+    /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange). Off
+    /// by default; `demo` defaults to its simulated sensors' range.
+    #[arg(long)]
+    pub max_range: Option<f64>,
+}
+
+impl TreeArgs {
+    /// The maximum range, checked: `None` when off; an error for NaN.
+    pub fn max_range(&self) -> Result<Option<f64>> {
+        match self.max_range {
+            Some(m) if m.is_nan() => bail!("--max-range is NaN"),
+            m => Ok(m),
+        }
+    }
+}
