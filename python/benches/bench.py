@@ -1,6 +1,9 @@
 """Time octomap-python against octoquant on the same NumPy frames.
 
-    python python/bench.py [--data DIR] [--res 0.1] [--repeat 3]
+    python python/benches/bench.py [--data DIR] [--res 0.1] [--repeat 3]
+
+(after ``pip install ./python``; it lives outside ``python/`` itself so that the installed
+package, not its uncompiled source folder, is imported).
 
 Inserts OctoMap's scan.dat (88206 points of a 3D laser scan, one frame) with
 octomap-python's ``insertPointCloud`` and with octoquant (``OcTree.insertPointCloud`` on all
@@ -41,7 +44,7 @@ def median_time(make, insert, repeat):
 def main():
     here = Path(__file__).resolve().parent
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", default=os.environ.get("OCTOQUANT_DATA", here.parent.parent / "shared" / "data"))
+    ap.add_argument("--data", default=os.environ.get("OCTOQUANT_DATA", here.parents[2] / "shared" / "data"))
     ap.add_argument("--res", type=float, default=0.1)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
