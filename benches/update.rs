@@ -4,7 +4,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use octoquant::{OcTree, Update};
+use octoquant::{InnerNodes, OcTree, Update};
 use octoquant_raycast::{compute_update, ScanUpdate};
 
 fn update(c: &mut Criterion) {
@@ -27,10 +27,10 @@ fn update(c: &mut Criterion) {
             || tree.clone(),
             |mut t| {
                 for k in up.free() {
-                    t.update_node(*k, Update::Miss, false);
+                    t.update_node(*k, Update::Miss, InnerNodes::Refresh);
                 }
                 for k in up.occupied() {
-                    t.update_node(*k, Update::Hit, false);
+                    t.update_node(*k, Update::Hit, InnerNodes::Refresh);
                 }
                 t
             },
@@ -41,8 +41,8 @@ fn update(c: &mut Criterion) {
         b.iter_batched(
             || tree.clone(),
             |mut t| {
-                t.update_keys(up.free(), Update::Miss, false);
-                t.update_keys(up.occupied(), Update::Hit, false);
+                t.update_keys(up.free(), Update::Miss, InnerNodes::Refresh);
+                t.update_keys(up.occupied(), Update::Hit, InnerNodes::Refresh);
                 t
             },
             BatchSize::LargeInput,
@@ -52,8 +52,8 @@ fn update(c: &mut Criterion) {
         b.iter_batched(
             || tree.clone(),
             |mut t| {
-                t.update_bricks(up.free_bricks(), Update::Miss, false);
-                t.update_bricks(up.occupied_bricks(), Update::Hit, false);
+                t.update_bricks(up.free_bricks(), Update::Miss, InnerNodes::Refresh);
+                t.update_bricks(up.occupied_bricks(), Update::Hit, InnerNodes::Refresh);
                 t
             },
             BatchSize::LargeInput,

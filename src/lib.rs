@@ -16,7 +16,7 @@ pub mod treefile;
 pub use octoquant_formats as formats;
 pub use octoquant_formats::{frame, output, Frame};
 pub use octoquant_octree as octree;
-pub use octoquant_octree::{Key, KeyConverter, OcTree, OccupancyParams, Update};
+pub use octoquant_octree::{InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update};
 /// OctoMap's rays, `castRay` and `insertPointCloud` (the `octoquant-raycast` crate), for
 /// callers that use only this crate (the Python bindings).
 pub use octoquant_raycast as raycast;

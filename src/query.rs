@@ -16,11 +16,11 @@
 //! use nalgebra::{Isometry3, Point3, Vector3};
 //! use octoquant::parry3d::shape::Ball;
 //! use octoquant::query::{collides, CollisionOptions};
-//! use octoquant::{OcTree, Update};
+//! use octoquant::{InnerNodes, OcTree, Update};
 //!
 //! let mut tree = OcTree::new(0.1).unwrap();
 //! let key = tree.converter().point_to_key(&Point3::new(1.0, 0.0, 0.0)).unwrap();
-//! tree.update_node(key, Update::Hit, false);
+//! tree.update_node(key, Update::Hit, InnerNodes::Refresh);
 //! let ball = Ball::new(0.3);
 //! let near = Isometry3::translation(1.2, 0.0, 0.0);
 //! let far = Isometry3::translation(3.0, 0.0, 0.0);

@@ -9,12 +9,12 @@
 //! ```
 //! use nalgebra::Point3;
 //! use octoquant::render::{render, RenderOptions};
-//! use octoquant::{OcTree, Update};
+//! use octoquant::{InnerNodes, OcTree, Update};
 //!
 //! let mut tree = OcTree::new(0.1).unwrap();
 //! for i in 0..20 {
 //!     let k = tree.converter().point_to_key(&Point3::new(i as f64 * 0.1, 0.0, 0.0)).unwrap();
-//!     tree.update_node(k, Update::Hit, false);
+//!     tree.update_node(k, Update::Hit, InnerNodes::Refresh);
 //! }
 //! let image = render(&tree, &RenderOptions::default()).unwrap();
 //! assert!(image.width > 100 && image.height > 100);

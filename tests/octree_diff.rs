@@ -4,7 +4,7 @@
 
 use crate::common::{self, first_diff};
 use octoquant::octree::io::{read_bt, read_ot, read_tree, write_bt, write_bt_const, write_ot};
-use octoquant::octree::{Key, OcTree, OccupancyParams, Update};
+use octoquant::octree::{InnerNodes, Key, OcTree, OccupancyParams, Update};
 use proptest::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -141,14 +141,18 @@ fn apply_ops(tree: &mut OcTree, ops: &[Op]) {
             } => {
                 let u = if hit { Update::Hit } else { Update::Miss };
                 for _ in 0..repeat {
-                    tree.update_node(key, u, lazy);
+                    tree.update_node(key, u, InnerNodes::from_lazy(lazy));
                 }
             }
             Op::Delta { key, bits, lazy } => {
-                tree.update_node(key, Update::LogOdds(f32::from_bits(bits)), lazy);
+                tree.update_node(
+                    key,
+                    Update::LogOdds(f32::from_bits(bits)),
+                    InnerNodes::from_lazy(lazy),
+                );
             }
             Op::Set { key, bits, lazy } => {
-                tree.set_node_value(key, f32::from_bits(bits), lazy)
+                tree.set_node_value(key, f32::from_bits(bits), InnerNodes::from_lazy(lazy))
                     .unwrap();
             }
             Op::Delete { key } => {
@@ -380,7 +384,7 @@ fn geb079_reads_and_rewrites_identically() {
         assert_eq!(c.free_leaves, 284_415);
         assert_eq!(tree.resolution(), 0.08);
         assert_eq!(tree.root_value(), Some(tree.params().clamp_max));
-        octoquant::octree::validate::assert_well_formed(&tree, true);
+        octoquant::octree::validate::assert_well_formed(&tree, InnerNodes::Defer);
         let mut out = Vec::new();
         write_bt(&mut tree, &mut out).unwrap();
         assert!(

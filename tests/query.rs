@@ -7,7 +7,7 @@ use octoquant::parry3d::query::intersection_test;
 use octoquant::parry3d::shape::{Ball, Capsule, Cuboid, Shape};
 use octoquant::query::convert::{point_to_parry, pose_to_parry};
 use octoquant::query::{collides, colliding_voxels, occupied_in_bbox, CollisionOptions};
-use octoquant::{Key, OcTree, Update};
+use octoquant::{InnerNodes, Key, OcTree, Update};
 
 /// SplitMix64 for reproducible cases.
 struct Rng(u64);
@@ -36,7 +36,7 @@ fn random_tree(rng: &mut Rng) -> OcTree {
         } else {
             Update::Miss
         };
-        tree.update_node(k, u, false);
+        tree.update_node(k, u, InnerNodes::Refresh);
     }
     // 20 updates each reach the clamping bound, so every voxel ends equal and the blocks prune
     for (base, u) in [(32768u16 + 8, Update::Hit), (32768 - 16, Update::Miss)] {
@@ -44,7 +44,11 @@ fn random_tree(rng: &mut Rng) -> OcTree {
             for x in 0..8 {
                 for y in 0..8 {
                     for z in 0..8 {
-                        tree.update_node(Key::new(base + x, base + y, 32768 + z), u, false);
+                        tree.update_node(
+                            Key::new(base + x, base + y, 32768 + z),
+                            u,
+                            InnerNodes::Refresh,
+                        );
                     }
                 }
             }

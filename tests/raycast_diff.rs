@@ -5,7 +5,7 @@
 
 use crate::common;
 use nalgebra::Point3;
-use octoquant_octree::{io, Key, KeyConverter, OcTree, OccupancyParams};
+use octoquant_octree::{io, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams};
 use octoquant_raycast::{
     cast_ray, compute_ray_keys, insert_point_cloud_rays, insert_point_cloud_reusing, ApplyOptions,
     CastOptions, CastStop, InsertOptions, KeyRay, ScanUpdate,
@@ -651,7 +651,7 @@ fn compare_insert(cases: &[Case]) {
         let t0 = std::time::Instant::now();
         let mut tree = case.build(&frames);
         let t_ours = t0.elapsed();
-        octoquant_octree::validate::assert_well_formed(&tree, case.lazy);
+        octoquant_octree::validate::assert_well_formed(&tree, InnerNodes::from_lazy(case.lazy));
         // guard against comparing two trivial outputs
         assert!(tree.size() > 100, "{name}: only {} nodes", tree.size());
         let mut ot = Vec::new();

@@ -7,7 +7,7 @@ use octoquant::export::{write_ply, ExportOptions};
 use octoquant::render::{
     height_colour, render, render_png_file, RenderOptions, View, FREE_COLOUR, UNKNOWN_COLOUR,
 };
-use octoquant::{OcTree, Update};
+use octoquant::{InnerNodes, OcTree, Update};
 
 /// A 2 m × 2 m floor at z = 0.05 with a 1 m column at (0.55, 0.55), all at 0.1 m, and free
 /// space above the floor's far half.
@@ -18,7 +18,7 @@ fn floor_and_column() -> OcTree {
             .converter()
             .point_to_key(&Point3::new(x, y, z))
             .unwrap();
-        tree.update_node(k, u, false);
+        tree.update_node(k, u, InnerNodes::Refresh);
     };
     for i in 0..20 {
         for j in 0..20 {

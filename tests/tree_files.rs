@@ -2,7 +2,7 @@
 
 use crate::common;
 use octoquant::octree::io::{read_bt, read_ot, read_tree, write_bt, write_ot};
-use octoquant::octree::{OcTree, OctreeError, Update};
+use octoquant::octree::{InnerNodes, OcTree, OctreeError, Update};
 use octoquant::treefile::{read_tree_file, write_tree_file, TreeFileError};
 use std::process::Command;
 
@@ -21,7 +21,7 @@ fn small_tree() -> OcTree {
             } else {
                 Update::Hit
             },
-            false,
+            InnerNodes::Refresh,
         );
     }
     t
@@ -83,7 +83,7 @@ fn corrupted_bytes_never_panic_and_valid_results_are_consistent() {
         match read_bt(&b[..]) {
             Ok(t) => {
                 // a flip that keeps the structure valid must give a tree whose count matches
-                octoquant::octree::validate::assert_well_formed(&t, true);
+                octoquant::octree::validate::assert_well_formed(&t, InnerNodes::Defer);
             }
             Err(_) => errors += 1,
         }

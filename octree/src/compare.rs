@@ -167,7 +167,7 @@ fn walk(a: &OcTree, b: &OcTree, sa: Side, sb: Side, depth: u8, out: &mut ClassCo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Key, Update};
+    use crate::{InnerNodes, Key, Update};
     use proptest::prelude::*;
 
     /// The definition: look every voxel of the box up in both maps.
@@ -204,7 +204,7 @@ mod tests {
                 LO + (z % N as u8) as u16,
             );
             let u = if hit { Update::Hit } else { Update::Miss };
-            t.update_node(k, u, false);
+            t.update_node(k, u, InnerNodes::Refresh);
         }
         if prune {
             t.prune();
@@ -228,7 +228,7 @@ mod tests {
                 for x in 0..8 {
                     for y in 0..8 {
                         for z in 0..8 {
-                            ta.update_node(Key::new(LO + 8 + x, LO + y, LO + z), Update::Miss, false);
+                            ta.update_node(Key::new(LO + 8 + x, LO + y, LO + z), Update::Miss, InnerNodes::Refresh);
                         }
                     }
                 }

@@ -9,12 +9,12 @@
 //! on real maps, against OctoMap's ~27).
 //!
 //! ```
-//! use octoquant_octree::{io, OcTree, Update};
+//! use octoquant_octree::{io, InnerNodes, OcTree, Update};
 //! use nalgebra::Point3;
 //!
 //! let mut tree = OcTree::new(0.1).unwrap();
 //! let key = tree.converter().point_to_key(&Point3::new(1.0, 2.0, 0.5)).unwrap();
-//! tree.update_node(key, Update::Hit, false);
+//! tree.update_node(key, Update::Hit, InnerNodes::Refresh);
 //! assert_eq!(tree.is_occupied(key), Some(true));
 //!
 //! let mut bytes = Vec::new();
@@ -45,4 +45,4 @@ pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
 pub use params::{logodds, probability, OccupancyParams};
 pub use store::MemoryUsage;
-pub use tree::{Counts, NodeInfo, OcTree, Update};
+pub use tree::{Counts, InnerNodes, NodeInfo, OcTree, Update};

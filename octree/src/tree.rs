@@ -17,6 +17,38 @@ pub enum Update {
     LogOdds(f32),
 }
 
+/// Whether a write brings the inner nodes above the voxels it changed up to date at once
+/// (OctoMap's `lazy_eval` flag, inverted).
+///
+/// Eager refreshing keeps every inner node equal to the max of its children and prunes
+/// collapsible nodes after each write, as OctoMap does with `lazy_eval = false`. Deferring
+/// skips that ascent, which is faster for many writes in a row; the inner nodes are then stale
+/// until [`OcTree::update_inner_occupancy`] is called, as with OctoMap's `lazy_eval = true`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum InnerNodes {
+    /// Prune or refresh every ancestor of a changed voxel right away (`lazy_eval = false`).
+    #[default]
+    Refresh,
+    /// Leave ancestors stale until [`OcTree::update_inner_occupancy`] (`lazy_eval = true`).
+    Defer,
+}
+
+impl InnerNodes {
+    /// The policy OctoMap's `lazy_eval` flag stands for: `true` defers, `false` refreshes.
+    pub fn from_lazy(lazy: bool) -> Self {
+        if lazy {
+            InnerNodes::Defer
+        } else {
+            InnerNodes::Refresh
+        }
+    }
+
+    /// True when inner nodes are left stale (OctoMap's `lazy_eval = true`).
+    pub fn is_deferred(self) -> bool {
+        self == InnerNodes::Defer
+    }
+}
+
 /// A node found by [`OcTree::search`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NodeInfo {
@@ -154,10 +186,11 @@ impl OcTree {
     ///
     /// Adds the delta then clamps; returns at once when the voxel (or the pruned node holding
     /// it) already sits at the clamp the update pushes towards. Pruned nodes on the path are
-    /// expanded. Unless `lazy`, every ancestor is then pruned or set to the max of its
-    /// children; with `lazy`, call [`OcTree::update_inner_occupancy`] afterwards.
+    /// expanded. With [`InnerNodes::Refresh`], every ancestor is then pruned or set to the max
+    /// of its children; with [`InnerNodes::Defer`], call [`OcTree::update_inner_occupancy`]
+    /// afterwards.
     /// Returns the voxel's new log-odds. A NaN delta is ignored (the tree is unchanged).
-    pub fn update_node(&mut self, key: Key, update: Update, lazy: bool) -> f32 {
+    pub fn update_node(&mut self, key: Key, update: Update, inner: InnerNodes) -> f32 {
         let delta = self.delta(update);
         if let Some(n) = self.search_ref(key, TREE_DEPTH) {
             let v = self.store.value(n);
@@ -172,17 +205,22 @@ impl OcTree {
         }
         let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
         let add = self.store.adder(delta, cmin, cmax);
-        self.descend_and_apply(key, lazy, VoxelOp::Add(add))
+        self.descend_and_apply(key, inner, VoxelOp::Add(add))
     }
 
     /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
     /// `setNodeValue`; no early exit). Errors on NaN.
-    pub fn set_node_value(&mut self, key: Key, value: f32, lazy: bool) -> Result<f32, OctreeError> {
+    pub fn set_node_value(
+        &mut self,
+        key: Key,
+        value: f32,
+        inner: InnerNodes,
+    ) -> Result<f32, OctreeError> {
         if value.is_nan() {
             return Err(OctreeError::NanValue);
         }
         let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
-        Ok(self.descend_and_apply(key, lazy, VoxelOp::Set(v)))
+        Ok(self.descend_and_apply(key, inner, VoxelOp::Set(v)))
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.
@@ -190,16 +228,16 @@ impl OcTree {
         &mut self,
         point: &Point3<f64>,
         update: Update,
-        lazy: bool,
+        inner: InnerNodes,
     ) -> Result<f32, OctreeError> {
         let key = self.conv.point_to_key_checked(point)?;
-        Ok(self.update_node(key, update, lazy))
+        Ok(self.update_node(key, update, inner))
     }
 
     /// The shared descent of `updateNodeRecurs` / `setNodeValueRecurs`: create or expand the
-    /// path to `key`, apply `op` to the voxel, then (unless lazy) prune or refresh every
+    /// path to `key`, apply `op` to the voxel, then (unless deferred) prune or refresh every
     /// ancestor bottom-up, root included.
-    fn descend_and_apply(&mut self, key: Key, lazy: bool, op: VoxelOp) -> f32 {
+    fn descend_and_apply(&mut self, key: Key, inner: InnerNodes, op: VoxelOp) -> f32 {
         let mut just_created = false;
         if self.store.root_val.is_none() {
             self.store.root_val = Some(0.0);
@@ -247,7 +285,7 @@ impl OcTree {
         }
         let v = self.store.value(cur);
         self.record_change(key, old, v, just_created);
-        if !lazy {
+        if !inner.is_deferred() {
             for n in path.iter().rev() {
                 if self.store.prune_or_refresh(*n) == Some(true) {
                     self.size -= 8;

@@ -16,7 +16,7 @@
 
 use crate::key::{Key, TREE_DEPTH};
 use crate::store::{present, Adder, NodeRef, Outcome, NO_BLOCK};
-use crate::tree::{OcTree, Update};
+use crate::tree::{InnerNodes, OcTree, Update};
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.
 const BRICK_DEPTH: usize = TREE_DEPTH as usize - 2;
@@ -44,11 +44,11 @@ impl OcTree {
     ///
     /// Much faster than single updates when keys are sorted by [`Key::morton`]. A NaN delta
     /// changes nothing.
-    pub fn update_keys(&mut self, keys: &[Key], update: Update, lazy: bool) {
+    pub fn update_keys(&mut self, keys: &[Key], update: Update, inner: InnerNodes) {
         // consecutive keys of one brick go down together; a key already in the pending
         // brick (a duplicate) starts a new one, so that it is updated twice
         let bricks = Coalesce::new(keys.iter().map(|&k| brick_of(k)));
-        self.update_brick_iter(bricks, update, lazy)
+        self.update_brick_iter(bricks, update, inner)
     }
 
     /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each [`Brick`](crate::Brick)
@@ -60,8 +60,8 @@ impl OcTree {
     /// This is the fastest way to apply a scan's key sets: bricks sorted by code visit the
     /// tree in one depth-first sweep, and each depth-15 node is reached once per brick. A NaN
     /// delta changes nothing.
-    pub fn update_bricks(&mut self, bricks: &[crate::Brick], update: Update, lazy: bool) {
-        self.update_brick_iter(bricks.iter().map(|b| (b.code, b.voxels)), update, lazy)
+    pub fn update_bricks(&mut self, bricks: &[crate::Brick], update: Update, inner: InnerNodes) {
+        self.update_brick_iter(bricks.iter().map(|b| (b.code, b.voxels)), update, inner)
     }
 
     /// [`OcTree::update_bricks`] over any sequence of bricks.
@@ -69,7 +69,7 @@ impl OcTree {
         &mut self,
         bricks: impl Iterator<Item = (u64, u64)>,
         update: Update,
-        lazy: bool,
+        inner: InnerNodes,
     ) {
         let delta = self.delta(update);
         if delta.is_nan() {
@@ -85,7 +85,7 @@ impl OcTree {
             valid: 0,
             dirty: 0,
             prev: 0,
-            lazy,
+            lazy: inner.is_deferred(),
         };
         // change detection costs a value read before and after each update: compiled in
         // only when it is on
@@ -164,6 +164,7 @@ struct Walk {
     dirty: usize,
     /// The previous brick's code.
     prev: u64,
+    /// Ancestors are left stale ([`InnerNodes::Defer`]).
     lazy: bool,
 }
 

@@ -77,11 +77,11 @@ proptest! {
             for t in [&mut small, &mut normal] {
                 match &op {
                     TreeOp::Update(k, h) => {
-                        t.update_node(*k, if *h { Update::Hit } else { Update::Miss }, false);
+                        t.update_node(*k, if *h { Update::Hit } else { Update::Miss }, InnerNodes::Refresh);
                     }
-                    TreeOp::Batch(ks, h) => t.update_keys(ks, if *h { Update::Hit } else { Update::Miss }, false),
+                    TreeOp::Batch(ks, h) => t.update_keys(ks, if *h { Update::Hit } else { Update::Miss }, InnerNodes::Refresh),
                     TreeOp::Set(k, v) => {
-                        t.set_node_value(*k, VALS[*v], false).unwrap();
+                        t.set_node_value(*k, VALS[*v], InnerNodes::Refresh).unwrap();
                     }
                     TreeOp::Delete(k, d) => {
                         t.delete_node(*k, *d);
@@ -108,7 +108,7 @@ proptest! {
                 op,
                 TreeOp::Prune | TreeOp::Expand | TreeOp::MaxLikelihood | TreeOp::Delete(..)
             );
-            if let Err(e) = check_well_formed(&small, lazy_ok) {
+            if let Err(e) = check_well_formed(&small, InnerNodes::from_lazy(lazy_ok)) {
                 return Err(TestCaseError::fail(e));
             }
             let (mut a, mut b) = (Vec::new(), Vec::new());
@@ -147,7 +147,8 @@ fn more_values_than_the_palette_holds() {
     };
     let val = |i: u32| -1.5 + i as f32 * 4e-5;
     for i in 0..n {
-        t.set_node_value(key(i), val(i), false).unwrap();
+        t.set_node_value(key(i), val(i), InnerNodes::Refresh)
+            .unwrap();
         if i as usize == PALETTE_LIMIT - 2 {
             assert!(!t.store.voxels.is_wide());
         }
@@ -160,7 +161,7 @@ fn more_values_than_the_palette_holds() {
         );
     }
     let keys: Vec<Key> = (0..n).step_by(3).map(key).collect();
-    t.update_keys(&keys, Update::Hit, false);
+    t.update_keys(&keys, Update::Hit, InnerNodes::Refresh);
     for i in (0..n).step_by(3) {
         let p = t.params();
         let want = (val(i) + p.hit).clamp(p.clamp_min, p.clamp_max);
@@ -169,7 +170,7 @@ fn more_values_than_the_palette_holds() {
             want.to_bits()
         );
     }
-    crate::validate::assert_well_formed(&t, false);
+    crate::validate::assert_well_formed(&t, InnerNodes::Refresh);
     let mut ot = Vec::new();
     write_ot(&t, &mut ot).unwrap();
     let mut back = read_ot(&ot[..]).unwrap();
@@ -187,5 +188,5 @@ fn more_values_than_the_palette_holds() {
     assert!(!t.store.voxels.is_wide());
     assert!(t.store.voxels.palette_len() <= 3);
     assert!(t.memory_usage() < wide_bytes);
-    crate::validate::assert_well_formed(&t, true);
+    crate::validate::assert_well_formed(&t, InnerNodes::Defer);
 }

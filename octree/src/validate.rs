@@ -1,14 +1,15 @@
 //! Structural checks for tests: the invariants every tree must keep.
 
 use crate::store::{present, NodeRef, NO_BLOCK};
-use crate::tree::OcTree;
+use crate::tree::{InnerNodes, OcTree};
 
 /// Check the tree's invariants, returning a description of the first violation:
 /// the node count matches `size()`, every child block holds at least one child, no value is
-/// NaN, and (unless `lazy`) every inner node equals the max of its children and no node is
-/// collapsible. Pass `lazy = true` for trees after lazy updates, `prune()` (which may stop
-/// early) or reading a `.bt` (whose root keeps the upper clamp).
-pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
+/// NaN, and (with [`InnerNodes::Refresh`]) every inner node equals the max of its children and
+/// no node is collapsible. Pass [`InnerNodes::Defer`] for trees whose inner nodes may be stale:
+/// after deferred updates, `prune()` (which may stop early) or reading a `.bt` (whose root keeps
+/// the upper clamp).
+pub fn check_well_formed(tree: &OcTree, inner: InnerNodes) -> Result<(), String> {
     if tree.is_empty() {
         return if tree.size() == 0 {
             Ok(())
@@ -50,7 +51,7 @@ pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
         if !any {
             return Err(format!("node {n:?} has an empty child block"));
         }
-        if !lazy {
+        if !inner.is_deferred() {
             let m = store.max_child(n);
             if m.to_bits() != v.to_bits() && m != v {
                 return Err(format!("inner node {n:?} value {v} != max child {m}"));
@@ -70,8 +71,8 @@ pub fn check_well_formed(tree: &OcTree, lazy: bool) -> Result<(), String> {
 }
 
 /// Panic with the violation if [`check_well_formed`] fails.
-pub fn assert_well_formed(tree: &OcTree, lazy: bool) {
-    if let Err(e) = check_well_formed(tree, lazy) {
+pub fn assert_well_formed(tree: &OcTree, inner: InnerNodes) {
+    if let Err(e) = check_well_formed(tree, inner) {
         panic!("octree not well formed: {e}");
     }
 }

@@ -2,7 +2,7 @@
 
 use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
 use octoquant_octree::validate::assert_well_formed;
-use octoquant_octree::{Brick, Key, KeyConverter, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{Brick, InnerNodes, Key, KeyConverter, OcTree, Update, TREE_DEPTH};
 use proptest::prelude::*;
 use std::collections::HashMap;
 
@@ -38,10 +38,10 @@ proptest! {
         for (k, hit, n) in ups {
             for _ in 0..n {
                 naive_apply(&mut model, &tree, k, hit);
-                tree.update_node(k, if hit { Update::Hit } else { Update::Miss }, false);
+                tree.update_node(k, if hit { Update::Hit } else { Update::Miss }, InnerNodes::Refresh);
             }
         }
-        assert_well_formed(&tree, false);
+        assert_well_formed(&tree, InnerNodes::Refresh);
         for (k, v) in &model {
             let n = tree.search(*k, TREE_DEPTH).expect("updated voxel is known");
             prop_assert_eq!(n.value.to_bits(), v.to_bits());
@@ -58,11 +58,11 @@ proptest! {
         let mut lazy = OcTree::new(0.05).unwrap();
         for (k, hit) in &ups {
             let u = if *hit { Update::Hit } else { Update::Miss };
-            eager.update_node(*k, u, false);
-            lazy.update_node(*k, u, true);
+            eager.update_node(*k, u, InnerNodes::Refresh);
+            lazy.update_node(*k, u, InnerNodes::Defer);
         }
         lazy.update_inner_occupancy();
-        assert_well_formed(&lazy, true);
+        assert_well_formed(&lazy, InnerNodes::Defer);
         for (k, _) in &ups {
             prop_assert_eq!(eager.search(*k, 16).unwrap().value, lazy.search(*k, 16).unwrap().value);
         }
@@ -74,7 +74,7 @@ proptest! {
     fn files_round_trip(ups in prop::collection::vec((keys(), any::<bool>()), 0..120)) {
         let mut tree = OcTree::new(0.2).unwrap();
         for (k, hit) in &ups {
-            tree.update_node(*k, if *hit { Update::Hit } else { Update::Miss }, false);
+            tree.update_node(*k, if *hit { Update::Hit } else { Update::Miss }, InnerNodes::Refresh);
         }
         let mut ot = Vec::new();
         write_ot(&tree, &mut ot).unwrap();
@@ -85,7 +85,7 @@ proptest! {
         let mut bt = Vec::new();
         write_bt(&mut tree, &mut bt).unwrap();
         let mut back = read_bt(&bt[..]).unwrap();
-        assert_well_formed(&back, true);
+        assert_well_formed(&back, InnerNodes::Defer);
         let mut bt2 = Vec::new();
         write_bt(&mut back, &mut bt2).unwrap();
         prop_assert_eq!(bt, bt2);
@@ -98,7 +98,7 @@ proptest! {
                                     ext in (0u16..8, 0u16..8, 0u16..8)) {
         let mut tree = OcTree::new(0.1).unwrap();
         for k in &ups {
-            for _ in 0..6 { tree.update_node(*k, Update::Hit, false); }
+            for _ in 0..6 { tree.update_node(*k, Update::Hit, InnerNodes::Refresh); }
         }
         let min = Key::new(lo.0, lo.1, lo.2);
         let max = Key::new(lo.0 + ext.0, lo.1 + ext.1, lo.2 + ext.2);
@@ -130,9 +130,9 @@ fn pruning_sizes_like_octomaps_test_pruning() {
     let mut tree = OcTree::new(0.01f32 as f64).unwrap();
     let conv = tree.converter().clone();
     let k = |x: f64, y: f64, z: f64| conv.point_to_key(&nalgebra::Point3::new(x, y, z)).unwrap();
-    tree.update_node(k(0.0, 0.0, 0.0), Update::Hit, false);
+    tree.update_node(k(0.0, 0.0, 0.0), Update::Hit, InnerNodes::Refresh);
     assert_eq!(tree.size(), 17);
-    tree.update_node(k(0.01, 0.01, 0.01), Update::Hit, false);
+    tree.update_node(k(0.01, 0.01, 0.01), Update::Hit, InnerNodes::Refresh);
     assert_eq!(tree.size(), 18);
     for (x, y, z) in [
         (0.01, 0.0, 0.0),
@@ -141,10 +141,10 @@ fn pruning_sizes_like_octomaps_test_pruning() {
         (0.01, 0.01, 0.0),
         (0.0, 0.01, 0.01),
     ] {
-        tree.update_node(k(x, y, z), Update::Hit, false);
+        tree.update_node(k(x, y, z), Update::Hit, InnerNodes::Refresh);
     }
     assert_eq!(tree.size(), 23);
-    tree.update_node(k(0.01, 0.0, 0.01), Update::Hit, false);
+    tree.update_node(k(0.01, 0.0, 0.01), Update::Hit, InnerNodes::Refresh);
     assert_eq!(
         tree.size(),
         16,
@@ -240,7 +240,7 @@ fn all_exit_batch_after_lazy_refreshes_nothing() {
     ];
     for t in &mut trees {
         for _ in 0..6 {
-            t.update_keys(&ks, Update::Hit, true);
+            t.update_keys(&ks, Update::Hit, InnerNodes::Defer);
         }
     }
     let stale = trees[0].search(ks[0], 10).map(|n| n.value);
@@ -250,11 +250,11 @@ fn all_exit_batch_after_lazy_refreshes_nothing() {
         "lazy updates leave inner nodes at their first value"
     );
     for k in &ks[..100] {
-        trees[0].update_node(*k, Update::Hit, false);
+        trees[0].update_node(*k, Update::Hit, InnerNodes::Refresh);
     }
-    trees[1].update_keys(&ks[..100], Update::Hit, false);
+    trees[1].update_keys(&ks[..100], Update::Hit, InnerNodes::Refresh);
     let first = bricks_of(&ks[..100]);
-    trees[2].update_bricks(&first, Update::Hit, false);
+    trees[2].update_bricks(&first, Update::Hit, InnerNodes::Refresh);
     assert!(first.len() < bricks.len());
     let ot: Vec<Vec<u8>> = trees
         .iter()
@@ -289,10 +289,10 @@ proptest! {
             let u = if hit { Update::Hit } else { Update::Miss };
             for _ in 0..reps {
                 for k in &ks {
-                    single.update_node(*k, u, lazy);
+                    single.update_node(*k, u, InnerNodes::from_lazy(lazy));
                 }
-                by_keys.update_keys(&ks, u, lazy);
-                by_bricks.update_bricks(&bricks, u, lazy);
+                by_keys.update_keys(&ks, u, InnerNodes::from_lazy(lazy));
+                by_bricks.update_bricks(&bricks, u, InnerNodes::from_lazy(lazy));
             }
             prop_assert_eq!(single.size(), by_keys.size());
             prop_assert_eq!(single.size(), by_bricks.size());
@@ -335,9 +335,9 @@ proptest! {
             }
             let u = if hit { Update::Hit } else { Update::Miss };
             for k in &ks {
-                single.update_node(*k, u, lazy);
+                single.update_node(*k, u, InnerNodes::from_lazy(lazy));
             }
-            batch.update_keys(&ks, u, lazy);
+            batch.update_keys(&ks, u, InnerNodes::from_lazy(lazy));
             prop_assert_eq!(single.size(), batch.size());
         }
         let (mut a, mut b) = (Vec::new(), Vec::new());
@@ -348,7 +348,7 @@ proptest! {
         let before = batch.memory_usage();
         batch.shrink_to_fit();
         // lazy batches leave inner values stale, so only the structure is checked
-        assert_well_formed(&batch, true);
+        assert_well_formed(&batch, InnerNodes::Defer);
         let mut c = Vec::new();
         write_ot(&batch, &mut c).unwrap();
         prop_assert!(a == c, "compaction changed the tree");

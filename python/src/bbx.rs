@@ -1,7 +1,7 @@
 //! OctoMap's query bounding box (`setBBXMin`/`setBBXMax`/`useBBXLimit`) and the scan
 //! insertion it limits (the BBX branch of `computeUpdate`).
 
-use crate::engine::{self, Key, KeyConverter, OcTree, Update};
+use crate::engine::{self, InnerNodes, Key, KeyConverter, OcTree, Update};
 use nalgebra::Point3;
 
 /// The box: metric corners as OctoMap stores them (`point3d`) and their keys.
@@ -116,6 +116,6 @@ pub fn insert_point_cloud(
     free.sort_unstable_by(by_morton);
     free.dedup();
     free.retain(|k| occupied.binary_search_by(|o| by_morton(o, k)).is_err());
-    tree.update_keys(&free, Update::Miss, lazy);
-    tree.update_keys(&occupied, Update::Hit, lazy);
+    tree.update_keys(&free, Update::Miss, InnerNodes::from_lazy(lazy));
+    tree.update_keys(&occupied, Update::Hit, InnerNodes::from_lazy(lazy));
 }

@@ -11,8 +11,8 @@ use octoquant::raycast::{self, InsertOptions};
 use std::path::Path;
 
 pub use octoquant::octree::{
-    logodds, probability, Key, KeyConverter, NodeInfo, NodeItem, OcTree, OccupancyParams,
-    OctreeError, Update, TREE_DEPTH,
+    logodds, probability, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem, OcTree,
+    OccupancyParams, OctreeError, Update, TREE_DEPTH,
 };
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;

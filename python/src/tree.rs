@@ -4,7 +4,9 @@
 use crate::bbx::{self, Bbx};
 use crate::cloud;
 use crate::convert::{self, array3, array_n3, depth, path, source, vec3, vec3_f32};
-use crate::engine::{self, logodds, probability, Key, OcTree, OccupancyParams, Update, TREE_DEPTH};
+use crate::engine::{
+    self, logodds, probability, InnerNodes, Key, OcTree, OccupancyParams, Update, TREE_DEPTH,
+};
 use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
 use crate::node::{key_arg, node_value, PyKey, PyNode};
 use nalgebra::Point3;
@@ -405,7 +407,8 @@ impl PyOcTree {
                 None => return Ok(None),
             },
         };
-        self.tree.update_node(key, u, lazy_eval);
+        self.tree
+            .update_node(key, u, InnerNodes::from_lazy(lazy_eval));
         Ok(self.node_at(key, TREE_DEPTH))
     }
 
@@ -443,7 +446,7 @@ impl PyOcTree {
             }
         };
         let tree = &mut self.tree;
-        py.detach(|| tree.update_keys(&keys, u, lazy_eval));
+        py.detach(|| tree.update_keys(&keys, u, InnerNodes::from_lazy(lazy_eval)));
         Ok(())
     }
 

@@ -2,7 +2,7 @@
 
 use crate::dda::{compute_ray_keys, key_of, min_axis, norm_f32, sub_f32, KeyRay};
 use nalgebra::Point3;
-use octoquant_octree::{Key, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{InnerNodes, Key, OcTree, Update, TREE_DEPTH};
 
 /// Why a [`cast_ray`] stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -220,7 +220,7 @@ pub fn insert_ray(
             return false;
         }
         for k in ray.iter() {
-            tree.update_node(*k, Update::Miss, lazy);
+            tree.update_node(*k, Update::Miss, InnerNodes::from_lazy(lazy));
         }
         return true;
     }
@@ -228,10 +228,10 @@ pub fn insert_ray(
         return false;
     }
     for k in ray.iter() {
-        tree.update_node(*k, Update::Miss, lazy);
+        tree.update_node(*k, Update::Miss, InnerNodes::from_lazy(lazy));
     }
     if let Some(k) = key_of(&conv, end) {
-        tree.update_node(k, Update::Hit, lazy);
+        tree.update_node(k, Update::Hit, InnerNodes::from_lazy(lazy));
     }
     true
 }

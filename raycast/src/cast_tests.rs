@@ -168,7 +168,7 @@ fn insert_ray_cuts_at_max_range() {
         &cut_at(2.0)
     ));
     assert_eq!(t.size(), before);
-    assert_well_formed(&t, false);
+    assert_well_formed(&t, InnerNodes::Refresh);
 }
 
 proptest! {

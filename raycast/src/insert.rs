@@ -4,7 +4,7 @@ use crate::dda::{compute_ray_keys, key_of, KeyRay};
 use crate::stats::ScanStats;
 use crate::update::{compute_discrete_update, compute_update, ScanUpdate};
 use nalgebra::Point3;
-use octoquant_octree::{OcTree, Update};
+use octoquant_octree::{InnerNodes, OcTree, Update};
 
 /// Statistics of one inserted scan (see [`ScanStats`]); `free` and `occupied` count the miss
 /// and hit updates applied.
@@ -47,8 +47,16 @@ pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, options: &ApplyOptio
     let lazy = options.lazy;
     // batched by brick: consecutive bricks share their path from the root, which Morton
     // order maximises
-    tree.update_bricks(update.free_bricks(), Update::Miss, lazy);
-    tree.update_bricks(update.occupied_bricks(), Update::Hit, lazy);
+    tree.update_bricks(
+        update.free_bricks(),
+        Update::Miss,
+        InnerNodes::from_lazy(lazy),
+    );
+    tree.update_bricks(
+        update.occupied_bricks(),
+        Update::Hit,
+        InnerNodes::from_lazy(lazy),
+    );
 }
 
 /// OctoMap's `insertPointCloud(scan, sensor_origin, maxrange, lazy_eval, discretize)`: compute
@@ -123,9 +131,9 @@ pub fn insert_point_cloud_rays(
         }
         stats.rays += 1;
         // in ray order, exactly like one update_node per key; neighbours share their paths
-        tree.update_keys(ray.keys(), Update::Miss, lazy);
+        tree.update_keys(ray.keys(), Update::Miss, InnerNodes::from_lazy(lazy));
         stats.free += ray.len();
-        tree.update_node(end_key, Update::Hit, lazy);
+        tree.update_node(end_key, Update::Hit, InnerNodes::from_lazy(lazy));
         stats.occupied += 1;
     }
     stats
@@ -166,7 +174,7 @@ mod tests {
         assert_eq!(s.outside_map, 1);
         assert_eq!(s.failed_rays, 1);
         assert_eq!(s.rays, 400);
-        assert_well_formed(&tree, false);
+        assert_well_formed(&tree, InnerNodes::Refresh);
         let p = tree.params();
         for &k in buf.free() {
             assert_eq!(tree.search(k, 16).map(|n| n.value), Some(p.miss));
@@ -197,7 +205,7 @@ mod tests {
             );
         }
         lazy.update_inner_occupancy();
-        assert_well_formed(&lazy, true);
+        assert_well_formed(&lazy, InnerNodes::Defer);
         let (mut a, mut b) = (Vec::new(), Vec::new());
         octoquant_octree::io::write_bt(&mut eager, &mut a).unwrap();
         octoquant_octree::io::write_bt(&mut lazy, &mut b).unwrap();
