@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod export;
+pub mod grid;
 pub mod pipeline;
 pub mod query;
 pub mod render;

@@ -2,6 +2,7 @@
 
 mod common;
 mod formats;
+mod grid;
 mod map_diff;
 mod mcap;
 mod octree_diff;

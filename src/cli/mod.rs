@@ -33,6 +33,7 @@ mod bench;
 mod convert;
 mod demo;
 mod export;
+mod grid;
 mod info;
 mod map;
 mod reduce;
@@ -68,6 +69,8 @@ enum Command {
     Convert(convert::Args),
     /// Thin a point cloud with the online grid density reducer; writes PLY.
     Reduce(reduce::Args),
+    /// Project a height band of a map onto a 2D occupancy grid (ROS map_server / Nav2 YAML + PGM).
+    Grid(grid::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
 }
@@ -84,6 +87,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Convert(a)) => convert::run(&a),
         Some(Command::Reduce(a)) => reduce::run(&a),
         Some(Command::Segment(a)) => segment::run(&a),
+        Some(Command::Grid(a)) => grid::run(&a),
         None => demo::run_default(),
     };
     match result {

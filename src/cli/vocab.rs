@@ -7,6 +7,7 @@
 //! The tests below keep the two lists in step.
 
 use octoquant::formats::InputFormat;
+use octoquant::grid::UnknownCells;
 use octoquant::pipeline::InsertMode;
 use octoquant::render::View;
 use octoquant_raycast::RayModel;
@@ -99,6 +100,22 @@ impl From<ViewArg> for View {
             ViewArg::Top => View::Top,
             ViewArg::Front => View::Front,
             ViewArg::Side => View::Side,
+        }
+    }
+}
+
+/// `--unknown`: what the unknown cells of a 2D grid become (see [`UnknownCells`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum UnknownArg {
+    Unknown,
+    Free,
+}
+
+impl From<UnknownArg> for UnknownCells {
+    fn from(u: UnknownArg) -> UnknownCells {
+        match u {
+            UnknownArg::Unknown => UnknownCells::Unknown,
+            UnknownArg::Free => UnknownCells::Free,
         }
     }
 }
