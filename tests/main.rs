@@ -6,6 +6,7 @@ mod grid;
 mod map_diff;
 mod mcap;
 mod octree_diff;
+mod peers;
 mod query;
 mod raycast_diff;
 mod reduce;

@@ -20,6 +20,12 @@ pub struct Args {
     /// The C++ reference program (tools/octoquant-ref) to time OctoMap on the same frames.
     #[arg(long)]
     reference: Option<PathBuf>,
+    /// A peer program timed on the same frames, as NAME=PROGRAM (repeatable), e.g.
+    /// `bonxai=target/bonxai-peer/bonxai-peer` (tools/bonxai-peer): it is run as
+    /// `PROGRAM RES FRAMES [MAX_RANGE]` and prints `frame I POINTS SECONDS` per frame and
+    /// `memory BYTES`.
+    #[arg(long, value_parser = parse_peer)]
+    peer: Vec<(String, PathBuf)>,
     /// Use only the first N frames.
     #[arg(long)]
     frames: Option<usize>,
@@ -109,6 +115,73 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, threads: usize) -> Result<Ru
 /// One OctoMap timing: frame times in ms and the `.bt` it wrote.
 type RefRun = (Vec<f64>, Vec<u8>);
 
+/// `NAME=PROGRAM` of `--peer`.
+fn parse_peer(s: &str) -> Result<(String, PathBuf), String> {
+    match s.split_once('=') {
+        Some((name, prog)) if !name.is_empty() && !prog.is_empty() => {
+            Ok((name.to_string(), PathBuf::from(prog)))
+        }
+        _ => Err(format!("expected NAME=PROGRAM, got {s:?}")),
+    }
+}
+
+/// A peer's frame times (ms) over all repetitions and its last reported memory (bytes).
+#[derive(Default)]
+struct PeerRun {
+    frame_ms: Vec<f64>,
+    memory: Option<u64>,
+}
+
+/// Time a peer program on the frames file (see `--peer`).
+fn run_peer(
+    name: &str,
+    prog: &Path,
+    frames_file: &Path,
+    opts: &MapperOptions,
+    into: &mut PeerRun,
+) -> Result<()> {
+    let mut cmd = Command::new(prog);
+    cmd.arg(format!("{:.17e}", opts.resolution))
+        .arg(frames_file);
+    if let Some(m) = opts.max_range {
+        cmd.arg(format!("{m:.17e}"));
+    }
+    let out = cmd
+        .output()
+        .with_context(|| format!("cannot run peer {name} ({})", prog.display()))?;
+    if !out.status.success() {
+        bail!(
+            "peer {name} ({}) failed: {}",
+            prog.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let before = into.frame_ms.len();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.as_slice() {
+            ["frame", _, _, secs] => into
+                .frame_ms
+                .extend(secs.parse::<f64>().ok().map(|s| s * 1e3)),
+            ["memory", bytes] => into.memory = bytes.parse().ok(),
+            _ => {}
+        }
+    }
+    if into.frame_ms.len() == before {
+        bail!("peer {name} ({}) printed no frame times", prog.display());
+    }
+    Ok(())
+}
+
+/// The bench's scratch directory, removed however the bench ends.
+struct ScratchDir(PathBuf);
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 impl Run {
     /// Add the figures of a repetition of the same run.
     fn absorb(&mut self, again: Run) {
@@ -190,10 +263,13 @@ pub fn run(a: &Args) -> Result<()> {
     let thread_counts = if all > 1 { vec![1, all] } else { vec![1] };
     let mut runs: Vec<Run> = Vec::new();
     let mut reference: Option<(RefRun, RefRun)> = None;
-    let dir = std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id()));
+    let mut peers: Vec<PeerRun> = a.peer.iter().map(|_| PeerRun::default()).collect();
+    let scratch =
+        ScratchDir(std::env::temp_dir().join(format!("octoquant-bench-{}", std::process::id())));
+    let dir = &scratch.0;
     let ff = dir.join("frames.frames");
-    if a.reference.is_some() {
-        std::fs::create_dir_all(&dir)?;
+    if a.reference.is_some() || !a.peer.is_empty() {
+        std::fs::create_dir_all(dir)?;
         octoquant::formats::frames::write_frames_file(&ff, &frames)?;
     }
     // repetitions interleave every mode and OctoMap, so a slow spell of a shared machine
@@ -216,12 +292,12 @@ pub fn run(a: &Args) -> Result<()> {
             }
         }
         if let Some(prog) = &a.reference {
-            let exact = run_reference(prog, &ff, &base, &dir)?;
+            let exact = run_reference(prog, &ff, &base, dir)?;
             let discretize = MapperOptions {
                 mode: InsertMode::Discretize,
                 ..base.clone()
             };
-            let disc = run_reference(prog, &ff, &discretize, &dir)?;
+            let disc = run_reference(prog, &ff, &discretize, dir)?;
             match &mut reference {
                 None => reference = Some((exact, disc)),
                 Some(((e, _), (d, _))) => {
@@ -230,10 +306,11 @@ pub fn run(a: &Args) -> Result<()> {
                 }
             }
         }
+        for ((name, prog), into) in a.peer.iter().zip(&mut peers) {
+            run_peer(name, prog, &ff, &base, into)?;
+        }
     }
-    if a.reference.is_some() {
-        let _ = std::fs::remove_dir_all(&dir);
-    }
+    drop(scratch);
     let exact1 = median(&runs[0].frame_ms);
     let points: usize = frames.iter().map(|f| f.points.len()).sum();
     let mut rows = Vec::new();
@@ -294,6 +371,20 @@ pub fn run(a: &Args) -> Result<()> {
                     ",\"speedup_vs_octomap\":{ratio:.3},\"bt_identical_to_octomap\":{same}"
                 ));
             }
+            if !peers.is_empty() {
+                let ratios: serde_json::Map<String, serde_json::Value> = a
+                    .peer
+                    .iter()
+                    .zip(&peers)
+                    .map(|((name, _), p)| {
+                        (name.clone(), (median(&p.frame_ms) / med.max(1e-12)).into())
+                    })
+                    .collect();
+                s.push_str(&format!(
+                    ",\"speedup_vs_peers\":{}",
+                    serde_json::Value::Object(ratios)
+                ));
+            }
             s.push('}');
         }
         s.push(']');
@@ -303,6 +394,22 @@ pub fn run(a: &Args) -> Result<()> {
                 median(e),
                 median(d)
             ));
+        }
+        if !peers.is_empty() {
+            let list: Vec<serde_json::Value> = a
+                .peer
+                .iter()
+                .zip(&peers)
+                .map(|((name, prog), p)| {
+                    serde_json::json!({
+                        "name": name,
+                        "program": prog.display().to_string(),
+                        "median_ms": median(&p.frame_ms),
+                        "memory_bytes": p.memory,
+                    })
+                })
+                .collect();
+            s.push_str(&format!(",\"peers\":{}", serde_json::Value::Array(list)));
         }
         s.push('}');
         outln!("{s}")?;
@@ -359,6 +466,26 @@ pub fn run(a: &Args) -> Result<()> {
             }),
             100.0 * classes.agreement(),
             100.0 * vs_q.agreement(),
+        )?;
+    }
+    for ((name, _), p) in a.peer.iter().zip(&peers) {
+        let peer_ms = median(&p.frame_ms);
+        let ratios: Vec<String> = rows
+            .iter()
+            .map(|(r, med, ..)| {
+                format!(
+                    "{} {}t {:.2}x",
+                    r.mode.name(),
+                    r.threads,
+                    peer_ms / med.max(1e-12)
+                )
+            })
+            .collect();
+        outln!(
+            "peer {name}: median {peer_ms:.2} ms/frame, memory {}; speed-up against it: {}",
+            p.memory
+                .map_or("-".into(), |m| format!("{:.1} MB", m as f64 / 1e6)),
+            ratios.join(", ")
         )?;
     }
     outln!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)")?;
