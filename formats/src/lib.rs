@@ -48,4 +48,5 @@ pub use frame::Frame;
 pub use graph::GraphOptions;
 pub use input::{read_frames, InputFormat, ReadOptions};
 pub use pcd::{PcdOptions, ViewpointUse};
+pub use source::DecompressionLimit;
 pub use tum::{CameraIntrinsics, TumOptions};
