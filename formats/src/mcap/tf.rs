@@ -274,3 +274,84 @@ impl TfTree {
         self.index().names.clone()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shift(parent: &str, child: &str, x: f64) -> Transform {
+        Transform {
+            parent: parent.into(),
+            child: child.into(),
+            transform: Isometry3::translation(x, 0.0, 0.0),
+        }
+    }
+
+    fn x_of(t: Result<Isometry3<f64>, String>) -> f64 {
+        t.map(|t| t.translation.x).unwrap_or(f64::NAN)
+    }
+
+    #[test]
+    fn transforms_at_a_time() {
+        let mut tf = TfTree::default();
+        for (time, x) in [(10, 1.0), (20, 2.0), (20, 3.0), (30, 4.0)] {
+            tf.add(shift("map", "s", x), time, false);
+        }
+        // latest at or before the time (the last recorded among equal times)
+        assert_eq!(x_of(tf.lookup("map", "s", 25)), 3.0);
+        assert_eq!(x_of(tf.lookup("map", "s", 30)), 4.0);
+        // before every transform: the earliest
+        assert_eq!(x_of(tf.lookup("map", "s", 5)), 1.0);
+        // the other way round
+        assert_eq!(x_of(tf.lookup("s", "map", 10)), -1.0);
+        // a static transform wins, added after lookups
+        tf.add(shift("map", "s", 9.0), 0, true);
+        assert_eq!(x_of(tf.lookup("map", "s", 25)), 9.0);
+        assert_eq!(tf.root("s"), "map");
+        assert!(tf.lookup("map", "elsewhere", 0).is_err());
+    }
+
+    #[test]
+    fn lookups_search_once_and_compose_only_the_chain() {
+        // a chain of 10 links from map, and 2000 frames hanging off map
+        let mut tf = TfTree::default();
+        let mut parent = "map".to_string();
+        for i in 0..10 {
+            let child = format!("c{i}");
+            tf.add(shift(&parent, &child, 1.0), 0, true);
+            parent = child;
+        }
+        for i in 0..2000 {
+            tf.add(shift("map", &format!("leaf{i}"), 0.5), 0, true);
+        }
+        let edges = 2010;
+        let lookups = 2000;
+        for t in 0..lookups {
+            assert_eq!(x_of(tf.lookup("map", "c9", t)), 10.0);
+            assert_eq!(tf.root("c9"), "map");
+        }
+        // one search over every edge (each seen from both ends), then 10 links and 10 root
+        // steps per lookup: a search per lookup would cost 2000 times the edges
+        assert!(
+            tf.work <= 2 * edges + lookups * (10 + 10),
+            "work {} for {lookups} lookups",
+            tf.work
+        );
+    }
+
+    #[test]
+    fn chains_longer_than_the_cap_are_refused() {
+        let mut tf = TfTree::default();
+        for i in 0..MAX_TF_CHAIN + 1 {
+            tf.add(
+                shift(&format!("f{i}"), &format!("f{}", i + 1), 1.0),
+                0,
+                true,
+            );
+        }
+        let far = format!("f{}", MAX_TF_CHAIN + 1);
+        let e = tf.lookup("f0", &far, 0).err().unwrap_or_default();
+        assert!(e.contains("more than the 256"), "{e}");
+        assert_eq!(x_of(tf.lookup("f0", &format!("f{MAX_TF_CHAIN}"), 0)), 256.0);
+    }
+}
