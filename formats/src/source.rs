@@ -68,8 +68,9 @@ impl DecompressionLimit {
         (output > max).then(|| {
             format!(
                 "{output} bytes decompressed from {compressed} exceed the limit of {max} \
-                 ({} x the compressed size, at least {} bytes); raise \
-                 ReadOptions::decompression if the file is trusted",
+                 ({} x the compressed size, at least {} bytes); raise it \
+                 (ReadOptions::decompression, the command line's --max-expansion) if the \
+                 file is trusted",
                 self.max_ratio, self.min_bytes
             )
         })

@@ -676,6 +676,33 @@ fn mcap_tf_claiming_2_pow_32_transforms() {
 }
 
 #[test]
+fn mcap_summary_with_a_2_pow_40_byte_record() {
+    let _serial = serial();
+    let mut point = Vec::new();
+    for c in [1f32, 2.0, 3.0] {
+        point.extend_from_slice(&c.to_le_bytes());
+    }
+    let mut m = cloud_file(&[cloud("s", (1, 1), (12, 12), &point)]);
+    m.record(0x0F, &0u32.to_le_bytes());
+    let summary_start = m.0.len() as u64;
+    m.0.push(0x08); // a chunk index claiming 2^40 bytes
+    m.0.extend_from_slice(&(1u64 << 40).to_le_bytes());
+    m.0.extend_from_slice(&[0u8; 40]);
+    let mut f = summary_start.to_le_bytes().to_vec();
+    f.extend_from_slice(&0u64.to_le_bytes());
+    f.extend_from_slice(&0u32.to_le_bytes());
+    m.record(0x02, &f);
+    m.0.extend_from_slice(b"\x89MCAP0\r\n");
+    let path = scratch("summary.mcap", &m.0);
+    let (r, cost) = measure(|| read(&path));
+    // the summary is unreadable, the messages are read linearly, or the file is refused
+    if let Ok(frames) = r {
+        assert_eq!(frames[0].points.len(), 1);
+    }
+    assert!(cost.peak < 1 << 20, "{cost:?}");
+}
+
+#[test]
 fn mcap_zero_width_cloud_of_2_pow_32_rows_costs_nothing() {
     let _serial = serial();
     let m = cloud_file(&[cloud("s", (u32::MAX, 0), (12, 0), &[])]);
@@ -784,4 +811,22 @@ fn long_lines_and_many_header_lines_cost_linear_work() {
     b.extend(std::iter::repeat_n(b' ', 4 << 20));
     b.extend_from_slice(b"\n");
     assert_linear(&scratch("long.xyz", &b), &ReadOptions::default(), 8, 32);
+}
+
+// ---------------------------------------------------------------- CARMEN
+
+#[test]
+fn carmen_claiming_2_pow_31_readings() {
+    let _serial = serial();
+    let path = scratch(
+        "claims.clf",
+        b"FLASER 2147483648 1 2 3 0 0 0 0 0 0 1.5 host 1.5\n",
+    );
+    let (r, cost) = measure(|| octoquant_formats::carmen::read_carmen_file(&path));
+    let e = r.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        e.contains("claims.clf") && e.contains("num_readings is 2147483648"),
+        "{e}"
+    );
+    assert!(cost.peak < SLACK, "{cost:?}");
 }
