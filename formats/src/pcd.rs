@@ -20,7 +20,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::{decompression_limit, read_all, ByteReader};
+use crate::source::{decompression_limit, excerpt, read_all, ByteReader};
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::path::Path;
 
@@ -440,7 +440,11 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
                         tok.parse::<f64>().ok()
                     };
                     *v = parsed.ok_or_else(|| {
-                        FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number"))
+                        FormatError::syntax(
+                            path,
+                            at,
+                            format!("cannot parse {:?} as a number", excerpt(tok)),
+                        )
                     })?;
                 }
                 points.push(Point3::new(c[0], c[1], c[2]));

@@ -158,7 +158,7 @@ fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize
                         return Err(FormatError::syntax(
                             path,
                             at,
-                            format!("bad format line `{line}`"),
+                            format!("bad format line `{}`", source::excerpt(line)),
                         ))
                     }
                 });
@@ -200,7 +200,7 @@ fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize
                         return Err(FormatError::syntax(
                             path,
                             at,
-                            format!("bad property line `{line}`"),
+                            format!("bad property line `{}`", source::excerpt(line)),
                         ))
                     }
                 };
@@ -404,7 +404,11 @@ fn read_ascii(
                         FormatError::syntax(path, Location::Line(no), "too few values")
                     })?;
                     let x: f64 = w.parse().map_err(|_| {
-                        FormatError::syntax(path, Location::Line(no), format!("bad number `{w}`"))
+                        FormatError::syntax(
+                            path,
+                            Location::Line(no),
+                            format!("bad number `{}`", source::excerpt(w)),
+                        )
                     })?;
                     v[a] = x as f32;
                 }

@@ -207,6 +207,12 @@ pub fn read_all(path: &Path) -> Result<Vec<u8>, FormatError> {
     }
 }
 
+/// The first 40 characters of `s`, for quoting a token in an error message: a message never
+/// copies an unbounded token of the input (a 1 GB line of zeros stays a short message).
+pub(crate) fn excerpt(s: &str) -> &str {
+    s.char_indices().nth(40).map_or(s, |(cut, _)| &s[..cut])
+}
+
 /// Reads a text file line by line, keeping the 1-based line number for error messages.
 pub(crate) struct LineReader<'p> {
     path: &'p Path,

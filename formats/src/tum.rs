@@ -13,7 +13,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::{CameraPixels, Frame};
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::{decompression_limit, open, LineReader};
+use crate::source::{decompression_limit, excerpt, open, LineReader};
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};
@@ -264,7 +264,11 @@ pub fn read_association(path: &Path) -> Result<Vec<AssociationRow>, FormatError>
         let mut v = [0f64; 7];
         for (x, tok) in v.iter_mut().zip(&toks[2..]) {
             *x = tok.parse().map_err(|_| {
-                FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number"))
+                FormatError::syntax(
+                    path,
+                    at,
+                    format!("cannot parse {:?} as a number", excerpt(tok)),
+                )
             })?;
         }
         let translation = Vector3::new(v[0], v[1], v[2]);

@@ -830,3 +830,33 @@ fn carmen_claiming_2_pow_31_readings() {
     );
     assert!(cost.peak < SLACK, "{cost:?}");
 }
+
+#[test]
+fn errors_quote_at_most_a_short_excerpt_of_a_bad_token() {
+    let _serial = serial();
+    // a 4 MiB token where a number should be, in each text reader
+    let long = "z".repeat(4 << 20);
+    let cases = [
+        ("long_token.xyz", format!("1 2 {long}\n")),
+        (
+            "long_token.vtk",
+            format!("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n1 2 {long}\n"),
+        ),
+        (
+            "long_token.ply",
+            format!("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 {long}\n"),
+        ),
+        (
+            "long_token.pcd",
+            format!("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nDATA ascii\n1 2 {long}\n"),
+        ),
+    ];
+    for (name, text) in cases {
+        let path = scratch(name, text.as_bytes());
+        let (r, cost) = measure(|| read(&path));
+        let e = r.err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains(name) && e.contains("zzzz"), "{e}");
+        assert!(e.len() < 400, "{name}: a {}-byte message", e.len());
+        assert!(cost.peak <= 3 * text.len() + SLACK, "{name}: {cost:?}");
+    }
+}
