@@ -106,13 +106,37 @@ fn measure<T>(f: impl FnOnce() -> T) -> (T, Cost) {
 /// decompressing with small memory off).
 const SLACK: usize = 8 << 20;
 
-/// A scratch file for one test.
-fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
+/// A scratch file for one test, removed (with its directory, once empty) when dropped.
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+        if let Some(dir) = self.0.parent() {
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
+fn scratch(name: &str, bytes: &[u8]) -> Scratch {
     let dir = std::env::temp_dir().join(format!("octoquant-bounds-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
-    path
+    Scratch(path)
 }
 
 fn read(path: &Path) -> Result<Vec<octoquant_formats::Frame>, FormatError> {
@@ -349,9 +373,9 @@ fn frames_claiming_2_pow_32_frames_and_points() {
 // ---------------------------------------------------------------- gz / bz2 bombs
 
 /// `members` copies of one compressed member of `member_bytes` zeros.
-fn bomb(name: &str, member: &[u8], members: usize) -> PathBuf {
+fn bomb(name: &str, member: &[u8], members: usize) -> Scratch {
     let path = scratch(name, b"");
-    let mut f = std::fs::File::create(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut f = std::fs::File::create(&*path).unwrap_or_else(|e| panic!("{e}"));
     for _ in 0..members {
         f.write_all(member).unwrap_or_else(|e| panic!("{e}"));
     }
