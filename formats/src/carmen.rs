@@ -233,8 +233,13 @@ impl Fields<'_> {
 
     fn number(&self, i: usize, what: &str) -> Result<f64, FormatError> {
         let t = self.token(i, what)?;
-        t.parse::<f64>()
-            .map_err(|_| self.error(format!("cannot parse {what} {t:?} (field {})", i + 2)))
+        t.parse::<f64>().map_err(|_| {
+            self.error(format!(
+                "cannot parse {what} {:?} (field {})",
+                source::excerpt(t),
+                i + 2
+            ))
+        })
     }
 
     fn finite(&self, i: usize, what: &str) -> Result<f64, FormatError> {
@@ -248,9 +253,13 @@ impl Fields<'_> {
 
     fn count(&self, i: usize, what: &str) -> Result<usize, FormatError> {
         let t = self.token(i, what)?;
-        let n = t
-            .parse::<usize>()
-            .map_err(|_| self.error(format!("cannot parse {what} {t:?} (field {})", i + 2)))?;
+        let n = t.parse::<usize>().map_err(|_| {
+            self.error(format!(
+                "cannot parse {what} {:?} (field {})",
+                source::excerpt(t),
+                i + 2
+            ))
+        })?;
         // Each counted value needs a field: reject counts the line cannot hold before allocating.
         if n > self.toks.len().saturating_sub(i + 1) {
             return Err(self.error(format!(

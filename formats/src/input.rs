@@ -135,10 +135,18 @@ pub struct ReadOptions {
     pub trajectory: Option<PathBuf>,
     /// MCAP options (topic, fixed frame, sensor pose).
     pub mcap: mcap::McapOptions,
+    /// How far compressed data (`.gz`/`.bz2`, LZF, MCAP chunks, PNG) may expand before the
+    /// read fails as a decompression bomb; see [`source::DecompressionLimit`].
+    pub decompression: source::DecompressionLimit,
 }
 
-/// Read `path` as frames in world coordinates, in the format given or detected.
+/// Read `path` as frames in world coordinates, in the format given or detected, under
+/// [`ReadOptions::decompression`].
 pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, FormatError> {
+    source::with_decompression_limit(options.decompression, || read_frames_in(path, options))
+}
+
+fn read_frames_in(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, FormatError> {
     let format = match options.format {
         Some(f) => f,
         None => InputFormat::detect(path)?,

@@ -19,8 +19,9 @@
 //! | [`carmen`] | CARMEN laser logs (`FLASER`, `ROBOTLASER1`) | 2D scans, not frames |
 //!
 //! Every file may be `.gz`/`.bz2` compressed ([`source`]). Errors are one [`FormatError`]
-//! naming the file and the line or byte; no input makes a reader panic, and counts read from
-//! a file never reserve more memory than the file's bytes can fill. The pose maths of every
+//! naming the file and the line or byte; no input makes a reader panic, counts read from
+//! a file never reserve more memory than the file's bytes can fill, and compressed data may
+//! expand only so far ([`DecompressionLimit`], see [`source`]). The pose maths of every
 //! reader (OctoMap's exact `f32` poses, rigid `f64` poses, planar poses) is in [`pose`]. Files
 //! are written through [`output::write_atomic`], so a failed write never leaves a
 //! half-written file.
@@ -48,4 +49,5 @@ pub use frame::Frame;
 pub use graph::GraphOptions;
 pub use input::{read_frames, InputFormat, ReadOptions};
 pub use pcd::{PcdOptions, ViewpointUse};
+pub use source::DecompressionLimit;
 pub use tum::{CameraIntrinsics, TumOptions};

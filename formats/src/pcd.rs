@@ -20,7 +20,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::{read_all, ByteReader};
+use crate::source::{decompression_limit, excerpt, read_all, ByteReader};
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::path::Path;
 
@@ -440,7 +440,11 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
                         tok.parse::<f64>().ok()
                     };
                     *v = parsed.ok_or_else(|| {
-                        FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number"))
+                        FormatError::syntax(
+                            path,
+                            at,
+                            format!("cannot parse {:?} as a number", excerpt(tok)),
+                        )
                     })?;
                 }
                 points.push(Point3::new(c[0], c[1], c[2]));
@@ -477,6 +481,9 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
                     4,
                     format!("uncompressed size {raw_len} is not POINTS × point size = {expected}"),
                 ));
+            }
+            if let Some(msg) = decompression_limit().check(comp_len.into(), raw_len.into()) {
+                return Err(r.error_at(4, format!("LZF data: {msg}")));
             }
             let comp_start = r.pos();
             let comp = r.take(comp_len as usize, "the compressed data")?;

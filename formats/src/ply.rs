@@ -158,7 +158,7 @@ fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize
                         return Err(FormatError::syntax(
                             path,
                             at,
-                            format!("bad format line `{line}`"),
+                            format!("bad format line `{}`", source::excerpt(line)),
                         ))
                     }
                 });
@@ -200,7 +200,7 @@ fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize
                         return Err(FormatError::syntax(
                             path,
                             at,
-                            format!("bad property line `{line}`"),
+                            format!("bad property line `{}`", source::excerpt(line)),
                         ))
                     }
                 };
@@ -282,27 +282,29 @@ fn read_binary(
         } else {
             None
         };
-        let fixed: Option<usize> = el
+        // The fewest bytes a record takes (its scalars and the count of each list): the count
+        // must fit in the remaining data before anything is reserved or looped over.
+        let min_record: u64 = el
             .props
             .iter()
             .map(|p| match p {
-                Property::Scalar(t, _) => Some(t.size()),
-                Property::List { .. } => None,
+                Property::Scalar(t, _) => t.size() as u64,
+                Property::List { count, .. } => count.size() as u64,
             })
             .sum();
         let remaining = (data.len() - pos) as u64;
-        if let Some(size) = fixed {
-            if size as u64 * el.count > remaining {
-                return Err(truncated(
-                    data.len(),
-                    &format!("{} {} records", el.count, el.name),
-                ));
-            }
-        } else if el.count > remaining {
+        if min_record
+            .checked_mul(el.count)
+            .is_none_or(|need| need > remaining)
+        {
             return Err(truncated(
                 data.len(),
                 &format!("{} {} records", el.count, el.name),
             ));
+        }
+        if min_record == 0 {
+            // records without properties hold no bytes (a vertex always has x, y, z)
+            continue;
         }
         let mut points = Vec::new();
         if is_vertex {
@@ -402,7 +404,11 @@ fn read_ascii(
                         FormatError::syntax(path, Location::Line(no), "too few values")
                     })?;
                     let x: f64 = w.parse().map_err(|_| {
-                        FormatError::syntax(path, Location::Line(no), format!("bad number `{w}`"))
+                        FormatError::syntax(
+                            path,
+                            Location::Line(no),
+                            format!("bad number `{}`", source::excerpt(w)),
+                        )
                     })?;
                     v[a] = x as f32;
                 }

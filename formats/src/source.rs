@@ -3,11 +3,127 @@
 //! plus the two cursors the readers share over those bytes: a line reader (text lines with
 //! their 1-based numbers) and a byte reader (little-endian values with their offsets), so every
 //! error names the file and the line or byte of the problem.
+//!
+//! # Bounds on hostile input
+//! Two rules keep a damaged or malicious file from exhausting memory:
+//! - **Size fields never drive an allocation past the input.** A count or length read from a
+//!   file reserves at most what the remaining bytes can hold (see `ByteReader::capacity_for`);
+//!   buffers grow as data actually arrives.
+//! - **Decompressed data is capped** by a [`DecompressionLimit`]: at most
+//!   [`DecompressionLimit::max_ratio`] times the compressed size, or
+//!   [`DecompressionLimit::min_bytes`], whichever is larger (by default 100 × and 64 MiB). It
+//!   applies to `.gz`/`.bz2` files, PCD `binary_compressed` (LZF) data, MCAP chunks and PNG
+//!   pixels; a declared decompressed size is checked before anything is allocated. The
+//!   limit in force is the calling thread's ([`decompression_limit`]); [`read_frames`]
+//!   sets it from [`ReadOptions::decompression`], and [`with_decompression_limit`] sets it
+//!   around any other reader call.
+//!
+//! [`read_frames`]: crate::read_frames
+//! [`ReadOptions::decompression`]: crate::ReadOptions::decompression
 
 use crate::error::{FormatError, Location};
+use std::cell::Cell;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
+
+/// How far compressed data may expand: the output of one compressed stream (a `.gz`/`.bz2`
+/// file, an LZF block, an MCAP chunk, a PNG's pixels) may be at most `max_ratio` times its
+/// compressed size or `min_bytes`, whichever is larger. Beyond that a reader fails with an
+/// error naming the file and the place instead of filling memory (a decompression bomb).
+///
+/// Real sensor data compresses 2 to 10 fold; raise the limit (or use
+/// [`DecompressionLimit::UNLIMITED`]) for legitimately extreme files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DecompressionLimit {
+    /// Output allowed per compressed byte.
+    pub max_ratio: u64,
+    /// Output always allowed, however small the compressed input.
+    pub min_bytes: u64,
+}
+
+impl DecompressionLimit {
+    /// The default: 100 × the compressed size, at least 64 MiB.
+    pub const DEFAULT: DecompressionLimit = DecompressionLimit {
+        max_ratio: 100,
+        min_bytes: 64 << 20,
+    };
+
+    /// No limit at all (for trusted inputs that expand more than the default allows).
+    pub const UNLIMITED: DecompressionLimit = DecompressionLimit {
+        max_ratio: u64::MAX,
+        min_bytes: u64::MAX,
+    };
+
+    /// The most output allowed from `compressed` bytes of input.
+    pub fn max_output(&self, compressed: u64) -> u64 {
+        compressed
+            .saturating_mul(self.max_ratio)
+            .max(self.min_bytes)
+    }
+
+    /// Why `output` bytes from `compressed` are refused, or `None` when they are allowed.
+    pub(crate) fn check(&self, compressed: u64, output: u64) -> Option<String> {
+        let max = self.max_output(compressed);
+        (output > max).then(|| {
+            format!(
+                "{output} bytes decompressed from {compressed} exceed the limit of {max} \
+                 ({} x the compressed size, at least {} bytes); raise it \
+                 (ReadOptions::decompression, the command line's --max-expansion) if the \
+                 file is trusted",
+                self.max_ratio, self.min_bytes
+            )
+        })
+    }
+}
+
+impl Default for DecompressionLimit {
+    fn default() -> Self {
+        DecompressionLimit::DEFAULT
+    }
+}
+
+thread_local! {
+    static LIMIT: Cell<DecompressionLimit> = const { Cell::new(DecompressionLimit::DEFAULT) };
+}
+
+/// The decompression limit the readers on this thread apply (the default unless inside
+/// [`with_decompression_limit`] or [`crate::read_frames`]).
+pub fn decompression_limit() -> DecompressionLimit {
+    LIMIT.with(Cell::get)
+}
+
+/// Run `f` with `limit` as this thread's decompression limit, restoring the previous one
+/// afterwards (also when `f` panics).
+pub fn with_decompression_limit<T>(limit: DecompressionLimit, f: impl FnOnce() -> T) -> T {
+    struct Restore(DecompressionLimit);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            LIMIT.with(|l| l.set(self.0));
+        }
+    }
+    let _restore = Restore(LIMIT.with(|l| l.replace(limit)));
+    f()
+}
+
+/// A decompressor's output, cut off with an `InvalidData` error once it passes `max` bytes.
+struct Capped<R> {
+    inner: R,
+    out: u64,
+    compressed: u64,
+    limit: DecompressionLimit,
+}
+
+impl<R: Read> Read for Capped<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.out += n as u64;
+        match self.limit.check(self.compressed, self.out) {
+            None => Ok(n),
+            Some(msg) => Err(std::io::Error::new(std::io::ErrorKind::InvalidData, msg)),
+        }
+    }
+}
 
 /// The compression of an input file, told from its last extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,19 +160,28 @@ fn lower_ext(path: &Path) -> Option<String> {
         .map(|e| e.to_ascii_lowercase())
 }
 
-/// Open `path` for buffered reading, decompressing `.gz` and `.bz2` on the fly.
+/// Open `path` for buffered reading, decompressing `.gz` and `.bz2` on the fly under this
+/// thread's [`decompression_limit`] (relative to the compressed file's size): past it, reads
+/// fail with an `InvalidData` error that says so.
 pub fn open(path: &Path) -> Result<Box<dyn BufRead + Send>, FormatError> {
     let file = File::open(path).map_err(|e| FormatError::io(path, Location::File, e))?;
+    let compressed = file.metadata().map(|m| m.len()).unwrap_or(0);
     let raw = BufReader::with_capacity(1 << 16, file);
+    let capped = |inner| Capped {
+        inner,
+        out: 0,
+        compressed,
+        limit: decompression_limit(),
+    };
     Ok(match compression_of(path) {
         Compression::None => Box::new(raw),
         Compression::Gzip => Box::new(BufReader::with_capacity(
             1 << 16,
-            flate2::bufread::MultiGzDecoder::new(raw),
+            capped(Box::new(flate2::bufread::MultiGzDecoder::new(raw)) as Box<dyn Read + Send>),
         )),
         Compression::Bzip2 => Box::new(BufReader::with_capacity(
             1 << 16,
-            bzip2::bufread::MultiBzDecoder::new(raw),
+            capped(Box::new(bzip2::bufread::MultiBzDecoder::new(raw))),
         )),
     })
 }
@@ -80,6 +205,12 @@ pub fn read_all(path: &Path) -> Result<Vec<u8>, FormatError> {
             Err(e) => return Err(FormatError::io(path, Location::Byte(data.len() as u64), e)),
         }
     }
+}
+
+/// The first 40 characters of `s`, for quoting a token in an error message: a message never
+/// copies an unbounded token of the input (a 1 GB line of zeros stays a short message).
+pub(crate) fn excerpt(s: &str) -> &str {
+    s.char_indices().nth(40).map_or(s, |(cut, _)| &s[..cut])
 }
 
 /// Reads a text file line by line, keeping the 1-based line number for error messages.

@@ -18,7 +18,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::graph::{graph_to_frames, GraphOptions, Pose6D, ScanGraph, ScanNode};
-use crate::source::LineReader;
+use crate::source::{excerpt, LineReader};
 use nalgebra::{Point3, Vector3};
 use std::path::Path;
 
@@ -50,8 +50,13 @@ enum Parsed {
 }
 
 fn parse_f32(path: &Path, at: Location, tok: &str) -> Result<f32, FormatError> {
-    tok.parse::<f32>()
-        .map_err(|_| FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number")))
+    tok.parse::<f32>().map_err(|_| {
+        FormatError::syntax(
+            path,
+            at,
+            format!("cannot parse {:?} as a number", excerpt(tok)),
+        )
+    })
 }
 
 /// Parse exactly three numbers from `toks`.

@@ -13,7 +13,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::{CameraPixels, Frame};
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::{open, LineReader};
+use crate::source::{decompression_limit, excerpt, open, LineReader};
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};
@@ -121,20 +121,28 @@ pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
             ),
         ));
     }
+    // the pixel type and the decompression limit are checked before the buffer is allocated
+    let (color, depth) = (reader.info().color_type, reader.info().bit_depth);
+    if color != png::ColorType::Grayscale || depth != png::BitDepth::Sixteen {
+        return Err(FormatError::unsupported(
+            path,
+            Location::File,
+            format!("depth PNG must be 16-bit grayscale, found {color:?} {depth:?}"),
+        ));
+    }
+    let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let pixel_bytes = w as u64 * h as u64 * 2;
+    if let Some(msg) = decompression_limit().check(file_len, pixel_bytes) {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            format!("depth image header declares {w} x {h} pixels: {msg}"),
+        ));
+    }
     let mut buf = vec![0u8; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(png_err)?;
     // Read up to IEND so that a cut-off file is an error even when the pixels are complete.
     reader.finish().map_err(png_err)?;
-    if info.color_type != png::ColorType::Grayscale || info.bit_depth != png::BitDepth::Sixteen {
-        return Err(FormatError::unsupported(
-            path,
-            Location::File,
-            format!(
-                "depth PNG must be 16-bit grayscale, found {:?} {:?}",
-                info.color_type, info.bit_depth
-            ),
-        ));
-    }
     let n = info.width as usize * info.height as usize;
     let bytes = buf.get(..n * 2).ok_or_else(|| {
         FormatError::syntax(
@@ -256,7 +264,11 @@ pub fn read_association(path: &Path) -> Result<Vec<AssociationRow>, FormatError>
         let mut v = [0f64; 7];
         for (x, tok) in v.iter_mut().zip(&toks[2..]) {
             *x = tok.parse().map_err(|_| {
-                FormatError::syntax(path, at, format!("cannot parse {tok:?} as a number"))
+                FormatError::syntax(
+                    path,
+                    at,
+                    format!("cannot parse {:?} as a number", excerpt(tok)),
+                )
             })?;
         }
         let translation = Vector3::new(v[0], v[1], v[2]);

@@ -10,7 +10,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::read_all;
+use crate::source::{excerpt, read_all};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -177,7 +177,7 @@ fn parse_vtk_points(path: &Path, data: &[u8]) -> Result<Vec<Point3<f64>>, Format
                 FormatError::syntax(
                     path,
                     Location::Line(l),
-                    format!("cannot parse {tok:?} as a coordinate"),
+                    format!("cannot parse {:?} as a coordinate", excerpt(tok)),
                 )
             })?;
         }

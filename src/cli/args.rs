@@ -4,7 +4,7 @@
 
 use super::vocab::FormatArg;
 use anyhow::{bail, Result};
-use octoquant::formats::{read_frames, ReadOptions};
+use octoquant::formats::{read_frames, DecompressionLimit, ReadOptions};
 use octoquant::Frame;
 use std::path::PathBuf;
 
@@ -27,6 +27,11 @@ pub struct ReadArgs {
     /// Use only every N-th pixel of TUM depth images.
     #[arg(long, default_value_t = 1)]
     pixel_step: u32,
+    /// Compressed input (.gz/.bz2, PCD binary_compressed, MCAP chunks, PNG) may expand to N
+    /// times its size (and always to 64 MiB) before the read fails as a decompression bomb;
+    /// 0: no limit.
+    #[arg(long, default_value_t = 100, value_name = "N")]
+    max_expansion: u64,
 }
 
 impl ReadArgs {
@@ -40,6 +45,13 @@ impl ReadArgs {
         read.mcap.topic = self.topic.clone();
         read.mcap.fixed_frame = self.fixed_frame.clone();
         read.tum.pixel_step = self.pixel_step.max(1);
+        read.decompression = match self.max_expansion {
+            0 => DecompressionLimit::UNLIMITED,
+            n => DecompressionLimit {
+                max_ratio: n,
+                ..DecompressionLimit::DEFAULT
+            },
+        };
         read
     }
 }

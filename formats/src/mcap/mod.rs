@@ -26,7 +26,10 @@
 //! [`McapOptions::sensor_pose`] maps the fixed frame to the world.
 //!
 //! The whole file is read into memory (MCAP's chunk index needs random access); chunks may
-//! be uncompressed or zstd-compressed (lz4 is not built in).
+//! be uncompressed or zstd-compressed (lz4 is not built in). A compressed chunk whose declared
+//! size passes the [`DecompressionLimit`](crate::DecompressionLimit) is refused before it is
+//! allocated, and a tf chain is composed over at most 256 links, so the work per cloud is
+//! bounded.
 
 mod cdr;
 mod pointcloud2;

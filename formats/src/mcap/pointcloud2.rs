@@ -188,6 +188,10 @@ impl PointCloud2 {
             points: total,
             ..CloudStats::default()
         };
+        if total == 0 {
+            // a zero width (or height) must not cost a loop over 2^32 empty rows
+            return Ok((Vec::new(), stats));
+        }
         let mut pts = Vec::with_capacity(total);
         let be = self.is_bigendian;
         let read = |at: usize, f64_: bool| -> f64 {

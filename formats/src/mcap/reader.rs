@@ -8,6 +8,7 @@ use super::tf::{decode_tf_message, TfTree, TF_SCHEMAS};
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::pose::isometry_transform;
+use crate::source::decompression_limit;
 use nalgebra::{Isometry3, Point3};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -85,14 +86,8 @@ where
     Ok(())
 }
 
-/// The largest decompressed size a chunk may declare, given its compressed size: 1024 times
-/// that (real sensor data compresses two- to tenfold) and at least 64 MiB.
-fn chunk_size_limit(compressed: u64) -> u64 {
-    compressed.saturating_mul(1024).max(64 << 20)
-}
-
-/// Refuse compressed chunks whose header declares an absurd decompressed size (see
-/// [`chunk_size_limit`]), and return the largest size a chunk's records take decompressed (0
+/// Refuse compressed chunks whose header declares a decompressed size beyond the thread's
+/// [`decompression_limit`] for their compressed size, and return the largest size a chunk's records take decompressed (0
 /// without chunks). The `mcap` crate allocates (and zero-fills) that size
 /// before decompressing, so a damaged size field would abort the process instead of failing.
 /// Walks the records (opcode, `u64` length, content) from the leading magic to the footer;
@@ -115,6 +110,8 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             b.get(at..at.checked_add(4)?)?.try_into().ok()?,
         ))
     };
+    let limit = decompression_limit();
+    let mut chunk = 0u64;
     let mut pos = MAGIC.len();
     while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(bytes, pos + 1)) {
         let start = pos + 9;
@@ -125,6 +122,8 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             break;
         }
         if op == OP_CHUNK {
+            let index = chunk;
+            chunk += 1;
             // start time, end time, uncompressed size, uncompressed CRC, compression string,
             // then the compressed records with their u64 length
             // (read within the record only: a chunk too short for them is the crate's to report)
@@ -143,13 +142,13 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
                     pos = end;
                     continue;
                 }
-                if declared > chunk_size_limit(records) {
+                if let Some(msg) = limit.check(records, declared) {
                     return Err(FormatError::syntax(
                         path,
                         Location::Byte(pos as u64),
                         format!(
-                            "chunk declares {declared} bytes decompressed from {records} ({}); \
-                             the size field is damaged",
+                            "chunk {index} ({} compressed) declares a decompressed size that is \
+                             damaged or a decompression bomb: {msg}",
                             String::from_utf8_lossy(compression)
                         ),
                     ));
@@ -315,17 +314,20 @@ pub fn read_mcap(
             .fixed_frame
             .clone()
             .unwrap_or_else(|| tf.root(&cloud.frame_id));
-        let to_fixed = tf.lookup(&fixed, &cloud.frame_id, *time).ok_or_else(|| {
-            FormatError::missing_pose(
-                path,
-                Location::File,
-                format!(
-                    "cloud {i} on {topic:?}: no transform chain from {:?} to {fixed:?} (frames in tf: {})",
-                    cloud.frame_id,
-                    tf.frames().join(", ")
-                ),
-            )
-        })?;
+        let to_fixed = match tf.lookup(&fixed, &cloud.frame_id, *time) {
+            Ok(t) => t,
+            Err(why) => {
+                return Err(FormatError::missing_pose(
+                    path,
+                    Location::File,
+                    format!(
+                        "cloud {i} on {topic:?}: {why} from {:?} to {fixed:?} (frames in tf: {})",
+                        cloud.frame_id,
+                        tf.frames().join(", ")
+                    ),
+                ))
+            }
+        };
         let pose = world * to_fixed;
         let (pts, st) = cloud.points().map_err(|message| {
             FormatError::syntax(
