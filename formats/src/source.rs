@@ -125,7 +125,8 @@ impl<R: Read> Read for Capped<R> {
     }
 }
 
-/// The compression of an input file, told from its last extension.
+/// The compression of an input file, told from its first bytes ([`compression_in`]) or its
+/// last extension ([`compression_of`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Compression {
     /// Plain file.
@@ -145,6 +146,23 @@ pub fn compression_of(path: &Path) -> Compression {
     }
 }
 
+/// The compression its first bytes show: gzip's `1f 8b 08` (deflate), or bzip2's `BZh`, a
+/// block size digit and the magic of a first block or of an empty stream's end; `None` for
+/// anything else (every format octoquant reads starts otherwise).
+pub fn compression_in(head: &[u8]) -> Option<Compression> {
+    const BLOCK: [u8; 6] = [0x31, 0x41, 0x59, 0x26, 0x53, 0x59];
+    const END: [u8; 6] = [0x17, 0x72, 0x45, 0x38, 0x50, 0x90];
+    match head {
+        [0x1f, 0x8b, 0x08, ..] => Some(Compression::Gzip),
+        [b'B', b'Z', b'h', b'1'..=b'9', rest @ ..]
+            if rest.len() >= 6 && (rest[..6] == BLOCK || rest[..6] == END) =>
+        {
+            Some(Compression::Bzip2)
+        }
+        _ => None,
+    }
+}
+
 /// The extension that names the format, lower-case, after removing a `.gz`/`.bz2` suffix:
 /// `scan.dat.bz2` gives `dat`.
 pub fn logical_extension(path: &Path) -> Option<String> {
@@ -160,20 +178,27 @@ fn lower_ext(path: &Path) -> Option<String> {
         .map(|e| e.to_ascii_lowercase())
 }
 
-/// Open `path` for buffered reading, decompressing `.gz` and `.bz2` on the fly under this
+/// Open `path` for buffered reading, decompressing gzip and bzip2 on the fly (recognised by
+/// their magic bytes whatever the file is called, or by a `.gz`/`.bz2` name) under this
 /// thread's [`decompression_limit`] (relative to the compressed file's size): past it, reads
 /// fail with an `InvalidData` error that says so.
 pub fn open(path: &Path) -> Result<Box<dyn BufRead + Send>, FormatError> {
     let file = File::open(path).map_err(|e| FormatError::io(path, Location::File, e))?;
     let compressed = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let raw = BufReader::with_capacity(1 << 16, file);
+    let mut raw = BufReader::with_capacity(1 << 16, file);
+    // the first bytes decide; the extension only when they show no compression (a file
+    // named .gz that is not gzip then fails in the decoder, naming the file)
+    let head = raw
+        .fill_buf()
+        .map_err(|e| FormatError::io(path, Location::File, e))?;
+    let compression = compression_in(head).unwrap_or_else(|| compression_of(path));
     let capped = |inner| Capped {
         inner,
         out: 0,
         compressed,
         limit: decompression_limit(),
     };
-    Ok(match compression_of(path) {
+    Ok(match compression {
         Compression::None => Box::new(raw),
         Compression::Gzip => Box::new(BufReader::with_capacity(
             1 << 16,
@@ -369,6 +394,46 @@ mod tests {
             Some("pcd")
         );
         assert_eq!(logical_extension(Path::new("x.gz")), None);
+    }
+
+    /// Compressed files are read whatever they are called; plain files are not mistaken for
+    /// compressed ones.
+    #[test]
+    fn compression_is_told_by_magic_bytes() {
+        use std::io::Write;
+        let text = b"NODE 0 0 0 0 0 0\n1 2 3\n".repeat(50);
+        let dir = std::env::temp_dir().join(format!("octoquant-magic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(&text).unwrap();
+        let gz = gz.finish().unwrap();
+        let mut bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::default());
+        bz.write_all(&text).unwrap();
+        let bz = bz.finish().unwrap();
+        let empty_bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::default())
+            .finish()
+            .unwrap();
+        assert_eq!(compression_in(&gz), Some(Compression::Gzip));
+        assert_eq!(compression_in(&bz), Some(Compression::Bzip2));
+        assert_eq!(compression_in(&empty_bz), Some(Compression::Bzip2));
+        assert_eq!(compression_in(b"BZh9 is not a block"), None);
+        assert_eq!(compression_in(&text), None);
+        for (name, bytes) in [
+            ("scan.txt", &gz),
+            ("scan2.txt", &bz),
+            ("scan.dat.bz2", &gz),
+            ("plain.txt", &text),
+        ] {
+            let p = dir.join(name);
+            std::fs::write(&p, bytes).unwrap();
+            assert_eq!(read_all(&p).unwrap(), text, "{name}");
+        }
+        // a file named .gz that holds no gzip data fails in the decoder, naming the file
+        let p = dir.join("fake.txt.gz");
+        std::fs::write(&p, &text).unwrap();
+        let err = read_all(&p).unwrap_err().to_string();
+        assert!(err.contains("fake.txt.gz"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
