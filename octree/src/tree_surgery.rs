@@ -32,18 +32,20 @@ impl OcTree {
     }
 
     /// The key (in [`Key::at_depth`]'s convention) of child `i` (bit 0 x, bit 1 y, bit 2 z:
-    /// OctoMap's `computeChildKey`) of the node at `depth` < 16 holding `key`.
-    pub fn child_key(key: Key, depth: u8, i: usize) -> Key {
-        debug_assert!(depth < TREE_DEPTH && i < 8);
-        let base = key.min_at_depth(depth);
+    /// OctoMap's `computeChildKey`) of the node at `depth` holding `key`; `None` for a voxel
+    /// (`depth >= 16`) or `i >= 8`, which name no child.
+    pub fn child_key(key: Key, depth: u8, i: usize) -> Option<Key> {
+        if depth >= TREE_DEPTH || i >= 8 {
+            return None;
+        }
+        let mut k = key.min_at_depth(depth);
         let half = 1u16 << (15 - depth);
-        let mut k = base;
         for a in 0..3 {
             if i >> a & 1 == 1 {
                 k[a] |= half;
             }
         }
-        k.at_depth(depth + 1)
+        Some(k.at_depth(depth + 1))
     }
 
     /// The node at exactly `depth` (0 = root .. 16) holding `key`, or `None` when there is
@@ -167,11 +169,13 @@ mod tests {
         let k = Key::new(40000, 1234, 65535);
         for d in 0..TREE_DEPTH {
             for i in 0..8 {
-                let c = OcTree::child_key(k, d, i);
+                let c = OcTree::child_key(k, d, i).unwrap();
                 assert_eq!(c.at_depth(d), k.at_depth(d), "depth {d} child {i}");
                 assert_eq!(c.child_index(d), i, "depth {d} child {i}");
             }
+            assert_eq!(OcTree::child_key(k, d, 8), None);
         }
+        assert_eq!(OcTree::child_key(k, TREE_DEPTH, 0), None);
     }
 
     #[test]
@@ -194,7 +198,7 @@ mod tests {
         }
         assert_eq!(t.size(), size + 7);
         for i in 0..8 {
-            let ck = OcTree::child_key(k, 15, i);
+            let ck = OcTree::child_key(k, 15, i).unwrap();
             t.update_node(
                 ck,
                 Update::LogOdds(v - t.node_at_depth(ck, 16).unwrap().value),

@@ -784,13 +784,10 @@ impl PyOcTree {
     fn get_node_child(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<Option<PyNode>> {
         let (key, d) = self.live_node(node)?;
         let i = child_idx(idx)?;
-        if d >= TREE_DEPTH {
-            return Ok(None);
-        }
-        Ok(self
-            .tree
-            .node_child(key, d, i)
-            .map(|info| PyNode::found(info, OcTree::child_key(key, d, i))))
+        let child = self.tree.node_child(key, d, i);
+        Ok(child
+            .zip(OcTree::child_key(key, d, i))
+            .map(|(info, k)| PyNode::found(info, k)))
     }
 
     /// Create child ``idx`` (0..8) of a node with log-odds 0, as OctoMap's
@@ -805,10 +802,14 @@ impl PyOcTree {
                 "createNodeChild: a voxel (depth 16) has no children",
             ));
         }
-        let info = self.tree.create_node_child(key, d, i).ok_or_else(|| {
+        let child = self
+            .tree
+            .create_node_child(key, d, i)
+            .zip(OcTree::child_key(key, d, i));
+        let (info, k) = child.ok_or_else(|| {
             PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
         })?;
-        Ok(PyNode::found(info, OcTree::child_key(key, d, i)))
+        Ok(PyNode::found(info, k))
     }
 
     /// Delete child ``idx`` (0..8) of a node with its subtree (OctoMap's ``deleteNodeChild``;
