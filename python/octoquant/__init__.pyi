@@ -366,7 +366,9 @@ class OutputCycle:
 class DensityReducer:
     """The online grid density reducer: ``insert``/``remove`` points at any time, read the
     reduced cloud with ``output()`` or in steps with ``begin_cycle()``. ``len()`` is the number of
-    non-empty cells. Points are stored as float64."""
+    non-empty cells. Points are stored as float64. Calls release the GIL but hold the reducer:
+    a call from another thread meanwhile raises ``RuntimeError``; interleave input and output
+    with ``begin_cycle()`` and ``OutputCycle.step``."""
 
     def __init__(
         self, cell: CellSize, *, offset: Optional[CellSize] = None, selection: Selection = "centre"

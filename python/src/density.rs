@@ -129,7 +129,9 @@ pub fn reduce<'py>(
 /// ``DensityReducer(cell, offset=None, selection="centre")``: see :func:`reduce` for the
 /// arguments. ``len(r)`` is the number of non-empty cells (the points after the grid stage).
 /// Points are stored as float64 (float32 input is widened exactly); NaN, infinite and
-/// out-of-range points are skipped and counted as rejected.
+/// out-of-range points are skipped and counted as rejected. Calls release the GIL but hold the
+/// reducer: a call from another thread meanwhile raises ``RuntimeError`` (already borrowed), so
+/// interleave input and output from one thread with ``begin_cycle()`` and ``step``.
 #[pyclass(module = "octoquant", name = "DensityReducer")]
 pub struct PyDensityReducer {
     grid: DensityGrid<3>,

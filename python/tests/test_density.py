@@ -163,6 +163,9 @@ def test_reduce_bad_arguments():
         octoquant.reduce(np.zeros((4, 3), dtype=np.int32), 1.0)
     with pytest.raises(ValueError, match="cell size"):
         octoquant.DensityReducer(-1.0)
+    r = octoquant.DensityReducer([0.5, 1, 2], offset=0.25, selection="mean")
+    assert (r.cell, r.offset, r.selection, len(r)) == ((0.5, 1.0, 2.0), (0.25,) * 3, "mean", 0)
+    assert r.output().shape == (0, 3)
     assert octoquant.reduce(np.zeros((0, 3)), 1.0).shape == (0, 3)
 
 
