@@ -36,6 +36,7 @@ mod store;
 mod tree;
 mod tree_batch;
 mod tree_prune;
+mod tree_surgery;
 pub mod validate;
 
 pub use brick::Brick;

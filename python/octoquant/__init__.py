@@ -7,27 +7,39 @@ migration table.
 """
 
 from octoquant._octoquant import (
+    DensityReducer,
     Mapper,
     NullPointerException,
     OcTree,
     OcTreeKey,
     OcTreeNode,
+    OutputCycle,
+    dbscan1d,
     iterator_base,
     leaf_bbx_iterator,
     leaf_iterator,
     read_frames,
+    read_laser_scans,
+    reduce,
+    segment_scan,
     tree_iterator,
 )
 
 __all__ = [
+    "DensityReducer",
     "Mapper",
     "NullPointerException",
     "OcTree",
     "OcTreeKey",
     "OcTreeNode",
+    "OutputCycle",
+    "dbscan1d",
     "iterator_base",
     "leaf_bbx_iterator",
     "leaf_iterator",
     "read_frames",
+    "read_laser_scans",
+    "reduce",
+    "segment_scan",
     "tree_iterator",
 ]

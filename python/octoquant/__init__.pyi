@@ -154,6 +154,23 @@ class OcTree:
     def expand(self) -> None: ...
     def clear(self) -> None: ...
     def deleteNode(self, value: Union[OcTreeKey, Vec3], depth: int = 1) -> bool: ...
+    def expandNode(self, node: OcTreeNode) -> None:
+        """Give a childless node eight children with its value (``ValueError`` for a node with
+        children, a voxel, or a node no longer in the tree)."""
+    def pruneNode(self, node: OcTreeNode) -> bool:
+        """Collapse a node whose eight children are equal leaves; whether it did."""
+    def isNodeCollapsible(self, node: OcTreeNode) -> bool:
+        """All eight children exist, are leaves and have equal log-odds."""
+    def nodeHasChildren(self, node: OcTreeNode) -> bool:
+        """Whether the node has children now (``node.hasChildren()``: when looked up)."""
+    def nodeChildExists(self, node: OcTreeNode, idx: int) -> bool:
+        """Whether child ``idx`` (0..8; bit 0 x, bit 1 y, bit 2 z) exists."""
+    def getNodeChild(self, node: OcTreeNode, idx: int) -> Optional[OcTreeNode]:
+        """Child ``idx`` of the node, or None when it does not exist."""
+    def createNodeChild(self, node: OcTreeNode, idx: int) -> OcTreeNode:
+        """Create child ``idx`` with log-odds 0 and return it (``ValueError`` if it exists)."""
+    def deleteNodeChild(self, node: OcTreeNode, idx: int) -> None:
+        """Delete child ``idx`` and its subtree (``ValueError`` if it does not exist)."""
     def extractPointCloud(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(occupied, empty) voxel centres, (N, 3) float64 each."""
     def getLabels(self, points: Points) -> NDArray[np.int32]:
@@ -261,6 +278,181 @@ class Mapper:
         """Totals over every frame inserted so far."""
 
 def read_frames(
-    path: StrOrBytesPath, format: Optional[str] = None
+    path: StrOrBytesPath,
+    format: Optional[
+        Literal["graph", "frames", "text", "vtk", "vtk-seq", "pcd", "tum-png", "tum", "mcap", "ply"]
+    ] = None,
+    *,
+    points_global: bool = False,
+    topic: Optional[str] = None,
+    fixed_frame: Optional[str] = None,
+    pixel_step: int = 1,
+    trajectory: Optional[StrOrBytesPath] = None,
+    depth_scale: Optional[float] = None,
+    intrinsics: Optional[tuple[float, float, float, float]] = None,
+    viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
-    """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI reads."""
+    """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI
+    reads, with the reader options of ``octoquant map`` as keywords: ``format`` (``--format``),
+    ``points_global`` (``--global``: .graph points already in world coordinates), ``topic`` and
+    ``fixed_frame`` (MCAP), ``pixel_step`` (TUM depth); beyond the CLI ``trajectory`` (VTK
+    sequence CSV), ``depth_scale`` (TUM raw units per metre, default 5000), ``intrinsics``
+    ``(fx, fy, cx, cy)`` (TUM, default 525, 525, 319.5, 239.5) and ``viewpoint`` (PCD
+    ``VIEWPOINT``: ``"origin"`` as PCL, the default, ``"apply"`` or ``"ignore"``). Bad options
+    and files raise ``ValueError`` naming the file; a missing path ``FileNotFoundError``."""
+
+CellSize = Union[float, Sequence[float], NDArray[np.floating[Any]]]
+Selection = Literal["centre", "center", "mean"]
+
+@overload
+def reduce(
+    points: NDArray[np.float32],
+    cell: CellSize,
+    *,
+    offset: Optional[CellSize] = None,
+    selection: Selection = "centre",
+    return_index: Literal[False] = False,
+) -> NDArray[np.float32]: ...
+@overload
+def reduce(
+    points: Union[NDArray[np.float64], Sequence[Sequence[float]]],
+    cell: CellSize,
+    *,
+    offset: Optional[CellSize] = None,
+    selection: Selection = "centre",
+    return_index: Literal[False] = False,
+) -> NDArray[np.float64]: ...
+@overload
+def reduce(
+    points: Points,
+    cell: CellSize,
+    *,
+    offset: Optional[CellSize] = None,
+    selection: Selection = "centre",
+    return_index: Literal[True],
+) -> tuple[NDArray[np.floating[Any]], NDArray[np.int64]]: ...
+def reduce(
+    points: Points,
+    cell: CellSize,
+    *,
+    offset: Optional[CellSize] = None,
+    selection: Selection = "centre",
+    return_index: bool = False,
+) -> Any:
+    """Reduce a cloud with the online grid density reducer (one read cycle).
+
+    Each point goes to cell ``floor((p - offset) / cell)`` (``cell`` and ``offset``: one number
+    or three); each cell keeps the point closest to its centre (``selection="centre"``) or to
+    the mean of its points (``"mean"``); cells are read in ascending distance of that point to
+    the centre and a point closer than half a cell on every axis to an emitted one is dropped.
+    Returns the kept points (a subset of the input, in output order, the input's dtype) and,
+    with ``return_index``, their rows in ``points`` (int64). NaN/inf points are skipped. The
+    result does not depend on the input order. Releases the GIL."""
+
+class OutputCycle:
+    """One read cycle of a DensityReducer, stepped with ``step`` (from ``begin_cycle()``)."""
+
+    @property
+    def id(self) -> int:
+        """1 for the reducer's first cycle."""
+    @property
+    def finished(self) -> bool: ...
+    def step(self, max_cells: Optional[int] = None) -> tuple[NDArray[np.float64], bool]:
+        """Visit up to ``max_cells`` more cells (all when None): ``(emitted points, finished)``.
+        ``RuntimeError`` when a newer cycle has begun."""
+    def counts(self) -> dict[str, int]:
+        """``emitted``, ``eliminated``, ``deferred`` so far."""
+
+class DensityReducer:
+    """The online grid density reducer: ``insert``/``remove`` points at any time, read the
+    reduced cloud with ``output()`` or in steps with ``begin_cycle()``. ``len()`` is the number of
+    non-empty cells. Points are stored as float64. Calls release the GIL but hold the reducer:
+    a call from another thread meanwhile raises ``RuntimeError``; interleave input and output
+    with ``begin_cycle()`` and ``OutputCycle.step``."""
+
+    def __init__(
+        self, cell: CellSize, *, offset: Optional[CellSize] = None, selection: Selection = "centre"
+    ) -> None: ...
+    def insert(self, points: Points) -> int:
+        """Add an (N, 3) batch; returns how many points were rejected (NaN/inf/out of range)."""
+    def remove(self, points: Points) -> NDArray[np.bool_]:
+        """Delete one stored copy of each row (bit-equal as float64); whether each was found."""
+    def output(self) -> NDArray[np.float64]:
+        """One complete read cycle: the reduced points in output order."""
+    def begin_cycle(self) -> OutputCycle:
+        """Begin a read cycle to step through; older cycles become stale."""
+    def selected_points(self) -> NDArray[np.float64]:
+        """The point each cell keeps, in cell index order."""
+    @property
+    def point_count(self) -> int:
+        """Points stored (all members of all cells)."""
+    def counts(self) -> dict[str, int]:
+        """``inserted``, ``rejected``, ``removed`` so far."""
+    @property
+    def cell(self) -> tuple[float, float, float]: ...
+    @property
+    def offset(self) -> tuple[float, float, float]: ...
+    @property
+    def selection(self) -> Literal["centre", "mean"]: ...
+    def validate(self) -> None:
+        """Check the store's invariants (``RuntimeError`` if broken: a bug)."""
+    def __len__(self) -> int: ...
+
+@overload
+def dbscan1d(
+    x: Union[NDArray[Any], Sequence[float]],
+    eps: float,
+    min_points: int,
+    period: Optional[float] = None,
+    *,
+    border: Literal["first", "noise"] = "first",
+) -> NDArray[np.int64]: ...
+@overload
+def dbscan1d(
+    x: Union[NDArray[Any], Sequence[float]],
+    eps: float,
+    min_points: int,
+    period: Optional[float] = None,
+    *,
+    border: Literal["all"],
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]: ...
+def dbscan1d(
+    x: Union[NDArray[Any], Sequence[float]],
+    eps: float,
+    min_points: int,
+    period: Optional[float] = None,
+    *,
+    border: Literal["first", "noise", "all"] = "first",
+) -> Any:
+    """DBSCAN on 1-D values in O(N) after sorting: int64 labels, -1 for noise. Neighbours are
+    within ``eps`` (inclusive); core points have at least ``min_points`` neighbours, themselves
+    included. With ``period``, values lie on a circle and must be in ``[0, period)``. Clusters
+    are numbered in the order the original DBSCAN finds them visiting the values in ascending
+    order; unsorted input is sorted first (stably) and the labels returned in input order.
+    ``border``: border points join the first cluster reaching them, are noise (``"noise"``), or
+    (``"all"``) the result is ``(labels, second_labels)``. NaN/inf or out-of-period values
+    raise ``ValueError`` naming the index."""
+
+def segment_scan(
+    points: Union[NDArray[Any], Sequence[Sequence[float]]],
+    *,
+    eps_theta: Optional[float] = None,
+    eps_dist: Optional[float] = None,
+    min_points_theta: Optional[int] = None,
+    min_points_dist: Optional[int] = None,
+    min_line_points: Optional[int] = None,
+    border: Literal["first", "noise", "all"] = "first",
+) -> tuple[NDArray[np.void], NDArray[np.int64]]:
+    """Line segments of one 2D laser scan: ``points`` (N, 2) valid returns in beam order, laser
+    at the origin. Defaults are the library's: ``eps_theta`` 2 degrees (in radians), ``eps_dist``
+    0.05 m, 5 points for each minimum. Returns ``(lines, labels)``: a structured array with
+    fields normal_angle, distance (``x cos(a) + y sin(a) = distance``), start_x, start_y, end_x,
+    end_y, length, n_points, rms_residual, max_residual, and the int64 line of each point (-1
+    for none)."""
+
+def read_laser_scans(
+    path: StrOrBytesPath,
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The laser scans of a CARMEN log (FLASER/ROBOTLASER1, .gz/.bz2 allowed):
+    ``[(points (N, 2) in the laser frame, laser pose (x, y, theta)), ...]``, the input of
+    ``segment_scan``."""

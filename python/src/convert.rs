@@ -249,3 +249,73 @@ pub fn path(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<PathBuf> {
         })?;
     decoded.extract::<PathBuf>()
 }
+
+/// An (N, 3) float array as `f64` rows, and whether it was float32 (for results in the
+/// caller's dtype). Lists of triples are read as float64.
+pub fn rows_f64(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<[f64; 3]>, bool)> {
+    match cloud(obj, name)? {
+        Cloud::F32(a) => Ok((rows(&a, name, |c| c.map(f64::from))?, true)),
+        Cloud::F64(a) => Ok((rows(&a, name, |c| c)?, false)),
+    }
+}
+
+/// Rows as an (N, 3) array of float32 (`f32_out`) or float64.
+pub fn rows_array<'py>(py: Python<'py>, rows: &[[f64; 3]], f32_out: bool) -> Bound<'py, PyAny> {
+    let n = rows.len();
+    if f32_out {
+        let flat: Vec<f32> = rows.iter().flatten().map(|&v| v as f32).collect();
+        let arr = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+        PyArray2::from_owned_array(py, arr).into_any()
+    } else {
+        array_n3(py, rows.to_vec()).into_any()
+    }
+}
+
+/// A real array (any real dtype, or a sequence of numbers) of `ndim` dimensions, the last of
+/// length `cols` when given, as float64 values in C order with its shape.
+pub fn real_array(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    ndim: usize,
+    cols: Option<usize>,
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let py = obj.py();
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        if !matches!(a.dtype().kind(), b'f' | b'i' | b'u') {
+            return Err(PyTypeError::new_err(format!(
+                "{name} must hold real numbers, got dtype {}",
+                dtype_name(a)
+            )));
+        }
+    } else if obj.cast::<PyString>().is_ok() || obj.cast::<PyBytes>().is_ok() {
+        return Err(PyTypeError::new_err(format!(
+            "{name} must be an array of numbers, got {}",
+            obj.get_type().name()?
+        )));
+    }
+    let np = py.import("numpy")?;
+    let arr = np
+        .call_method1("ascontiguousarray", (obj, np.getattr("float64")?))
+        .map_err(|e| {
+            PyTypeError::new_err(format!(
+                "{name} must be an array of numbers: {}",
+                e.value(py)
+            ))
+        })?;
+    let a = arr.cast::<PyArrayDyn<f64>>()?;
+    let shape = a.shape().to_vec();
+    let bad_cols = cols.is_some_and(|c| shape.last() != Some(&c));
+    if shape.len() != ndim || bad_cols {
+        let want = match (ndim, cols) {
+            (1, _) => "(N,)".to_string(),
+            (_, Some(c)) => format!("(N, {c})"),
+            _ => format!("{ndim} dimensions"),
+        };
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape {want}, got {shape:?}"
+        )));
+    }
+    let ro = a.readonly();
+    let values = ro.as_array().iter().copied().collect();
+    Ok((values, shape))
+}

@@ -17,25 +17,56 @@ pub use octoquant::octree::{
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;
 
-/// Read a sensor file (or scan directory) as frames in world coordinates, in the format named
-/// (the CLI's short names) or detected from the path. Errors are messages naming the file.
-pub fn read_frames(path: &Path, format: Option<&str>) -> Result<Vec<Frame>, String> {
-    use octoquant::formats::{self, InputFormat, ReadOptions};
-    let format = match format {
-        None => None,
-        Some(name) => Some(InputFormat::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = InputFormat::ALL.iter().map(|f| f.name()).collect();
-            format!(
-                "unknown format {name:?}; expected one of {}",
-                names.join(", ")
-            )
-        })?),
-    };
-    let options = ReadOptions {
-        format,
-        ..ReadOptions::default()
-    };
-    formats::read_frames(path, &options).map_err(|e| e.to_string())
+pub use octoquant::formats::carmen::LaserScan;
+pub use octoquant::formats::pcd::ViewpointUse;
+pub use octoquant::formats::tum::CameraIntrinsics;
+pub use octoquant::formats::{InputFormat, ReadOptions};
+pub use octoquant_density::{
+    CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
+};
+pub use octoquant_segment::{
+    BorderPolicy, Clustering, Dbscan1dParams, Line, LineParams, SegmentError, Segmentation, NOISE,
+};
+
+/// The input format with this CLI short name, or a message listing them.
+pub fn input_format(name: &str) -> Result<InputFormat, String> {
+    InputFormat::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = InputFormat::ALL.iter().map(|f| f.name()).collect();
+        format!(
+            "unknown format {name:?}; expected one of {}",
+            names.join(", ")
+        )
+    })
+}
+
+/// Read a sensor file (or scan directory) as frames in world coordinates, with the reader
+/// options of the CLI's `map`. Errors are messages naming the file.
+pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, String> {
+    octoquant::formats::read_frames(path, options).map_err(|e| e.to_string())
+}
+
+/// Every laser scan of a CARMEN log (`FLASER`/`ROBOTLASER1` lines; `.gz`/`.bz2` allowed), in
+/// file order. Errors name the file and line.
+pub fn read_laser_scans(path: &Path) -> Result<Vec<LaserScan>, String> {
+    octoquant::formats::carmen::read_carmen_file(path).map_err(|e| e.to_string())
+}
+
+/// Cluster sorted values with DBSCAN in O(N) (the segment crate's `dbscan1d`).
+pub fn dbscan1d(
+    x: &[f64],
+    params: &Dbscan1dParams,
+    out: &mut Clustering,
+) -> Result<(), SegmentError> {
+    octoquant_segment::dbscan1d(x, params, out)
+}
+
+/// Line segments of one 2D laser scan (the segment crate's `segment_scan`).
+pub fn segment_scan(
+    points: &[[f64; 2]],
+    params: &LineParams,
+    out: &mut Segmentation,
+) -> Result<(), SegmentError> {
+    octoquant_segment::segment_scan(points, params, out)
 }
 
 /// Every insertion mode, for looking one up by its name.

@@ -4,16 +4,19 @@
 //! Layout: [`engine`] is the only file that names the octoquant library's paths and free
 //! functions; [`convert`] checks and converts Python arguments; [`tree`], [`node`], [`iter`]
 //! and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
-//! bounding-box insertion they call.
+//! bounding-box insertion they call; [`density`] and [`segment`] wrap the density reducer and
+//! the 1-D DBSCAN / laser-line segmentation.
 #![deny(missing_docs)]
 
 mod bbx;
 mod cloud;
 mod convert;
+mod density;
 mod engine;
 mod iter;
 mod mapper;
 mod node;
+mod segment;
 mod tree;
 
 use numpy::ndarray::Array2;
@@ -31,17 +34,36 @@ pyo3::create_exception!(
 type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 
 /// Read a sensor file (or scan directory) the way the octoquant CLI does: every format it
-/// reads (ScanGraph ``.graph``, text/``.dat``/``.log``, VTK, PCD, PLY, TUM RGB-D, MCAP bags,
-/// ``.gz``/``.bz2`` compressed). Returns ``[(points, origin), ...]``: float32 (N, 3) world
-/// points and the (3,) sensor origin of each frame. ``format`` forces a format by its CLI name.
-/// Releases the GIL while reading.
+/// reads (ScanGraph ``.graph``, ``.frames``, text/``.dat``/``.log``, VTK and VTK sequences,
+/// PCD, PLY, TUM RGB-D, MCAP bags, ``.gz``/``.bz2`` compressed). Returns
+/// ``[(points, origin), ...]``: float32 (N, 3) world points and the (3,) sensor origin of each
+/// frame.
+///
+/// The reader options of ``octoquant map``, as keywords: ``format`` (its ``--format`` names:
+/// graph, frames, text, vtk, vtk-seq, pcd, tum-png, tum, mcap, ply; default: from the path),
+/// ``points_global`` (``--global``: .graph points already in world coordinates), ``topic``
+/// and ``fixed_frame`` (MCAP), ``pixel_step`` (TUM depth images: every N-th pixel). Beyond
+/// the CLI: ``trajectory`` (the CSV of a VTK sequence), ``depth_scale`` and ``intrinsics``
+/// ``(fx, fy, cx, cy)`` (TUM depth), ``viewpoint`` (PCD ``VIEWPOINT``: ``"origin"`` as PCL,
+/// ``"apply"`` or ``"ignore"``). Releases the GIL while reading.
 #[pyfunction]
-#[pyo3(signature = (path, format=None))]
+#[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
+    pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None))]
+#[allow(clippy::too_many_arguments)]
 fn read_frames<'py>(
     py: Python<'py>,
     path: &Bound<'py, PyAny>,
     format: Option<&str>,
+    points_global: bool,
+    topic: Option<String>,
+    fixed_frame: Option<String>,
+    pixel_step: i64,
+    trajectory: Option<&Bound<'py, PyAny>>,
+    depth_scale: Option<f64>,
+    intrinsics: Option<(f64, f64, f64, f64)>,
+    viewpoint: Option<&str>,
 ) -> PyResult<Vec<FrameArrays<'py>>> {
+    use pyo3::exceptions::PyValueError;
     let p = convert::path(path, "path")?;
     if !p.exists() {
         return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
@@ -49,8 +71,45 @@ fn read_frames<'py>(
             p.display()
         )));
     }
+    let mut options = engine::ReadOptions {
+        format: format
+            .map(engine::input_format)
+            .transpose()
+            .map_err(PyValueError::new_err)?,
+        ..engine::ReadOptions::default()
+    };
+    options.graph.points_global = points_global;
+    options.mcap.topic = topic;
+    options.mcap.fixed_frame = fixed_frame;
+    options.tum.pixel_step = u32::try_from(pixel_step)
+        .ok()
+        .filter(|&s| s >= 1)
+        .ok_or_else(|| {
+            PyValueError::new_err(format!("pixel_step must be at least 1, got {pixel_step}"))
+        })?;
+    if let Some(t) = trajectory {
+        options.trajectory = Some(convert::path(t, "trajectory")?);
+    }
+    if let Some(s) = depth_scale {
+        options.tum.depth_scale = s;
+    }
+    if let Some((fx, fy, cx, cy)) = intrinsics {
+        options.tum.intrinsics = engine::CameraIntrinsics { fx, fy, cx, cy };
+    }
+    if let Some(v) = viewpoint {
+        options.pcd.viewpoint = match v {
+            "origin" => engine::ViewpointUse::OriginOnly,
+            "apply" => engine::ViewpointUse::Apply,
+            "ignore" => engine::ViewpointUse::Ignore,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "viewpoint must be \"origin\", \"apply\" or \"ignore\", got {v:?}"
+                )))
+            }
+        };
+    }
     let frames = py
-        .detach(|| engine::read_frames(&p, format))
+        .detach(|| engine::read_frames(&p, &options))
         .map_err(pyo3::exceptions::PyValueError::new_err)?;
     Ok(frames
         .into_iter()
@@ -84,5 +143,11 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_function(wrap_pyfunction!(tree::_restore, m)?)?;
     m.add_function(wrap_pyfunction!(read_frames, m)?)?;
+    m.add_class::<density::PyDensityReducer>()?;
+    m.add_class::<density::PyOutputCycle>()?;
+    m.add_function(wrap_pyfunction!(density::reduce, m)?)?;
+    m.add_function(wrap_pyfunction!(segment::dbscan1d, m)?)?;
+    m.add_function(wrap_pyfunction!(segment::segment_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(segment::read_laser_scans, m)?)?;
     Ok(())
 }

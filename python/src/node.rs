@@ -198,3 +198,24 @@ pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
             .unwrap_or_default()
     )))
 }
+
+/// The key and depth of a node argument (an `OcTreeNode`), for the per-node calls; `None`
+/// (unknown space) raises NullPointerException.
+pub fn node_address(obj: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
+    if let Ok(n) = obj.cast::<PyNode>() {
+        let n = n.get();
+        return Ok((n.key, n.depth));
+    }
+    if obj.is_none() {
+        return Err(crate::NullPointerException::new_err(
+            "no node (search found unknown space)",
+        ));
+    }
+    Err(PyTypeError::new_err(format!(
+        "expected an OcTreeNode, got {}",
+        obj.get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default()
+    )))
+}

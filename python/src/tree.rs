@@ -8,7 +8,7 @@ use crate::engine::{
     self, logodds, probability, InnerNodes, Key, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
 use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
-use crate::node::{key_arg, node_value, PyKey, PyNode};
+use crate::node::{key_arg, node_address, node_value, PyKey, PyNode};
 use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
@@ -67,6 +67,17 @@ fn update_arg(obj: &Bound<'_, PyAny>) -> PyResult<Update> {
     Ok(Update::LogOdds(v))
 }
 
+/// A child index argument: 0..8.
+fn child_idx(i: i64) -> PyResult<usize> {
+    if (0..8).contains(&i) {
+        Ok(i as usize)
+    } else {
+        Err(pyo3::exceptions::PyIndexError::new_err(format!(
+            "child index must be between 0 and 7, got {i}"
+        )))
+    }
+}
+
 /// A probability for a sensor-model setter: strictly between 0 and 1.
 fn prob(p: f64, name: &str) -> PyResult<f32> {
     if p.is_finite() && p > 0.0 && p < 1.0 {
@@ -118,6 +129,19 @@ impl PyOcTree {
 
     fn node_at(&self, key: Key, d: u8) -> Option<PyNode> {
         self.tree.search(key, d).map(|n| PyNode::found(n, key))
+    }
+
+    /// The key and depth of a node argument that still exists at its depth in this tree.
+    fn live_node(&self, node: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
+        let (key, d) = node_address(node)?;
+        if self.tree.node_at_depth(key, d).is_none() {
+            return Err(PyValueError::new_err(format!(
+                "the node (depth {d}, key ({}, {}, {})) is not in this tree (deleted, pruned, or \
+                 from another tree)",
+                key[0], key[1], key[2]
+            )));
+        }
+        Ok((key, d))
     }
 
     fn key_of_point(&self, p: &Point3<f64>) -> Option<Key> {
@@ -697,6 +721,109 @@ impl PyOcTree {
         let f = 1.0 / self.tree.resolution();
         let s = self.tree.metric_size();
         ((f * s[0]).ceil() * (f * s[1]).ceil() * (f * s[2]).ceil()) as usize * 4
+    }
+
+    /// Give a childless node (from ``search``, ``getRoot``, ``getNodeChild``, ...) eight
+    /// children with its value (OctoMap's ``expandNode``; inner nodes above are not
+    /// refreshed). ``ValueError`` when the node is no longer in the tree at its depth, already
+    /// has children, or is a voxel (depth 16).
+    #[pyo3(name = "expandNode")]
+    fn expand_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<()> {
+        let (key, d) = self.live_node(node)?;
+        if d >= TREE_DEPTH {
+            return Err(PyValueError::new_err(
+                "expandNode: a voxel (depth 16) has no children",
+            ));
+        }
+        if !self.tree.expand_node(key, d) {
+            return Err(PyValueError::new_err(
+                "expandNode: the node already has children",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Collapse a node whose eight children are equal leaves into one leaf with their value
+    /// (OctoMap's ``pruneNode``). Returns whether it did.
+    #[pyo3(name = "pruneNode")]
+    fn prune_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.prune_node(key, d))
+    }
+
+    /// Whether a node has all eight children, none with children, all with equal log-odds
+    /// (OctoMap's ``isNodeCollapsible``).
+    #[pyo3(name = "isNodeCollapsible")]
+    fn is_node_collapsible(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.is_node_collapsible(key, d))
+    }
+
+    /// Whether a node has children now (OctoMap's ``nodeHasChildren``; the node object's
+    /// ``hasChildren()`` tells how it was when it was looked up).
+    #[pyo3(name = "nodeHasChildren")]
+    fn node_has_children(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self
+            .tree
+            .node_at_depth(key, d)
+            .is_some_and(|n| n.has_children))
+    }
+
+    /// Whether child ``idx`` (0..8: bit 0 x, bit 1 y, bit 2 z) of a node exists (OctoMap's
+    /// ``nodeChildExists``).
+    #[pyo3(name = "nodeChildExists")]
+    fn node_child_exists(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.node_child_exists(key, d, child_idx(idx)?) == Some(true))
+    }
+
+    /// Child ``idx`` (0..8) of a node, or None when it does not exist (octomap-python returns a
+    /// null node).
+    #[pyo3(name = "getNodeChild")]
+    fn get_node_child(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<Option<PyNode>> {
+        let (key, d) = self.live_node(node)?;
+        let i = child_idx(idx)?;
+        let child = self.tree.node_child(key, d, i);
+        Ok(child
+            .zip(OcTree::child_key(key, d, i))
+            .map(|(info, k)| PyNode::found(info, k)))
+    }
+
+    /// Create child ``idx`` (0..8) of a node with log-odds 0, as OctoMap's
+    /// ``createNodeChild``; returns it. ``ValueError`` when the child exists already or the
+    /// node is a voxel.
+    #[pyo3(name = "createNodeChild")]
+    fn create_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<PyNode> {
+        let (key, d) = self.live_node(node)?;
+        let i = child_idx(idx)?;
+        if d >= TREE_DEPTH {
+            return Err(PyValueError::new_err(
+                "createNodeChild: a voxel (depth 16) has no children",
+            ));
+        }
+        let child = self
+            .tree
+            .create_node_child(key, d, i)
+            .zip(OcTree::child_key(key, d, i));
+        let (info, k) = child.ok_or_else(|| {
+            PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
+        })?;
+        Ok(PyNode::found(info, k))
+    }
+
+    /// Delete child ``idx`` (0..8) of a node with its subtree (OctoMap's ``deleteNodeChild``;
+    /// ``size()`` drops by the whole subtree). ``ValueError`` when the child does not exist.
+    #[pyo3(name = "deleteNodeChild")]
+    fn delete_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<()> {
+        let (key, d) = self.live_node(node)?;
+        let i = child_idx(idx)?;
+        if self.tree.delete_node_child(key, d, i) == 0 {
+            return Err(PyValueError::new_err(format!(
+                "deleteNodeChild: child {i} does not exist"
+            )));
+        }
+        Ok(())
     }
 
     /// The root node, or None for an empty tree.
