@@ -177,6 +177,21 @@ class OcTree:
         """1 occupied, 0 free, -1 unknown per point."""
     def occupancy(self, points: Points) -> NDArray[np.float64]:
         """Occupancy probability per point, NaN in unknown space."""
+    def grid(
+        self,
+        zmin: Optional[float] = None,
+        zmax: Optional[float] = None,
+        depth: int = 16,
+        unknown: str = "unknown",
+    ) -> tuple[NDArray[np.int8], tuple[float, float], float]: ...
+    def write_grid(
+        self,
+        yaml: Union[str, os.PathLike[str]],
+        zmin: Optional[float] = None,
+        zmax: Optional[float] = None,
+        depth: int = 16,
+        unknown: str = "unknown",
+    ) -> str: ...
     def occupied_voxels(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
     def free_voxels(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
     def leaves(

@@ -10,6 +10,7 @@ use octoquant::octree::io;
 use octoquant::raycast::{self, InsertOptions};
 use std::path::Path;
 
+pub use octoquant::grid::{GridError, GridOptions, OccupancyGrid, UnknownCells};
 pub use octoquant::octree::{
     logodds, probability, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem, OcTree,
     OccupancyParams, OctreeError, Update, TREE_DEPTH,
@@ -186,4 +187,14 @@ pub fn leaves(tree: &OcTree, max_depth: u8) -> Vec<NodeItem> {
 /// Every node (inner ones too) down to `max_depth`, in OctoMap's `tree_iterator` order.
 pub fn nodes(tree: &OcTree, max_depth: u8) -> Vec<NodeItem> {
     tree.nodes().filter(|n| n.depth <= max_depth).collect()
+}
+
+/// A height band of the tree projected onto a 2D occupancy grid (see `octoquant::grid`).
+pub fn grid(tree: &OcTree, options: &GridOptions) -> Result<OccupancyGrid, GridError> {
+    octoquant::grid::project(tree, options)
+}
+
+/// Write a grid as a Nav2 / map_server map (YAML + PGM beside it); returns the image path.
+pub fn write_grid(grid: &OccupancyGrid, yaml: &Path) -> Result<std::path::PathBuf, GridError> {
+    octoquant::grid::write_nav2(grid, yaml)
 }

@@ -565,6 +565,61 @@ impl PyOcTree {
         Ok(PyArray1::from_vec(py, p))
     }
 
+    /// A 2D occupancy grid of the height band ``[zmin, zmax]`` (``None``: no limit), as
+    /// octomap_server's projected map: ``(cells, origin, resolution)`` where ``cells`` is an
+    /// int8 (height, width) array in ``nav_msgs/OccupancyGrid`` values (100 occupied, 0 free,
+    /// -1 unknown), row 0 at the smallest y; ``origin`` the (x, y) of cell (0, 0)'s lower
+    /// corner; ``resolution`` the cell size (the map's at ``depth=16``, doubled per level
+    /// less). ``unknown="free"`` marks unknown cells free. ``write_grid`` saves it for Nav2.
+    #[pyo3(signature = (zmin=None, zmax=None, depth=16, unknown="unknown"))]
+    fn grid<'py>(
+        &self,
+        py: Python<'py>,
+        zmin: Option<f64>,
+        zmax: Option<f64>,
+        depth: i64,
+        unknown: &str,
+    ) -> PyResult<GridArrays<'py>> {
+        let options = grid_options(zmin, zmax, depth, unknown)?;
+        let tree = &self.tree;
+        let g = py
+            .detach(|| engine::grid(tree, &options))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let values: Vec<i8> = g.cells.iter().map(|c| c.occupancy()).collect();
+        let arr = numpy::ndarray::Array2::from_shape_vec((g.height, g.width), values)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok((
+            PyArray2::from_owned_array(py, arr),
+            (g.origin.x, g.origin.y),
+            g.resolution,
+        ))
+    }
+
+    /// Write the grid of ``grid(...)`` as a ROS map_server / Nav2 map: ``yaml`` (a .yaml
+    /// path) and a trinary PGM beside it with the same stem; returns the image's path.
+    #[pyo3(signature = (yaml, zmin=None, zmax=None, depth=16, unknown="unknown"))]
+    fn write_grid(
+        &self,
+        py: Python<'_>,
+        yaml: std::path::PathBuf,
+        zmin: Option<f64>,
+        zmax: Option<f64>,
+        depth: i64,
+        unknown: &str,
+    ) -> PyResult<String> {
+        let options = grid_options(zmin, zmax, depth, unknown)?;
+        let tree = &self.tree;
+        let image = py.detach(|| {
+            let g = engine::grid(tree, &options)?;
+            engine::write_grid(&g, &yaml)
+        });
+        match image {
+            Ok(p) => Ok(p.display().to_string()),
+            Err(e @ engine::GridError::Output(_)) => Err(PyOSError::new_err(e.to_string())),
+            Err(e) => Err(PyValueError::new_err(e.to_string())),
+        }
+    }
+
     /// ``(centres, sizes)`` of the occupied leaves: float64 (N, 3) and (N,).
     fn occupied_voxels<'py>(
         &self,
@@ -1308,3 +1363,38 @@ pub fn _restore(
     });
     Ok(t)
 }
+
+/// The grid options of `grid` / `write_grid`, checked.
+fn grid_options(
+    zmin: Option<f64>,
+    zmax: Option<f64>,
+    depth: i64,
+    unknown: &str,
+) -> PyResult<engine::GridOptions> {
+    let depth = match u8::try_from(depth) {
+        Ok(d @ 1..=16) => d,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "depth must be 1..16, got {depth}"
+            )))
+        }
+    };
+    let unknown = match unknown {
+        "unknown" => engine::UnknownCells::Unknown,
+        "free" => engine::UnknownCells::Free,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "unknown must be \"unknown\" or \"free\", got {other:?}"
+            )))
+        }
+    };
+    Ok(engine::GridOptions {
+        zmin,
+        zmax,
+        depth,
+        unknown,
+    })
+}
+
+/// What `grid` returns: cells (height, width), origin (x, y), cell size.
+type GridArrays<'py> = (Bound<'py, PyArray2<i8>>, (f64, f64), f64);
