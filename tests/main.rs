@@ -1,10 +1,12 @@
 //! Integration tests: one binary (see Cargo.toml `autotests = false`).
 
+mod checkpoint;
 mod common;
 mod formats;
 mod map_diff;
 mod mcap;
 mod octree_diff;
+mod output_failures;
 mod query;
 mod raycast_diff;
 mod reduce;
