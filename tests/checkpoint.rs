@@ -167,7 +167,7 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
 fn killed_and_resumed_runs_end_byte_identical() {
     let dir = scratch("checkpoint-kill");
     let input = dir.join("scene.frames");
-    octoquant::formats::frames::write_frames_file(&input, &scene_frames(4)).unwrap();
+    octoquant::formats::frames::write_frames_file(&input, &scene_frames(8)).unwrap();
     let configs: [(&str, &[&str], &str); 6] = [
         ("exact", &[], "1"),
         ("discretize", &[], "2"),
@@ -185,7 +185,7 @@ fn killed_and_resumed_runs_end_byte_identical() {
             let mut c = octoquant();
             c.arg("map")
                 .arg(&input)
-                .args(["--res", "0.25", "--mode", mode])
+                .args(["--res", "0.3", "--mode", mode])
                 .args(*extra)
                 .arg("-o")
                 .arg(dir.join(format!("{out}{i}.bt")))
@@ -228,8 +228,8 @@ fn killed_and_resumed_runs_end_byte_identical() {
                 }
             }
             let mut child = start();
-            // anywhere from the start-up to past the end of an uninterrupted run
-            let delay = Duration::from_secs_f64(rng.unit() * uninterrupted * 0.8);
+            // anywhere from the start-up to near the end of an uninterrupted run
+            let delay = Duration::from_secs_f64((0.15 + 0.6 * rng.unit()) * uninterrupted);
             std::thread::sleep(delay);
             if child.try_wait().unwrap().is_none() {
                 child.kill().unwrap(); // SIGKILL

@@ -228,10 +228,16 @@ fn full_disk_is_an_error_with_the_old_file_intact() {
     let out = map(&input, &link);
     let err = stderr(&out);
     assert!(!out.status.success(), "writing /dev/full succeeded");
-    assert!(err.contains("full.bt") && err.contains("No space left"), "{err}");
+    assert!(
+        err.contains("full.bt") && err.contains("No space left"),
+        "{err}"
+    );
     let meta = std::fs::metadata(&link).unwrap();
     assert!(!meta.is_file(), "/dev/full was replaced by a file");
-    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
     assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
 
     // a regular file on a disk that fills up mid-write: the file size limit (which binds
@@ -245,7 +251,8 @@ fn full_disk_is_an_error_with_the_old_file_intact() {
         .arg(env!("CARGO_BIN_EXE_octoquant"))
         .arg("map")
         .arg(&input)
-        .arg("-o")
+        // a fine map, so that the file is well past the limit (512 or 1024 bytes)
+        .args(["--res", "0.02", "-o"])
         .arg(&target)
         .output()
         .unwrap();
