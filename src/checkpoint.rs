@@ -11,8 +11,8 @@
 //! checks the tree file against the manifest, and [`RunIdentity::check_same`] refuses to
 //! resume a run with other options or changed inputs.
 //!
-//! [`crate::pipeline::Mapper::save_checkpoint`], [`crate::pipeline::Mapper::resume`] and
-//! [`crate::pipeline::Mapper::insert_frames_checkpointed`] are the entry points.
+//! [`crate::pipeline::Mapper::insert_run`], [`crate::pipeline::Mapper::save_checkpoint`] and
+//! [`crate::pipeline::Mapper::resume`] are the entry points.
 
 use crate::output::{remove_stale_temporaries_in, write_atomic, OutputError};
 use crate::pipeline::{FrameStats, InsertMode, MapStats, MapperOptions};

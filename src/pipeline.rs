@@ -319,14 +319,14 @@ impl Mapper {
         while done < frames.len() {
             let mut end = (done + BATCH).min(frames.len());
             if let Some((c, _)) = checkpoint {
-                if c.every > 0 {
-                    end = end.min((done / c.every + 1) * c.every);
+                if let Some(q) = done.checked_div(c.every) {
+                    end = end.min((q + 1) * c.every);
                 }
             }
             self.insert_frames(&frames[done..end]);
             done = end;
             if let Some((c, identity)) = checkpoint {
-                if (c.every > 0 && done % c.every == 0) || done == frames.len() {
+                if (c.every > 0 && done.is_multiple_of(c.every)) || done == frames.len() {
                     self.save_checkpoint(&c.dir, identity)?;
                 }
             }
