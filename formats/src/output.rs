@@ -125,7 +125,7 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
                 path,
                 Error::new(
                     ErrorKind::NotFound,
-                    format!("directory {} does not exist", dir.display()),
+                    format!("directory {} does not exist: {e}", dir.display()),
                 ),
             ))
         }
