@@ -6,6 +6,7 @@
 //! and the `octoquant` command-line tool.
 #![deny(missing_docs)]
 
+pub mod checkpoint;
 pub mod export;
 pub mod grid;
 pub mod pipeline;

@@ -5,6 +5,7 @@
 //! voxel at most once per frame, occupied winning over free, exactly like OctoMap's
 //! `insertPointCloud`; the resulting `.bt`/`.ot` files are byte-identical to OctoMap's.
 
+use crate::checkpoint::{options_to_settings, Checkpoint, CheckpointError, RunIdentity};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
@@ -13,6 +14,7 @@ use octoquant_raycast::{
     apply_update, compute_discrete_update, compute_update, compute_update_grid,
     compute_update_with, ApplyOptions, RayModel, ScanStats, ScanUpdate,
 };
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// How a frame's end points become rays.
@@ -81,6 +83,25 @@ impl Default for MapperOptions {
             quantize: QuantizeOptions::default(),
         }
     }
+}
+
+impl MapperOptions {
+    /// The options as `(name, value)` pairs in a fixed order, every number in its shortest
+    /// exact form: what a checkpoint records, so that a resumed run is refused when any of
+    /// them differs (see [`crate::checkpoint`]).
+    pub fn settings(&self) -> Vec<(&'static str, String)> {
+        options_to_settings(self)
+    }
+}
+
+/// Where and how often [`Mapper::insert_run`] saves checkpoints.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CheckpointOptions {
+    /// The checkpoint directory (created if needed).
+    pub dir: PathBuf,
+    /// Save after every this many frames (at multiples of it, counted from the run's first
+    /// frame) and after the last frame; 0 saves only after the last.
+    pub every: usize,
 }
 
 /// What happened to one frame.
@@ -278,6 +299,77 @@ impl Mapper {
                 .collect(),
         );
         self.insert(&frame)
+    }
+
+    /// Insert the rest of a run: `frames` are the whole run's frames, of which the first
+    /// `stats().frames` are already in the tree (none for a new mapper, the checkpoint's
+    /// position for a [`Mapper::resume`]d one). With `checkpoint`, a checkpoint of the run
+    /// `identity` is saved every `every` frames and after the last, so that a killed run can be
+    /// resumed and ends with the same tree, byte for byte. `progress` is called with the number
+    /// of frames done after each batch. The tree is left as inserted: call [`Mapper::finish`]
+    /// after.
+    pub fn insert_run(
+        &mut self,
+        frames: &[Frame],
+        checkpoint: Option<(&CheckpointOptions, &RunIdentity)>,
+        mut progress: impl FnMut(usize),
+    ) -> Result<(), CheckpointError> {
+        const BATCH: usize = 16;
+        let mut done = self.stats.frames.min(frames.len());
+        while done < frames.len() {
+            let mut end = (done + BATCH).min(frames.len());
+            if let Some((c, _)) = checkpoint {
+                if let Some(q) = done.checked_div(c.every) {
+                    end = end.min((q + 1) * c.every);
+                }
+            }
+            self.insert_frames(&frames[done..end]);
+            done = end;
+            if let Some((c, identity)) = checkpoint {
+                if (c.every > 0 && done.is_multiple_of(c.every)) || done == frames.len() {
+                    self.save_checkpoint(&c.dir, identity)?;
+                }
+            }
+            progress(done);
+        }
+        if let Some((c, identity)) = checkpoint {
+            // a run resumed after its last frame, or with no frames, still ends checkpointed
+            if !Checkpoint::exists(&c.dir) || frames.is_empty() {
+                self.save_checkpoint(&c.dir, identity)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Save a checkpoint of the run `identity` into `dir`: the tree as it is (inner nodes
+    /// stale after lazy insertion, exactly as in memory) and the position, which is the
+    /// number of frames this mapper has inserted (`stats().frames`). Atomic: a kill at any
+    /// moment leaves the previous checkpoint or this one.
+    pub fn save_checkpoint(
+        &self,
+        dir: &Path,
+        identity: &RunIdentity,
+    ) -> Result<(), CheckpointError> {
+        Checkpoint::save(dir, &self.tree, &self.stats, identity)
+    }
+
+    /// Continue the run checkpointed in `dir`. `identity` is this run's (the same options,
+    /// inputs and frames) and must equal the checkpoint's, else the error names the first
+    /// difference. The mapper's `stats().frames` is the position to continue from; feed it
+    /// the same frames with [`Mapper::insert_run`].
+    pub fn resume(dir: &Path, identity: &RunIdentity) -> Result<Mapper, CheckpointError> {
+        let c = Checkpoint::load(dir)?;
+        identity.check_same(&c.identity, dir)?;
+        Mapper::from_checkpoint(&c)
+    }
+
+    /// The mapper a loaded checkpoint stands for: its tree, options and statistics (no
+    /// identity check; see [`Mapper::resume`]).
+    pub fn from_checkpoint(c: &Checkpoint) -> Result<Mapper, CheckpointError> {
+        let tree = c.load_tree()?;
+        let mut m = Mapper::with_tree(tree, c.identity.options.clone());
+        m.stats = c.stats;
+        Ok(m)
     }
 
     fn account(&mut self, st: &FrameStats) {

@@ -1,11 +1,13 @@
 //! Integration tests: one binary (see Cargo.toml `autotests = false`).
 
+mod checkpoint;
 mod common;
 mod formats;
 mod grid;
 mod map_diff;
 mod mcap;
 mod octree_diff;
+mod output_failures;
 mod peers;
 mod query;
 mod raycast_diff;

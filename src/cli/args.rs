@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 /// How sensor files are read: the options of every command that reads them (`map`, `bench`,
 /// `reduce`).
-#[derive(clap::Args)]
+#[derive(clap::Args, Clone)]
 pub struct ReadArgs {
     /// Input format, instead of guessing from the file name.
     #[arg(long, value_enum, ignore_case = true)]
@@ -53,6 +53,52 @@ impl ReadArgs {
             },
         };
         read
+    }
+
+    /// These options as `(key, value)` settings, for a checkpoint to record and a resume to
+    /// take over ([`ReadArgs::from_settings`] reads them back).
+    pub fn to_settings(&self) -> Vec<(String, String)> {
+        let mut s = Vec::new();
+        if let Some(f) = self.format {
+            if let Some(v) = clap::ValueEnum::to_possible_value(&f) {
+                s.push(("format".into(), v.get_name().to_string()));
+            }
+        }
+        if self.global {
+            s.push(("global".into(), "true".into()));
+        }
+        if let Some(t) = &self.topic {
+            s.push(("topic".into(), t.clone()));
+        }
+        if let Some(f) = &self.fixed_frame {
+            s.push(("fixed_frame".into(), f.clone()));
+        }
+        s.push(("pixel_step".into(), self.pixel_step.to_string()));
+        s
+    }
+
+    /// The options [`ReadArgs::to_settings`] recorded; `get` looks a key up.
+    pub fn from_settings<'a>(get: impl Fn(&str) -> Option<&'a str>) -> Result<ReadArgs> {
+        let format = match get("format") {
+            None => None,
+            Some(f) => Some(
+                <FormatArg as clap::ValueEnum>::from_str(f, true)
+                    .map_err(|_| anyhow::anyhow!("unknown input format {f:?}"))?,
+            ),
+        };
+        let pixel_step = match get("pixel_step") {
+            None => 1,
+            Some(p) => p
+                .parse()
+                .map_err(|_| anyhow::anyhow!("pixel_step {p:?} is not a number"))?,
+        };
+        Ok(ReadArgs {
+            format,
+            global: get("global") == Some("true"),
+            topic: get("topic").map(str::to_string),
+            fixed_frame: get("fixed_frame").map(str::to_string),
+            pixel_step,
+        })
     }
 }
 

@@ -1,9 +1,13 @@
 //! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
 
-use super::args::{InputArgs, TreeArgs};
+use super::args::{InputArgs, ReadArgs, TreeArgs};
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
-use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
+use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
+use octoquant::formats::read_frames;
+use octoquant::octree::io::TreeFormat;
+use octoquant::output::{check_not_input, check_writable, remove_stale_temporaries, same_file};
+use octoquant::pipeline::{CheckpointOptions, InsertMode, Mapper, MapperOptions};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
@@ -53,6 +57,26 @@ pub struct Args {
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
+    /// Save a checkpoint (the tree and the input position) into DIR every --every frames and
+    /// after the last; a killed run continues with `--resume DIR`, with the same result.
+    #[arg(long, value_name = "DIR")]
+    checkpoint: Option<PathBuf>,
+    /// Frames between two checkpoints.
+    #[arg(long, value_name = "N", default_value_t = 100, requires = "checkpoint")]
+    every: usize,
+    /// Continue the run checkpointed in DIR. Its options, inputs, outputs and checkpoint
+    /// interval come from the checkpoint, so no other option may be given (but --json); the
+    /// inputs must be unchanged. The outputs are byte-identical to an uninterrupted run's.
+    #[arg(
+        long,
+        value_name = "DIR",
+        conflicts_with_all = [
+            "checkpoint", "every", "inputs", "format", "global", "topic", "fixed_frame",
+            "pixel_step", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
+            "sensor", "reduce", "output", "ot",
+        ]
+    )]
+    resume: Option<PathBuf>,
 }
 
 fn builtin_frames() -> Result<Vec<Frame>> {
@@ -109,28 +133,202 @@ fn mapper_options(a: &Args) -> Result<MapperOptions> {
     })
 }
 
-pub fn run(a: &Args) -> Result<()> {
-    let options = mapper_options(a)?;
-    let mut mapper = Mapper::new(options).context("invalid --res")?;
+/// Everything a run needs: from the arguments, or from a checkpoint for `--resume`.
+struct Plan {
+    options: MapperOptions,
+    inputs: Vec<PathBuf>,
+    read: ReadArgs,
+    output: PathBuf,
+    ot: Option<PathBuf>,
+    checkpoint: Option<CheckpointOptions>,
+}
 
-    let t_load = Instant::now();
-    let frames = if a.input.inputs.is_empty() {
-        errln!("no input given: mapping the built-in scene (pass files to map your own data)");
-        builtin_frames()?
-    } else {
-        a.input.read_frames()?
+/// `path` made absolute (against the current directory), as a checkpoint records it, so that
+/// a resume from another directory finds the same files.
+fn absolute(path: &std::path::Path) -> Result<PathBuf> {
+    std::path::absolute(path).with_context(|| format!("cannot resolve {}", path.display()))
+}
+
+impl Plan {
+    fn from_args(a: &Args) -> Result<Plan> {
+        Ok(Plan {
+            options: mapper_options(a)?,
+            inputs: a.input.inputs.clone(),
+            read: a.input.read.clone(),
+            output: a.output.clone(),
+            ot: a.ot.clone(),
+            checkpoint: a.checkpoint.as_ref().map(|dir| CheckpointOptions {
+                dir: dir.clone(),
+                every: a.every,
+            }),
+        })
+    }
+
+    /// The run a checkpoint records, with the settings [`Plan::settings`] stored.
+    fn from_checkpoint(dir: &std::path::Path, c: &Checkpoint) -> Result<Plan> {
+        let id = &c.identity;
+        let get = |k: &str| id.setting(k);
+        let output = get("output").context("the checkpoint records no output")?;
+        let every = get("every").unwrap_or("0");
+        Ok(Plan {
+            options: id.options.clone(),
+            inputs: id.inputs.iter().map(|i| i.path.clone()).collect(),
+            read: ReadArgs::from_settings(get)?,
+            output: PathBuf::from(output),
+            ot: get("ot").map(PathBuf::from),
+            checkpoint: Some(CheckpointOptions {
+                dir: dir.to_path_buf(),
+                every: every
+                    .parse()
+                    .with_context(|| format!("checkpoint interval {every:?}"))?,
+            }),
+        })
+    }
+
+    /// What the checkpoint records besides the mapper options and inputs: absolute output
+    /// paths, the interval and the reader options.
+    fn settings(&self) -> Result<Vec<(String, String)>> {
+        let mut s = vec![(
+            "output".to_string(),
+            absolute(&self.output)?.to_string_lossy().into_owned(),
+        )];
+        if let Some(ot) = &self.ot {
+            s.push(("ot".into(), absolute(ot)?.to_string_lossy().into_owned()));
+        }
+        if let Some(c) = &self.checkpoint {
+            s.push(("every".into(), c.every.to_string()));
+        }
+        s.extend(self.read.to_settings());
+        Ok(s)
+    }
+
+    /// This run's identity: options, inputs (absolute), frames, settings.
+    fn identity(&self, frames: &[Frame]) -> Result<RunIdentity> {
+        let mut inputs = Vec::new();
+        for p in &self.inputs {
+            let abs = absolute(p)?;
+            inputs.push(
+                InputFile::stat(&abs).with_context(|| format!("cannot read {}", p.display()))?,
+            );
+        }
+        let mut id = RunIdentity::new(&self.options, inputs, frames);
+        for (k, v) in self.settings()? {
+            id = id.with_setting(&k, v);
+        }
+        Ok(id)
+    }
+
+    /// Every failure that can be known before reading the inputs: an unknown output format,
+    /// a missing or unwritable output directory, an output that is an input, `-o` and `--ot`
+    /// the same file, an unwritable checkpoint directory. Stale temporaries of killed runs
+    /// are removed (and said).
+    fn preflight(&self) -> Result<()> {
+        for out in std::iter::once(&self.output).chain(&self.ot) {
+            if TreeFormat::from_path(out).is_none() {
+                bail!(
+                    "{}: unknown tree format (expected a .bt or .ot extension)",
+                    out.display()
+                );
+            }
+            check_writable(out)?;
+            check_not_input(out, &self.inputs)?;
+            for p in remove_stale_temporaries(out).unwrap_or_default() {
+                errln!("removed {} (left by an interrupted run)", p.display());
+            }
+        }
+        if let Some(ot) = &self.ot {
+            if same_file(ot, &self.output) {
+                bail!(
+                    "--ot {} and -o {} are the same file",
+                    ot.display(),
+                    self.output.display()
+                );
+            }
+        }
+        if let Some(c) = &self.checkpoint {
+            std::fs::create_dir_all(&c.dir).with_context(|| {
+                format!("cannot create checkpoint directory {}", c.dir.display())
+            })?;
+            check_writable(&c.dir.join(MANIFEST))?;
+        }
+        Ok(())
+    }
+
+    fn read_frames(&self) -> Result<Vec<Frame>> {
+        if self.inputs.is_empty() {
+            errln!("no input given: mapping the built-in scene (pass files to map your own data)");
+            return builtin_frames();
+        }
+        let read = self.read.options();
+        let mut frames = Vec::new();
+        for p in &self.inputs {
+            frames.extend(read_frames(p, &read)?);
+        }
+        Ok(frames)
+    }
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    let resumed = match &a.resume {
+        Some(dir) => Some(Checkpoint::load(dir)?),
+        None => None,
     };
-    let load_s = t_load.elapsed().as_secs_f64();
-    let progress = std::io::stderr().is_terminal() && !a.json;
-    // pipelined in chunks, so that progress can still be shown
-    let mut done = 0;
-    for chunk in frames.chunks(16) {
-        mapper.insert_frames(chunk);
-        done += chunk.len();
-        if progress {
-            err!("\rinserting frame {}/{}", done, frames.len());
+    let plan = match (&resumed, &a.resume) {
+        (Some(c), Some(dir)) => Plan::from_checkpoint(dir, c)?,
+        _ => Plan::from_args(a)?,
+    };
+    if resumed.is_none() {
+        if let Some(c) = &plan.checkpoint {
+            if Checkpoint::exists(&c.dir) {
+                let done = Checkpoint::load(&c.dir)
+                    .map(|k| format!(" ({} of {} frames done)", k.frames_done, k.identity.frames))
+                    .unwrap_or_default();
+                bail!(
+                    "{} already holds a checkpoint{done}: continue it with `octoquant map --resume {}`, or remove it to start over",
+                    c.dir.display(),
+                    c.dir.display()
+                );
+            }
         }
     }
+    let fresh = match &resumed {
+        None => Some(Mapper::new(plan.options.clone()).context("invalid --res")?),
+        Some(_) => None,
+    };
+    plan.preflight()?;
+    if let Some(c) = &resumed {
+        c.identity.check_inputs_on_disk(&c.dir)?;
+    }
+
+    let t_load = Instant::now();
+    let frames = plan.read_frames()?;
+    let load_s = t_load.elapsed().as_secs_f64();
+    let identity = plan.identity(&frames)?;
+    let mut mapper = match (fresh, &resumed) {
+        (Some(m), _) => m,
+        (None, Some(c)) => {
+            identity.check_same(&c.identity, &c.dir)?;
+            errln!(
+                "resuming from {}: {} of {} frames done",
+                c.dir.display(),
+                c.frames_done,
+                frames.len()
+            );
+            Mapper::from_checkpoint(c)?
+        }
+        (None, None) => unreachable!("a run is fresh or resumed"),
+    };
+    let progress = std::io::stderr().is_terminal() && !a.json;
+    let total = frames.len();
+    mapper.insert_run(
+        &frames,
+        plan.checkpoint.as_ref().map(|c| (c, &identity)),
+        |done| {
+            if progress {
+                err!("\rinserting frame {done}/{total}");
+            }
+        },
+    )?;
     if progress {
         errln!();
     }
@@ -146,10 +344,10 @@ pub fn run(a: &Args) -> Result<()> {
     } else {
         0.0
     };
-    if let Some(ot) = &a.ot {
+    if let Some(ot) = &plan.ot {
         write_tree_file(&mut tree, ot)?;
     }
-    write_tree_file(&mut tree, &a.output)?;
+    write_tree_file(&mut tree, &plan.output)?;
     let t = &stats.total;
     let pps = if t.seconds > 0.0 {
         t.points as f64 / t.seconds
@@ -161,7 +359,7 @@ pub fn run(a: &Args) -> Result<()> {
             "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"heads_skipped\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
             stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.heads_skipped, t.free, t.occupied,
             load_s, t.seconds, pps, full_nodes, bytes_per_node, tree.size(),
-            a.output.display().to_string()
+            plan.output.display().to_string()
         )?;
     } else {
         outln!("frames:          {}", stats.frames)?;
@@ -190,7 +388,7 @@ pub fn run(a: &Args) -> Result<()> {
             bytes_per_node,
             tree.size()
         )?;
-        outln!("wrote:           {}", a.output.display())?;
+        outln!("wrote:           {}", plan.output.display())?;
     }
     Ok(())
 }

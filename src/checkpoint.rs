@@ -1,0 +1,905 @@
+//! Checkpoints of a long mapping run, so that a killed run resumes where it stopped and ends
+//! with the same files, byte for byte.
+//!
+//! A checkpoint directory holds the tree as an `.ot` file (`tree-NNNNNNNNNN.ot`, every node's
+//! log-odds as it is in memory, which reads back exactly) and a manifest (`checkpoint`, text)
+//! naming that file with its length and hash, the number of frames already inserted, the
+//! run's [`RunIdentity`] (mapper options, input files, a fingerprint of the frames,
+//! application settings) and the running statistics. [`Checkpoint::save`] writes the tree
+//! file, then atomically replaces the manifest, then deletes the previous tree file: a kill at
+//! any moment leaves either the old or the new checkpoint, complete. [`Checkpoint::load`]
+//! checks the tree file against the manifest, and [`RunIdentity::check_same`] refuses to
+//! resume a run with other options or changed inputs.
+//!
+//! [`crate::pipeline::Mapper::insert_run`], [`crate::pipeline::Mapper::save_checkpoint`] and
+//! [`crate::pipeline::Mapper::resume`] are the entry points.
+
+use crate::output::{remove_stale_temporaries_in, write_atomic, OutputError};
+use crate::pipeline::{FrameStats, InsertMode, MapStats, MapperOptions};
+use crate::Frame;
+use octoquant_octree::io::{read_ot, write_ot};
+use octoquant_octree::{OcTree, OccupancyParams, OctreeError};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The manifest's file name inside a checkpoint directory.
+pub const MANIFEST: &str = "checkpoint";
+const MAGIC: &str = "octoquant-checkpoint 1";
+
+/// Errors from saving, loading or checking a checkpoint; each names the directory or file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CheckpointError {
+    /// The directory holds no manifest.
+    #[error("{}: no checkpoint here (no '{MANIFEST}' file)", dir.display())]
+    Missing {
+        /// The checkpoint directory.
+        dir: PathBuf,
+    },
+    /// Reading a checkpoint file failed.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The manifest is not one this version wrote.
+    #[error("{}: line {line}: {message}", path.display())]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The tree file does not match the manifest, or does not parse.
+    #[error("{}: damaged checkpoint tree: {message}", path.display())]
+    Tree {
+        /// The tree file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The checkpoint belongs to another run: other options or changed inputs.
+    #[error("cannot resume from {}: {what} differs (checkpoint: {saved}; now: {now})", dir.display())]
+    Mismatch {
+        /// The checkpoint directory.
+        dir: PathBuf,
+        /// Which setting or input.
+        what: String,
+        /// Its value in the checkpoint.
+        saved: String,
+        /// Its value in this run.
+        now: String,
+    },
+    /// Creating the directory or removing old files failed.
+    #[error("cannot write checkpoint in {}: {source}", dir.display())]
+    Io {
+        /// The checkpoint directory.
+        dir: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Writing a checkpoint file failed (the previous checkpoint is intact).
+    #[error(transparent)]
+    Write(#[from] OutputError),
+}
+
+/// One input file as recorded in a checkpoint: where it was, its size and modification time.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputFile {
+    /// The path (absolute when the application made it so).
+    pub path: PathBuf,
+    /// Length in bytes (for a directory input, the sum over its files, not recursive).
+    pub size: u64,
+    /// Modification time in nanoseconds since 1970, when known. Informative only: a file
+    /// copied or touched without a change in content may still resume.
+    pub modified_ns: Option<u128>,
+}
+
+impl InputFile {
+    /// Record `path` as it is now on disk.
+    pub fn stat(path: &Path) -> std::io::Result<Self> {
+        let meta = std::fs::metadata(path)?;
+        let size = if meta.is_dir() {
+            let mut total = 0;
+            for e in std::fs::read_dir(path)? {
+                let m = e?.metadata()?;
+                if m.is_file() {
+                    total += m.len();
+                }
+            }
+            total
+        } else {
+            meta.len()
+        };
+        let modified_ns = meta
+            .modified()
+            .ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map(|d| d.as_nanos());
+        Ok(InputFile {
+            path: path.to_path_buf(),
+            size,
+            modified_ns,
+        })
+    }
+}
+
+/// What makes a run the same run: the same mapper options, the same input files, the same
+/// frames (by count and fingerprint) and the same application settings. A checkpoint resumes
+/// only a run with an identical identity, which is what makes the result byte-identical.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunIdentity {
+    /// The mapper options.
+    pub options: MapperOptions,
+    /// The input files, in order (empty for frames that come from elsewhere, e.g. the scene
+    /// simulator).
+    pub inputs: Vec<InputFile>,
+    /// Frames in the whole run.
+    pub frames: usize,
+    /// [`frames_fingerprint`] of the whole run's frames.
+    pub frames_hash: u64,
+    /// Application settings that must match too, or that a resume takes over (output paths,
+    /// reader options), as `(key, value)`; keys are single words.
+    pub settings: Vec<(String, String)>,
+}
+
+impl RunIdentity {
+    /// The identity of a run of `frames` with `options`, read from `inputs`.
+    pub fn new(options: &MapperOptions, inputs: Vec<InputFile>, frames: &[Frame]) -> Self {
+        RunIdentity {
+            options: options.clone(),
+            inputs,
+            frames: frames.len(),
+            frames_hash: frames_fingerprint(frames),
+            settings: Vec::new(),
+        }
+    }
+
+    /// Add an application setting (`key` a single word, `value` any text).
+    pub fn with_setting(mut self, key: &str, value: impl Into<String>) -> Self {
+        self.settings.push((key.to_string(), value.into()));
+        self
+    }
+
+    /// The value of application setting `key`.
+    pub fn setting(&self, key: &str) -> Option<&str> {
+        self.settings
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// Check, before reading them, that the input files still have the sizes recorded here
+    /// (a changed input is refused before any work).
+    pub fn check_inputs_on_disk(&self, dir: &Path) -> Result<(), CheckpointError> {
+        for input in &self.inputs {
+            let now = InputFile::stat(&input.path).map_err(|e| CheckpointError::Mismatch {
+                dir: dir.to_path_buf(),
+                what: format!("input {}", input.path.display()),
+                saved: format!("{} bytes", input.size),
+                now: e.to_string(),
+            })?;
+            if now.size != input.size {
+                return Err(CheckpointError::Mismatch {
+                    dir: dir.to_path_buf(),
+                    what: format!("input {}", input.path.display()),
+                    saved: format!("{} bytes", input.size),
+                    now: format!("{} bytes", now.size),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Check that this run (`self`) is the run `saved` in the checkpoint at `dir`; the first
+    /// difference is the error. Modification times are not compared (the frames' fingerprint
+    /// decides whether the content changed).
+    pub fn check_same(&self, saved: &RunIdentity, dir: &Path) -> Result<(), CheckpointError> {
+        let mismatch = |what: &str, saved: String, now: String| {
+            Err(CheckpointError::Mismatch {
+                dir: dir.to_path_buf(),
+                what: what.to_string(),
+                saved,
+                now,
+            })
+        };
+        let a = options_to_settings(&saved.options);
+        let b = options_to_settings(&self.options);
+        for ((k, va), (_, vb)) in a.iter().zip(&b) {
+            if va != vb {
+                return mismatch(&format!("option {k}"), va.clone(), vb.clone());
+            }
+        }
+        let paths = |r: &RunIdentity| {
+            r.inputs
+                .iter()
+                .map(|i| i.path.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if saved.inputs.len() != self.inputs.len()
+            || saved
+                .inputs
+                .iter()
+                .zip(&self.inputs)
+                .any(|(x, y)| x.path != y.path)
+        {
+            return mismatch("the input list", paths(saved), paths(self));
+        }
+        for (x, y) in saved.inputs.iter().zip(&self.inputs) {
+            if x.size != y.size {
+                return mismatch(
+                    &format!("input {}", x.path.display()),
+                    format!("{} bytes", x.size),
+                    format!("{} bytes", y.size),
+                );
+            }
+        }
+        if saved.frames != self.frames {
+            return mismatch(
+                "the number of frames",
+                saved.frames.to_string(),
+                self.frames.to_string(),
+            );
+        }
+        if saved.frames_hash != self.frames_hash {
+            return mismatch(
+                "the frames' content",
+                format!("fingerprint {:016x}", saved.frames_hash),
+                format!("fingerprint {:016x}", self.frames_hash),
+            );
+        }
+        let mut keys: Vec<&str> = saved
+            .settings
+            .iter()
+            .chain(&self.settings)
+            .map(|(k, _)| k.as_str())
+            .collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys {
+            let (x, y) = (saved.setting(k), self.setting(k));
+            if x != y {
+                let show =
+                    |v: Option<&str>| v.map_or("(not set)".to_string(), |v| format!("{v:?}"));
+                return mismatch(&format!("setting {k}"), show(x), show(y));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A 64-bit fingerprint of frames as the mapper sees them: every origin, point and camera
+/// pixel by its bit pattern (FNV-1a over 32-bit words). Equal frames give equal fingerprints
+/// on every machine.
+pub fn frames_fingerprint(frames: &[Frame]) -> u64 {
+    let mut h = Fnv::new();
+    h.word(frames.len() as u32);
+    for f in frames {
+        for c in f.origin.iter() {
+            h.word(c.to_bits());
+        }
+        h.word(f.points.len() as u32);
+        for p in &f.points {
+            h.word(p.x.to_bits());
+            h.word(p.y.to_bits());
+            h.word(p.z.to_bits());
+        }
+        match &f.camera {
+            None => h.word(0),
+            Some(cam) => {
+                h.word(1);
+                h.bytes(format!("{:?}", cam.camera).as_bytes());
+                for &px in &cam.pixels {
+                    h.word(px);
+                }
+            }
+        }
+    }
+    h.0
+}
+
+/// FNV-1a, 64-bit.
+struct Fnv(u64);
+
+impl Fnv {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn word(&mut self, w: u32) {
+        self.0 = (self.0 ^ u64::from(w)).wrapping_mul(Self::PRIME);
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 = (self.0 ^ u64::from(x)).wrapping_mul(Self::PRIME);
+        }
+    }
+}
+
+/// A writer that counts and hashes what passes through.
+struct HashingWriter<'a> {
+    inner: &'a mut dyn Write,
+    hash: Fnv,
+    len: u64,
+}
+
+impl Write for HashingWriter<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.bytes(&buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The options as `(name, value)` lines, every float in its shortest exact form, in a fixed
+/// order: what a checkpoint stores and compares.
+pub(crate) fn options_to_settings(o: &MapperOptions) -> Vec<(&'static str, String)> {
+    let p = &o.params;
+    vec![
+        ("resolution", format!("{:?}", o.resolution)),
+        ("mode", o.mode.name().to_string()),
+        ("prob_hit_log", format!("{:?}", p.hit)),
+        ("prob_miss_log", format!("{:?}", p.miss)),
+        ("clamp_min_log", format!("{:?}", p.clamp_min)),
+        ("clamp_max_log", format!("{:?}", p.clamp_max)),
+        (
+            "occupancy_threshold_log",
+            format!("{:?}", p.occupancy_threshold),
+        ),
+        (
+            "max_range",
+            o.max_range.map_or("none".into(), |m| format!("{m:?}")),
+        ),
+        ("lazy", o.lazy.to_string()),
+        (
+            "reduce",
+            o.reduce
+                .map_or("none".into(), |[x, y, z]| format!("{x:?} {y:?} {z:?}")),
+        ),
+        (
+            "quantize_max_grid_bits",
+            o.quantize.max_grid_bits.to_string(),
+        ),
+        (
+            "quantize_bits_per_point",
+            o.quantize.bits_per_point.to_string(),
+        ),
+        (
+            "quantize_parallel_threshold",
+            o.quantize.parallel_threshold.to_string(),
+        ),
+    ]
+}
+
+fn parse_num<T: std::str::FromStr>(v: &str) -> Result<T, String> {
+    v.parse().map_err(|_| format!("{v:?} is not a number"))
+}
+
+fn set_option(o: &mut MapperOptions, key: &str, v: &str) -> Result<bool, String> {
+    let opt_f64 = |v: &str| -> Result<Option<f64>, String> {
+        if v == "none" {
+            Ok(None)
+        } else {
+            parse_num(v).map(Some)
+        }
+    };
+    match key {
+        "resolution" => o.resolution = parse_num(v)?,
+        "mode" => {
+            o.mode = [
+                InsertMode::Exact,
+                InsertMode::Discretize,
+                InsertMode::Quantized,
+                InsertMode::QuantizedBresenham,
+                InsertMode::Simple,
+            ]
+            .into_iter()
+            .find(|m| m.name() == v)
+            .ok_or_else(|| format!("unknown mode {v:?}"))?
+        }
+        "prob_hit_log" => o.params.hit = parse_num(v)?,
+        "prob_miss_log" => o.params.miss = parse_num(v)?,
+        "clamp_min_log" => o.params.clamp_min = parse_num(v)?,
+        "clamp_max_log" => o.params.clamp_max = parse_num(v)?,
+        "occupancy_threshold_log" => o.params.occupancy_threshold = parse_num(v)?,
+        "max_range" => o.max_range = opt_f64(v)?,
+        "lazy" => o.lazy = v.parse().map_err(|_| format!("{v:?} is not true/false"))?,
+        "reduce" => {
+            o.reduce = if v == "none" {
+                None
+            } else {
+                let c: Vec<f64> = v.split(' ').map(parse_num).collect::<Result<_, _>>()?;
+                match c[..] {
+                    [x, y, z] => Some([x, y, z]),
+                    _ => return Err(format!("{v:?} is not three cell sizes")),
+                }
+            }
+        }
+        "quantize_max_grid_bits" => o.quantize.max_grid_bits = parse_num(v)?,
+        "quantize_bits_per_point" => o.quantize.bits_per_point = parse_num(v)?,
+        "quantize_parallel_threshold" => o.quantize.parallel_threshold = parse_num(v)?,
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
+fn stats_fields(s: &MapStats) -> Vec<(&'static str, String)> {
+    let t = &s.total;
+    vec![
+        ("frames", s.frames.to_string()),
+        ("points", t.points.to_string()),
+        ("non_finite", t.non_finite.to_string()),
+        ("outside_map", t.outside_map.to_string()),
+        ("reduced", t.reduced.to_string()),
+        ("rays", t.rays.to_string()),
+        ("heads_skipped", t.heads_skipped.to_string()),
+        ("free", t.free.to_string()),
+        ("occupied", t.occupied.to_string()),
+        ("seconds", format!("{:?}", t.seconds)),
+        ("ray_seconds", format!("{:?}", t.ray_seconds)),
+        ("tree_seconds", format!("{:?}", t.tree_seconds)),
+    ]
+}
+
+fn set_stat(s: &mut MapStats, key: &str, v: &str) -> Result<bool, String> {
+    let t: &mut FrameStats = &mut s.total;
+    match key {
+        "frames" => s.frames = parse_num(v)?,
+        "points" => t.points = parse_num(v)?,
+        "non_finite" => t.non_finite = parse_num(v)?,
+        "outside_map" => t.outside_map = parse_num(v)?,
+        "reduced" => t.reduced = parse_num(v)?,
+        "rays" => t.rays = parse_num(v)?,
+        "heads_skipped" => t.heads_skipped = parse_num(v)?,
+        "free" => t.free = parse_num(v)?,
+        "occupied" => t.occupied = parse_num(v)?,
+        "seconds" => t.seconds = parse_num(v)?,
+        "ray_seconds" => t.ray_seconds = parse_num(v)?,
+        "tree_seconds" => t.tree_seconds = parse_num(v)?,
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
+/// Escape a value for one manifest line.
+fn escape(v: &str) -> String {
+    v.replace('\\', "\\\\")
+        .replace('\n', "\\n")
+        .replace('\r', "\\r")
+}
+
+fn unescape(v: &str) -> String {
+    let mut out = String::with_capacity(v.len());
+    let mut it = v.chars();
+    while let Some(c) = it.next() {
+        if c == '\\' {
+            match it.next() {
+                Some('n') => out.push('\n'),
+                Some('r') => out.push('\r'),
+                Some(o) => out.push(o),
+                None => out.push('\\'),
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A saved checkpoint: where the run stood.
+#[derive(Debug, Clone)]
+pub struct Checkpoint {
+    /// The checkpoint directory.
+    pub dir: PathBuf,
+    /// Frames of the run already in the tree: the run continues with frame `frames_done`.
+    pub frames_done: usize,
+    /// The run this checkpoint belongs to.
+    pub identity: RunIdentity,
+    /// The statistics up to `frames_done`.
+    pub stats: MapStats,
+    tree_file: String,
+    tree_len: u64,
+    tree_hash: u64,
+}
+
+impl Checkpoint {
+    /// Whether `dir` holds a checkpoint manifest.
+    pub fn exists(dir: &Path) -> bool {
+        dir.join(MANIFEST).is_file()
+    }
+
+    /// Save `tree` with the run's position (`stats.frames` frames done) into `dir`, creating
+    /// it if needed: the tree file first, then the manifest atomically, then the previous
+    /// tree file is deleted. Stale temporaries of killed saves are removed.
+    pub fn save(
+        dir: &Path,
+        tree: &OcTree,
+        stats: &MapStats,
+        identity: &RunIdentity,
+    ) -> Result<(), CheckpointError> {
+        let io = |source| CheckpointError::Io {
+            dir: dir.to_path_buf(),
+            source,
+        };
+        std::fs::create_dir_all(dir).map_err(io)?;
+        let _ = remove_stale_temporaries_in(dir, is_checkpoint_file);
+        let tree_file = format!("tree-{:010}.ot", stats.frames);
+        let (mut len, mut hash) = (0, 0);
+        write_atomic(&dir.join(&tree_file), |w| {
+            let mut hw = HashingWriter {
+                inner: w,
+                hash: Fnv::new(),
+                len: 0,
+            };
+            write_ot(tree, &mut hw)?;
+            len = hw.len;
+            hash = hw.hash.0;
+            Ok(())
+        })?;
+        let mut m = String::new();
+        let mut line = |k: &str, v: &str| {
+            m.push_str(k);
+            m.push(' ');
+            m.push_str(&escape(v));
+            m.push('\n');
+        };
+        line("frames_done", &stats.frames.to_string());
+        line("tree", &tree_file);
+        line("tree_bytes", &len.to_string());
+        line("tree_hash", &format!("{hash:016x}"));
+        line("frames", &identity.frames.to_string());
+        line("frames_hash", &format!("{:016x}", identity.frames_hash));
+        for (k, v) in options_to_settings(&identity.options) {
+            line(&format!("option.{k}"), &v);
+        }
+        for i in &identity.inputs {
+            let t = i.modified_ns.map_or("-".into(), |t| t.to_string());
+            line(
+                "input",
+                &format!("{} {} {}", i.size, t, i.path.to_string_lossy()),
+            );
+        }
+        for (k, v) in &identity.settings {
+            line(&format!("setting.{k}"), v);
+        }
+        for (k, v) in stats_fields(stats) {
+            line(&format!("stat.{k}"), &v);
+        }
+        m.push_str("end\n");
+        write_atomic(&dir.join(MANIFEST), |w| {
+            w.write_all(MAGIC.as_bytes())?;
+            w.write_all(b"\n")?;
+            w.write_all(m.as_bytes())
+        })?;
+        // the manifest now names the new tree: older tree files are garbage
+        for e in std::fs::read_dir(dir).map_err(io)?.flatten() {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            if name != tree_file && is_tree_file(&name) {
+                std::fs::remove_file(e.path()).map_err(io)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Read the manifest in `dir` (not yet the tree: see [`Checkpoint::load_tree`]).
+    pub fn load(dir: &Path) -> Result<Checkpoint, CheckpointError> {
+        let path = dir.join(MANIFEST);
+        let text = match std::fs::read_to_string(&path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(CheckpointError::Missing {
+                    dir: dir.to_path_buf(),
+                })
+            }
+            Err(source) => return Err(CheckpointError::Read { path, source }),
+            Ok(t) => t,
+        };
+        let bad = |line: usize, message: String| CheckpointError::Manifest {
+            path: path.clone(),
+            line,
+            message,
+        };
+        let mut lines = text.lines().enumerate();
+        match lines.next() {
+            Some((_, MAGIC)) => {}
+            _ => {
+                return Err(bad(
+                    1,
+                    format!("not a checkpoint manifest (expected {MAGIC:?})"),
+                ))
+            }
+        }
+        let mut options = MapperOptions::default();
+        let mut stats = MapStats::default();
+        let mut inputs = Vec::new();
+        let mut settings = Vec::new();
+        let (mut frames_done, mut tree_file, mut tree_len, mut tree_hash) =
+            (None, None, None, None);
+        let (mut frames, mut frames_hash) = (None, None);
+        let mut ended = false;
+        let hex = |v: &str| u64::from_str_radix(v, 16).map_err(|_| format!("{v:?} is not hex"));
+        for (i, l) in lines {
+            let n = i + 1;
+            if l == "end" {
+                ended = true;
+                break;
+            }
+            let (k, v) = l
+                .split_once(' ')
+                .ok_or_else(|| bad(n, format!("{l:?} has no value")))?;
+            let v = unescape(v);
+            let r: Result<(), String> = (|| {
+                match k {
+                    "frames_done" => frames_done = Some(parse_num(&v)?),
+                    "tree" if is_tree_file(&v) => tree_file = Some(v.clone()),
+                    "tree" => return Err(format!("{v:?} is not a checkpoint tree file name")),
+                    "tree_bytes" => tree_len = Some(parse_num(&v)?),
+                    "tree_hash" => tree_hash = Some(hex(&v)?),
+                    "frames" => frames = Some(parse_num(&v)?),
+                    "frames_hash" => frames_hash = Some(hex(&v)?),
+                    "input" => {
+                        let mut it = v.splitn(3, ' ');
+                        let (Some(size), Some(t), Some(p)) = (it.next(), it.next(), it.next())
+                        else {
+                            return Err("input needs size, time and path".into());
+                        };
+                        inputs.push(InputFile {
+                            path: PathBuf::from(p),
+                            size: parse_num(size)?,
+                            modified_ns: if t == "-" { None } else { Some(parse_num(t)?) },
+                        });
+                    }
+                    _ => {
+                        if let Some(o) = k.strip_prefix("option.") {
+                            if !set_option(&mut options, o, &v)? {
+                                return Err(format!("unknown option {o:?}"));
+                            }
+                        } else if let Some(s) = k.strip_prefix("stat.") {
+                            if !set_stat(&mut stats, s, &v)? {
+                                return Err(format!("unknown statistic {s:?}"));
+                            }
+                        } else if let Some(s) = k.strip_prefix("setting.") {
+                            settings.push((s.to_string(), v.clone()));
+                        } else {
+                            return Err(format!("unknown key {k:?}"));
+                        }
+                    }
+                }
+                Ok(())
+            })();
+            r.map_err(|m| bad(n, m))?;
+        }
+        let last = text.lines().count();
+        if !ended {
+            return Err(bad(
+                last,
+                "no 'end' line: the manifest is incomplete".into(),
+            ));
+        }
+        let need = |what: &str| bad(last, format!("no '{what}' line"));
+        let frames_done: usize = frames_done.ok_or_else(|| need("frames_done"))?;
+        let frames: usize = frames.ok_or_else(|| need("frames"))?;
+        if frames_done > frames || stats.frames != frames_done {
+            return Err(bad(
+                last,
+                format!(
+                    "{frames_done} frames done of {frames}, statistics count {}",
+                    stats.frames
+                ),
+            ));
+        }
+        Ok(Checkpoint {
+            dir: dir.to_path_buf(),
+            frames_done,
+            identity: RunIdentity {
+                options,
+                inputs,
+                frames,
+                frames_hash: frames_hash.ok_or_else(|| need("frames_hash"))?,
+                settings,
+            },
+            stats,
+            tree_file: tree_file.ok_or_else(|| need("tree"))?,
+            tree_len: tree_len.ok_or_else(|| need("tree_bytes"))?,
+            tree_hash: tree_hash.ok_or_else(|| need("tree_hash"))?,
+        })
+    }
+
+    /// Read the checkpoint's tree, checked against the manifest's length and hash, with the
+    /// exact resolution and sensor model of the checkpoint's options (the `.ot` header keeps
+    /// only six digits of the resolution, and no sensor model).
+    pub fn load_tree(&self) -> Result<OcTree, CheckpointError> {
+        let path = self.dir.join(&self.tree_file);
+        let data = std::fs::read(&path).map_err(|source| CheckpointError::Read {
+            path: path.clone(),
+            source,
+        })?;
+        let damaged = |message: String| CheckpointError::Tree {
+            path: path.clone(),
+            message,
+        };
+        let mut h = Fnv::new();
+        h.bytes(&data);
+        if data.len() as u64 != self.tree_len || h.0 != self.tree_hash {
+            return Err(damaged(format!(
+                "{} bytes with hash {:016x}, the manifest says {} bytes with hash {:016x}",
+                data.len(),
+                h.0,
+                self.tree_len,
+                self.tree_hash
+            )));
+        }
+        let resolution = self.identity.options.resolution;
+        let data = with_exact_resolution(&data, resolution)
+            .ok_or_else(|| damaged("no 'res' line in the header".into()))?;
+        let mut tree = read_ot(&data[..]).map_err(|e: OctreeError| damaged(e.to_string()))?;
+        if tree.resolution().to_bits() != resolution.to_bits() {
+            return Err(damaged(format!(
+                "resolution {} instead of {resolution}",
+                tree.resolution()
+            )));
+        }
+        let params: OccupancyParams = self.identity.options.params;
+        tree.set_params(params);
+        Ok(tree)
+    }
+}
+
+/// `data` (an `.ot` file) with its header's `res` line replaced by the exact `resolution`.
+fn with_exact_resolution(data: &[u8], resolution: f64) -> Option<Vec<u8>> {
+    let end = find(data, b"\ndata\n")?;
+    let start = find(&data[..end], b"\nres ")? + 1;
+    let line_end = start + data[start..].iter().position(|&b| b == b'\n')?;
+    let mut out = Vec::with_capacity(data.len() + 32);
+    out.extend_from_slice(&data[..start]);
+    out.extend_from_slice(format!("res {resolution:?}").as_bytes());
+    out.extend_from_slice(&data[line_end..]);
+    Some(out)
+}
+
+fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
+    hay.windows(needle.len()).position(|w| w == needle)
+}
+
+/// `tree-` + 10 digits + `.ot`.
+fn is_tree_file(name: &str) -> bool {
+    name.strip_prefix("tree-")
+        .and_then(|r| r.strip_suffix(".ot"))
+        .is_some_and(|d| d.len() == 10 && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// The files a checkpoint directory holds: the manifest and tree files.
+fn is_checkpoint_file(name: &str) -> bool {
+    name == MANIFEST || is_tree_file(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("oq-ckpt-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    fn frames() -> Vec<Frame> {
+        (0..4)
+            .map(|i| {
+                Frame::new(
+                    Point3::new(0.0, 0.0, i as f32 * 0.1),
+                    (0..50)
+                        .map(|j| Point3::new(2.0 + j as f32 * 0.013, 1.0 - j as f32 * 0.07, 0.3))
+                        .collect(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn options_round_trip_exactly() {
+        let mut o = MapperOptions {
+            resolution: 0.123456789,
+            max_range: Some(7.25),
+            mode: InsertMode::QuantizedBresenham,
+            lazy: true,
+            reduce: Some([0.1, 0.2, 1.0 / 3.0]),
+            ..MapperOptions::default()
+        };
+        o.params.hit = 0.8472979;
+        o.quantize.bits_per_point = 17;
+        let mut back = MapperOptions::default();
+        for (k, v) in options_to_settings(&o) {
+            assert!(set_option(&mut back, k, &v).unwrap(), "{k}");
+        }
+        assert_eq!(back, o);
+    }
+
+    #[test]
+    fn save_load_and_refuse_other_runs() {
+        let dir = scratch("roundtrip");
+        let fr = frames();
+        let options = MapperOptions {
+            resolution: 0.123456789,
+            ..MapperOptions::default()
+        };
+        let mut tree = OcTree::with_params(options.resolution, options.params).unwrap();
+        for p in &fr[0].points {
+            tree.update_point(&p.cast(), octoquant_octree::Update::Hit, false)
+                .unwrap();
+        }
+        let stats = MapStats {
+            frames: 2,
+            ..MapStats::default()
+        };
+        let id = RunIdentity::new(&options, Vec::new(), &fr).with_setting("output", "a b\nc.bt");
+        Checkpoint::save(&dir, &tree, &stats, &id).unwrap();
+        // a second save replaces the first, leaving one tree file
+        let stats3 = MapStats {
+            frames: 3,
+            ..MapStats::default()
+        };
+        Checkpoint::save(&dir, &tree, &stats3, &id).unwrap();
+        let names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        let c = Checkpoint::load(&dir).unwrap();
+        assert_eq!(c.frames_done, 3);
+        assert_eq!(c.identity, id);
+        let back = c.load_tree().unwrap();
+        assert_eq!(back.resolution(), 0.123456789);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        write_ot(&tree, &mut a).unwrap();
+        write_ot(&back, &mut b).unwrap();
+        assert_eq!(a, b);
+
+        // other options, other frames, other settings: refused, naming the difference
+        let mut other = id.clone();
+        other.options.mode = InsertMode::Discretize;
+        let e = other.check_same(&c.identity, &dir).unwrap_err().to_string();
+        assert!(e.contains("option mode") && e.contains("discretize"), "{e}");
+        let mut fr2 = fr.clone();
+        fr2[3].points[7].x += 1e-6;
+        let other =
+            RunIdentity::new(&options, Vec::new(), &fr2).with_setting("output", "a b\nc.bt");
+        let e = other.check_same(&c.identity, &dir).unwrap_err().to_string();
+        assert!(e.contains("frames' content"), "{e}");
+        let other = RunIdentity::new(&options, Vec::new(), &fr).with_setting("output", "x.bt");
+        let e = other.check_same(&c.identity, &dir).unwrap_err().to_string();
+        assert!(e.contains("setting output"), "{e}");
+        id.check_same(&c.identity, &dir).unwrap();
+
+        // a damaged tree file is detected
+        let tree_path = dir.join("tree-0000000003.ot");
+        let mut bytes = std::fs::read(&tree_path).unwrap();
+        let last = bytes.len() - 1;
+        bytes[last] ^= 1;
+        std::fs::write(&tree_path, bytes).unwrap();
+        let e = Checkpoint::load(&dir).unwrap().load_tree().unwrap_err();
+        assert!(matches!(e, CheckpointError::Tree { .. }), "{e}");
+        // a truncated manifest too
+        let m = std::fs::read_to_string(dir.join(MANIFEST)).unwrap();
+        std::fs::write(dir.join(MANIFEST), &m[..m.len() - 4]).unwrap();
+        let e = Checkpoint::load(&dir).unwrap_err().to_string();
+        assert!(e.contains("incomplete"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(matches!(
+            Checkpoint::load(&dir),
+            Err(CheckpointError::Missing { .. })
+        ));
+    }
+}
