@@ -837,8 +837,12 @@ mod tests {
         };
         let mut tree = OcTree::with_params(options.resolution, options.params).unwrap();
         for p in &fr[0].points {
-            tree.update_point(&p.cast(), octoquant_octree::Update::Hit, false)
-                .unwrap();
+            tree.update_point(
+                &p.cast(),
+                octoquant_octree::Update::Hit,
+                octoquant_octree::InnerNodes::Refresh,
+            )
+            .unwrap();
         }
         let stats = MapStats {
             frames: 2,
