@@ -74,6 +74,7 @@ impl ReadArgs {
             s.push(("fixed_frame".into(), f.clone()));
         }
         s.push(("pixel_step".into(), self.pixel_step.to_string()));
+        s.push(("max_expansion".into(), self.max_expansion.to_string()));
         s
     }
 
@@ -92,12 +93,19 @@ impl ReadArgs {
                 .parse()
                 .map_err(|_| anyhow::anyhow!("pixel_step {p:?} is not a number"))?,
         };
+        let max_expansion = match get("max_expansion") {
+            None => DecompressionLimit::DEFAULT.max_ratio,
+            Some(m) => m
+                .parse()
+                .map_err(|_| anyhow::anyhow!("max_expansion {m:?} is not a number"))?,
+        };
         Ok(ReadArgs {
             format,
             global: get("global") == Some("true"),
             topic: get("topic").map(str::to_string),
             fixed_frame: get("fixed_frame").map(str::to_string),
             pixel_step,
+            max_expansion,
         })
     }
 }
@@ -106,7 +114,7 @@ impl ReadArgs {
 #[derive(clap::Args)]
 pub struct InputArgs {
     /// Input files (.graph, .frames, .txt/.dat/.log, .vtk or a VTK scan directory, .pcd, TUM
-    /// association file or depth .png, .mcap, .ply; .gz/.bz2 are read transparently). `map`
+    /// association file or depth .png, .mcap, .ply; gzip/bzip2 are decompressed on the fly). `map`
     /// without any maps the built-in scene.
     pub inputs: Vec<PathBuf>,
     #[command(flatten)]
