@@ -565,3 +565,38 @@ fn cli_bench_matches_octomap_and_measures_agreement() {
         }
     }
 }
+
+/// Negative numbers are values: `--res -0.1` is refused for its value (before any input is
+/// read), and `--max-range` of 0 or less means no range limit, as OctoMap's -1.
+#[test]
+fn cli_negative_numbers_are_values() {
+    let Some(scan) = common::data_file("lidar3d/octomap_scan_dat/scan.dat.bz2") else {
+        return;
+    };
+    let exe = env!("CARGO_BIN_EXE_octoquant");
+    let dir = common::scratch("cli_negative_numbers");
+    let o = Command::new(exe)
+        .args(["map", "missing-input.pcd", "--res", "-0.1", "-o"])
+        .arg(dir.join("x.bt"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--res -0.1"), "{err}");
+    let map = |extra: &[&str], out: &str| {
+        let o = Command::new(exe)
+            .arg("map")
+            .arg(&scan)
+            .args(["--res", "0.4"])
+            .args(extra)
+            .arg("-o")
+            .arg(dir.join(out))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(dir.join(out)).unwrap()
+    };
+    let none = map(&[], "none.bt");
+    assert_eq!(map(&["--max-range", "-1"], "minus.bt"), none);
+    assert_eq!(map(&["--max-range", "0"], "zero.bt"), none);
+    assert_ne!(map(&["--max-range", "5"], "five.bt"), none);
+}

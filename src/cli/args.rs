@@ -137,21 +137,31 @@ impl InputArgs {
 /// maps (`map`, `bench`, `demo`).
 #[derive(clap::Args)]
 pub struct TreeArgs {
-    /// Leaf size in metres.
-    #[arg(long, default_value_t = 0.1)]
+    /// Leaf size in metres (> 0).
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub res: f64,
     /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange). Off
-    /// by default; `demo` defaults to its simulated sensors' range.
-    #[arg(long)]
+    /// by default, and 0 or less also means off (OctoMap's -1); `demo` defaults to its
+    /// simulated sensors' range.
+    #[arg(long, allow_negative_numbers = true)]
     pub max_range: Option<f64>,
 }
 
 impl TreeArgs {
-    /// The maximum range, checked: `None` when off; an error for NaN.
+    /// The maximum range, checked: `None` when off (absent, 0 or negative); an error for NaN.
     pub fn max_range(&self) -> Result<Option<f64>> {
         match self.max_range {
             Some(m) if m.is_nan() => bail!("--max-range is NaN"),
+            Some(m) if m <= 0.0 => Ok(None),
             m => Ok(m),
         }
+    }
+
+    /// The resolution, checked: a positive finite number of metres.
+    pub fn resolution(&self) -> Result<f64> {
+        if !(self.res.is_finite() && self.res > 0.0) {
+            bail!("--res {} is not a positive number of metres", self.res);
+        }
+        Ok(self.res)
     }
 }

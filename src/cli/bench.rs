@@ -244,7 +244,7 @@ pub fn run(a: &Args) -> Result<()> {
         bail!("bench needs input files (see `octoquant bench --help`)");
     }
     let base = MapperOptions {
-        resolution: a.tree.res,
+        resolution: a.tree.resolution()?,
         max_range: a.tree.max_range()?,
         ..MapperOptions::default()
     };

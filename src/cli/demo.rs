@@ -155,7 +155,7 @@ pub fn run(a: &Args) -> Result<()> {
     let mut rows = Vec::new();
     for (mode, lazy) in modes {
         let mut mapper = Mapper::new(MapperOptions {
-            resolution: a.tree.res,
+            resolution: a.tree.resolution()?,
             max_range: Some(max_range),
             mode,
             lazy,

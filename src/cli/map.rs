@@ -123,7 +123,7 @@ fn mapper_options(a: &Args) -> Result<MapperOptions> {
         }
     }
     Ok(MapperOptions {
-        resolution: a.tree.res,
+        resolution: a.tree.resolution()?,
         params,
         max_range: a.tree.max_range()?,
         mode,
