@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# CI smoke run: build every fuzz target, regenerate the committed seeds, then run each target
+# for SECONDS (default 15) on them with the campaign's limits. Fails on any crash, OOM or
+# timeout (the input is left in fuzz/artifacts/<target>/). Needs a nightly toolchain and
+# cargo-fuzz.
+set -euo pipefail
+source "$(dirname "$0")/targets.sh"
+cd "$FUZZ_DIR"
+secs="${1:-15}"
+
+start=$(date +%s)
+cargo +nightly fuzz build "${FUZZ_BUILD_FLAGS[@]}"
+echo "fuzz: targets built in $(($(date +%s) - start)) s"
+cargo +nightly run -q -p octoquant-fuzz-seeds -- seeds
+
+scratch="$(fuzz_scratch)"
+trap 'rm -rf "$scratch"' EXIT
+export OCTOQUANT_FUZZ_TMP="$scratch"
+failed=()
+for t in "${FUZZ_TARGETS[@]}"; do
+  # New inputs go to a throw-away corpus; the committed seeds are only read.
+  mkdir -p "$scratch/corpus-$t" "artifacts/$t"
+  dict="$(fuzz_dict "$t")"
+  opts=("${FUZZ_LIMITS[@]}" "-max_total_time=$secs" "-artifact_prefix=artifacts/$t/")
+  [ -n "$dict" ] && opts+=("-dict=dict/$dict.dict")
+  if "$FUZZ_BIN_DIR/$t" "${opts[@]}" "$scratch/corpus-$t" "seeds/$t" >"$scratch/$t.log" 2>&1; then
+    echo "fuzz: $t ok ($(grep -o '^#[0-9]*' "$scratch/$t.log" | tail -1 | tr -d '#') executions)"
+  else
+    tail -40 "$scratch/$t.log"
+    echo "fuzz: $t FAILED, input in fuzz/artifacts/$t/"
+    failed+=("$t")
+  fi
+done
+echo "fuzz: smoke runs took $(($(date +%s) - start)) s"
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz: failing targets: ${failed[*]}"
+  exit 1
+fi
