@@ -36,7 +36,7 @@ sys.stdout.buffer.write(magic + version + struct.pack("<I", 1) + struct.pack("<f
                         + d[32:32 + 12 * n2])
 PY
 done
-for f in "$data/$ref"/mapcoll.txt "$data/$ref"/derived/tiny.txt; do
+for f in "$data/$ref"/derived/tiny.txt; do
   [ -f "$f" ] && head -n 60 "$f" | put text "cut-$(basename "$f")"
 done
 have lidar3d/octomap_scan_dat/scan.dat.bz2 &&
@@ -49,7 +49,24 @@ vtk_dir="$data/lidar3d/norlab_icp_mapper_example"
 n=0
 for f in "$vtk_dir"/scans/*.vtk; do
   [ -f "$f" ] || continue
-  head -n 120 "$f" | put vtk "cut-$(basename "$f")"
+  # the header and the first 100 points, with the POINTS count to match
+  python3 - "$f" <<'PY' | put vtk "cut-$(basename "$f")"
+import sys
+lines = open(sys.argv[1], encoding="latin-1").read().split("\n")
+out, nums = [], []
+for i, line in enumerate(lines):
+    if line.startswith("POINTS"):
+        kind = line.split()[2] if len(line.split()) > 2 else "float"
+        for rest in lines[i + 1:]:
+            nums += rest.split()
+            if len(nums) >= 300:
+                break
+        out.append(f"POINTS 100 {kind}")
+        out += [" ".join(nums[k:k + 3]) for k in range(0, 300, 3)]
+        break
+    out.append(line)
+sys.stdout.write("\n".join(out) + "\n")
+PY
   n=$((n + 1)); [ $n -lt 2 ] || break
 done
 [ -f "$vtk_dir/trajectory.csv" ] && head -n 4 "$vtk_dir/trajectory.csv" | put vtk cut-trajectory.csv
