@@ -34,7 +34,181 @@ fn main() {
     mcap(&mut seeds);
     source(&mut seeds);
     octree_ops(&mut seeds);
-    println!("wrote {} seeds under {}", seeds.count, seeds.out.display());
+    let checked = check_seeds(&seeds.out);
+    println!(
+        "wrote {} seeds under {}, {checked} of them read back by the library",
+        seeds.count,
+        seeds.out.display()
+    );
+}
+
+/// Read every seed meant to be valid with the library's own readers, so a seed that drifted
+/// out of its format (and would only test the first error path) fails the generator.
+/// Returns how many were read.
+fn check_seeds(out: &Path) -> usize {
+    use octoquant_formats::{carmen, frames, graph, mcap as m, pcd, ply, source, text, tum, vtk};
+    let mut n = 0;
+    let files = |t: &str| {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(out.join(t))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        v
+    };
+    let ok = |what: &str, p: &Path, r: Result<(), String>| {
+        if let Err(e) = r {
+            panic!("{what} seed {} does not read: {e}", p.display());
+        }
+    };
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    for p in files("bt").iter().chain(&files("ot")) {
+        ok(
+            "tree",
+            p,
+            octoquant_octree::io::read_tree(bytes(p).as_slice())
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("pcd") {
+        ok(
+            "pcd",
+            &p,
+            pcd::read_pcd_cloud(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("ply")
+        .into_iter()
+        .filter(|p| !p.ends_with("binary-be.ply"))
+    {
+        ok(
+            "ply",
+            &p,
+            ply::read_ply(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("vtk") {
+        let r = match p.extension().and_then(|e| e.to_str()) {
+            Some("vtk") => vtk::read_vtk(&p).map(drop),
+            Some("csv") => vtk::read_trajectory_csv(&p).map(drop),
+            _ => continue,
+        };
+        ok("vtk", &p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("graph") {
+        ok(
+            "graph",
+            &p,
+            graph::read_graph(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("frames") {
+        ok(
+            "frames",
+            &p,
+            frames::read_frames_file(&p)
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("text") {
+        let r = if p.extension().is_some_and(|e| e == "log") {
+            text::read_log_graph(&p).map(drop)
+        } else {
+            text::read_text(&p).map(drop)
+        };
+        ok("text", &p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("carmen") {
+        let scans = carmen::read_carmen_file(&p).map_err(|e| e.to_string());
+        ok(
+            "carmen",
+            &p,
+            scans.and_then(|s| {
+                if s.is_empty() {
+                    Err("no scans".into())
+                } else {
+                    Ok(())
+                }
+            }),
+        );
+        n += 1;
+    }
+    for p in files("tum_assoc")
+        .into_iter()
+        .filter(|p| !p.ends_with("bad-quaternion.txt"))
+    {
+        ok(
+            "tum",
+            &p,
+            tum::read_association(&p)
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("tum_png") {
+        ok(
+            "png",
+            &p,
+            tum::read_depth_png(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("mcap") {
+        let r = m::read_mcap(&p, &m::McapOptions::default()).map_err(|e| e.to_string());
+        ok(
+            "mcap",
+            &p,
+            r.and_then(|(f, _)| {
+                if f.is_empty() {
+                    Err("no clouds".into())
+                } else {
+                    Ok(())
+                }
+            }),
+        );
+        n += 1;
+    }
+    for p in files("mcap_cloud").iter().chain(&files("mcap_tf")) {
+        let data = bytes(p);
+        let enc = if data[0] & 1 == 0 {
+            m::Encoding::Ros1
+        } else {
+            m::Encoding::Cdr
+        };
+        let r = if p.starts_with(out.join("mcap_tf")) {
+            m::decode_tf_message(&data[1..], enc).map(drop)
+        } else {
+            m::decode_point_cloud2(&data[1..], enc).map(drop)
+        };
+        ok("message", p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("source") {
+        let data = bytes(&p);
+        let ext = if data[0] & 1 == 0 {
+            "txt.gz"
+        } else {
+            "txt.bz2"
+        };
+        let tmp =
+            std::env::temp_dir().join(format!("octoquant-seed-check-{}.{ext}", std::process::id()));
+        std::fs::write(&tmp, &data[1..]).unwrap();
+        let r = source::read_all(&tmp).map(drop).map_err(|e| e.to_string());
+        std::fs::remove_file(&tmp).unwrap();
+        ok("compressed", &p, r);
+        n += 1;
+    }
+    n
 }
 
 struct Seeds {
