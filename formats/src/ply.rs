@@ -292,7 +292,7 @@ fn read_binary(
             .sum();
         let remaining = (data.len() - pos) as u64;
         if let Some(size) = fixed {
-            if size as u64 * el.count > remaining {
+            if (size as u64).saturating_mul(el.count) > remaining {
                 return Err(truncated(
                     data.len(),
                     &format!("{} {} records", el.count, el.name),
@@ -303,6 +303,11 @@ fn read_binary(
                 data.len(),
                 &format!("{} {} records", el.count, el.name),
             ));
+        }
+        if el.props.is_empty() {
+            // records without properties take no bytes: nothing to read, however many (a
+            // loop over a count of 2^40 would take hours)
+            continue;
         }
         let mut points = Vec::new();
         if is_vertex {
@@ -489,6 +494,26 @@ mod tests {
             let back = parse_ply(Path::new("t.ply"), &buf).unwrap();
             assert_eq!(bits(&back), bits(&pts()), "{enc:?}");
         }
+    }
+
+    /// Found by the `ply` fuzz target (a timeout): a binary element with no properties and a
+    /// count of 42,949,672,950 passed the size check (0 bytes each) and was then looped over
+    /// record by record. Such an element takes no bytes and is now skipped at once.
+    #[test]
+    fn binary_element_without_properties_and_a_huge_count_is_skipped() {
+        let mut data = b"ply\nformat binary_little_endian 1.0\nelement junk 42949672950\n\
+            element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+            .to_vec();
+        for c in [1.0f32, 2.0, 3.0] {
+            data.extend_from_slice(&c.to_le_bytes());
+        }
+        let points = parse_ply(Path::new("empty-element.ply"), &data).unwrap();
+        assert_eq!(points, vec![Point3::new(1.0, 2.0, 3.0)]);
+        // a count whose byte size overflows u64 is truncation, not an overflow panic
+        let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\n\
+            property float x\nproperty float y\nproperty float z\nend_header\n";
+        let e = parse_ply(Path::new("huge.ply"), huge).unwrap_err();
+        assert!(matches!(e, FormatError::Truncated { .. }), "{e}");
     }
 
     #[test]
