@@ -198,6 +198,43 @@ fn record_overrun(records: &[u8]) -> Option<usize> {
     None
 }
 
+/// Whether the summary section (from the footer's `summary_start` to the footer) holds a
+/// chunk record. Walks records as the crate does; a length running past the footer ends the
+/// walk (the crate stops there too).
+fn summary_has_chunk(bytes: &[u8]) -> bool {
+    // footer: opcode 0x02, u64 length, summary_start, summary_offset_start, CRC; then magic
+    let Some(footer) = bytes.len().checked_sub(8 + 29) else {
+        return false;
+    };
+    let u64_at = |at: usize| {
+        bytes
+            .get(at..at + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+    };
+    let Some(mut pos) = u64_at(footer + 9).and_then(|s| usize::try_from(s).ok()) else {
+        return false;
+    };
+    if pos == 0 {
+        return false;
+    }
+    while pos < footer {
+        let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(pos + 1)) else {
+            return false;
+        };
+        if op == 0x06 {
+            return true;
+        }
+        match usize::try_from(len)
+            .ok()
+            .and_then(|l| (pos + 9).checked_add(l))
+        {
+            Some(end) if end <= footer => pos = end,
+            _ => return false,
+        }
+    }
+    false
+}
+
 fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
     let mut map: BTreeMap<String, TopicInfo> = BTreeMap::new();
     let mut add = |c: &::mcap::Channel| {
@@ -211,7 +248,15 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
             encoding: c.message_encoding.clone(),
         });
     };
-    match ::mcap::Summary::read(bytes) {
+    // A chunk in the summary section (where none belongs) would reach the crate's unchecked
+    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above:
+    // such a file is read linearly instead.
+    let summary = if summary_has_chunk(bytes) {
+        Ok(None)
+    } else {
+        ::mcap::Summary::read(bytes)
+    };
+    match summary {
         Ok(Some(summary)) if !summary.channels.is_empty() => {
             for c in summary.channels.values() {
                 add(c);
@@ -443,6 +488,23 @@ mod tests {
         let chunk_len_at = 9;
         cut[chunk_len_at..chunk_len_at + 8].copy_from_slice(&(40u64 + 12 + 300).to_le_bytes());
         let e = topics_of(path, &cut).unwrap_err().to_string();
+        assert!(e.contains("runs past the chunk's end"), "{e}");
+
+        // the same chunk in the summary section (found by the fuzz target after the fix
+        // above: `Summary::read` walks that section with the same unchecked subtraction)
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        let summary_start = f.len() as u64;
+        let in_summary = file_with_chunk(&body, &[]);
+        f.extend_from_slice(&in_summary[8..]);
+        f.extend_from_slice(&[0u8; 200]);
+        f.push(0x02);
+        f.extend_from_slice(&20u64.to_le_bytes());
+        f.extend_from_slice(&summary_start.to_le_bytes());
+        f.extend_from_slice(&0u64.to_le_bytes());
+        f.extend_from_slice(&0u32.to_le_bytes());
+        f.extend_from_slice(b"\x89MCAP0\r\n");
+        assert!(summary_has_chunk(&f));
+        let e = topics_of(path, &f).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
 
         let mut two = ok.clone();
