@@ -19,9 +19,9 @@ mkdir -p logs corpus artifacts
 
 if [ "${1:-}" = "--report" ]; then
   [ -f logs/summary.tsv ] || { echo "no campaign yet"; exit 0; }
+  printf "%-12s %14s %7s %7s %s\n" target executions cov ft "failed runs"
   awk -F'\t' '{ ex[$2] += $4; cov[$2] = $5; ft[$2] = $6; if ($7 != 0) bad[$2]++; seen[$2] = 1 }
-    END { printf "%-12s %14s %7s %7s %s\n", "target", "executions", "cov", "ft", "failed runs";
-          for (t in seen) printf "%-12s %14d %7s %7s %d\n", t, ex[t], cov[t], ft[t], bad[t] }' \
+    END { for (t in seen) printf "%-12s %14d %7s %7s %d\n", t, ex[t], cov[t], ft[t], bad[t] }' \
     logs/summary.tsv | sort
   exit 0
 fi
