@@ -155,7 +155,10 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
                     pos = end;
                     continue;
                 }
-                if declared > chunk_size_limit(records) {
+                // (against the compressed bytes the file holds: a chunk cut short by the end
+                // of the file may claim any compressed size)
+                let present = (rec.len() as u64).saturating_sub(40 + name_len.unwrap_or(0) as u64);
+                if declared > chunk_size_limit(records.min(present)) {
                     return Err(FormatError::syntax(
                         path,
                         Location::Byte(pos as u64),
@@ -506,6 +509,23 @@ mod tests {
         assert!(summary_has_chunk(&f));
         let e = topics_of(path, &f).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
+
+        // a zstd chunk cut short by the end of the file, claiming 2^40 compressed bytes and
+        // 2^49 decompressed (found by the fuzz target: the crate tried to allocate them)
+        let mut chunk = Vec::new();
+        chunk.extend_from_slice(&[0u8; 16]);
+        chunk.extend_from_slice(&(1u64 << 49).to_le_bytes());
+        chunk.extend_from_slice(&0u32.to_le_bytes());
+        chunk.extend_from_slice(&4u32.to_le_bytes());
+        chunk.extend_from_slice(b"zstd");
+        chunk.extend_from_slice(&(1u64 << 40).to_le_bytes());
+        chunk.extend_from_slice(&[0x28, 0xb5, 0x2f, 0xfd, 0, 0, 0, 0]);
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        f.push(0x06);
+        f.extend_from_slice(&(1u64 << 41).to_le_bytes());
+        f.extend_from_slice(&chunk);
+        let e = topics_of(path, &f).unwrap_err().to_string();
+        assert!(e.contains("the size field is damaged"), "{e}");
 
         let mut two = ok.clone();
         two.extend_from_slice(&body);
