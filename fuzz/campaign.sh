@@ -51,7 +51,7 @@ for t in "${targets[@]}"; do
   rc=$?
   # Final stats when the run ended normally, else the last status line.
   execs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)"
-  [ -n "$execs" ] || execs="$(grep -o '^#[0-9]*' "$log" | tail -1 | tr -d '#')"
+  [ -n "$execs" ] || execs="$(grep -o '^#[0-9][0-9]*' "$log" | tail -1 | tr -d '#')"
   cov="$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)"
   ft="$(grep -o 'ft: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)"
   printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$(date -u +%FT%TZ)" "$t" "$runs" "${execs:-0}" \

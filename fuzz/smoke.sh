@@ -25,7 +25,7 @@ smoke_one() {
   opts=("${FUZZ_LIMITS[@]}" "-max_total_time=$secs" "-artifact_prefix=artifacts/$t/")
   [ -n "$dict" ] && opts+=("-dict=dict/$dict.dict")
   if "$FUZZ_BIN_DIR/$t" "${opts[@]}" "$scratch/corpus-$t" "seeds/$t" >"$scratch/$t.log" 2>&1; then
-    echo "fuzz: $t ok ($(grep -o '^#[0-9]*' "$scratch/$t.log" | tail -1 | tr -d '#') executions)"
+    echo "fuzz: $t ok ($(sed -n 's/^Done \([0-9]*\) runs.*/\1/p' "$scratch/$t.log") executions)"
   else
     tail -40 "$scratch/$t.log"
     echo "fuzz: $t FAILED, input in fuzz/artifacts/$t/"
