@@ -497,6 +497,26 @@ mod tests {
         }
     }
 
+    /// Found by the `ply` fuzz target (a timeout): a binary element with no properties and a
+    /// count of 42,949,672,950 passed the size check (0 bytes each) and was then looped over
+    /// record by record. Such an element takes no bytes and is now skipped at once.
+    #[test]
+    fn binary_element_without_properties_and_a_huge_count_is_skipped() {
+        let mut data = b"ply\nformat binary_little_endian 1.0\nelement junk 42949672950\n\
+            element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+            .to_vec();
+        for c in [1.0f32, 2.0, 3.0] {
+            data.extend_from_slice(&c.to_le_bytes());
+        }
+        let points = parse_ply(Path::new("empty-element.ply"), &data).unwrap();
+        assert_eq!(points, vec![Point3::new(1.0, 2.0, 3.0)]);
+        // a count whose byte size overflows u64 is truncation, not an overflow panic
+        let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\n\
+            property float x\nproperty float y\nproperty float z\nend_header\n";
+        let e = parse_ply(Path::new("huge.ply"), huge).unwrap_err();
+        assert!(matches!(e, FormatError::Truncated { .. }), "{e}");
+    }
+
     #[test]
     fn reads_doubles_extra_properties_and_other_elements() {
         let mut b = b"ply\r\nformat binary_little_endian 1.0\r\ncomment x\r\n\

@@ -118,7 +118,7 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
         let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)) else {
             break;
         };
-        if end > bytes.len() || op == OP_FOOTER {
+        if op == OP_FOOTER {
             break;
         }
         if op == OP_CHUNK {
@@ -126,8 +126,9 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             chunk += 1;
             // start time, end time, uncompressed size, uncompressed CRC, compression string,
             // then the compressed records with their u64 length
-            // (read within the record only: a chunk too short for them is the crate's to report)
-            let rec = &bytes[start..end];
+            // (read within the record only: a chunk too short for them is the crate's to report;
+            // a chunk cut short by the end of the file is read by the crate as far as it goes)
+            let rec = &bytes[start..end.min(bytes.len())];
             let declared = u64_at(rec, 16);
             let name_len = u32_at(rec, 28).map(|n| n as usize);
             let records = name_len.and_then(|n| u64_at(rec, 32usize.checked_add(n)?));
@@ -135,9 +136,24 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             if let (Some(declared), Some(records), Some(compression)) =
                 (declared, records, compression)
             {
+                // the compressed bytes the file holds: a chunk cut short by the end of the
+                // file may claim any size
+                let records = records
+                    .min((rec.len() as u64).saturating_sub(40 + name_len.unwrap_or(0) as u64));
                 // an uncompressed chunk's records are read as they lie in the file, whatever
                 // size its header declares
                 if compression.is_empty() {
+                    let body = usize::try_from(records).ok().and_then(|r| {
+                        let from = 40usize.checked_add(name_len?)?;
+                        rec.get(from..from.checked_add(r)?)
+                    });
+                    if let Some(at) = body.and_then(record_overrun) {
+                        return Err(FormatError::syntax(
+                            path,
+                            Location::Byte((pos + 49 + name_len.unwrap_or(0) + at) as u64),
+                            "a record inside an uncompressed chunk runs past the chunk's end",
+                        ));
+                    }
                     largest = largest.max(records);
                     pos = end;
                     continue;
@@ -156,9 +172,70 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
                 largest = largest.max(declared);
             }
         }
+        if end > bytes.len() {
+            break;
+        }
         pos = end;
     }
     Ok(largest)
+}
+
+/// The offset of the first record (opcode, `u64` length, content) in `records`, the body of
+/// an uncompressed chunk, that does not fit in it; `None` when they tile it exactly. The
+/// `mcap` crate subtracts each record's length from the chunk's remaining size unchecked, so
+/// one that overruns the chunk would underflow there (a panic with overflow checks on).
+fn record_overrun(records: &[u8]) -> Option<usize> {
+    let mut at = 0usize;
+    while at < records.len() {
+        let len = records
+            .get(at + 1..at + 9)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()));
+        let next = len
+            .and_then(|l| usize::try_from(l).ok())
+            .and_then(|l| (at + 9).checked_add(l));
+        match next {
+            Some(n) if n <= records.len() => at = n,
+            _ => return Some(at),
+        }
+    }
+    None
+}
+
+/// Whether the summary section (from the footer's `summary_start` to the footer) holds a
+/// chunk record. Walks records as the crate does; a length running past the footer ends the
+/// walk (the crate stops there too).
+fn summary_has_chunk(bytes: &[u8]) -> bool {
+    // footer: opcode 0x02, u64 length, summary_start, summary_offset_start, CRC; then magic
+    let Some(footer) = bytes.len().checked_sub(8 + 29) else {
+        return false;
+    };
+    let u64_at = |at: usize| {
+        bytes
+            .get(at..at + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+    };
+    let Some(mut pos) = u64_at(footer + 9).and_then(|s| usize::try_from(s).ok()) else {
+        return false;
+    };
+    if pos == 0 {
+        return false;
+    }
+    while pos < footer {
+        let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(pos + 1)) else {
+            return false;
+        };
+        if op == 0x06 {
+            return true;
+        }
+        match usize::try_from(len)
+            .ok()
+            .and_then(|l| (pos + 9).checked_add(l))
+        {
+            Some(end) if end <= footer => pos = end,
+            _ => return false,
+        }
+    }
+    false
 }
 
 fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
@@ -174,7 +251,15 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
             encoding: c.message_encoding.clone(),
         });
     };
-    match ::mcap::Summary::read(bytes) {
+    // A chunk in the summary section (where none belongs) would reach the crate's unchecked
+    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above:
+    // such a file is read linearly instead.
+    let summary = if summary_has_chunk(bytes) {
+        Ok(None)
+    } else {
+        ::mcap::Summary::read(bytes)
+    };
+    match summary {
         Ok(Some(summary)) if !summary.channels.is_empty() => {
             for c in summary.channels.values() {
                 add(c);
@@ -354,4 +439,109 @@ pub fn read_mcap(
 /// [`read_mcap`] without the counts.
 pub fn read_mcap_frames(path: &Path, options: &McapOptions) -> Result<Vec<Frame>, FormatError> {
     read_mcap(path, options).map(|(f, _)| f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An MCAP file with one uncompressed chunk holding `body` as its records, then `tail`.
+    fn file_with_chunk(body: &[u8], tail: &[u8]) -> Vec<u8> {
+        let mut chunk = Vec::new();
+        chunk.extend_from_slice(&0u64.to_le_bytes()); // start time
+        chunk.extend_from_slice(&0u64.to_le_bytes()); // end time
+        chunk.extend_from_slice(&(body.len() as u64).to_le_bytes()); // uncompressed size
+        chunk.extend_from_slice(&0u32.to_le_bytes()); // uncompressed CRC (0: not checked)
+        chunk.extend_from_slice(&0u32.to_le_bytes()); // compression "" (none)
+        chunk.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        chunk.extend_from_slice(body);
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        f.push(0x06);
+        f.extend_from_slice(&(chunk.len() as u64).to_le_bytes());
+        f.extend_from_slice(&chunk);
+        f.extend_from_slice(tail);
+        f
+    }
+
+    /// Found by the `mcap` fuzz target: a record inside an uncompressed chunk longer than the
+    /// chunk made the `mcap` crate's remaining-size subtraction overflow (a panic in debug
+    /// builds). It is now an error naming the byte of that record.
+    #[test]
+    fn record_running_past_an_uncompressed_chunk_is_an_error() {
+        let path = Path::new("overrun.mcap");
+        // an unknown record (opcode 0x7f) claiming 100 bytes in a 12-byte chunk body, with
+        // enough file after the chunk for the crate to read them from
+        let mut body = vec![0x7f];
+        body.extend_from_slice(&100u64.to_le_bytes());
+        body.extend_from_slice(&[1, 2, 3]);
+        let bytes = file_with_chunk(&body, &[0u8; 200]);
+        let e = topics_of(path, &bytes).unwrap_err().to_string();
+        assert!(e.contains("runs past the chunk's end"), "{e}");
+        assert!(e.contains("overrun.mcap"), "{e}");
+        // the record starts right after magic (8), chunk opcode and length (9) and the
+        // chunk's fixed fields (40)
+        assert!(e.contains("byte 57"), "{e}");
+
+        // records that tile the chunk exactly pass this check
+        let mut ok = vec![0x7f];
+        ok.extend_from_slice(&3u64.to_le_bytes());
+        ok.extend_from_slice(&[1, 2, 3]);
+        assert_eq!(record_overrun(&ok), None);
+        assert_eq!(record_overrun(&body), Some(0));
+        assert_eq!(record_overrun(&ok[..5]), Some(0));
+        // the same chunk with the file cut inside it (after its records): still an error
+        let mut cut = file_with_chunk(&body, &[0u8; 200]);
+        let chunk_len_at = 9;
+        cut[chunk_len_at..chunk_len_at + 8].copy_from_slice(&(40u64 + 12 + 300).to_le_bytes());
+        let e = topics_of(path, &cut).unwrap_err().to_string();
+        assert!(e.contains("runs past the chunk's end"), "{e}");
+
+        // the same chunk in the summary section (found by the fuzz target after the fix
+        // above: `Summary::read` walks that section with the same unchecked subtraction)
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        let summary_start = f.len() as u64;
+        let in_summary = file_with_chunk(&body, &[]);
+        f.extend_from_slice(&in_summary[8..]);
+        f.extend_from_slice(&[0u8; 200]);
+        f.push(0x02);
+        f.extend_from_slice(&20u64.to_le_bytes());
+        f.extend_from_slice(&summary_start.to_le_bytes());
+        f.extend_from_slice(&0u64.to_le_bytes());
+        f.extend_from_slice(&0u32.to_le_bytes());
+        f.extend_from_slice(b"\x89MCAP0\r\n");
+        assert!(summary_has_chunk(&f));
+        let e = topics_of(path, &f).unwrap_err().to_string();
+        assert!(e.contains("runs past the chunk's end"), "{e}");
+
+        // a zstd chunk cut short by the end of the file, claiming 2^40 compressed bytes and
+        // 2^49 decompressed (found by the fuzz target: the crate tried to allocate them)
+        let mut chunk = Vec::new();
+        chunk.extend_from_slice(&[0u8; 16]);
+        chunk.extend_from_slice(&(1u64 << 49).to_le_bytes());
+        chunk.extend_from_slice(&0u32.to_le_bytes());
+        chunk.extend_from_slice(&4u32.to_le_bytes());
+        chunk.extend_from_slice(b"zstd");
+        chunk.extend_from_slice(&(1u64 << 40).to_le_bytes());
+        chunk.extend_from_slice(&[0x28, 0xb5, 0x2f, 0xfd, 0, 0, 0, 0]);
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        f.push(0x06);
+        f.extend_from_slice(&(1u64 << 41).to_le_bytes());
+        f.extend_from_slice(&chunk);
+        let e = topics_of(path, &f).unwrap_err().to_string();
+        assert!(e.contains("the size field is damaged"), "{e}");
+
+        // an uncompressed chunk cut short by the end of the file, claiming 2^52 bytes of
+        // records: the record length limit it feeds stays within the file (found by the fuzz
+        // target: with the claimed size as the limit, a record in a later zstd chunk claiming
+        // 844 TB passed and the crate tried to allocate it)
+        let mut cut = file_with_chunk(&ok, &[]);
+        cut[9..17].copy_from_slice(&(1u64 << 53).to_le_bytes());
+        cut[17 + 32..17 + 40].copy_from_slice(&(1u64 << 52).to_le_bytes());
+        let largest = check_chunk_sizes(path, &cut).unwrap();
+        assert!(largest <= cut.len() as u64, "{largest}");
+
+        let mut two = ok.clone();
+        two.extend_from_slice(&body);
+        assert_eq!(record_overrun(&two), Some(ok.len()));
+    }
 }

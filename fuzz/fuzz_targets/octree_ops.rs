@@ -1,0 +1,272 @@
+//! Structure-aware: random operation sequences on an `OcTree` (update, set, delete, prune,
+//! expand, max-likelihood, inner occupancy, `.bt`/`.ot` write and read back), checked after
+//! every step against the tree's invariants (`check_well_formed`, strict while no operation
+//! has left it lazy) and at the end against a naive oracle: a map from voxel key to log-odds
+//! that every operation updates the obvious way. (Deleting the root's last child leaves the
+//! root as a leaf covering the whole map, as in OctoMap, whose next update expands it into
+//! the whole space: the oracle is off from there until the next `Clear`.)
+#![no_main]
+use arbitrary::Arbitrary;
+use libfuzzer_sys::fuzz_target;
+use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
+use octoquant_octree::validate::check_well_formed;
+use octoquant_octree::{Key, OcTree, Update, TREE_DEPTH};
+use std::collections::BTreeMap;
+
+/// A voxel key: mostly inside a 16³ block around the centre (so siblings meet and prune),
+/// sometimes anywhere.
+#[derive(Arbitrary, Debug, Clone, Copy)]
+enum FuzzKey {
+    Near(u8, u8, u8),
+    Far(u16, u16, u16),
+}
+
+impl FuzzKey {
+    fn key(self) -> Key {
+        match self {
+            FuzzKey::Near(x, y, z) => {
+                let c = |v: u8| 0x8000 - 8 + u16::from(v % 16);
+                Key::new(c(x), c(y), c(z))
+            }
+            FuzzKey::Far(x, y, z) => Key::new(x, y, z),
+        }
+    }
+}
+
+#[derive(Arbitrary, Debug, Clone, Copy)]
+enum FuzzUpdate {
+    Hit,
+    Miss,
+    LogOdds(f32),
+}
+
+#[derive(Arbitrary, Debug, Clone, Copy)]
+enum Op {
+    Update {
+        key: FuzzKey,
+        update: FuzzUpdate,
+        lazy: bool,
+    },
+    /// The same update on the 8 voxels of one depth-15 node, so it can prune.
+    UpdateOctant {
+        key: FuzzKey,
+        update: FuzzUpdate,
+    },
+    Set {
+        key: FuzzKey,
+        value: f32,
+        lazy: bool,
+    },
+    Delete {
+        key: FuzzKey,
+        depth: u8,
+    },
+    Prune,
+    Expand,
+    UpdateInnerOccupancy,
+    ToMaxLikelihood,
+    WriteReadBt,
+    WriteReadOt,
+    Clear,
+}
+
+#[derive(Arbitrary, Debug)]
+struct Input {
+    ops: Vec<Op>,
+}
+
+type Model = BTreeMap<[u16; 3], f32>;
+
+fn update_of(u: FuzzUpdate) -> Update {
+    match u {
+        FuzzUpdate::Hit => Update::Hit,
+        FuzzUpdate::Miss => Update::Miss,
+        FuzzUpdate::LogOdds(d) => Update::LogOdds(d),
+    }
+}
+
+/// OctoMap's voxel update: from 0 for a new voxel, `old + delta` clamped, NaN ignored.
+fn model_update(tree: &OcTree, model: &mut Model, key: Key, update: Update) {
+    let delta = tree.delta(update);
+    if delta.is_nan() {
+        return;
+    }
+    let p = tree.params();
+    let old = model.get(&key.0).copied().unwrap_or(0.0);
+    let v = old + delta;
+    let v = if v < p.clamp_min {
+        p.clamp_min
+    } else if v > p.clamp_max {
+        p.clamp_max
+    } else {
+        v
+    };
+    model.insert(key.0, v);
+}
+
+fn same_prefix(a: [u16; 3], b: [u16; 3], depth: u8) -> bool {
+    let shift = u32::from(TREE_DEPTH - depth);
+    (0..3).all(|i| (u32::from(a[i]) >> shift) == (u32::from(b[i]) >> shift))
+}
+
+fn write_bt_bytes(tree: &mut OcTree) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_bt(tree, &mut out).unwrap();
+    out
+}
+
+fn write_ot_bytes(tree: &OcTree) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_ot(tree, &mut out).unwrap();
+    out
+}
+
+fn check_against_model(tree: &OcTree, model: &Model) {
+    for (k, v) in model {
+        let found = tree
+            .search(Key(*k), TREE_DEPTH)
+            .unwrap_or_else(|| panic!("voxel {k:?} (model {v}) is missing"));
+        assert!(
+            found.value.to_bits() == v.to_bits(),
+            "voxel {k:?}: tree {} model {v}",
+            found.value
+        );
+    }
+    let covered: u64 = tree.leaves().map(|l| u64::from(l.width()).pow(3)).sum();
+    assert_eq!(
+        covered,
+        model.len() as u64,
+        "leaves cover other voxels than the model"
+    );
+}
+
+fuzz_target!(|input: Input| {
+    let mut tree = OcTree::new(0.1).unwrap();
+    let mut model = Model::new();
+    // Strict: every inner node is the max of its children and nothing is collapsible.
+    let mut strict = true;
+    // The oracle holds: no delete has left the root as a leaf.
+    let mut model_ok = true;
+    for op in input.ops.iter().take(256) {
+        match *op {
+            Op::Update { key, update, lazy } => {
+                let (k, u) = (key.key(), update_of(update));
+                model_update(&tree, &mut model, k, u);
+                tree.update_node(k, u, lazy);
+                strict &= !lazy;
+            }
+            Op::UpdateOctant { key, update } => {
+                let base = key.key().0.map(|c| c & !1);
+                let u = update_of(update);
+                for i in 0..8u16 {
+                    let k = Key::new(
+                        base[0] | (i & 1),
+                        base[1] | ((i >> 1) & 1),
+                        base[2] | (i >> 2),
+                    );
+                    model_update(&tree, &mut model, k, u);
+                    tree.update_node(k, u, false);
+                }
+            }
+            Op::Set { key, value, lazy } => {
+                let k = key.key();
+                let r = tree.set_node_value(k, value, lazy);
+                if value.is_nan() {
+                    assert!(r.is_err(), "set_node_value accepted NaN");
+                } else {
+                    let p = tree.params();
+                    model.insert(k.0, value.max(p.clamp_min).min(p.clamp_max));
+                    strict &= !lazy;
+                }
+            }
+            Op::Delete { key, depth } => {
+                let k = key.key();
+                let d = if depth == 0 || depth > TREE_DEPTH {
+                    TREE_DEPTH
+                } else {
+                    depth
+                };
+                let before = model.len();
+                model.retain(|m, _| !same_prefix(*m, k.0, d));
+                let deleted = tree.delete_node(k, depth);
+                if model_ok {
+                    assert_eq!(deleted, model.len() != before, "delete_node's answer");
+                }
+                if tree.size() == 1 {
+                    model_ok = false;
+                }
+            }
+            Op::Prune => {
+                tree.prune();
+                strict = false;
+            }
+            Op::Expand => {
+                // expand() gives every leaf all its voxels (documented: up to 8^(16-depth)
+                // each); a root left as a leaf would mean 2^48. Only expand small trees.
+                let voxels: u64 = tree.leaves().map(|l| u64::from(l.width()).pow(3)).sum();
+                if voxels > 1 << 16 {
+                    continue;
+                }
+                tree.expand();
+                strict = false;
+            }
+            Op::UpdateInnerOccupancy => {
+                tree.update_inner_occupancy();
+                strict = false;
+            }
+            Op::ToMaxLikelihood => {
+                tree.to_max_likelihood();
+                let p = *tree.params();
+                for v in model.values_mut() {
+                    *v = if p.is_occupied(*v) {
+                        p.clamp_max
+                    } else {
+                        p.clamp_min
+                    };
+                }
+                strict = false;
+            }
+            Op::WriteReadBt => {
+                let first = write_bt_bytes(&mut tree);
+                let p = *tree.params();
+                for v in model.values_mut() {
+                    *v = if p.is_occupied(*v) {
+                        p.clamp_max
+                    } else {
+                        p.clamp_min
+                    };
+                }
+                let mut back = read_bt(first.as_slice()).expect(".bt output does not read back");
+                let second = write_bt_bytes(&mut back);
+                assert!(
+                    first == second,
+                    ".bt write/read/write is not a byte round trip"
+                );
+                tree = back;
+                strict = false;
+            }
+            Op::WriteReadOt => {
+                let first = write_ot_bytes(&tree);
+                let back = read_ot(first.as_slice()).expect(".ot output does not read back");
+                assert!(
+                    first == write_ot_bytes(&back),
+                    ".ot write/read/write is not a byte round trip"
+                );
+                assert_eq!(back.size(), tree.size());
+                tree = back;
+            }
+            Op::Clear => {
+                tree.clear();
+                model.clear();
+                strict = true;
+                model_ok = true;
+            }
+        }
+        if let Err(e) = check_well_formed(&tree, !strict) {
+            panic!("after {op:?} (strict {strict}): {e}");
+        }
+    }
+    if model_ok {
+        check_against_model(&tree, &model);
+    }
+});

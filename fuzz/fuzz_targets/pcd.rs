@@ -1,0 +1,18 @@
+//! PCD v0.7 (ascii, binary, binary_compressed with LZF) through the real entry point
+//! `read_pcd` on a `.pcd` file, with the viewpoint applied or as origin only (by the
+//! input length's parity, so each input reads once).
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use octoquant_formats::pcd::{read_pcd, PcdOptions, ViewpointUse};
+use octoquant_fuzz::with_file;
+
+fuzz_target!(|data: &[u8]| {
+    with_file("input.pcd", data, |path| {
+        let viewpoint = if data.len() % 2 == 0 {
+            ViewpointUse::Apply
+        } else {
+            ViewpointUse::OriginOnly
+        };
+        let _ = read_pcd(path, &PcdOptions { viewpoint });
+    });
+});

@@ -1,0 +1,843 @@
+//! Writes the committed seed corpora of the fuzz targets into `fuzz/seeds/<target>/`, every
+//! file made here with octoquant's own writers or spelled out by hand: nothing is cut from
+//! recorded data. Deterministic: running it twice gives the same files.
+//!
+//! `cargo run --manifest-path fuzz/Cargo.toml -p octoquant-fuzz-seeds [-- OUT_DIR]`
+//! (OUT_DIR defaults to `fuzz/seeds`).
+
+use nalgebra::Point3;
+use octoquant_formats::frame::Frame;
+use octoquant_formats::frames::write_frames;
+use octoquant_formats::graph::{graph_from_frames, write_graph};
+use octoquant_formats::mcap::datatype;
+use octoquant_formats::ply::{write_ply, PlyEncoding};
+use octoquant_octree::io::{write_bt, write_ot};
+use octoquant_octree::{Key, OcTree, Update};
+use std::collections::BTreeMap;
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
+
+fn main() {
+    let out = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../seeds"));
+    let mut seeds = Seeds { out, count: 0 };
+    trees(&mut seeds);
+    pcd(&mut seeds);
+    ply(&mut seeds);
+    vtk(&mut seeds);
+    graph_and_frames(&mut seeds);
+    text(&mut seeds);
+    carmen(&mut seeds);
+    tum(&mut seeds);
+    mcap(&mut seeds);
+    source(&mut seeds);
+    octree_ops(&mut seeds);
+    let checked = check_seeds(&seeds.out);
+    println!(
+        "wrote {} seeds under {}, {checked} of them read back by the library",
+        seeds.count,
+        seeds.out.display()
+    );
+}
+
+/// Read every seed meant to be valid with the library's own readers, so a seed that drifted
+/// out of its format (and would only test the first error path) fails the generator.
+/// Returns how many were read.
+fn check_seeds(out: &Path) -> usize {
+    use octoquant_formats::{carmen, frames, graph, mcap as m, pcd, ply, source, text, tum, vtk};
+    let mut n = 0;
+    let files = |t: &str| {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(out.join(t))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        v
+    };
+    let ok = |what: &str, p: &Path, r: Result<(), String>| {
+        if let Err(e) = r {
+            panic!("{what} seed {} does not read: {e}", p.display());
+        }
+    };
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    for p in files("bt").iter().chain(&files("ot")) {
+        ok(
+            "tree",
+            p,
+            octoquant_octree::io::read_tree(bytes(p).as_slice())
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("pcd") {
+        ok(
+            "pcd",
+            &p,
+            pcd::read_pcd_cloud(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("ply")
+        .into_iter()
+        .filter(|p| !p.ends_with("binary-be.ply"))
+    {
+        ok(
+            "ply",
+            &p,
+            ply::read_ply(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("vtk") {
+        let r = match p.extension().and_then(|e| e.to_str()) {
+            Some("vtk") => vtk::read_vtk(&p).map(drop),
+            Some("csv") => vtk::read_trajectory_csv(&p).map(drop),
+            _ => continue,
+        };
+        ok("vtk", &p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("graph") {
+        ok(
+            "graph",
+            &p,
+            graph::read_graph(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("frames") {
+        ok(
+            "frames",
+            &p,
+            frames::read_frames_file(&p)
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("text") {
+        let r = if p.extension().is_some_and(|e| e == "log") {
+            text::read_log_graph(&p).map(drop)
+        } else {
+            text::read_text(&p).map(drop)
+        };
+        ok("text", &p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("carmen") {
+        let scans = carmen::read_carmen_file(&p).map_err(|e| e.to_string());
+        ok(
+            "carmen",
+            &p,
+            scans.and_then(|s| {
+                if s.is_empty() {
+                    Err("no scans".into())
+                } else {
+                    Ok(())
+                }
+            }),
+        );
+        n += 1;
+    }
+    for p in files("tum_assoc")
+        .into_iter()
+        .filter(|p| !p.ends_with("bad-quaternion.txt"))
+    {
+        ok(
+            "tum",
+            &p,
+            tum::read_association(&p)
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("tum_png") {
+        ok(
+            "png",
+            &p,
+            tum::read_depth_png(&p).map(drop).map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("mcap") {
+        let r = m::read_mcap(&p, &m::McapOptions::default()).map_err(|e| e.to_string());
+        ok(
+            "mcap",
+            &p,
+            r.and_then(|(f, _)| {
+                if f.is_empty() {
+                    Err("no clouds".into())
+                } else {
+                    Ok(())
+                }
+            }),
+        );
+        n += 1;
+    }
+    for p in files("mcap_cloud").iter().chain(&files("mcap_tf")) {
+        let data = bytes(p);
+        let enc = if data[0] & 1 == 0 {
+            m::Encoding::Ros1
+        } else {
+            m::Encoding::Cdr
+        };
+        let r = if p.starts_with(out.join("mcap_tf")) {
+            m::decode_tf_message(&data[1..], enc).map(drop)
+        } else {
+            m::decode_point_cloud2(&data[1..], enc).map(drop)
+        };
+        ok("message", p, r.map_err(|e| e.to_string()));
+        n += 1;
+    }
+    for p in files("source") {
+        let data = bytes(&p);
+        let ext = if data[0] & 1 == 0 {
+            "txt.gz"
+        } else {
+            "txt.bz2"
+        };
+        let tmp =
+            std::env::temp_dir().join(format!("octoquant-seed-check-{}.{ext}", std::process::id()));
+        std::fs::write(&tmp, &data[1..]).unwrap();
+        let r = source::read_all(&tmp).map(drop).map_err(|e| e.to_string());
+        std::fs::remove_file(&tmp).unwrap();
+        ok("compressed", &p, r);
+        n += 1;
+    }
+    n
+}
+
+struct Seeds {
+    out: PathBuf,
+    count: usize,
+}
+
+impl Seeds {
+    fn put(&mut self, target: &str, name: &str, data: &[u8]) {
+        let dir = self.out.join(target);
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        let path = dir.join(name);
+        std::fs::write(&path, data).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        self.count += 1;
+    }
+}
+
+/// A little deterministic scene: a few dozen points on a wall and a floor seen from a
+/// sensor at (0, 0, 1).
+fn scene_points(n: usize, phase: f32) -> Vec<Point3<f32>> {
+    (0..n)
+        .map(|i| {
+            let t = i as f32 / n as f32;
+            if i % 2 == 0 {
+                Point3::new(2.0, -1.0 + 2.0 * t, 0.2 + phase + t)
+            } else {
+                Point3::new(0.5 + 1.5 * t, -0.5 + t + phase, 0.0)
+            }
+        })
+        .collect()
+}
+
+// ---- .bt / .ot ----------------------------------------------------------------------
+
+fn small_tree(voxels: u16, with_misses: bool) -> OcTree {
+    let mut tree = OcTree::new(0.1).unwrap();
+    for i in 0..voxels {
+        let k = Key::new(0x8000 + i % 4, 0x8000 + (i / 4) % 4, 0x8000 + i / 16);
+        tree.update_node(k, Update::Hit, false);
+        if with_misses && i % 3 == 0 {
+            let far = Key::new(0x7ff0 - i, 0x8000, 0x8000 + i);
+            tree.update_node(far, Update::Miss, false);
+        }
+    }
+    tree
+}
+
+fn trees(s: &mut Seeds) {
+    let mut cases = vec![
+        ("empty", OcTree::new(0.05).unwrap()),
+        ("one-voxel", small_tree(1, false)),
+        ("block", small_tree(16, false)),
+        ("mixed", small_tree(40, true)),
+    ];
+    // A pruned block: 8 equal siblings merge into their parent.
+    let mut pruned = OcTree::new(0.2).unwrap();
+    for i in 0..8u16 {
+        pruned.update_node(
+            Key::new(0x8000 | (i & 1), 0x8000 | ((i >> 1) & 1), 0x8000 | (i >> 2)),
+            Update::Hit,
+            false,
+        );
+    }
+    cases.push(("pruned", pruned));
+    for (name, mut tree) in cases {
+        let mut ot = Vec::new();
+        write_ot(&tree, &mut ot).unwrap();
+        s.put("ot", &format!("{name}.ot"), &ot);
+        let mut bt = Vec::new();
+        write_bt(&mut tree, &mut bt).unwrap();
+        s.put("bt", &format!("{name}.bt"), &bt);
+    }
+}
+
+// ---- PCD and LZF ---------------------------------------------------------------------
+
+/// liblzf's format with literal runs and distance-1 back references (byte runs), enough to
+/// exercise both kinds of control byte.
+fn lzf_compress(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut lit: Vec<u8> = Vec::new();
+    let flush = |lit: &mut Vec<u8>, out: &mut Vec<u8>| {
+        for chunk in lit.chunks(32) {
+            out.push(chunk.len() as u8 - 1);
+            out.extend_from_slice(chunk);
+        }
+        lit.clear();
+    };
+    let mut i = 0;
+    while i < data.len() {
+        let mut run = 0;
+        while i > 0 && i + run < data.len() && data[i + run] == data[i - 1] && run < 264 {
+            run += 1;
+        }
+        if run >= 3 {
+            flush(&mut lit, &mut out);
+            let len = run - 2;
+            if len < 7 {
+                out.push((len as u8) << 5);
+            } else {
+                out.push(7 << 5);
+                out.push((len - 7) as u8);
+            }
+            out.push(0); // distance 1
+            i += run;
+        } else {
+            lit.push(data[i]);
+            i += 1;
+        }
+    }
+    flush(&mut lit, &mut out);
+    out
+}
+
+fn pcd_header(fields: &str, size: &str, ty: &str, count: &str, n: usize, encoding: &str) -> String {
+    format!(
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {fields}\nSIZE {size}\n\
+         TYPE {ty}\nCOUNT {count}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 1 1 0 0 0\nPOINTS {n}\n\
+         DATA {encoding}\n"
+    )
+}
+
+fn pcd(s: &mut Seeds) {
+    let pts = scene_points(12, 0.0);
+    // ascii, with a NaN point and an extra field
+    let mut a = pcd_header(
+        "x y z intensity",
+        "4 4 4 4",
+        "F F F F",
+        "1 1 1 1",
+        pts.len() + 1,
+        "ascii",
+    );
+    for (i, p) in pts.iter().enumerate() {
+        a.push_str(&format!("{} {} {} {}\n", p.x, p.y, p.z, i));
+    }
+    a.push_str("nan nan nan 0\n");
+    s.put("pcd", "ascii.pcd", a.as_bytes());
+    // binary, f32 xyz + u8 rgb padding
+    let mut b = pcd_header(
+        "x y z rgb",
+        "4 4 4 4",
+        "F F F U",
+        "1 1 1 1",
+        pts.len(),
+        "binary",
+    )
+    .into_bytes();
+    for (i, p) in pts.iter().enumerate() {
+        for c in [p.x, p.y, p.z] {
+            b.extend_from_slice(&c.to_le_bytes());
+        }
+        b.extend_from_slice(&(i as u32 * 0x010203).to_le_bytes());
+    }
+    s.put("pcd", "binary.pcd", &b);
+    // binary, f64 xyz
+    let mut d = pcd_header("x y z", "8 8 8", "F F F", "1 1 1", pts.len(), "binary").into_bytes();
+    for p in &pts {
+        for c in [p.x, p.y, p.z] {
+            d.extend_from_slice(&f64::from(c).to_le_bytes());
+        }
+    }
+    s.put("pcd", "binary-f64.pcd", &d);
+    // binary_compressed: field-major, LZF
+    let mut raw = Vec::new();
+    for k in 0..3 {
+        for p in &pts {
+            raw.extend_from_slice(&p[k].to_le_bytes());
+        }
+    }
+    for _ in &pts {
+        raw.extend_from_slice(&[0, 0, 0, 0]); // an all-zero padding field: compresses as a run
+    }
+    let comp = lzf_compress(&raw);
+    let mut c = pcd_header(
+        "x y z _",
+        "4 4 4 4",
+        "F F F U",
+        "1 1 1 1",
+        pts.len(),
+        "binary_compressed",
+    )
+    .into_bytes();
+    c.extend_from_slice(&(comp.len() as u32).to_le_bytes());
+    c.extend_from_slice(&(raw.len() as u32).to_le_bytes());
+    c.extend_from_slice(&comp);
+    s.put("pcd", "binary-compressed.pcd", &c);
+    // the LZF target: u16 output length, then the stream
+    for (name, data) in [
+        ("runs", &raw[..]),
+        (
+            "text",
+            &b"abcabcabcaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaxyz"[..],
+        ),
+    ] {
+        let comp = lzf_compress(data);
+        let mut l = (data.len() as u16).to_le_bytes().to_vec();
+        l.extend_from_slice(&comp);
+        s.put("lzf", &format!("{name}.lzf"), &l);
+    }
+}
+
+// ---- PLY -----------------------------------------------------------------------------
+
+fn ply(s: &mut Seeds) {
+    let pts = scene_points(10, 0.5);
+    let mut a = Vec::new();
+    write_ply(&mut a, &pts, PlyEncoding::Ascii).unwrap();
+    s.put("ply", "ascii.ply", &a);
+    let mut b = Vec::new();
+    write_ply(&mut b, &pts, PlyEncoding::BinaryLittleEndian).unwrap();
+    s.put("ply", "binary-le.ply", &b);
+    // doubles, extra properties and a face list after the vertices
+    let mut be = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment hand-made\nelement vertex {}\n\
+         property uchar red\nproperty double x\nproperty double y\nproperty double z\n\
+         property short s\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n",
+        pts.len()
+    )
+    .into_bytes();
+    for (i, p) in pts.iter().enumerate() {
+        be.push(i as u8);
+        for c in [p.x, p.y, p.z] {
+            be.extend_from_slice(&f64::from(c).to_le_bytes());
+        }
+        be.extend_from_slice(&(i as i16).to_le_bytes());
+    }
+    be.push(3);
+    for v in [0i32, 1, 2] {
+        be.extend_from_slice(&v.to_le_bytes());
+    }
+    s.put("ply", "binary-le-doubles.ply", &be);
+    // big endian is refused with a clear error: one seed keeps that path covered
+    s.put(
+        "ply",
+        "binary-be.ply",
+        b"ply\nformat binary_big_endian 1.0\nelement vertex 0\nend_header\n",
+    );
+    let faces_first =
+        "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n\
+                       element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                       end_header\n3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n";
+    s.put("ply", "faces-first.ply", faces_first.as_bytes());
+}
+
+// ---- VTK and the trajectory CSV -------------------------------------------------------
+
+fn vtk(s: &mut Seeds) {
+    let pts = scene_points(9, 0.1);
+    let mut v = String::from("# vtk DataFile Version 3.0\nscan\nASCII\nDATASET POLYDATA\n");
+    v.push_str(&format!("POINTS {} float\n", pts.len()));
+    for (i, p) in pts.iter().enumerate() {
+        // three points per line, then one per line
+        let sep = if i < 6 && i % 3 != 2 { " " } else { "\n" };
+        v.push_str(&format!("{} {} {}{sep}", p.x, p.y, p.z));
+    }
+    v.push_str(&format!("VERTICES {} {}\n", pts.len(), 2 * pts.len()));
+    for i in 0..pts.len() {
+        v.push_str(&format!("1 {i}\n"));
+    }
+    s.put("vtk", "polydata.vtk", v.as_bytes());
+    let grid =
+        "# vtk DataFile Version 2.0\ngrid\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 2 double\n\
+                1.5 2.5 -0.5\n1e-3 2E2 3\nCELLS 0 0\n";
+    s.put("vtk", "grid.vtk", grid.as_bytes());
+    let csv = "header.stamp.sec,header.stamp.nanosec,pose.pose.position.x,pose.pose.position.y,\
+               pose.pose.position.z,pose.pose.orientation.x,pose.pose.orientation.y,\
+               pose.pose.orientation.z,pose.pose.orientation.w\n\
+               1700000000,5000,1.0,2.0,0.5,0,0,0,1\n1700000001,999999999,1.5,2.0,0.5,0,0,0.7071068,0.7071068\n";
+    s.put("vtk", "trajectory.csv", csv.as_bytes());
+    s.put("vtk", "scan-name.txt", b"scan_1700000000_000005000.vtk");
+}
+
+// ---- .graph and .frames --------------------------------------------------------------
+
+fn frames_of(n: usize) -> Vec<Frame> {
+    (0..n)
+        .map(|i| {
+            Frame::new(
+                Point3::new(0.1 * i as f32, 0.0, 1.0),
+                scene_points(6 + i, i as f32 * 0.1),
+            )
+        })
+        .collect()
+}
+
+fn graph_and_frames(s: &mut Seeds) {
+    for n in [0usize, 1, 3] {
+        let frames = frames_of(n);
+        let mut g = Vec::new();
+        write_graph(&mut g, &graph_from_frames(&frames)).unwrap();
+        s.put("graph", &format!("{n}-nodes.graph"), &g);
+        let mut f = Vec::new();
+        write_frames(&mut f, &frames).unwrap();
+        s.put("frames", &format!("{n}-frames.frames"), &f);
+    }
+}
+
+// ---- text, CARMEN, TUM ---------------------------------------------------------------
+
+fn text(s: &mut Seeds) {
+    let mut list = String::from("# x y z\n");
+    for p in scene_points(8, 0.0) {
+        list.push_str(&format!("{} {} {}\n", p.x, p.y, p.z));
+    }
+    list.push_str("nan inf -inf\n1 2 3");
+    s.put("text", "points.txt", list.as_bytes());
+    let log =
+        "NODE 0 0 1 0 0 0\n1 0 0\n0 1 0\n 9 9 9\nNODE 1.5 0 1 0.1 -0.2 1.5707963\n2 0 0\n\n# end\n";
+    s.put("text", "nodes.log", log.as_bytes());
+    let origin = "origin 0 0 1\n1 1 1\n2 2 2\norigin 1 0 1\n3 3 3\n";
+    s.put("text", "origin.txt", origin.as_bytes());
+}
+
+fn carmen(s: &mut Seeds) {
+    let flaser = "# CARMEN log\nPARAM robot_front_laser_max 50.0 nohost 0\n\
+                  PARAM laser_front_laser_resolution 1.0 nohost 0\n\
+                  FLASER 5 1.0 2.0 81.9 0.5 3.0 1.0 2.0 0.1 1.0 2.0 0.1 1000.5 host 1000.6\n\
+                  ODOM 1.0 2.0 0.1 0 0 0 1000.7 host 1000.7\n";
+    s.put("carmen", "flaser.log", flaser.as_bytes());
+    let robot = "ROBOTLASER1 0 -1.5707963 3.1415927 0.7853982 81.9 0.01 0 5 1.0 2.0 nan 0.5 3.0 \
+                 0 0.2 0.3 0.05 0.1 0.2 0.05 0 0 0 0 0 1000.5 host 1000.6\n\
+                 ROBOTLASER1 0 -1.0 2.0 0.5 10.0 0.01 0 5 1 2 3 4 5 2 7 8 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n";
+    s.put("carmen", "robotlaser.log", robot.as_bytes());
+}
+
+fn tum(s: &mut Seeds) {
+    let assoc = "# timestamp depth tx ty tz qx qy qz qw\n\
+                 1305031102.175304 depth/1305031102.160407.png 1.3405 0.6266 1.6575 0.6574 0.6126 -0.2949 -0.3248\n\
+                 1305031102.211214 depth/1305031102.226738.png 1.3303 0.6256 1.6464 0.6579 0.6161 -0.2932 -0.3189\n";
+    s.put("tum_assoc", "associations.txt", assoc.as_bytes());
+    s.put(
+        "tum_assoc",
+        "bad-quaternion.txt",
+        b"1 d.png 0 0 0 0 0 0 0\n",
+    );
+    for (name, w, h) in [("depth-8x6", 8u32, 6u32), ("depth-3x1", 3, 1)] {
+        let mut png_bytes = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut png_bytes, w, h);
+            enc.set_color(png::ColorType::Grayscale);
+            enc.set_depth(png::BitDepth::Sixteen);
+            let mut wr = enc.write_header().unwrap();
+            let mut data = Vec::new();
+            for i in 0..w * h {
+                let depth: u16 = if i % 5 == 0 { 0 } else { 5000 + 37 * i as u16 };
+                data.extend_from_slice(&depth.to_be_bytes());
+            }
+            wr.write_image_data(&data).unwrap();
+        }
+        s.put("tum_png", &format!("{name}.png"), &png_bytes);
+    }
+}
+
+// ---- MCAP ----------------------------------------------------------------------------
+
+/// ROS 1 (little-endian, packed) or CDR (header, aligned) serializer.
+struct Ser {
+    buf: Vec<u8>,
+    cdr: bool,
+    be: bool,
+}
+
+impl Ser {
+    fn new(cdr: bool, be: bool) -> Ser {
+        let buf = if cdr {
+            vec![0, if be { 0 } else { 1 }, 0, 0]
+        } else {
+            Vec::new()
+        };
+        Ser { buf, cdr, be }
+    }
+    fn align(&mut self, n: usize) {
+        if self.cdr {
+            while (self.buf.len() - 4) % n != 0 {
+                self.buf.push(0);
+            }
+        }
+    }
+    fn u8(&mut self, v: u8) {
+        self.buf.push(v);
+    }
+    fn u32(&mut self, v: u32) {
+        self.align(4);
+        let b = if self.be {
+            v.to_be_bytes()
+        } else {
+            v.to_le_bytes()
+        };
+        self.buf.extend_from_slice(&b);
+    }
+    fn f64(&mut self, v: f64) {
+        self.align(8);
+        let b = if self.be {
+            v.to_be_bytes()
+        } else {
+            v.to_le_bytes()
+        };
+        self.buf.extend_from_slice(&b);
+    }
+    fn string(&mut self, s: &str) {
+        if self.cdr {
+            self.u32(s.len() as u32 + 1);
+            self.buf.extend_from_slice(s.as_bytes());
+            self.buf.push(0);
+        } else {
+            self.u32(s.len() as u32);
+            self.buf.extend_from_slice(s.as_bytes());
+        }
+    }
+    fn header(&mut self, sec: u32, nsec: u32, frame: &str) {
+        if !self.cdr {
+            self.u32(7); // seq
+        }
+        self.u32(sec);
+        self.u32(nsec);
+        self.string(frame);
+    }
+}
+
+/// A PointCloud2 of `pts` with f32 x, y, z and a trailing intensity, 16-byte points.
+fn cloud_message(cdr: bool, be: bool, frame: &str, pts: &[Point3<f32>]) -> Vec<u8> {
+    let mut m = Ser::new(cdr, be);
+    m.header(100, 250_000_000, frame);
+    m.u32(1);
+    m.u32(pts.len() as u32);
+    m.u32(4);
+    for (i, name) in ["x", "y", "z", "intensity"].iter().enumerate() {
+        m.string(name);
+        m.u32(4 * i as u32);
+        m.u8(datatype::FLOAT32);
+        m.u32(1);
+    }
+    m.u8(0); // points little-endian
+    m.u32(16);
+    m.u32(16 * pts.len() as u32);
+    m.u32(16 * pts.len() as u32);
+    for p in pts {
+        for c in [p.x, p.y, p.z, 1.0] {
+            m.buf.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    m.u8(1);
+    m.buf
+}
+
+fn tf_message(cdr: bool, be: bool, edges: &[(&str, &str, [f64; 3], [f64; 4])]) -> Vec<u8> {
+    let mut m = Ser::new(cdr, be);
+    m.u32(edges.len() as u32);
+    for (parent, child, t, q) in edges {
+        m.header(0, 0, parent);
+        m.string(child);
+        for v in t.iter().chain(q) {
+            m.f64(*v);
+        }
+    }
+    m.buf
+}
+
+struct Msg {
+    topic: &'static str,
+    schema: &'static str,
+    encoding: &'static str,
+    data: Vec<u8>,
+    log_time: u64,
+}
+
+fn mcap_file(profile: &str, messages: &[Msg], compression: Option<mcap::Compression>) -> Vec<u8> {
+    let mut w = mcap::WriteOptions::new()
+        .profile(profile)
+        .compression(compression)
+        .create(Cursor::new(Vec::new()))
+        .unwrap();
+    let mut channels: BTreeMap<&str, u16> = BTreeMap::new();
+    for (i, m) in messages.iter().enumerate() {
+        let id = match channels.get(m.topic) {
+            Some(&id) => id,
+            None => {
+                let enc = if m.encoding == "ros1" {
+                    "ros1msg"
+                } else {
+                    "ros2msg"
+                };
+                let sid = w.add_schema(m.schema, enc, b"").unwrap();
+                let id = w
+                    .add_channel(sid, m.topic, m.encoding, &BTreeMap::new())
+                    .unwrap();
+                channels.insert(m.topic, id);
+                id
+            }
+        };
+        let header = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: i as u32,
+            log_time: m.log_time,
+            publish_time: m.log_time,
+        };
+        w.write_to_known_channel(&header, &m.data).unwrap();
+    }
+    w.finish().unwrap();
+    w.into_inner().into_inner()
+}
+
+fn mcap(s: &mut Seeds) {
+    let pts = scene_points(4, 0.0);
+    let q90 = [
+        0.0,
+        0.0,
+        std::f64::consts::FRAC_1_SQRT_2,
+        std::f64::consts::FRAC_1_SQRT_2,
+    ];
+    let edges = [
+        ("map", "base", [1.0, 2.0, 0.0], q90),
+        ("base", "lidar", [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0]),
+    ];
+    for (name, cdr, be) in [
+        ("ros1", false, false),
+        ("cdr-le", true, false),
+        ("cdr-be", true, true),
+    ] {
+        let cloud = cloud_message(cdr, be, "lidar", &pts);
+        let tf = tf_message(cdr, be, &edges);
+        let mut c = vec![u8::from(cdr)];
+        c.extend_from_slice(&cloud);
+        s.put("mcap_cloud", &format!("{name}.msg"), &c);
+        let mut t = vec![u8::from(cdr)];
+        t.extend_from_slice(&tf);
+        s.put("mcap_tf", &format!("{name}.msg"), &t);
+    }
+    let ros2 = |be: bool| {
+        vec![
+            Msg {
+                topic: "/tf_static",
+                schema: "tf2_msgs/msg/TFMessage",
+                encoding: "cdr",
+                data: tf_message(true, be, &edges[..1]),
+                log_time: 10,
+            },
+            Msg {
+                topic: "/tf",
+                schema: "tf2_msgs/msg/TFMessage",
+                encoding: "cdr",
+                data: tf_message(true, be, &edges[1..]),
+                log_time: 20,
+            },
+            Msg {
+                topic: "/cloud",
+                schema: "sensor_msgs/msg/PointCloud2",
+                encoding: "cdr",
+                data: cloud_message(true, be, "lidar", &pts),
+                log_time: 30,
+            },
+            Msg {
+                topic: "/cloud",
+                schema: "sensor_msgs/msg/PointCloud2",
+                encoding: "cdr",
+                data: cloud_message(true, be, "lidar", &pts[..2]),
+                log_time: 40,
+            },
+        ]
+    };
+    s.put(
+        "mcap",
+        "ros2-zstd.mcap",
+        &mcap_file("ros2", &ros2(false), Some(mcap::Compression::Zstd)),
+    );
+    s.put(
+        "mcap",
+        "ros2-be-plain.mcap",
+        &mcap_file("ros2", &ros2(true), None),
+    );
+    let ros1 = vec![
+        Msg {
+            topic: "/tf_static",
+            schema: "tf2_msgs/TFMessage",
+            encoding: "ros1",
+            data: tf_message(false, false, &edges),
+            log_time: 5,
+        },
+        Msg {
+            topic: "/points",
+            schema: "sensor_msgs/PointCloud2",
+            encoding: "ros1",
+            data: cloud_message(false, false, "lidar", &pts),
+            log_time: 6,
+        },
+        Msg {
+            topic: "/imu",
+            schema: "sensor_msgs/Imu",
+            encoding: "ros1",
+            data: vec![1, 2, 3],
+            log_time: 7,
+        },
+    ];
+    s.put("mcap", "ros1-plain.mcap", &mcap_file("ros1", &ros1, None));
+}
+
+// ---- gz / bz2 ------------------------------------------------------------------------
+
+fn source(s: &mut Seeds) {
+    let text = b"1 2 3\n4 5 6\n# comment\n7 8 9\n";
+    let mut gz = flate2::write::GzEncoder::new(vec![0u8], flate2::Compression::default());
+    gz.write_all(text).unwrap();
+    let gz = gz.finish().unwrap();
+    s.put("source", "points.txt.gz", &gz);
+    // two gzip members back to back
+    let mut two = gz.clone();
+    two.extend_from_slice(&gz[1..]);
+    s.put("source", "two-members.txt.gz", &two);
+    let mut bz = bzip2::write::BzEncoder::new(vec![1u8], bzip2::Compression::default());
+    bz.write_all(text).unwrap();
+    s.put("source", "points.txt.bz2", &bz.finish().unwrap());
+}
+
+// ---- octree operation sequences -------------------------------------------------------
+
+fn octree_ops(s: &mut Seeds) {
+    // `arbitrary` reads any bytes; a few deterministic pseudo-random strings of different
+    // lengths start the campaign with sequences of a few to a few dozen operations.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for (i, len) in [16usize, 64, 256, 1024].into_iter().enumerate() {
+        let bytes: Vec<u8> = (0..len)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 24) as u8
+            })
+            .collect();
+        s.put("octree_ops", &format!("random-{i}.bin"), &bytes);
+    }
+}

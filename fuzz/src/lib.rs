@@ -1,0 +1,38 @@
+//! Helpers shared by the fuzz targets.
+//!
+//! Most readers of `octoquant-formats` take a path (the format and the `.gz`/`.bz2` wrapper
+//! come from the name), so the targets that fuzz them write each input to a file and call the
+//! real entry point on it: no test-only API, and the same code path the CLI runs. The files
+//! live in a per-process directory on a RAM disk: `$OCTOQUANT_FUZZ_TMP` if set, else
+//! `/dev/shm` when it exists, else the system temporary directory.
+#![deny(missing_docs)]
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+fn scratch_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let base = std::env::var_os("OCTOQUANT_FUZZ_TMP")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                let shm = Path::new("/dev/shm");
+                if shm.is_dir() {
+                    shm.to_path_buf()
+                } else {
+                    std::env::temp_dir()
+                }
+            });
+        let dir = base.join(format!("octoquant-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("cannot create the fuzz scratch directory");
+        dir
+    })
+}
+
+/// Write `data` to a scratch file called `name` (whose extension selects the format) and
+/// run `f` on its path. The file is overwritten by the next input with the same name.
+pub fn with_file<T>(name: &str, data: &[u8], f: impl FnOnce(&Path) -> T) -> T {
+    let path = scratch_dir().join(name);
+    std::fs::write(&path, data).expect("cannot write the fuzz scratch file");
+    f(&path)
+}

@@ -1,0 +1,38 @@
+# Sourced by the fuzz scripts: the build flags, where the binaries land, and each target's
+# dictionary. Every script builds and runs with the same flags so nothing rebuilds between
+# them.
+#
+# No sanitizer: octoquant-octree and octoquant-formats forbid unsafe code, so AddressSanitizer
+# would find nothing the Rust checks do not, at half the speed. Debug assertions stay on so
+# integer overflow panics (a release build would wrap silently).
+FUZZ_BUILD_FLAGS=(--sanitizer none --debug-assertions)
+FUZZ_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+FUZZ_TRIPLE="$(rustc +nightly -vV | sed -n 's/^host: //p')"
+FUZZ_BIN_DIR="$FUZZ_DIR/target/$FUZZ_TRIPLE/release"
+
+# The parsers most likely to break first: the campaign order.
+FUZZ_TARGETS=(bt ot pcd ply mcap source mcap_cloud mcap_tf lzf tum_png vtk graph text frames
+  carmen tum_assoc octree_ops)
+
+# The dictionary of a target (empty: none).
+fuzz_dict() {
+  case "$1" in
+    bt | ot) echo octree ;;
+    mcap_cloud | mcap_tf) echo ros_msg ;;
+    tum_png) echo png ;;
+    tum_assoc) echo tum ;;
+    source) echo compression ;;
+    octree_ops) echo "" ;;
+    *) echo "$1" ;;
+  esac
+}
+
+# The libFuzzer options every run uses.
+FUZZ_LIMITS=(-rss_limit_mb=1024 -timeout=5 -max_len=8192 -print_final_stats=1)
+
+# A per-run scratch directory on a RAM disk for the targets that read files.
+fuzz_scratch() {
+  local base=/dev/shm
+  [ -d "$base" ] && [ -w "$base" ] || base="${TMPDIR:-/tmp}"
+  mktemp -d "$base/octoquant-fuzz.XXXXXX"
+}
