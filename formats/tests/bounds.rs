@@ -643,7 +643,11 @@ fn mcap_records_claiming_2_pow_40_bytes() {
     inner.extend_from_slice(&[0u8; 32]);
     let mut m = cloud_file(&[]);
     m.chunk("", inner.len() as u64, &inner);
-    refused(&scratch("record_in_chunk.mcap", &m.finish()), 2, "MCAP");
+    refused(
+        &scratch("record_in_chunk.mcap", &m.finish()),
+        2,
+        "runs past the chunk's end",
+    );
     // at the top level
     let mut m = cloud_file(&[]);
     m.0.push(0x05);

@@ -528,7 +528,8 @@ mod tests {
         f.extend_from_slice(&(1u64 << 41).to_le_bytes());
         f.extend_from_slice(&chunk);
         let e = topics_of(path, &f).unwrap_err().to_string();
-        assert!(e.contains("the size field is damaged"), "{e}");
+        // refused before any allocation: by the decompression limit, or as a damaged size
+        assert!(e.contains("damaged") && e.contains("chunk"), "{e}");
 
         // an uncompressed chunk cut short by the end of the file, claiming 2^52 bytes of
         // records: the record length limit it feeds stays within the file (found by the fuzz
