@@ -10,7 +10,7 @@ use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
 use octoquant_octree::validate::check_well_formed;
-use octoquant_octree::{Key, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{InnerNodes, Key, OcTree, Update, TREE_DEPTH};
 use std::collections::BTreeMap;
 
 /// A voxel key: mostly inside a 16³ block around the centre (so siblings meet and prune),
@@ -152,7 +152,7 @@ fuzz_target!(|input: Input| {
             Op::Update { key, update, lazy } => {
                 let (k, u) = (key.key(), update_of(update));
                 model_update(&tree, &mut model, k, u);
-                tree.update_node(k, u, lazy);
+                tree.update_node(k, u, InnerNodes::from_lazy(lazy));
                 strict &= !lazy;
             }
             Op::UpdateOctant { key, update } => {
@@ -165,12 +165,12 @@ fuzz_target!(|input: Input| {
                         base[2] | (i >> 2),
                     );
                     model_update(&tree, &mut model, k, u);
-                    tree.update_node(k, u, false);
+                    tree.update_node(k, u, InnerNodes::Refresh);
                 }
             }
             Op::Set { key, value, lazy } => {
                 let k = key.key();
-                let r = tree.set_node_value(k, value, lazy);
+                let r = tree.set_node_value(k, value, InnerNodes::from_lazy(lazy));
                 if value.is_nan() {
                     assert!(r.is_err(), "set_node_value accepted NaN");
                 } else {
@@ -262,7 +262,7 @@ fuzz_target!(|input: Input| {
                 model_ok = true;
             }
         }
-        if let Err(e) = check_well_formed(&tree, !strict) {
+        if let Err(e) = check_well_formed(&tree, InnerNodes::from_lazy(!strict)) {
             panic!("after {op:?} (strict {strict}): {e}");
         }
     }

@@ -5,11 +5,12 @@
 use libfuzzer_sys::fuzz_target;
 use octoquant_octree::io::{read_ot, read_tree, write_ot};
 use octoquant_octree::validate::check_well_formed;
+use octoquant_octree::InnerNodes;
 
 fuzz_target!(|data: &[u8]| {
     let _ = read_tree(data);
     let Ok(tree) = read_ot(data) else { return };
-    if let Err(e) = check_well_formed(&tree, true) {
+    if let Err(e) = check_well_formed(&tree, InnerNodes::Defer) {
         panic!("read_ot gave a malformed tree: {e}");
     }
     let mut first = Vec::new();

@@ -12,7 +12,7 @@ use octoquant_formats::graph::{graph_from_frames, write_graph};
 use octoquant_formats::mcap::datatype;
 use octoquant_formats::ply::{write_ply, PlyEncoding};
 use octoquant_octree::io::{write_bt, write_ot};
-use octoquant_octree::{Key, OcTree, Update};
+use octoquant_octree::{InnerNodes, Key, OcTree, Update};
 use std::collections::BTreeMap;
 use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
@@ -247,10 +247,10 @@ fn small_tree(voxels: u16, with_misses: bool) -> OcTree {
     let mut tree = OcTree::new(0.1).unwrap();
     for i in 0..voxels {
         let k = Key::new(0x8000 + i % 4, 0x8000 + (i / 4) % 4, 0x8000 + i / 16);
-        tree.update_node(k, Update::Hit, false);
+        tree.update_node(k, Update::Hit, InnerNodes::Refresh);
         if with_misses && i % 3 == 0 {
             let far = Key::new(0x7ff0 - i, 0x8000, 0x8000 + i);
-            tree.update_node(far, Update::Miss, false);
+            tree.update_node(far, Update::Miss, InnerNodes::Refresh);
         }
     }
     tree
@@ -269,7 +269,7 @@ fn trees(s: &mut Seeds) {
         pruned.update_node(
             Key::new(0x8000 | (i & 1), 0x8000 | ((i >> 1) & 1), 0x8000 | (i >> 2)),
             Update::Hit,
-            false,
+            InnerNodes::Refresh,
         );
     }
     cases.push(("pruned", pruned));
