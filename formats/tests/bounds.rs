@@ -9,97 +9,15 @@
 //! `mcap/tf.rs`). The bombs are built in the test by repeating one small compressed member,
 //! never held whole in memory or committed.
 
+use octoquant_alloc_count::{measure, serial, Cost, CountingAlloc};
 use octoquant_formats::mcap::McapOptions;
 use octoquant_formats::source::{with_decompression_limit, DecompressionLimit};
 use octoquant_formats::{read_frames, FormatError, ReadOptions};
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
-use std::sync::{Mutex, MutexGuard};
-
-struct Counting;
-
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-static TOTAL: AtomicU64 = AtomicU64::new(0);
-static CALLS: AtomicU64 = AtomicU64::new(0);
-
-fn grew(bytes: usize) {
-    let live = LIVE.fetch_add(bytes, Relaxed) + bytes;
-    PEAK.fetch_max(live, Relaxed);
-    TOTAL.fetch_add(bytes as u64, Relaxed);
-    CALLS.fetch_add(1, Relaxed);
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator; only counters are added.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let p = System.alloc(layout);
-        if !p.is_null() {
-            grew(layout.size());
-        }
-        p
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        let p = System.alloc_zeroed(layout);
-        if !p.is_null() {
-            grew(layout.size());
-        }
-        p
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout);
-        LIVE.fetch_sub(layout.size(), Relaxed);
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let p = System.realloc(ptr, layout, new_size);
-        if !p.is_null() {
-            // counted as the new block coming before the old one goes (the worst case)
-            grew(new_size);
-            LIVE.fetch_sub(layout.size(), Relaxed);
-        }
-        p
-    }
-}
 
 #[global_allocator]
-static ALLOC: Counting = Counting;
-
-/// One test at a time: the counters are process-wide, so a test building its input on
-/// another thread would show in a measurement.
-static SERIAL: Mutex<()> = Mutex::new(());
-
-fn serial() -> MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// What one call cost.
-#[derive(Debug)]
-struct Cost {
-    /// Most bytes live at once beyond those live before the call.
-    peak: usize,
-    /// Bytes allocated in all (a measure of work: re-reading or quadratic copying shows).
-    total: u64,
-    /// Allocation calls.
-    calls: u64,
-}
-
-fn measure<T>(f: impl FnOnce() -> T) -> (T, Cost) {
-    let base = LIVE.load(Relaxed);
-    PEAK.store(base, Relaxed);
-    let (total0, calls0) = (TOTAL.load(Relaxed), CALLS.load(Relaxed));
-    let out = f();
-    let cost = Cost {
-        peak: PEAK.load(Relaxed).saturating_sub(base),
-        total: TOTAL.load(Relaxed) - total0,
-        calls: CALLS.load(Relaxed) - calls0,
-    };
-    (out, cost)
-}
+static ALLOC: CountingAlloc = CountingAlloc;
 
 /// Fixed allowance for buffers that do not depend on the input (the 64 KiB read buffers, a
 /// BufReader, error strings, the decoders' state: bzip2 alone takes about 3.6 MiB... when

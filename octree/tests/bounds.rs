@@ -4,67 +4,13 @@
 //! allocator, work by a counting `Read` wrapper (bytes and calls pulled from the input) and
 //! by the bytes allocated in all.
 
+use octoquant_alloc_count::{measure, serial, CountingAlloc};
 use octoquant_octree::io::{read_bt, read_ot, read_tree};
 use octoquant_octree::OcTree;
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Read;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
-use std::sync::{Mutex, MutexGuard};
-
-struct Counting;
-
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-static TOTAL: AtomicU64 = AtomicU64::new(0);
-
-fn grew(bytes: usize) {
-    let live = LIVE.fetch_add(bytes, Relaxed) + bytes;
-    PEAK.fetch_max(live, Relaxed);
-    TOTAL.fetch_add(bytes as u64, Relaxed);
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator; only counters are added.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let p = System.alloc(layout);
-        if !p.is_null() {
-            grew(layout.size());
-        }
-        p
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        let p = System.alloc_zeroed(layout);
-        if !p.is_null() {
-            grew(layout.size());
-        }
-        p
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout);
-        LIVE.fetch_sub(layout.size(), Relaxed);
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let p = System.realloc(ptr, layout, new_size);
-        if !p.is_null() {
-            grew(new_size);
-            LIVE.fetch_sub(layout.size(), Relaxed);
-        }
-        p
-    }
-}
 
 #[global_allocator]
-static ALLOC: Counting = Counting;
-
-/// One test at a time: the counters are process-wide.
-static SERIAL: Mutex<()> = Mutex::new(());
-
-fn serial() -> MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
+static ALLOC: CountingAlloc = CountingAlloc;
 
 /// A reader over bytes that counts what is pulled from it.
 struct CountingRead<'a> {
@@ -105,13 +51,10 @@ fn run(read: Reader, input: &[u8]) -> (Result<OcTree, String>, Cost) {
         bytes: 0,
         calls: 0,
     };
-    let base = LIVE.load(Relaxed);
-    PEAK.store(base, Relaxed);
-    let total0 = TOTAL.load(Relaxed);
-    let out = read(&mut r).map_err(|e| e.to_string());
+    let (out, alloc) = measure(|| read(&mut r).map_err(|e| e.to_string()));
     let cost = Cost {
-        peak: PEAK.load(Relaxed).saturating_sub(base),
-        total: TOTAL.load(Relaxed) - total0,
+        peak: alloc.peak,
+        total: alloc.total,
         bytes: r.bytes,
         calls: r.calls,
     };
