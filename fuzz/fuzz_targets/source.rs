@@ -1,8 +1,11 @@
 //! The `.gz` / `.bz2` wrappers of every input (`source::read_all`, and the streaming line
 //! reader through `read_text`): the first byte picks gzip or bzip2, the rest is the file.
+//! Under a decompression limit with a 1 MiB floor (the default floor is 64 MiB): the same
+//! code paths, including the bomb error, at a cost per input that lets the campaign reach its
+//! execution count; the limit's arithmetic is the same for any floor.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use octoquant_formats::source::read_all;
+use octoquant_formats::source::{read_all, with_decompression_limit, DecompressionLimit};
 use octoquant_formats::text::read_text;
 use octoquant_fuzz::with_file;
 
@@ -15,8 +18,14 @@ fuzz_target!(|data: &[u8]| {
     } else {
         "input.txt.bz2"
     };
-    with_file(name, file, |path| {
-        let _ = read_all(path);
-        let _ = read_text(path);
+    let limit = DecompressionLimit {
+        min_bytes: 1 << 20,
+        ..DecompressionLimit::DEFAULT
+    };
+    with_decompression_limit(limit, || {
+        with_file(name, file, |path| {
+            let _ = read_all(path);
+            let _ = read_text(path);
+        })
     });
 });
