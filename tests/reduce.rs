@@ -4,7 +4,7 @@ use crate::common;
 use nalgebra::Point3;
 use octoquant::formats::ply::{read_ply, write_ply, PlyEncoding};
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_density::{reduce_points_counted, DensityGrid, GridSpec};
+use octoquant_density::{reduce, reduce_points_counted, CentreDistance, DensityGrid, GridSpec};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::process::Command;
@@ -278,6 +278,55 @@ fn issue_5_cli_reduce_writes_ply_and_counts() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("cell size"));
     assert!(!bad.exists());
+}
+
+/// `reduce --distance`: the paper's Euclidean centre distance by default, cell units on
+/// request; on unequal cells of a real scan they keep different points, and each equals the
+/// library's grid with that metric.
+#[test]
+fn issue_27_cli_reduce_centre_distance() {
+    let Some(path) = common::data_file(SCAN_DAT) else {
+        return;
+    };
+    let dir = common::scratch("issue_27_cli_reduce_distance");
+    let points: Vec<[f64; 3]> = load(&path).iter().map(f64s).collect();
+    let cell = [0.1, 0.1, 0.05];
+    let mut outputs = Vec::new();
+    for (flag, metric) in [
+        (None, CentreDistance::Euclidean),
+        (Some("cell-units"), CentreDistance::CellUnits),
+    ] {
+        let out = dir.join(format!("{metric:?}.ply"));
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_octoquant"));
+        cmd.args([
+            "reduce",
+            path.to_str().unwrap(),
+            "--cell",
+            "0.1,0.1,0.05",
+            "-o",
+        ])
+        .arg(&out);
+        if let Some(f) = flag {
+            cmd.args(["--distance", f]);
+        }
+        let o = cmd.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let spec = GridSpec::with_sizes(cell)
+            .unwrap()
+            .with_centre_distance(metric);
+        let (want, _) = reduce(points.iter().copied(), spec);
+        let got: Vec<[f64; 3]> = read_ply(&out).unwrap().iter().map(f64s).collect();
+        let want: Vec<[f64; 3]> = want
+            .iter()
+            .map(|p| p.map(|v| f64::from(v as f32)))
+            .collect();
+        assert_eq!(got, want, "{metric:?}");
+        outputs.push(got);
+    }
+    assert_ne!(
+        outputs[0], outputs[1],
+        "the two metrics kept the same points"
+    );
 }
 
 /// PLY in both encodings through the reducer: same result as from the PCD it came from.

@@ -2,7 +2,10 @@
 //! non-homogenous multidimensional datasets"): dense regions are thinned to about one point per
 //! grid cell, sparse regions keep their points, and no point is invented.
 //!
-//! * [`GridSpec`]: per-axis cell sizes and offsets; cell index `floor((x - offset) / size)`.
+//! * [`GridSpec`]: per-axis cell sizes and offsets; cell index `floor((x - offset) / size)`;
+//!   distances to a cell's centre are Euclidean in the input's units, the paper's Eq. 3
+//!   ([`CentreDistance::Euclidean`]), or optionally in cell units per axis
+//!   ([`CentreDistance::CellUnits`]; the same order when all sizes are equal).
 //! * [`DensityGrid`]: the store. [`DensityGrid::insert`] and [`DensityGrid::remove`] are the
 //!   input stage, [`DensityGrid::extend`] (or [`DensityGrid::extend_rewalk`]) its batch form;
 //!   [`Selection`] picks each cell's point (closest to the centre, closest to the mean, or a
@@ -26,6 +29,13 @@
 //!   point of any of the 3^D - 1 neighbouring cells that lies closer than half a cell size on
 //!   every axis is skipped for this cycle. Cells created or changed after the cycle began are
 //!   left to the next cycle.
+//!
+//! **The guarantee** of a read cycle over a grid that did not change during it, exactly: no two emitted points lie within half
+//! a cell of each other on every axis at once (`|a_k - b_k| < size_k / 2` for all `k`, the
+//! paper's Eq. 4). It is not a minimum spacing on each axis: two emitted points may be close
+//! on some axes as long as they are at least half a cell apart on one. Points of cells that
+//! are not neighbours are at least a full cell apart on some axis, so only the 3^D - 1
+//! neighbours need checking.
 //!
 //! Files: `spec.rs` the grid geometry ([`GridSpec`]), `selection.rs` the selection rules,
 //! `grid/` the store and its input stage (one file per concern, see its `mod.rs`), `output.rs`
@@ -64,7 +74,7 @@ pub use output::{CycleCounts, OutputCycle};
 pub use reduce::{reduce, reduce_points, reduce_points_counted, ReduceCounts};
 pub use selection::{ScoreFn, Selection};
 pub use shared::SharedDensityGrid;
-pub use spec::{CellIndex, GridSpec, MAX_CELL_INDEX};
+pub use spec::{CellIndex, CentreDistance, GridSpec, MAX_CELL_INDEX};
 
 #[cfg(test)]
 mod tests;

@@ -12,11 +12,30 @@ pub type CellIndex<const D: usize> = [i64; D];
 /// Up to 2^53 every integer is exact in `f64`, so cell centres and neighbour indexes are exact.
 pub const MAX_CELL_INDEX: i64 = 1 << 53;
 
-/// Grid geometry: per-axis cell sizes and offsets.
+/// How the distance from a point to its cell's centre is measured: the criterion that picks a
+/// cell's point ([`crate::Selection::CentreClosest`]) and orders the output stage.
+///
+/// With the same size on every axis both give the same order; they differ only when cell
+/// sizes differ per axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CentreDistance {
+    /// The paper's criterion (its Eq. 3): the Euclidean distance in the input's units (metres),
+    /// over all axes, whatever the cell sizes. The default.
+    #[default]
+    Euclidean,
+    /// Each axis divided by its cell size first (distance in cell units), so that axes of
+    /// different units (metres and seconds, say) weigh alike. A point at a cell's corner is
+    /// then as far from the centre as any other corner point, whatever the cell's shape.
+    CellUnits,
+}
+
+/// Grid geometry: per-axis cell sizes and offsets, and how distances to a cell's centre are
+/// measured.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridSpec<const D: usize> {
     size: [f64; D],
     offset: [f64; D],
+    metric: CentreDistance,
 }
 
 impl<const D: usize> GridSpec<D> {
@@ -37,7 +56,23 @@ impl<const D: usize> GridSpec<D> {
                 return Err(DensityError::InvalidOffset { axis, value });
             }
         }
-        Ok(GridSpec { size, offset })
+        Ok(GridSpec {
+            size,
+            offset,
+            metric: CentreDistance::default(),
+        })
+    }
+
+    /// This grid with `metric` as its centre distance (the default is
+    /// [`CentreDistance::Euclidean`], the paper's).
+    pub fn with_centre_distance(mut self, metric: CentreDistance) -> Self {
+        self.metric = metric;
+        self
+    }
+
+    /// How distances to a cell's centre are measured.
+    pub fn centre_distance_metric(&self) -> CentreDistance {
+        self.metric
     }
 
     /// A grid with per-axis sizes and offset 0 on every axis.
@@ -80,13 +115,31 @@ impl<const D: usize> GridSpec<D> {
         c
     }
 
-    /// Squared distance from `p` to the centre of cell `index`, each axis in cell units.
+    /// Squared distance from `p` to the centre of cell `index`, measured as the grid's
+    /// [`CentreDistance`] says: in the input's units (the default) or each axis in cell units.
     ///
-    /// Scaling by the cell size keeps axes of different units comparable; with equal sizes the
-    /// order is that of the Euclidean distance. 0 at the centre, at most `D / 4` inside the cell.
+    /// 0 at the centre; inside the cell at most [`GridSpec::max_centre_distance`].
     pub fn centre_distance(&self, p: &[f64; D], index: &CellIndex<D>) -> f64 {
         let c = self.cell_centre(index);
-        scaled_distance(p, &c, &self.size)
+        self.distance(p, &c)
+    }
+
+    /// The largest squared centre distance of a point inside its cell (at a corner):
+    /// `sum((size / 2)^2)` in the input's units, `D / 4` in cell units.
+    pub fn max_centre_distance(&self) -> f64 {
+        match self.metric {
+            CentreDistance::Euclidean => self.size.iter().map(|s| 0.25 * s * s).sum(),
+            CentreDistance::CellUnits => D as f64 / 4.0,
+        }
+    }
+
+    /// Squared distance between `a` and `b` under the grid's [`CentreDistance`].
+    #[inline]
+    pub(crate) fn distance(&self, a: &[f64; D], b: &[f64; D]) -> f64 {
+        match self.metric {
+            CentreDistance::Euclidean => squared_distance(a, b),
+            CentreDistance::CellUnits => scaled_distance(a, b, &self.size),
+        }
     }
 
     /// The minimum-difference check: `true` when `a` and `b` are closer than half a cell size
@@ -94,6 +147,17 @@ impl<const D: usize> GridSpec<D> {
     pub fn within_half_cell(&self, a: &[f64; D], b: &[f64; D]) -> bool {
         (0..D).all(|k| (a[k] - b[k]).abs() < 0.5 * self.size[k])
     }
+}
+
+/// Squared Euclidean distance between `a` and `b`.
+#[inline]
+pub(crate) fn squared_distance<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    let mut d = 0.0;
+    for k in 0..D {
+        let t = a[k] - b[k];
+        d += t * t;
+    }
+    d
 }
 
 /// Squared distance between `a` and `b`, each axis divided by `scale`.

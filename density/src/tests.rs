@@ -2,18 +2,79 @@
 //! deletion and read cycles.
 
 use crate::output::for_each_lean_neighbour;
-use crate::{DensityError, DensityGrid, GridSpec, InsertOutcome, Selection};
+use crate::{CentreDistance, DensityError, DensityGrid, GridSpec, InsertOutcome, Selection};
 
 fn grid_8_17() -> GridSpec<2> {
     GridSpec::with_sizes([8.0, 17.0]).unwrap()
 }
 
-/// The paper's 2D example uses cells of 8 (x) by 17 (y). Its table of points could not be
-/// retrieved, so these cases are derived from the formula `floor((x - offset) / size)`,
-/// including the edges: a coordinate on a cell's lower edge belongs to that cell, negative
-/// coordinates round down (floor, not truncation).
+/// The paper's worked 2D example (its Table 1): six points and the cell indexes it prints.
+///
+/// The text says the cells are 8 wide on X and 17 on Y, but the printed indexes come out only
+/// with 17 on X and 8 on Y (offset 0): a = (floor(212.3 / 17), floor(588.2 / 8)) = (12, 73),
+/// and so on for all six. With 8 x 17 none of them match (a would be (26, 34)), and no offset
+/// fixes that, so the table is the paper's data and 17 x 8 the reading it supports.
+const PAPER_POINTS: [(char, [f64; 2], [i64; 2]); 6] = [
+    ('a', [212.3, 588.2], [12, 73]),
+    ('b', [217.6, 563.1], [12, 70]),
+    ('c', [224.5, 570.2], [13, 71]),
+    ('d', [232.6, 573.3], [13, 71]),
+    ('e', [263.8, 583.3], [15, 72]),
+    ('f', [266.7, 587.4], [15, 73]),
+];
+
 #[test]
-fn worked_example_2d_cell_indexes() {
+fn paper_example_cell_indexes_need_17_by_8() {
+    let g = GridSpec::with_sizes([17.0, 8.0]).unwrap();
+    for (name, p, want) in PAPER_POINTS {
+        assert_eq!(g.cell_index(&p), Some(want), "point {name}");
+    }
+    // The text's 8 x 17 reading matches none of the printed indexes.
+    let text = GridSpec::with_sizes([8.0, 17.0]).unwrap();
+    for (name, p, want) in PAPER_POINTS {
+        assert_ne!(text.cell_index(&p), Some(want), "point {name} under 8 x 17");
+    }
+}
+
+/// The paper's Figure 2 story on the 17 x 8 grid: c and d share cell (13, 71), whose centre is
+/// (229.5, 572); d is 3.36 m from it, c 5.31 m, so d is kept. Its Figure 3 story (e and f
+/// "close", e dropped) holds only under the text's 8 x 17 reading: on 17 x 8 their y difference
+/// 4.1 is not below half a cell (4), so both are kept, and nothing else is close either.
+#[test]
+fn paper_example_keeps_d_over_c_and_both_e_and_f() {
+    let mut g = DensityGrid::new(GridSpec::with_sizes([17.0, 8.0]).unwrap());
+    for (_, p, _) in PAPER_POINTS {
+        g.insert(p);
+    }
+    g.validate().unwrap();
+    assert_eq!(g.len(), 5);
+    assert_eq!(g.get(&[13, 71]).unwrap().point(), [232.6, 573.3]);
+    // Euclidean distance in metres (Eq. 3), squared: 3.1^2 + 1.3^2.
+    let d = g.get(&[13, 71]).unwrap().distance();
+    assert!((d - (3.1f64.powi(2) + 1.3f64.powi(2))).abs() < 1e-9, "{d}");
+    let (out, counts) = g.output_cycle();
+    assert_eq!(counts.eliminated, 0);
+    let mut kept: Vec<_> = out.clone();
+    kept.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let want: Vec<[f64; 2]> = PAPER_POINTS
+        .iter()
+        .filter(|(name, _, _)| *name != 'c')
+        .map(|(_, p, _)| *p)
+        .collect();
+    assert_eq!(kept, want);
+    // On the text's 8 x 17 grid e and f are within half a cell on both axes (2.9 < 4,
+    // 4.1 < 8.5), in neighbouring cells, and one of them is eliminated.
+    let mut text = DensityGrid::new(GridSpec::with_sizes([8.0, 17.0]).unwrap());
+    text.insert([263.8, 583.3]);
+    text.insert([266.7, 587.4]);
+    let (out, counts) = text.output_cycle();
+    assert_eq!((out.len(), counts.eliminated), (1, 1));
+}
+
+/// The cell index formula `floor((x - offset) / size)` at its edges: a coordinate on a cell's
+/// lower edge belongs to that cell, negative coordinates round down (floor, not truncation).
+#[test]
+fn cell_index_edges() {
     let g = grid_8_17();
     let cases: [([f64; 2], [i64; 2]); 10] = [
         ([0.0, 0.0], [0, 0]),
@@ -38,9 +99,36 @@ fn worked_example_2d_cell_indexes() {
     assert_eq!(shifted.cell_index(&[10.0, 14.0]), Some([1, 1]));
 }
 
-/// A worked run on the 8 x 17 grid, every step computed by hand.
+/// The two centre distances differ only on cells of unequal sizes: in a 17 x 8 cell, a point
+/// 4 m off the centre along X is farther in metres than one 3 m off along Y (16 against 9,
+/// squared), but nearer in cell units (4/17 = 0.24 of a cell against 3/8 = 0.375).
+#[test]
+fn centre_distance_metrics_differ_on_unequal_cells() {
+    let centre = [8.5, 4.0];
+    let along_x = [centre[0] + 4.0, centre[1]];
+    let along_y = [centre[0], centre[1] + 3.0];
+    let metres = GridSpec::with_sizes([17.0, 8.0]).unwrap();
+    assert_eq!(metres.centre_distance_metric(), CentreDistance::Euclidean);
+    assert_eq!(metres.centre_distance(&along_x, &[0, 0]), 16.0);
+    assert_eq!(metres.centre_distance(&along_y, &[0, 0]), 9.0);
+    let units = metres
+        .clone()
+        .with_centre_distance(CentreDistance::CellUnits);
+    assert!(units.centre_distance(&along_x, &[0, 0]) < units.centre_distance(&along_y, &[0, 0]));
+    let keep = |spec: GridSpec<2>| {
+        let mut g = DensityGrid::new(spec);
+        g.insert(along_x);
+        g.insert(along_y);
+        g.get(&[0, 0]).unwrap().point()
+    };
+    assert_eq!(keep(metres), along_y);
+    assert_eq!(keep(units), along_x);
+}
+
+/// A hand-made run on an 8 x 17 grid in cell units ([`CentreDistance::CellUnits`]), every
+/// step computed by hand.
 ///
-/// Points (x, y) -> cell, scaled squared distance to the centre:
+/// Points (x, y) -> cell, squared distance to the centre in cell units:
 /// a (4, 9)    -> (0,0), centre (4, 8.5):    (0/8)^2 + (0.5/17)^2   = 0.000865
 /// b (1, 2)    -> (0,0), far from the centre: loses to a
 /// c (9, 10)   -> (1,0), centre (12, 8.5):   (3/8)^2 + (1.5/17)^2   = 0.148
@@ -52,8 +140,8 @@ fn worked_example_2d_cell_indexes() {
 /// e emits; c emits (no close neighbour left); f emits. The rest of the run is commented
 /// step by step below.
 #[test]
-fn worked_example_2d_run() {
-    let mut g = DensityGrid::new(grid_8_17());
+fn hand_made_run_in_cell_units() {
+    let mut g = DensityGrid::new(grid_8_17().with_centre_distance(CentreDistance::CellUnits));
     assert_eq!(g.insert([4.0, 9.0]), InsertOutcome::NewCell);
     assert_eq!(g.insert([1.0, 2.0]), InsertOutcome::Member);
     assert_eq!(g.insert([9.0, 10.0]), InsertOutcome::NewCell);

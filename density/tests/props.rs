@@ -1,6 +1,6 @@
 //! Property tests of the density reducer against naive definitions.
 
-use octoquant_density::{DensityGrid, GridSpec, Selection};
+use octoquant_density::{CentreDistance, DensityGrid, GridSpec, Selection};
 use proptest::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
@@ -14,11 +14,23 @@ fn naive_index<const D: usize>(p: &[f64; D], size: &[f64; D], off: &[f64; D]) ->
     i
 }
 
-fn naive_dist<const D: usize>(p: &[f64; D], i: &[i64; D], size: &[f64; D], off: &[f64; D]) -> f64 {
+/// Squared distance from `p` to the centre of cell `i`, from the paper's Eq. 3: Euclidean in
+/// the input's units (`metres`), or, for the cell-units option, each axis divided by its size.
+fn naive_dist<const D: usize>(
+    p: &[f64; D],
+    i: &[i64; D],
+    size: &[f64; D],
+    off: &[f64; D],
+    metres: bool,
+) -> f64 {
     let mut d = 0.0;
     for a in 0..D {
         let c = off[a] + (i[a] as f64 + 0.5) * size[a];
-        let t = (p[a] - c) / size[a];
+        let t = if metres {
+            p[a] - c
+        } else {
+            (p[a] - c) / size[a]
+        };
         d += t * t;
     }
     d
@@ -44,11 +56,12 @@ fn naive_grid<const D: usize>(
     pts: &[[f64; D]],
     size: &[f64; D],
     off: &[f64; D],
+    metres: bool,
 ) -> BTreeMap<[i64; D], ([f64; D], f64)> {
     let mut cells: BTreeMap<[i64; D], ([f64; D], f64)> = BTreeMap::new();
     for p in pts {
         let i = naive_index(p, size, off);
-        let d = naive_dist(p, &i, size, off);
+        let d = naive_dist(p, &i, size, off, metres);
         let e = cells.entry(i).or_insert((*p, d));
         if d.total_cmp(&e.1).then_with(|| lex(p, &e.0)) == Ordering::Less {
             *e = (*p, d);
@@ -110,12 +123,17 @@ fn spec2() -> impl Strategy<Value = ([f64; 2], [f64; 2])> {
     ([size(), size()], [offset(), offset()])
 }
 
-/// Checks every output property of one grid against the naive definitions.
-fn check_reduction<const D: usize>(pts: &[[f64; D]], size: [f64; D], off: [f64; D]) {
-    let mut g = DensityGrid::new(GridSpec::new(size, off).unwrap());
+/// Checks every output property of one grid against the naive definitions: the default grid
+/// (Euclidean centre distance, `metres`) or the cell-units option.
+fn check_reduction<const D: usize>(pts: &[[f64; D]], size: [f64; D], off: [f64; D], metres: bool) {
+    let mut spec = GridSpec::new(size, off).unwrap();
+    if !metres {
+        spec = spec.with_centre_distance(CentreDistance::CellUnits);
+    }
+    let mut g = DensityGrid::new(spec);
     g.extend(pts.iter().copied());
     g.validate().unwrap();
-    let naive = naive_grid(pts, &size, &off);
+    let naive = naive_grid(pts, &size, &off, metres);
     // Grid stage: exactly one point per non-empty cell, the naive choice.
     let grid: Vec<_> = g.cells().map(|c| (c.index(), c.point())).collect();
     let want: Vec<_> = naive.iter().map(|(i, (p, _))| (*i, *p)).collect();
@@ -158,12 +176,20 @@ proptest! {
 
     #[test]
     fn reduction_2d_matches_definitions(pts in pts2(120), (s, o) in spec2()) {
-        check_reduction(&pts, s, o);
+        check_reduction(&pts, s, o, true);
     }
 
     #[test]
     fn reduction_3d_matches_definitions(pts in pts3(150), (s, o) in spec3()) {
-        check_reduction(&pts, s, o);
+        check_reduction(&pts, s, o, true);
+    }
+
+    #[test]
+    fn reduction_in_cell_units_matches_definitions(
+        pts in pts3(150),
+        (s, o) in spec3(),
+    ) {
+        check_reduction(&pts, s, o, false);
     }
 
     /// A batch into an empty grid packs cell keys in one pass relative to its first finite
@@ -294,7 +320,7 @@ proptest! {
         let mut pending = batches.collect::<Vec<_>>();
         pending.reverse();
         loop {
-            let before = naive_grid(&seen, &s, &o);
+            let before = naive_grid(&seen, &s, &o, true);
             let mut cycle = g.begin_cycle();
             let mut out = Vec::new();
             let mut arrived = false;
@@ -320,7 +346,7 @@ proptest! {
             }
             if pending.is_empty() && !arrived {
                 // Quiet cycle: it is the full reduction of everything seen.
-                prop_assert_eq!(out, naive_output(&naive_grid(&seen, &s, &o), &s));
+                prop_assert_eq!(out, naive_output(&naive_grid(&seen, &s, &o, true), &s));
                 break;
             }
             if !arrived {

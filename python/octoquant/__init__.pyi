@@ -318,6 +318,7 @@ def read_frames(
 
 CellSize = Union[float, Sequence[float], NDArray[np.floating[Any]]]
 Selection = Literal["centre", "center", "mean"]
+CentreDistance = Literal["euclidean", "cell_units"]
 
 @overload
 def reduce(
@@ -326,6 +327,7 @@ def reduce(
     *,
     offset: Optional[CellSize] = None,
     selection: Selection = "centre",
+    distance: CentreDistance = "euclidean",
     return_index: Literal[False] = False,
 ) -> NDArray[np.float32]: ...
 @overload
@@ -335,6 +337,7 @@ def reduce(
     *,
     offset: Optional[CellSize] = None,
     selection: Selection = "centre",
+    distance: CentreDistance = "euclidean",
     return_index: Literal[False] = False,
 ) -> NDArray[np.float64]: ...
 @overload
@@ -344,6 +347,7 @@ def reduce(
     *,
     offset: Optional[CellSize] = None,
     selection: Selection = "centre",
+    distance: CentreDistance = "euclidean",
     return_index: Literal[True],
 ) -> tuple[NDArray[np.floating[Any]], NDArray[np.int64]]: ...
 def reduce(
@@ -352,6 +356,7 @@ def reduce(
     *,
     offset: Optional[CellSize] = None,
     selection: Selection = "centre",
+    distance: CentreDistance = "euclidean",
     return_index: bool = False,
 ) -> Any:
     """Reduce a cloud with the online grid density reducer (one read cycle).
@@ -360,6 +365,8 @@ def reduce(
     or three); each cell keeps the point closest to its centre (``selection="centre"``) or to
     the mean of its points (``"mean"``); cells are read in ascending distance of that point to
     the centre and a point closer than half a cell on every axis to an emitted one is dropped.
+    ``distance``: to the centre in the points' units (``"euclidean"``, the paper's criterion) or
+    per axis in cell units (``"cell_units"``); they differ only when the cell sizes differ.
     Returns the kept points (a subset of the input, in output order, the input's dtype) and,
     with ``return_index``, their rows in ``points`` (int64). NaN/inf points are skipped. The
     result does not depend on the input order. Releases the GIL."""
@@ -386,7 +393,12 @@ class DensityReducer:
     with ``begin_cycle()`` and ``OutputCycle.step``."""
 
     def __init__(
-        self, cell: CellSize, *, offset: Optional[CellSize] = None, selection: Selection = "centre"
+        self,
+        cell: CellSize,
+        *,
+        offset: Optional[CellSize] = None,
+        selection: Selection = "centre",
+        distance: CentreDistance = "euclidean",
     ) -> None: ...
     def insert(self, points: Points) -> int:
         """Add an (N, 3) batch; returns how many points were rejected (NaN/inf/out of range)."""
@@ -409,6 +421,8 @@ class DensityReducer:
     def offset(self) -> tuple[float, float, float]: ...
     @property
     def selection(self) -> Literal["centre", "mean"]: ...
+    @property
+    def distance(self) -> CentreDistance: ...
     def validate(self) -> None:
         """Check the store's invariants (``RuntimeError`` if broken: a bug)."""
     def __len__(self) -> int: ...

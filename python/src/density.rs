@@ -2,7 +2,9 @@
 //! density reducer (the octoquant-density crate) from NumPy.
 
 use crate::convert::{real_array, rows_array, rows_f64};
-use crate::engine::{CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection};
+use crate::engine::{
+    CentreDistance, CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
+};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -35,11 +37,26 @@ fn grid_error(e: DensityError) -> PyErr {
     }
 }
 
-/// The grid geometry from Python's `cell` and `offset`.
-fn spec(cell: &Bound<'_, PyAny>, offset: Option<&Bound<'_, PyAny>>) -> PyResult<GridSpec<3>> {
+/// The grid geometry from Python's `cell`, `offset` and `distance`.
+fn spec(
+    cell: &Bound<'_, PyAny>,
+    offset: Option<&Bound<'_, PyAny>>,
+    distance: &str,
+) -> PyResult<GridSpec<3>> {
     let size = per_axis(Some(cell), "cell", 0.0)?;
     let offset = per_axis(offset, "offset", 0.0)?;
-    GridSpec::new(size, offset).map_err(grid_error)
+    let metric = match distance {
+        "euclidean" => CentreDistance::Euclidean,
+        "cell_units" => CentreDistance::CellUnits,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "distance must be \"euclidean\" or \"cell_units\", got {distance:?}"
+            )))
+        }
+    };
+    Ok(GridSpec::new(size, offset)
+        .map_err(grid_error)?
+        .with_centre_distance(metric))
 }
 
 /// A selection rule by name.
@@ -81,22 +98,27 @@ fn bits(p: &[f64; 3]) -> [u64; 3] {
 /// the one closest to the cell centre, ``"mean"``: the one closest to the mean of the cell's
 /// points); the cells are then read in ascending distance of their point to the centre, and a
 /// point closer than half a cell on every axis to one already emitted is eliminated.
+/// ``distance``: how the distance to the centre is measured, ``"euclidean"`` (in the points'
+/// units, the paper's criterion; the default) or ``"cell_units"`` (each axis divided by its
+/// cell size; differs only when the cell sizes differ).
 ///
 /// Returns the kept points, a subset of the input in output order, in the input's dtype; with
 /// ``return_index=True`` also their row numbers in ``points`` (int64; the first row for
 /// duplicated points). NaN and infinite points are skipped (as the Rust library does), never an
 /// error. The result does not depend on the input order. Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (points, cell, *, offset=None, selection="centre", return_index=false))]
+#[pyo3(signature = (points, cell, *, offset=None, selection="centre", distance="euclidean", return_index=false))]
+#[allow(clippy::too_many_arguments)]
 pub fn reduce<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     cell: &Bound<'py, PyAny>,
     offset: Option<&Bound<'py, PyAny>>,
     selection: &str,
+    distance: &str,
     return_index: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let spec = spec(cell, offset)?;
+    let spec = spec(cell, offset, distance)?;
     let sel = self::selection(selection)?;
     let (rows, is_f32) = rows_f64(points, "points")?;
     let (out, index) = py.detach(|| {
@@ -126,8 +148,8 @@ pub fn reduce<'py>(
 /// The online grid density reducer: insert and remove points at any time, read the reduced
 /// cloud in output cycles (the octoquant-density crate's ``DensityGrid``).
 ///
-/// ``DensityReducer(cell, offset=None, selection="centre")``: see :func:`reduce` for the
-/// arguments. ``len(r)`` is the number of non-empty cells (the points after the grid stage).
+/// ``DensityReducer(cell, offset=None, selection="centre", distance="euclidean")``: see
+/// :func:`reduce` for the arguments. ``len(r)`` is the number of non-empty cells (the points after the grid stage).
 /// Points are stored as float64 (float32 input is widened exactly); NaN, infinite and
 /// out-of-range points are skipped and counted as rejected. Calls release the GIL but hold the
 /// reducer: a call from another thread meanwhile raises ``RuntimeError`` (already borrowed), so
@@ -140,14 +162,18 @@ pub struct PyDensityReducer {
 #[pymethods]
 impl PyDensityReducer {
     #[new]
-    #[pyo3(signature = (cell, *, offset=None, selection="centre"))]
+    #[pyo3(signature = (cell, *, offset=None, selection="centre", distance="euclidean"))]
     fn py_new(
         cell: &Bound<'_, PyAny>,
         offset: Option<&Bound<'_, PyAny>>,
         selection: &str,
+        distance: &str,
     ) -> PyResult<Self> {
         Ok(PyDensityReducer {
-            grid: DensityGrid::with_selection(spec(cell, offset)?, self::selection(selection)?),
+            grid: DensityGrid::with_selection(
+                spec(cell, offset, distance)?,
+                self::selection(selection)?,
+            ),
         })
     }
 
@@ -230,6 +256,15 @@ impl PyDensityReducer {
     #[getter]
     fn selection(&self) -> &'static str {
         selection_name(self.grid.selection())
+    }
+
+    /// How distances to a cell's centre are measured, ``"euclidean"`` or ``"cell_units"``.
+    #[getter]
+    fn distance(&self) -> &'static str {
+        match self.grid.spec().centre_distance_metric() {
+            CentreDistance::Euclidean => "euclidean",
+            CentreDistance::CellUnits => "cell_units",
+        }
     }
 
     /// Check the store's invariants; raises ``RuntimeError`` naming the broken one (a bug).

@@ -23,7 +23,7 @@ pub use octoquant::formats::pcd::ViewpointUse;
 pub use octoquant::formats::tum::CameraIntrinsics;
 pub use octoquant::formats::{InputFormat, ReadOptions};
 pub use octoquant_density::{
-    CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
+    CentreDistance, CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
 };
 pub use octoquant_segment::{
     BorderPolicy, Clustering, Dbscan1dParams, Line, LineParams, SegmentError, Segmentation, NOISE,

@@ -10,10 +10,11 @@ import pytest
 import octoquant
 
 
-def naive_reduce(points, cell, offset=(0.0, 0.0, 0.0)):
+def naive_reduce(points, cell, offset=(0.0, 0.0, 0.0), distance="euclidean"):
     """The online grid density reducer, one read cycle, closest-to-centre rule, from the
     definitions: cell = floor((p - offset) / size); each cell keeps the member closest to its
-    centre (distance in cell units, ties by coordinates); cells are read in ascending distance
+    centre (Euclidean distance in the points' units, the paper's Eq. 3, or with
+    ``distance="cell_units"`` each axis divided by its size; ties by coordinates); cells are read in ascending distance
     (ties by cell index); a cell whose point lies closer than half a cell on every axis to an
     emitted point of a neighbouring cell is eliminated."""
     p = np.asarray(points, dtype=np.float64)
@@ -22,7 +23,7 @@ def naive_reduce(points, cell, offset=(0.0, 0.0, 0.0)):
     off = np.asarray(offset, dtype=np.float64)
     idx = np.floor((p - off) / size).astype(np.int64)
     centre = off + (idx + 0.5) * size
-    t = (p - centre) / size
+    t = p - centre if distance == "euclidean" else (p - centre) / size
     dist = t[:, 0] * t[:, 0] + t[:, 1] * t[:, 1] + t[:, 2] * t[:, 2]
     best = {}
     for i in range(len(p)):
@@ -89,6 +90,24 @@ def test_reduce_matches_naive_reducer(rng, cell, offset):
     want = naive_reduce(pts, size, off)
     assert out.dtype == np.float64
     np.testing.assert_array_equal(out, want)
+
+
+@pytest.mark.parametrize("distance", ["euclidean", "cell_units"])
+def test_reduce_centre_distance_on_unequal_cells(rng, distance):
+    """Both centre distances against the naive reducer on cells of unequal sizes, where they
+    pick different points; the reducer reports the one it was given."""
+    pts = lattice(rng, 3000)
+    cell = (0.25, 0.5, 1.0)
+    out = octoquant.reduce(pts, cell, distance=distance)
+    np.testing.assert_array_equal(out, naive_reduce(pts, cell, distance=distance))
+    other = "cell_units" if distance == "euclidean" else "euclidean"
+    assert not np.array_equal(out, naive_reduce(pts, cell, distance=other))
+    r = octoquant.DensityReducer(cell, distance=distance)
+    assert r.distance == distance
+    r.insert(pts)
+    np.testing.assert_array_equal(r.output(), out)
+    with pytest.raises(ValueError, match="distance"):
+        octoquant.reduce(pts, cell, distance="manhattan")
 
 
 def test_reduce_scan_dat(scan_dat):

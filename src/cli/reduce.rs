@@ -7,7 +7,7 @@ use nalgebra::Point3;
 use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
 use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
-use octoquant_density::{DensityGrid, GridSpec};
+use octoquant_density::{CentreDistance, DensityGrid, GridSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -22,6 +22,11 @@ pub struct Args {
     /// Grid offset: one value for all axes, or three.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     offset: Vec<f64>,
+    /// How a cell picks its point: the one nearest the cell centre in metres (`euclidean`, the
+    /// paper's criterion) or with each axis in cell units (`cell-units`; differs only when the
+    /// cell sizes differ).
+    #[arg(long, value_enum, default_value = "euclidean")]
+    distance: DistanceArg,
     #[command(flatten)]
     read: ReadArgs,
     /// Output PLY file (written atomically).
@@ -33,6 +38,13 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+}
+
+/// `--distance`: the grid's centre distance.
+#[derive(clap::ValueEnum, Clone, Copy)]
+enum DistanceArg {
+    Euclidean,
+    CellUnits,
 }
 
 fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
@@ -59,7 +71,12 @@ fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
 pub fn run(a: &Args) -> Result<()> {
     let cell = per_axis(&a.cell, "cell", 0.0)?;
     let offset = per_axis(&a.offset, "offset", 0.0)?;
-    let spec = GridSpec::new(cell, offset).context("invalid grid")?;
+    let spec = GridSpec::new(cell, offset)
+        .context("invalid grid")?
+        .with_centre_distance(match a.distance {
+            DistanceArg::Euclidean => CentreDistance::Euclidean,
+            DistanceArg::CellUnits => CentreDistance::CellUnits,
+        });
 
     let t0 = Instant::now();
     let points = read_points(&a.input, &a.read.options())?;

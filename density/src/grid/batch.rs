@@ -99,8 +99,8 @@ impl<const D: usize> DensityGrid<D> {
         }
         // Slots are created in index order, so slot order is index order. The distance order
         // is counted here and placed from the cells' ranks below (no list of pairs in between);
-        // a representative lies in its cell, so its distance is at most about D / 4.
-        let mut distance = DistanceSort::new(cells, D as f64 / 4.0);
+        // a representative lies in its cell, so its distance is at most about the corner's.
+        let mut distance = DistanceSort::new(cells, self.spec.max_centre_distance());
         let mut start = 0;
         for k in 0..cells {
             let (index, end) = batch.runs.get(k);
@@ -108,7 +108,7 @@ impl<const D: usize> DensityGrid<D> {
                 // The usual case, without the arena form's dispatch per member.
                 (Selection::CentreClosest, Some(arena)) => centre_closest(
                     &self.spec.cell_centre(&index),
-                    self.spec.size(),
+                    &self.spec,
                     arena[start..end].iter().map(widen_point),
                 ),
                 _ => self.best_of(&index, self.arena().members(start..end)),

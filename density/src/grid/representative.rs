@@ -3,7 +3,7 @@
 
 use super::store::{to_u32, DensityGrid};
 use crate::selection::{mean, sanitize_score, Rank, Selection};
-use crate::spec::{cmp_points, scaled_distance, CellIndex};
+use crate::spec::{cmp_points, CellIndex, GridSpec};
 use std::cmp::Ordering;
 
 impl<const D: usize> DensityGrid<D> {
@@ -21,11 +21,11 @@ impl<const D: usize> DensityGrid<D> {
     /// [`Self::rank_of`] with the cell centre `c` already computed (same arithmetic).
     #[inline]
     pub(crate) fn rank_near(&self, p: &[f64; D], c: &[f64; D], mean: Option<&[f64; D]>) -> Rank {
-        let centre = scaled_distance(p, c, self.spec.size());
+        let centre = self.spec.distance(p, c);
         let primary = match &self.selection {
             Selection::CentreClosest => centre,
             Selection::MeanClosest => match mean {
-                Some(m) => scaled_distance(p, m, self.spec.size()),
+                Some(m) => self.spec.distance(p, m),
                 None => centre,
             },
             Selection::Score(f) => sanitize_score(f(p)),
@@ -46,7 +46,7 @@ impl<const D: usize> DensityGrid<D> {
     {
         let c = self.spec.cell_centre(index);
         if let Selection::CentreClosest = self.selection {
-            return centre_closest(&c, self.spec.size(), members);
+            return centre_closest(&c, &self.spec, members);
         }
         let m = self
             .selection
@@ -118,17 +118,17 @@ impl<const D: usize> DensityGrid<D> {
 }
 
 /// The [`Selection::CentreClosest`] choice among `members` (at least one; cell centre `c`,
-/// axes scaled by `size`): the rank's primary criterion is the centre distance itself, so one
+/// distances as `spec` measures them): the rank's primary criterion is the centre distance itself, so one
 /// comparison of distances, then of coordinates (the same order as `Rank::cmp_with`).
 #[inline]
 pub(crate) fn centre_closest<const D: usize>(
     c: &[f64; D],
-    size: &[f64; D],
+    spec: &GridSpec<D>,
     members: impl Iterator<Item = [f64; D]>,
 ) -> (usize, Rank) {
     let mut best = (0, f64::INFINITY, *c);
     for (k, p) in members.enumerate() {
-        let d = scaled_distance(&p, c, size);
+        let d = spec.distance(&p, c);
         if k == 0
             || d.total_cmp(&best.1)
                 .then_with(|| cmp_points(&p, &best.2))

@@ -23,7 +23,8 @@ impl<'a, const D: usize> CellView<'a, D> {
     pub fn point(&self) -> [f64; D] {
         self.hot.point
     }
-    /// Scaled squared distance of the representative to the cell centre (the output order).
+    /// Squared distance of the representative to the cell centre (the output order), as the
+    /// grid's [`crate::CentreDistance`] measures it.
     pub fn distance(&self) -> f64 {
         self.cell.rank.centre
     }
@@ -52,7 +53,8 @@ pub struct CellState<const D: usize> {
     pub index: CellIndex<D>,
     /// The representative point.
     pub point: [f64; D],
-    /// Its scaled squared distance to the cell centre.
+    /// Its squared distance to the cell centre, as the grid's
+    /// [`crate::CentreDistance`] measures it.
     pub distance: f64,
     /// All members, sorted lexicographically.
     pub members: Vec<[f64; D]>,
