@@ -487,7 +487,12 @@ impl Mapper {
             &mut self.centres,
         );
         loop {
-            let next_frame = frames.next().transpose()?;
+            // a source error ends the run after the frame in hand, as without pipelining
+            let (next_frame, failed) = match frames.next() {
+                Some(Ok(f)) => (Some(f), None),
+                Some(Err(e)) => (None, Some(e)),
+                None => (None, None),
+            };
             let Mapper {
                 tree,
                 options,
@@ -514,6 +519,9 @@ impl Mapper {
             mark = Instant::now();
             self.account(&frame, &cur);
             after(self)?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
             match (next_frame, next) {
                 (Some(f), Some(n)) => {
                     frame = f;

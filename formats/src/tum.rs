@@ -326,7 +326,7 @@ pub fn tum_sequence_frames(
             "no depth image named in the association file exists",
         ));
     }
-    let options = options.clone();
+    let options = *options;
     Ok(rows.into_iter().map(move |row| {
         let img = read_depth_png(&row.depth)?;
         let (points, camera) = depth_to_camera(&img, &options, row.rotation.to_rotation_matrix());
