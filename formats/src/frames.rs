@@ -200,6 +200,15 @@ impl Iterator for FramesStream {
         }
         Some(r)
     }
+
+    /// The frames the header still announces (and perhaps the error of trailing data).
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.done {
+            return (0, Some(0));
+        }
+        let left = self.left as usize;
+        (left, Some(left + 1))
+    }
 }
 
 /// Write frames in the `.frames` layout. Fails on I/O or a count above `u32::MAX`.

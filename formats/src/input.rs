@@ -184,6 +184,14 @@ impl Iterator for FrameStream {
         self.failed = matches!(r, Some(Err(_)));
         r
     }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.failed {
+            (0, Some(0))
+        } else {
+            self.inner.size_hint()
+        }
+    }
 }
 
 impl std::fmt::Debug for FrameStream {

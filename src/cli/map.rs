@@ -283,8 +283,9 @@ impl Plan {
         // the first input is opened now: its header errors come before any work
         inputs.open_next()?;
         let total = match (&inputs.current, self.inputs.len()) {
+            // (a .frames file's bound counts a possible error after its frames)
             (Some(s), 1) => match s.size_hint() {
-                (lo, Some(hi)) if lo == hi => Some(lo),
+                (lo, Some(hi)) if hi <= lo + 1 => Some(lo),
                 _ => None,
             },
             _ => None,
