@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 /// The manifest's file name inside a checkpoint directory.
 pub const MANIFEST: &str = "checkpoint";
-const MAGIC: &str = "octoquant-checkpoint 1";
+const MAGIC: &str = "octoquant-checkpoint 2";
 
 /// Errors from saving, loading or checking a checkpoint; each names the directory or file.
 #[derive(Debug, thiserror::Error)]
@@ -140,10 +140,11 @@ pub struct RunIdentity {
     /// The input files, in order (empty for frames that come from elsewhere, e.g. the scene
     /// simulator).
     pub inputs: Vec<InputFile>,
-    /// Frames in the whole run.
-    pub frames: usize,
-    /// [`frames_fingerprint`] of the whole run's frames.
-    pub frames_hash: u64,
+    /// Frames in the whole run, when known before it starts (`None` for a run whose frames
+    /// are streamed from their files: see [`RunIdentity::streamed`]).
+    pub frames: Option<usize>,
+    /// [`frames_fingerprint`] of the whole run's frames, when known before it starts.
+    pub frames_hash: Option<u64>,
     /// Application settings that must match too, or that a resume takes over (output paths,
     /// reader options), as `(key, value)`; keys are single words.
     pub settings: Vec<(String, String)>,
@@ -155,8 +156,21 @@ impl RunIdentity {
         RunIdentity {
             options: options.clone(),
             inputs,
-            frames: frames.len(),
-            frames_hash: frames_fingerprint(frames),
+            frames: Some(frames.len()),
+            frames_hash: Some(frames_fingerprint(frames)),
+            settings: Vec::new(),
+        }
+    }
+
+    /// The identity of a run whose frames are read while it runs ([`crate::pipeline::Mapper::insert_stream`]):
+    /// the whole run's frames are not known up front, so a resume checks the frames it skips
+    /// against the checkpoint's [`Checkpoint::done_hash`] instead, and the input files by size.
+    pub fn streamed(options: &MapperOptions, inputs: Vec<InputFile>) -> Self {
+        RunIdentity {
+            options: options.clone(),
+            inputs,
+            frames: None,
+            frames_hash: None,
             settings: Vec::new(),
         }
     }
@@ -241,18 +255,22 @@ impl RunIdentity {
                 );
             }
         }
+        let count = |n: Option<usize>| n.map_or("(streamed, not known)".into(), |n| n.to_string());
         if saved.frames != self.frames {
             return mismatch(
                 "the number of frames",
-                saved.frames.to_string(),
-                self.frames.to_string(),
+                count(saved.frames),
+                count(self.frames),
             );
         }
         if saved.frames_hash != self.frames_hash {
+            let hash = |h: Option<u64>| {
+                h.map_or("(not known)".into(), |h| format!("fingerprint {h:016x}"))
+            };
             return mismatch(
                 "the frames' content",
-                format!("fingerprint {:016x}", saved.frames_hash),
-                format!("fingerprint {:016x}", self.frames_hash),
+                hash(saved.frames_hash),
+                hash(self.frames_hash),
             );
         }
         let mut keys: Vec<&str> = saved
@@ -282,27 +300,68 @@ pub fn frames_fingerprint(frames: &[Frame]) -> u64 {
     let mut h = Fnv::new();
     h.word(frames.len() as u32);
     for f in frames {
-        for c in f.origin.iter() {
-            h.word(c.to_bits());
-        }
-        h.word(f.points.len() as u32);
-        for p in &f.points {
-            h.word(p.x.to_bits());
-            h.word(p.y.to_bits());
-            h.word(p.z.to_bits());
-        }
-        match &f.camera {
-            None => h.word(0),
-            Some(cam) => {
-                h.word(1);
-                h.bytes(format!("{:?}", cam.camera).as_bytes());
-                for &px in &cam.pixels {
-                    h.word(px);
-                }
+        hash_frame(&mut h, f);
+    }
+    h.0
+}
+
+/// The running fingerprint of frames fed one at a time ([`FramesFingerprint::add`]): of
+/// every origin, point and camera pixel by its bit pattern, in order. Unlike
+/// [`frames_fingerprint`] it needs no count up front, so a streamed run can record the
+/// fingerprint of the frames it has inserted, and a resume can check the frames it skips.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FramesFingerprint(u64);
+
+impl Default for FramesFingerprint {
+    fn default() -> Self {
+        FramesFingerprint(Fnv::new().0)
+    }
+}
+
+impl FramesFingerprint {
+    /// The fingerprint of no frames.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Continue from a value [`FramesFingerprint::value`] gave.
+    pub fn from_value(v: u64) -> Self {
+        FramesFingerprint(v)
+    }
+
+    /// Feed the next frame.
+    pub fn add(&mut self, f: &Frame) {
+        let mut h = Fnv(self.0);
+        hash_frame(&mut h, f);
+        self.0 = h.0;
+    }
+
+    /// The fingerprint of the frames fed so far.
+    pub fn value(&self) -> u64 {
+        self.0
+    }
+}
+
+fn hash_frame(h: &mut Fnv, f: &Frame) {
+    for c in f.origin.iter() {
+        h.word(c.to_bits());
+    }
+    h.word(f.points.len() as u32);
+    for p in &f.points {
+        h.word(p.x.to_bits());
+        h.word(p.y.to_bits());
+        h.word(p.z.to_bits());
+    }
+    match &f.camera {
+        None => h.word(0),
+        Some(cam) => {
+            h.word(1);
+            h.bytes(format!("{:?}", cam.camera).as_bytes());
+            for &px in &cam.pixels {
+                h.word(px);
             }
         }
     }
-    h.0
 }
 
 /// FNV-1a, 64-bit.
@@ -508,6 +567,9 @@ pub struct Checkpoint {
     pub identity: RunIdentity,
     /// The statistics up to `frames_done`.
     pub stats: MapStats,
+    /// [`FramesFingerprint`] of the first `frames_done` frames: a resume checks the frames it
+    /// skips against it.
+    pub done_hash: u64,
     tree_file: String,
     tree_len: u64,
     tree_hash: u64,
@@ -526,6 +588,7 @@ impl Checkpoint {
         dir: &Path,
         tree: &OcTree,
         stats: &MapStats,
+        done_hash: u64,
         identity: &RunIdentity,
     ) -> Result<(), CheckpointError> {
         let io = |source| CheckpointError::Io {
@@ -558,8 +621,17 @@ impl Checkpoint {
         line("tree", &tree_file);
         line("tree_bytes", &len.to_string());
         line("tree_hash", &format!("{hash:016x}"));
-        line("frames", &identity.frames.to_string());
-        line("frames_hash", &format!("{:016x}", identity.frames_hash));
+        line("done_hash", &format!("{done_hash:016x}"));
+        line(
+            "frames",
+            &identity.frames.map_or("-".into(), |n| n.to_string()),
+        );
+        line(
+            "frames_hash",
+            &identity
+                .frames_hash
+                .map_or("-".into(), |h| format!("{h:016x}")),
+        );
         for (k, v) in options_to_settings(&identity.options) {
             line(&format!("option.{k}"), &v);
         }
@@ -626,7 +698,7 @@ impl Checkpoint {
         let mut settings = Vec::new();
         let (mut frames_done, mut tree_file, mut tree_len, mut tree_hash) =
             (None, None, None, None);
-        let (mut frames, mut frames_hash) = (None, None);
+        let (mut frames, mut frames_hash, mut done_hash) = (None, None, None);
         let mut ended = false;
         let hex = |v: &str| u64::from_str_radix(v, 16).map_err(|_| format!("{v:?} is not hex"));
         for (i, l) in lines {
@@ -646,8 +718,11 @@ impl Checkpoint {
                     "tree" => return Err(format!("{v:?} is not a checkpoint tree file name")),
                     "tree_bytes" => tree_len = Some(parse_num(&v)?),
                     "tree_hash" => tree_hash = Some(hex(&v)?),
-                    "frames" => frames = Some(parse_num(&v)?),
-                    "frames_hash" => frames_hash = Some(hex(&v)?),
+                    "frames" if v == "-" => frames = Some(None),
+                    "frames" => frames = Some(Some(parse_num(&v)?)),
+                    "frames_hash" if v == "-" => frames_hash = Some(None),
+                    "frames_hash" => frames_hash = Some(Some(hex(&v)?)),
+                    "done_hash" => done_hash = Some(hex(&v)?),
                     "input" => {
                         let mut it = v.splitn(3, ' ');
                         let (Some(size), Some(t), Some(p)) = (it.next(), it.next(), it.next())
@@ -689,12 +764,13 @@ impl Checkpoint {
         }
         let need = |what: &str| bad(last, format!("no '{what}' line"));
         let frames_done: usize = frames_done.ok_or_else(|| need("frames_done"))?;
-        let frames: usize = frames.ok_or_else(|| need("frames"))?;
-        if frames_done > frames || stats.frames != frames_done {
+        let frames: Option<usize> = frames.ok_or_else(|| need("frames"))?;
+        if frames.is_some_and(|n| frames_done > n) || stats.frames != frames_done {
             return Err(bad(
                 last,
                 format!(
-                    "{frames_done} frames done of {frames}, statistics count {}",
+                    "{frames_done} frames done of {}, statistics count {}",
+                    frames.map_or("a streamed run".into(), |n| n.to_string()),
                     stats.frames
                 ),
             ));
@@ -710,6 +786,7 @@ impl Checkpoint {
                 settings,
             },
             stats,
+            done_hash: done_hash.ok_or_else(|| need("done_hash"))?,
             tree_file: tree_file.ok_or_else(|| need("tree"))?,
             tree_len: tree_len.ok_or_else(|| need("tree_bytes"))?,
             tree_hash: tree_hash.ok_or_else(|| need("tree_hash"))?,
@@ -849,13 +926,13 @@ mod tests {
             ..MapStats::default()
         };
         let id = RunIdentity::new(&options, Vec::new(), &fr).with_setting("output", "a b\nc.bt");
-        Checkpoint::save(&dir, &tree, &stats, &id).unwrap();
+        Checkpoint::save(&dir, &tree, &stats, 7, &id).unwrap();
         // a second save replaces the first, leaving one tree file
         let stats3 = MapStats {
             frames: 3,
             ..MapStats::default()
         };
-        Checkpoint::save(&dir, &tree, &stats3, &id).unwrap();
+        Checkpoint::save(&dir, &tree, &stats3, 9, &id).unwrap();
         let names: Vec<String> = std::fs::read_dir(&dir)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -863,6 +940,7 @@ mod tests {
         assert_eq!(names.len(), 2, "{names:?}");
         let c = Checkpoint::load(&dir).unwrap();
         assert_eq!(c.frames_done, 3);
+        assert_eq!(c.done_hash, 9);
         assert_eq!(c.identity, id);
         let back = c.load_tree().unwrap();
         assert_eq!(back.resolution(), 0.123456789);

@@ -5,7 +5,9 @@
 //! voxel at most once per frame, occupied winning over free, exactly like OctoMap's
 //! `insertPointCloud`; the resulting `.bt`/`.ot` files are byte-identical to OctoMap's.
 
-use crate::checkpoint::{options_to_settings, Checkpoint, CheckpointError, RunIdentity};
+use crate::checkpoint::{
+    options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
+};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
@@ -151,7 +153,27 @@ pub struct Mapper {
     next_update: ScanUpdate,
     next_centres: Vec<Point3<f32>>,
     stats: MapStats,
+    /// Fingerprint of every frame inserted so far (what a checkpoint records).
+    fingerprint: FramesFingerprint,
+    /// The checkpoint this mapper continues, for the error when the skipped frames differ.
+    resumed_from: Option<PathBuf>,
 }
+
+/// Why [`Mapper::insert_stream`] stopped early.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RunError {
+    /// The frame source failed (a reader error, which names the file and place).
+    #[error(transparent)]
+    Source(Box<dyn std::error::Error + Send + Sync>),
+    /// Saving a checkpoint failed, or the frames a resume skips are not the checkpointed ones.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+}
+
+/// Frames read ahead of insertion by [`Mapper::insert_stream`]'s reader thread, at most: with
+/// the frame being cast and the one being applied, the frames in memory at any moment.
+pub const READ_AHEAD: usize = 2;
 
 impl Mapper {
     /// A mapper with an empty tree. Errors for an invalid resolution.
@@ -172,6 +194,8 @@ impl Mapper {
             next_update: ScanUpdate::new(),
             next_centres: Vec::new(),
             stats: MapStats::default(),
+            fingerprint: FramesFingerprint::new(),
+            resumed_from: None,
         }
     }
 
@@ -207,7 +231,7 @@ impl Mapper {
             st.free = s.free;
             st.occupied = s.occupied;
             st.seconds = start.elapsed().as_secs_f64();
-            self.account(&st);
+            self.account(frame, &st);
             return st;
         }
         let conv = self.tree.converter().clone();
@@ -220,7 +244,7 @@ impl Mapper {
         );
         st.tree_seconds = apply(&mut self.tree, &self.update, self.options.lazy);
         st.seconds = start.elapsed().as_secs_f64();
-        self.account(&st);
+        self.account(frame, &st);
         st
     }
 
@@ -275,7 +299,7 @@ impl Mapper {
             cur.tree_seconds = tree_s;
             cur.seconds = mark.elapsed().as_secs_f64();
             mark = Instant::now();
-            self.account(&cur);
+            self.account(&frames[i], &cur);
             out.push(cur);
             if let Some(n) = next {
                 cur = n;
@@ -306,39 +330,206 @@ impl Mapper {
     /// position for a [`Mapper::resume`]d one). With `checkpoint`, a checkpoint of the run
     /// `identity` is saved every `every` frames and after the last, so that a killed run can be
     /// resumed and ends with the same tree, byte for byte. `progress` is called with the number
-    /// of frames done after each batch. The tree is left as inserted: call [`Mapper::finish`]
-    /// after.
+    /// of frames done as frames are inserted. The tree is left as inserted: call
+    /// [`Mapper::finish`] after. [`Mapper::insert_stream`] with the frames in memory.
     pub fn insert_run(
         &mut self,
         frames: &[Frame],
         checkpoint: Option<(&CheckpointOptions, &RunIdentity)>,
         mut progress: impl FnMut(usize),
     ) -> Result<(), CheckpointError> {
-        const BATCH: usize = 16;
-        let mut done = self.stats.frames.min(frames.len());
-        while done < frames.len() {
-            let mut end = (done + BATCH).min(frames.len());
-            if let Some((c, _)) = checkpoint {
-                if let Some(q) = done.checked_div(c.every) {
-                    end = end.min((q + 1) * c.every);
+        let stream = frames
+            .iter()
+            .cloned()
+            .map(Ok::<Frame, std::convert::Infallible>);
+        match self.insert_stream(stream, checkpoint, |s: &MapStats| progress(s.frames)) {
+            Ok(()) => Ok(()),
+            Err(RunError::Checkpoint(e)) => Err(e),
+            Err(RunError::Source(e)) => unreachable!("an in-memory run cannot fail to read: {e}"),
+        }
+    }
+
+    /// Insert a run's frames as they are read: `frames` yields the whole run's frames (or the
+    /// first error of their source), of which the first `stats().frames` are already in the
+    /// tree (none for a new mapper; the checkpoint's position for a resumed one, whose
+    /// skipped frames must have the checkpoint's fingerprint). Only a few frames are in memory
+    /// at any time: with two or more rayon threads a reader thread reads at most
+    /// [`READ_AHEAD`] frames ahead while one frame's rays are cast and the previous one is
+    /// applied to the tree (the pipelining of [`Mapper::insert_frames`]); with one thread,
+    /// frames are read, cast and applied in turn. The tree is the same, byte for byte, either
+    /// way and for any number of frames.
+    ///
+    /// With `checkpoint`, a checkpoint of the run `identity` is saved every `every` frames and
+    /// after the last, so that a killed run can be resumed ([`Mapper::resume`]) and ends with
+    /// the same tree. `progress` is called with the statistics after each frame. On an error
+    /// the tree holds the frames inserted before it and the last periodic checkpoint stands.
+    /// The tree is left as inserted: call [`Mapper::finish`] after.
+    pub fn insert_stream<I, E>(
+        &mut self,
+        frames: I,
+        checkpoint: Option<(&CheckpointOptions, &RunIdentity)>,
+        mut progress: impl FnMut(&MapStats),
+    ) -> Result<(), RunError>
+    where
+        I: Iterator<Item = Result<Frame, E>> + Send,
+        E: Into<Box<dyn std::error::Error + Send + Sync>> + Send,
+    {
+        let source = |e: E| RunError::Source(e.into());
+        let threads = rayon::current_num_threads();
+        if threads < 2 {
+            let mut frames = frames.map(|r| r.map_err(source));
+            return self.run_frames(&mut frames, checkpoint, &mut progress);
+        }
+        std::thread::scope(|scope| {
+            let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD);
+            scope.spawn(move || {
+                for r in frames {
+                    let stop = r.is_err();
+                    // a closed channel: the inserter stopped (an error), so stop reading
+                    if tx.send(r).is_err() || stop {
+                        break;
+                    }
                 }
+            });
+            // the receiver is dropped when this returns, which ends the reader
+            let mut frames = rx.into_iter().map(|r| r.map_err(source));
+            self.run_frames(&mut frames, checkpoint, &mut progress)
+        })
+    }
+
+    /// [`Mapper::insert_stream`] after the source: skip what is done, then insert (pipelined
+    /// when there are threads to spare), checkpointing on the way.
+    fn run_frames(
+        &mut self,
+        frames: &mut dyn Iterator<Item = Result<Frame, RunError>>,
+        checkpoint: Option<(&CheckpointOptions, &RunIdentity)>,
+        progress: &mut dyn FnMut(&MapStats),
+    ) -> Result<(), RunError> {
+        // frames already in the tree: read them again, and check they are the same ones
+        let done = self.stats.frames;
+        let mut skipped = FramesFingerprint::new();
+        let mut n = 0;
+        while n < done {
+            match frames.next() {
+                Some(f) => skipped.add(&f?),
+                None => break,
             }
-            self.insert_frames(&frames[done..end]);
-            done = end;
+            n += 1;
+        }
+        if n > 0 && skipped != self.fingerprint {
+            let dir = self.resumed_from.clone().unwrap_or_default();
+            return Err(CheckpointError::Mismatch {
+                dir,
+                what: if n < done {
+                    "the number of frames".into()
+                } else {
+                    "the frames' content".into()
+                },
+                saved: format!(
+                    "{done} frames done, fingerprint {:016x}",
+                    self.fingerprint.value()
+                ),
+                now: format!("{n} frames read, fingerprint {:016x}", skipped.value()),
+            }
+            .into());
+        }
+        let every = checkpoint.map_or(0, |(c, _)| c.every);
+        let mut after = |m: &mut Mapper| -> Result<(), RunError> {
             if let Some((c, identity)) = checkpoint {
-                if (c.every > 0 && done.is_multiple_of(c.every)) || done == frames.len() {
-                    self.save_checkpoint(&c.dir, identity)?;
+                if every > 0 && m.stats.frames.is_multiple_of(every) {
+                    m.save_checkpoint(&c.dir, identity)?;
                 }
             }
-            progress(done);
+            progress(&m.stats);
+            Ok(())
+        };
+        if self.options.mode == InsertMode::Simple || rayon::current_num_threads() < 2 {
+            for f in frames {
+                let f = f?;
+                self.insert(&f);
+                after(self)?;
+            }
+        } else {
+            self.pipeline(frames, &mut after)?;
         }
         if let Some((c, identity)) = checkpoint {
-            // a run resumed after its last frame, or with no frames, still ends checkpointed
-            if !Checkpoint::exists(&c.dir) || frames.is_empty() {
+            // the last frame (or a run with none, or resumed after its last) ends checkpointed
+            let saved_here =
+                every > 0 && self.stats.frames.is_multiple_of(every) && self.stats.frames > done;
+            if !saved_here || !Checkpoint::exists(&c.dir) {
                 self.save_checkpoint(&c.dir, identity)?;
             }
         }
         Ok(())
+    }
+
+    /// The pipelined loop of [`Mapper::insert_frames`] over a stream: while frame `i` is
+    /// applied to the tree, the rays of frame `i + 1` are cast; `after` runs once each frame
+    /// is in the tree (the next one's rays may be ready, but the tree holds exactly the
+    /// frames counted).
+    fn pipeline(
+        &mut self,
+        frames: &mut dyn Iterator<Item = Result<Frame, RunError>>,
+        after: &mut dyn FnMut(&mut Mapper) -> Result<(), RunError>,
+    ) -> Result<(), RunError> {
+        let Some(first) = frames.next() else {
+            return Ok(());
+        };
+        let mut frame = first?;
+        let conv = self.tree.converter().clone();
+        let lazy = self.options.lazy;
+        let mut mark = Instant::now();
+        let mut cur = prepare(
+            &conv,
+            &self.options,
+            &frame,
+            &mut self.update,
+            &mut self.centres,
+        );
+        loop {
+            // a source error ends the run after the frame in hand, as without pipelining
+            let (next_frame, failed) = match frames.next() {
+                Some(Ok(f)) => (Some(f), None),
+                Some(Err(e)) => (None, Some(e)),
+                None => (None, None),
+            };
+            let Mapper {
+                tree,
+                options,
+                update,
+                centres,
+                next_update,
+                next_centres,
+                ..
+            } = self;
+            let (tree_s, next) = match &next_frame {
+                Some(f) => {
+                    let (t, n) = rayon::join(
+                        || apply(tree, update, lazy),
+                        || prepare(&conv, options, f, next_update, next_centres),
+                    );
+                    (t, Some(n))
+                }
+                None => (apply(tree, update, lazy), None),
+            };
+            std::mem::swap(update, next_update);
+            std::mem::swap(centres, next_centres);
+            cur.tree_seconds = tree_s;
+            cur.seconds = mark.elapsed().as_secs_f64();
+            mark = Instant::now();
+            self.account(&frame, &cur);
+            after(self)?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            match (next_frame, next) {
+                (Some(f), Some(n)) => {
+                    frame = f;
+                    cur = n;
+                }
+                _ => return Ok(()),
+            }
+        }
     }
 
     /// Save a checkpoint of the run `identity` into `dir`: the tree as it is (inner nodes
@@ -350,7 +541,13 @@ impl Mapper {
         dir: &Path,
         identity: &RunIdentity,
     ) -> Result<(), CheckpointError> {
-        Checkpoint::save(dir, &self.tree, &self.stats, identity)
+        Checkpoint::save(
+            dir,
+            &self.tree,
+            &self.stats,
+            self.fingerprint.value(),
+            identity,
+        )
     }
 
     /// Continue the run checkpointed in `dir`. `identity` is this run's (the same options,
@@ -369,10 +566,13 @@ impl Mapper {
         let tree = c.load_tree()?;
         let mut m = Mapper::with_tree(tree, c.identity.options.clone());
         m.stats = c.stats;
+        m.fingerprint = FramesFingerprint::from_value(c.done_hash);
+        m.resumed_from = Some(c.dir.clone());
         Ok(m)
     }
 
-    fn account(&mut self, st: &FrameStats) {
+    fn account(&mut self, frame: &Frame, st: &FrameStats) {
+        self.fingerprint.add(frame);
         let t = &mut self.stats.total;
         self.stats.frames += 1;
         t.points += st.points;

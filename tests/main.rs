@@ -15,4 +15,5 @@ mod reduce;
 mod render;
 mod scene;
 mod segment;
+mod stream;
 mod tree_files;

@@ -504,3 +504,199 @@ fn damaged_length_fields_are_errors_not_aborts() {
         .to_string();
     assert!(e.contains("ouster_damaged.mcap"), "{e}");
 }
+
+/// The layouts an MCAP file of the same messages can take: how `rewrite` writes it.
+#[derive(Debug, Clone, Copy)]
+enum Layout {
+    /// zstd chunks of at most 64 KiB (many chunks), with summary and indexes.
+    SmallZstdChunks,
+    /// Uncompressed chunks.
+    UncompressedChunks,
+    /// No chunks: messages straight in the data section.
+    Unchunked,
+    /// zstd chunks but no summary section, no indexes, no summary offsets.
+    NoSummary,
+}
+
+const LAYOUTS: [Layout; 4] = [
+    Layout::SmallZstdChunks,
+    Layout::UncompressedChunks,
+    Layout::Unchunked,
+    Layout::NoSummary,
+];
+
+/// Every message of `src` read whole into memory by the `mcap` crate's own reader, then
+/// written again in `layout` (same schemas, channels, times and bytes).
+fn rewrite(src: &Path, dst: &Path, layout: Layout) {
+    let bytes = std::fs::read(src).unwrap();
+    let mut opts = ::mcap::WriteOptions::new();
+    opts = match layout {
+        Layout::SmallZstdChunks => opts
+            .compression(Some(::mcap::Compression::Zstd))
+            .chunk_size(Some(64 << 10)),
+        Layout::UncompressedChunks => opts.compression(None),
+        Layout::Unchunked => opts.use_chunks(false),
+        Layout::NoSummary => opts
+            .compression(Some(::mcap::Compression::Zstd))
+            .emit_summary_records(false)
+            .emit_summary_offsets(false)
+            .emit_statistics(false)
+            .emit_message_indexes(false)
+            .emit_chunk_indexes(false),
+    };
+    let mut w = opts.create(Cursor::new(Vec::new())).unwrap();
+    let mut channels: BTreeMap<u16, u16> = BTreeMap::new();
+    for m in ::mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let ch = &m.channel;
+        let id = match channels.get(&ch.id) {
+            Some(&id) => id,
+            None => {
+                let sid = match &ch.schema {
+                    Some(s) => w.add_schema(&s.name, &s.encoding, &s.data).unwrap(),
+                    None => 0,
+                };
+                let id = w
+                    .add_channel(sid, &ch.topic, &ch.message_encoding, &ch.metadata)
+                    .unwrap();
+                channels.insert(ch.id, id);
+                id
+            }
+        };
+        let header = ::mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: m.sequence,
+            log_time: m.log_time,
+            publish_time: m.publish_time,
+        };
+        w.write_to_known_channel(&header, &m.data).unwrap();
+    }
+    w.finish().unwrap();
+    std::fs::write(dst, w.into_inner().into_inner()).unwrap();
+}
+
+/// The frames' bits, for exact comparison (NaN included).
+fn frame_bits(frames: &[octoquant::Frame]) -> Vec<(Vec<u32>, Option<u64>)> {
+    frames
+        .iter()
+        .map(|f| {
+            let mut v: Vec<u32> = f.origin.iter().map(|c| c.to_bits()).collect();
+            for p in &f.points {
+                v.extend(p.iter().map(|c| c.to_bits()));
+            }
+            (v, f.stamp.map(f64::to_bits))
+        })
+        .collect()
+}
+
+/// The streaming reader (seeking, one chunk at a time) gives the same frames whatever the
+/// file's layout: chunked or not, compressed or not, with or without a summary. The files
+/// are the crate's whole-file reading of the real recording and of our own test file,
+/// written again in each layout; and the counts are those the whole-file reader found.
+#[test]
+fn every_layout_gives_the_same_frames() {
+    let dir = common::scratch("mcap_layouts");
+    let mut sources = vec![ros2_file("mcap_layouts_src", false, false)];
+    // several clouds with a transform after them, in our own writer's default layout
+    let multi = dir.join("multi.mcap");
+    let pts = [[1.0, 2.0, 3.0]; 6];
+    let mut msgs = Vec::new();
+    for _ in 0..40 {
+        msgs.push(Msg {
+            topic: "/cloud",
+            schema: "sensor_msgs/msg/PointCloud2",
+            encoding: "cdr",
+            data: cloud_message(false, false, &pts, &["x", "y", "z"]),
+        });
+    }
+    msgs.push(Msg {
+        topic: "/tf_static",
+        schema: "tf2_msgs/msg/TFMessage",
+        encoding: "cdr",
+        data: tf_message(
+            false,
+            &[
+                ("map", "base", [1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]),
+                ("base", "lidar", [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0]),
+            ],
+        ),
+    });
+    write_mcap(&multi, &msgs);
+    sources.push(multi);
+    if let Some(p) = common::data_file(OUSTER) {
+        sources.push(p);
+    }
+    for src in &sources {
+        let whole = ::mcap::MessageStream::new(&std::fs::read(src).unwrap())
+            .unwrap()
+            .filter(|m| {
+                m.as_ref().is_ok_and(|m| {
+                    m.channel
+                        .schema
+                        .as_ref()
+                        .is_some_and(|s| s.name.contains("PointCloud2"))
+                })
+            })
+            .count();
+        let (expect, _) = read_mcap(src, &McapOptions::default()).unwrap();
+        assert_eq!(expect.len(), whole, "{}", src.display());
+        assert!(!expect.is_empty());
+        let expect = frame_bits(&expect);
+        for layout in LAYOUTS {
+            let dst = dir.join(format!("{layout:?}.mcap"));
+            rewrite(src, &dst, layout);
+            let (got, _) = read_mcap(&dst, &McapOptions::default())
+                .unwrap_or_else(|e| panic!("{} as {layout:?}: {e}", src.display()));
+            assert!(
+                frame_bits(&got) == expect,
+                "{} as {layout:?}: other frames",
+                src.display()
+            );
+            let topics = list_topics(&dst).unwrap();
+            assert_eq!(topics, list_topics(src).unwrap(), "{layout:?}");
+        }
+    }
+}
+
+/// A file cut anywhere is an error naming it (or, cut exactly between records before the
+/// footer, the clouds before the cut), never a panic or a hang.
+#[test]
+fn truncated_files_are_errors() {
+    let dir = common::scratch("mcap_truncated");
+    let mut sources = vec![ros2_file("mcap_truncated_src", false, false)];
+    if let Some(p) = common::data_file(OUSTER) {
+        sources.push(p);
+    }
+    for src in &sources {
+        let full = frame_bits(&read_mcap(src, &McapOptions::default()).unwrap().0);
+        for layout in LAYOUTS {
+            let re = dir.join(format!("re-{layout:?}.mcap"));
+            rewrite(src, &re, layout);
+            let bytes = std::fs::read(&re).unwrap();
+            let cut = dir.join("cut.mcap");
+            let mut errors = 0;
+            for k in 1..24 {
+                let len = bytes.len() * k / 24;
+                std::fs::write(&cut, &bytes[..len]).unwrap();
+                match read_mcap(&cut, &McapOptions::default()) {
+                    Err(e) => {
+                        errors += 1;
+                        assert!(e.to_string().contains("cut.mcap"), "{e}");
+                    }
+                    Ok((frames, _)) => {
+                        let got = frame_bits(&frames);
+                        assert!(
+                            full.starts_with(&got),
+                            "{layout:?} cut at {len}: not a prefix"
+                        );
+                    }
+                }
+            }
+            assert!(
+                errors > 12,
+                "{} {layout:?}: only {errors} of 23 cuts refused",
+                src.display()
+            );
+        }
+    }
+}

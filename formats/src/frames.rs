@@ -8,10 +8,10 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{read_all, ByteReader};
+use crate::source::{open, read_all, ByteReader};
 use nalgebra::Point3;
-use std::io::{self, Write};
-use std::path::Path;
+use std::io::{self, BufRead, Read, Write};
+use std::path::{Path, PathBuf};
 
 /// The 8-byte magic at the start of a `.frames` file.
 pub const FRAMES_MAGIC: &[u8; 8] = b"OCTFRAME";
@@ -60,6 +60,155 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
 /// Read a `.frames` file (optionally `.gz`/`.bz2`).
 pub fn read_frames_file(path: &Path) -> Result<Vec<Frame>, FormatError> {
     parse_frames(path, &read_all(path)?)
+}
+
+/// A `.frames` file (optionally `.gz`/`.bz2`) read one frame at a time: only the frame being
+/// read is in memory. Yields what [`parse_frames`] returns, frame by frame, with the same
+/// errors (the first error ends the stream).
+pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
+    let mut s = FramesStream {
+        path: path.to_path_buf(),
+        inner: open(path)?,
+        pos: 0,
+        left: 0,
+        next: 0,
+        done: false,
+    };
+    let magic = s.take_bytes(8, "the OCTFRAME magic")?;
+    if magic != FRAMES_MAGIC {
+        return Err(FormatError::syntax(
+            path,
+            Location::Byte(0),
+            "not a .frames file (magic is not OCTFRAME)",
+        ));
+    }
+    let version = s.u32("version")?;
+    if version != FRAMES_VERSION {
+        return Err(FormatError::unsupported(
+            path,
+            Location::Byte(8),
+            format!(".frames version {version} (only {FRAMES_VERSION})"),
+        ));
+    }
+    s.left = s.u32("frame count")?;
+    Ok(s)
+}
+
+/// The frames of a `.frames` file, read as they are asked for ([`frames_file_stream`]).
+pub struct FramesStream {
+    path: PathBuf,
+    inner: Box<dyn BufRead + Send>,
+    /// Bytes consumed so far.
+    pos: u64,
+    /// Frames still to read.
+    left: u32,
+    /// Index of the next frame.
+    next: u32,
+    done: bool,
+}
+
+impl FramesStream {
+    /// Exactly `n` bytes (n small), or the truncation error [`parse_frames`] gives.
+    fn take_bytes(&mut self, n: usize, what: &str) -> Result<Vec<u8>, FormatError> {
+        let mut buf = Vec::with_capacity(n);
+        self.fill(&mut buf, n as u64, what)?;
+        Ok(buf)
+    }
+
+    /// Append exactly `n` bytes to `buf`, growing it as data arrives; at the end of the file,
+    /// the truncation error naming the file's length.
+    fn fill(&mut self, buf: &mut Vec<u8>, n: u64, what: &str) -> Result<(), FormatError> {
+        let start = self.pos;
+        let got = (&mut self.inner)
+            .take(n)
+            .read_to_end(buf)
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
+        self.pos += got as u64;
+        if (got as u64) < n {
+            return Err(FormatError::Truncated {
+                path: self.path.clone(),
+                offset: self.pos,
+                what: format!("{what} ({n} bytes from byte {start})"),
+            });
+        }
+        Ok(())
+    }
+
+    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        let b = self.take_bytes(4, what)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
+        self.u32(what).map(f32::from_bits)
+    }
+
+    fn frame(&mut self) -> Result<Frame, FormatError> {
+        let i = self.next;
+        let what = format!("frame {i} header");
+        let origin = Point3::new(self.f32(&what)?, self.f32(&what)?, self.f32(&what)?);
+        let n = self.u32(&what)?;
+        let mut bytes = Vec::new();
+        self.fill(
+            &mut bytes,
+            u64::from(n) * 12,
+            &format!("{n} points of frame {i}"),
+        )?;
+        let points = bytes
+            .chunks_exact(12)
+            .map(|c| {
+                let f = |k: usize| f32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
+                Point3::new(f(0), f(4), f(8))
+            })
+            .collect();
+        self.next += 1;
+        self.left -= 1;
+        Ok(Frame::new(origin, points))
+    }
+
+    /// After the last frame: nothing may follow.
+    fn check_end(&mut self) -> Result<(), FormatError> {
+        let at = self.pos;
+        let trailing = std::io::copy(&mut self.inner, &mut std::io::sink())
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(at), e))?;
+        if trailing != 0 {
+            return Err(FormatError::syntax(
+                &self.path,
+                Location::Byte(at),
+                format!("{trailing} bytes of trailing data after the frames"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Iterator for FramesStream {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        let r = if self.left > 0 {
+            self.frame()
+        } else {
+            self.done = true;
+            return self.check_end().err().map(Err);
+        };
+        if r.is_err() {
+            self.done = true;
+        }
+        Some(r)
+    }
+
+    /// The frames the header still announces (and perhaps the error of trailing data).
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.done {
+            return (0, Some(0));
+        }
+        let left = self.left as usize;
+        (left, Some(left + 1))
+    }
 }
 
 /// Write frames in the `.frames` layout. Fails on I/O or a count above `u32::MAX`.

@@ -141,27 +141,90 @@ pub struct ReadOptions {
 }
 
 /// Read `path` as frames in world coordinates, in the format given or detected, under
-/// [`ReadOptions::decompression`].
+/// [`ReadOptions::decompression`]: [`frame_stream`] collected.
 pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, FormatError> {
-    source::with_decompression_limit(options.decompression, || read_frames_in(path, options))
+    frame_stream(path, options)?.collect()
 }
 
-fn read_frames_in(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, FormatError> {
+/// The frames of `path` as they are read, in the format given or detected, under
+/// [`ReadOptions::decompression`]: the same frames and errors as [`read_frames`], but
+/// MCAP, `.frames`, VTK sequences and TUM associations are read one frame at a time (see
+/// [`FrameStream`]). Errors that need no frame (unknown format, missing file, bad header)
+/// come here; later ones from the stream, which ends after its first error.
+pub fn frame_stream(path: &Path, options: &ReadOptions) -> Result<FrameStream, FormatError> {
+    let limit = options.decompression;
+    let inner = source::with_decompression_limit(limit, || frame_source(path, options))?;
+    Ok(FrameStream {
+        inner,
+        limit,
+        failed: false,
+    })
+}
+
+/// Frames read on demand from one input ([`frame_stream`]). Each call to `next` reads one
+/// frame under the input's decompression limit; memory held between calls is the reader's
+/// state (a file handle, the MCAP tf tree, an index of scan files), not the frames already
+/// yielded. `.graph`, text, single-scan formats (PCD, PLY, one VTK, one PNG) are parsed whole
+/// when the stream is made, and yielded from memory.
+pub struct FrameStream {
+    inner: Box<dyn Iterator<Item = Result<Frame, FormatError>> + Send>,
+    limit: source::DecompressionLimit,
+    failed: bool,
+}
+
+impl Iterator for FrameStream {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        let inner = &mut self.inner;
+        let r = source::with_decompression_limit(self.limit, || inner.next());
+        self.failed = matches!(r, Some(Err(_)));
+        r
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.failed {
+            (0, Some(0))
+        } else {
+            self.inner.size_hint()
+        }
+    }
+}
+
+impl std::fmt::Debug for FrameStream {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FrameStream")
+            .field("limit", &self.limit)
+            .finish_non_exhaustive()
+    }
+}
+
+type Source = Box<dyn Iterator<Item = Result<Frame, FormatError>> + Send>;
+
+/// Frames already in memory, as a source.
+fn all(frames: Result<Vec<Frame>, FormatError>) -> Result<Source, FormatError> {
+    Ok(Box::new(frames?.into_iter().map(Ok)))
+}
+
+fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatError> {
     let format = match options.format {
         Some(f) => f,
         None => InputFormat::detect(path)?,
     };
     match format {
-        InputFormat::Graph => graph::read_graph_frames(path, &options.graph),
-        InputFormat::Frames => frames::read_frames_file(path),
-        InputFormat::Text => text::read_text(path),
-        InputFormat::Vtk => vtk::read_vtk(path),
+        InputFormat::Graph => all(graph::read_graph_frames(path, &options.graph)),
+        InputFormat::Frames => Ok(Box::new(frames::frames_file_stream(path)?)),
+        InputFormat::Text => all(text::read_text(path)),
+        InputFormat::Vtk => all(vtk::read_vtk(path)),
         InputFormat::VtkSequence => {
             let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref())?;
-            vtk::read_vtk_sequence(&scans, &csv)
+            Ok(Box::new(vtk::vtk_sequence_frames(&scans, &csv)?))
         }
-        InputFormat::Pcd => pcd::read_pcd(path, &options.pcd),
-        InputFormat::TumDepth => tum::read_tum_depth(path, &options.tum),
+        InputFormat::Pcd => all(pcd::read_pcd(path, &options.pcd)),
+        InputFormat::TumDepth => all(tum::read_tum_depth(path, &options.tum)),
         InputFormat::TumAssociation => {
             let assoc = if path.is_dir() {
                 match directory_kind(path)? {
@@ -176,10 +239,12 @@ fn read_frames_in(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, Form
             } else {
                 path.to_path_buf()
             };
-            tum::read_tum_sequence(&assoc, &options.tum)
+            Ok(Box::new(tum::tum_sequence_frames(&assoc, &options.tum)?))
         }
-        InputFormat::Mcap => mcap::read_mcap_frames(path, &options.mcap),
-        InputFormat::Ply => ply::read_ply_frames(path),
+        InputFormat::Mcap => Ok(Box::new(
+            mcap::mcap_frames(path, &options.mcap)?.map(|r| r.map(|(f, _)| f)),
+        )),
+        InputFormat::Ply => all(ply::read_ply_frames(path)),
     }
 }
 

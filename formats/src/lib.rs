@@ -2,7 +2,8 @@
 //! [`Frame`]s in world coordinates, the writers of the exchange formats, and atomic file
 //! output.
 //!
-//! Entry point: [`read_frames`] with [`ReadOptions`]; the format comes from the name
+//! Entry point: [`read_frames`] with [`ReadOptions`] (or [`frame_stream`], the same frames
+//! read one at a time); the format comes from the name
 //! ([`InputFormat::detect`]) unless given. One module per format, each with free `read_*`
 //! functions:
 //!
@@ -47,7 +48,7 @@ pub mod vtk;
 pub use error::{FormatError, Location};
 pub use frame::Frame;
 pub use graph::GraphOptions;
-pub use input::{read_frames, InputFormat, ReadOptions};
+pub use input::{frame_stream, read_frames, FrameStream, InputFormat, ReadOptions};
 pub use pcd::{PcdOptions, ViewpointUse};
 pub use source::DecompressionLimit;
 pub use tum::{CameraIntrinsics, TumOptions};

@@ -308,6 +308,15 @@ pub fn read_tum_sequence(
     association: &Path,
     options: &TumOptions,
 ) -> Result<Vec<Frame>, FormatError> {
+    tum_sequence_frames(association, options)?.collect()
+}
+
+/// [`read_tum_sequence`] one image at a time: the association file is read first, then each
+/// depth image only when its frame is asked for.
+pub fn tum_sequence_frames(
+    association: &Path,
+    options: &TumOptions,
+) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
     options.check(association)?;
     let rows = read_association(association)?;
     if rows.is_empty() {
@@ -317,10 +326,10 @@ pub fn read_tum_sequence(
             "no depth image named in the association file exists",
         ));
     }
-    let mut frames = Vec::with_capacity(rows.len());
-    for row in rows {
+    let options = *options;
+    Ok(rows.into_iter().map(move |row| {
         let img = read_depth_png(&row.depth)?;
-        let (points, camera) = depth_to_camera(&img, options, row.rotation.to_rotation_matrix());
+        let (points, camera) = depth_to_camera(&img, &options, row.rotation.to_rotation_matrix());
         let points = points
             .iter()
             .map(|p| rigid_transform(&row.rotation, &row.translation, p))
@@ -328,9 +337,8 @@ pub fn read_tum_sequence(
         let mut f = Frame::new(row.translation.cast::<f32>().into(), points);
         f.stamp = stamp_of(&row.depth);
         f.camera = Some(camera);
-        frames.push(f);
-    }
-    Ok(frames)
+        Ok(f)
+    }))
 }
 
 /// Whether `path` looks like a TUM association file: its first data line has 9 fields and

@@ -351,14 +351,23 @@ pub fn list_scans(scans_dir: &Path) -> Result<Vec<(u64, u32, PathBuf)>, FormatEr
 /// `trajectory` CSV, transformed to the world, in time order. A scan without a row is an
 /// error naming the scan; rows without a scan are ignored.
 pub fn read_vtk_sequence(scans_dir: &Path, trajectory: &Path) -> Result<Vec<Frame>, FormatError> {
+    vtk_sequence_frames(scans_dir, trajectory)?.collect()
+}
+
+/// [`read_vtk_sequence`] one scan at a time: the trajectory and the scan list are read
+/// first, then each scan file only when its frame is asked for.
+pub fn vtk_sequence_frames(
+    scans_dir: &Path,
+    trajectory: &Path,
+) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
     let poses = read_trajectory_csv(trajectory)?;
     let mut by_stamp: HashMap<(u64, u32), StampedPose> = HashMap::with_capacity(poses.len());
     for p in poses {
         by_stamp.entry((p.sec, p.nanosec)).or_insert(p);
     }
     let scans = list_scans(scans_dir)?;
-    let mut frames = Vec::with_capacity(scans.len());
-    for (sec, nsec, path) in scans {
+    let trajectory = trajectory.to_path_buf();
+    Ok(scans.into_iter().map(move |(sec, nsec, path)| {
         let pose = by_stamp.get(&(sec, nsec)).ok_or_else(|| {
             FormatError::missing_pose(
                 &path,
@@ -376,9 +385,8 @@ pub fn read_vtk_sequence(scans_dir: &Path, trajectory: &Path) -> Result<Vec<Fram
             .collect();
         let mut f = Frame::new(pose.translation.cast::<f32>().into(), points);
         f.stamp = Some(pose.stamp());
-        frames.push(f);
-    }
-    Ok(frames)
+        Ok(f)
+    }))
 }
 
 #[cfg(test)]

@@ -806,3 +806,75 @@ fn errors_quote_at_most_a_short_excerpt_of_a_bad_token() {
         assert!(cost.peak <= 3 * text.len() + SLACK, "{name}: {cost:?}");
     }
 }
+
+// ---------------------------------------------------------------- streaming
+
+/// The peak memory of reading `path` one frame at a time (each frame dropped before the
+/// next), and the number of frames.
+fn stream_peak(path: &Path, options: &ReadOptions) -> (usize, Cost) {
+    let (n, cost) = measure(|| {
+        let mut n = 0;
+        for f in octoquant_formats::frame_stream(path, options).unwrap_or_else(|e| panic!("{e}")) {
+            f.unwrap_or_else(|e| panic!("{e}"));
+            n += 1;
+        }
+        n
+    });
+    (n, cost)
+}
+
+/// A `.frames` file streamed: the peak is one frame and the reader's buffers, the same for
+/// 100 frames as for 2000 (a file 20 times larger), far below the file's size.
+#[test]
+fn frames_stream_holds_one_frame_at_a_time() {
+    let _serial = serial();
+    let frame = octoquant_formats::Frame::new(
+        nalgebra::Point3::origin(),
+        (0..5000)
+            .map(|i| nalgebra::Point3::new(i as f32, 1.0, 2.0))
+            .collect(),
+    );
+    let mut peaks = Vec::new();
+    for n in [100usize, 2000] {
+        let mut bytes = Vec::new();
+        octoquant_formats::frames::write_frames(&mut bytes, &vec![frame.clone(); n]).unwrap();
+        let path = scratch(&format!("many{n}.frames"), &bytes);
+        let (got, cost) = stream_peak(&path, &ReadOptions::default());
+        assert_eq!(got, n);
+        peaks.push(cost.peak);
+        // two copies of a frame (its bytes and its points) and 64 KiB buffers
+        assert!(cost.peak < 4 * 60_000 + (1 << 20), "{n} frames: {cost:?}");
+        assert!(cost.peak < bytes.len() / 4, "{n} frames: {cost:?}");
+    }
+    assert!(peaks[1] <= peaks[0] + (64 << 10), "{peaks:?}");
+}
+
+/// An MCAP file of many clouds streamed: the peak does not grow with the number of clouds
+/// (the file is read by seeking, the tf tree is all that is kept between clouds).
+#[test]
+fn mcap_stream_holds_one_cloud_at_a_time() {
+    let _serial = serial();
+    let mut point = Vec::new();
+    for _ in 0..2000 {
+        for c in [1f32, 2.0, 3.0] {
+            point.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let mut peaks = Vec::new();
+    for n in [20u64, 400] {
+        let mut m = cloud_file(&[]);
+        for i in 0..n {
+            m.message(1, i, &cloud("s", (1, 2000), (12, 24_000), &point));
+        }
+        let bytes = m.finish();
+        let path = scratch(&format!("many{n}.mcap"), &bytes);
+        let (got, cost) = stream_peak(&path, &ReadOptions::default());
+        assert_eq!(got as u64, n);
+        assert!(
+            cost.peak < bytes.len() / 4 || n == 20,
+            "{n} clouds: {cost:?}"
+        );
+        peaks.push(cost.peak);
+    }
+    assert!(peaks[1] <= peaks[0] + (64 << 10), "{peaks:?}");
+}

@@ -1,10 +1,11 @@
 //! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
 
 use super::args::{InputArgs, ReadArgs, TreeArgs};
+use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
-use octoquant::formats::read_frames;
+use octoquant::formats::{frame_stream, FormatError, FrameStream, ReadOptions};
 use octoquant::octree::io::TreeFormat;
 use octoquant::output::{check_not_input, check_writable, remove_stale_temporaries, same_file};
 use octoquant::pipeline::{CheckpointOptions, InsertMode, Mapper, MapperOptions};
@@ -14,8 +15,9 @@ use octoquant::scene::{
 use octoquant::treefile::write_tree_file;
 use octoquant::{Frame, OccupancyParams};
 use octoquant_raycast::RayModel;
-use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -57,6 +59,13 @@ pub struct Args {
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
+    /// No progress on stderr (neither the bar nor the plain lines).
+    #[arg(short, long)]
+    quiet: bool,
+    /// When stderr is not a terminal, a plain progress line every N frames (0: none); on a
+    /// terminal a bar shows frames, points/s and, when the frame count is known, the ETA.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    progress_every: usize,
     /// Save a checkpoint (the tree and the input position) into DIR every --every frames and
     /// after the last; a killed run continues with `--resume DIR`, with the same result.
     #[arg(long, value_name = "DIR")]
@@ -202,8 +211,9 @@ impl Plan {
         Ok(s)
     }
 
-    /// This run's identity: options, inputs (absolute), frames, settings.
-    fn identity(&self, frames: &[Frame]) -> Result<RunIdentity> {
+    /// This run's identity: options, inputs (absolute), settings (the frames are streamed:
+    /// a resume checks those it skips against the checkpoint).
+    fn identity(&self) -> Result<RunIdentity> {
         let mut inputs = Vec::new();
         for p in &self.inputs {
             let abs = absolute(p)?;
@@ -211,7 +221,7 @@ impl Plan {
                 InputFile::stat(&abs).with_context(|| format!("cannot read {}", p.display()))?,
             );
         }
-        let mut id = RunIdentity::new(&self.options, inputs, frames);
+        let mut id = RunIdentity::streamed(&self.options, inputs);
         for (k, v) in self.settings()? {
             id = id.with_setting(&k, v);
         }
@@ -254,17 +264,86 @@ impl Plan {
         Ok(())
     }
 
-    fn read_frames(&self) -> Result<Vec<Frame>> {
+    /// The run's frames as they are read (every input in turn, each opened when the one
+    /// before is done), the number of frames when known up front (one input that knows
+    /// it, or the built-in scene), and the seconds spent reading so far (`load`, in ns).
+    fn frame_source(&self, load: Arc<AtomicU64>) -> Result<(Frames, Option<usize>)> {
         if self.inputs.is_empty() {
             errln!("no input given: mapping the built-in scene (pass files to map your own data)");
-            return builtin_frames();
+            let frames = builtin_frames()?;
+            let n = frames.len();
+            return Ok((Box::new(frames.into_iter().map(Ok)), Some(n)));
         }
-        let read = self.read.options();
-        let mut frames = Vec::new();
-        for p in &self.inputs {
-            frames.extend(read_frames(p, &read)?);
+        let mut inputs = InputFrames {
+            paths: self.inputs.clone().into(),
+            read: self.read.options(),
+            current: None,
+            load,
+        };
+        // the first input is opened now: its header errors come before any work
+        inputs.open_next()?;
+        let total = match (&inputs.current, self.inputs.len()) {
+            // (a .frames file's bound counts a possible error after its frames)
+            (Some(s), 1) => match s.size_hint() {
+                (lo, Some(hi)) if hi <= lo + 1 => Some(lo),
+                _ => None,
+            },
+            _ => None,
+        };
+        Ok((Box::new(inputs), total))
+    }
+}
+
+/// A run's frames, read while they are inserted.
+type Frames = Box<dyn Iterator<Item = Result<Frame, FormatError>> + Send>;
+
+/// Every input's frames in order, one input open at a time, timing the reads.
+struct InputFrames {
+    paths: std::collections::VecDeque<PathBuf>,
+    read: ReadOptions,
+    current: Option<FrameStream>,
+    load: Arc<AtomicU64>,
+}
+
+impl InputFrames {
+    /// Open the next input; false when there is none.
+    fn open_next(&mut self) -> Result<bool, FormatError> {
+        let Some(p) = self.paths.pop_front() else {
+            self.current = None;
+            return Ok(false);
+        };
+        let t = Instant::now();
+        let s = frame_stream(&p, &self.read);
+        self.load
+            .fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        self.current = Some(s?);
+        Ok(true)
+    }
+}
+
+impl Iterator for InputFrames {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            if let Some(s) = &mut self.current {
+                let t = Instant::now();
+                let r = s.next();
+                self.load
+                    .fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                if r.is_some() {
+                    return r;
+                }
+            }
+            match self.open_next() {
+                Ok(true) => {}
+                Ok(false) => return None,
+                Err(e) => {
+                    self.paths.clear();
+                    return Some(Err(e));
+                }
+            }
         }
-        Ok(frames)
     }
 }
 
@@ -281,7 +360,7 @@ pub fn run(a: &Args) -> Result<()> {
         if let Some(c) = &plan.checkpoint {
             if Checkpoint::exists(&c.dir) {
                 let done = Checkpoint::load(&c.dir)
-                    .map(|k| format!(" ({} of {} frames done)", k.frames_done, k.identity.frames))
+                    .map(|k| format!(" ({} frames done)", k.frames_done))
                     .unwrap_or_default();
                 bail!(
                     "{} already holds a checkpoint{done}: continue it with `octoquant map --resume {}`, or remove it to start over",
@@ -300,38 +379,37 @@ pub fn run(a: &Args) -> Result<()> {
         c.identity.check_inputs_on_disk(&c.dir)?;
     }
 
-    let t_load = Instant::now();
-    let frames = plan.read_frames()?;
-    let load_s = t_load.elapsed().as_secs_f64();
-    let identity = plan.identity(&frames)?;
+    let identity = plan.identity()?;
     let mut mapper = match (fresh, &resumed) {
         (Some(m), _) => m,
         (None, Some(c)) => {
             identity.check_same(&c.identity, &c.dir)?;
-            errln!(
-                "resuming from {}: {} of {} frames done",
-                c.dir.display(),
-                c.frames_done,
-                frames.len()
-            );
+            if !a.quiet {
+                errln!(
+                    "resuming from {}: {} frames done",
+                    c.dir.display(),
+                    c.frames_done
+                );
+            }
             Mapper::from_checkpoint(c)?
         }
         (None, None) => unreachable!("a run is fresh or resumed"),
     };
-    let progress = std::io::stderr().is_terminal() && !a.json;
-    let total = frames.len();
-    mapper.insert_run(
-        &frames,
-        plan.checkpoint.as_ref().map(|c| (c, &identity)),
-        |done| {
-            if progress {
-                err!("\rinserting frame {done}/{total}");
-            }
-        },
-    )?;
-    if progress {
-        errln!();
+    let load_ns = Arc::new(AtomicU64::new(0));
+    let (frames, total) = plan.frame_source(load_ns.clone())?;
+    let mut progress = Progress::new(a.quiet, a.progress_every, total);
+    if let Some(n) = total {
+        progress.set_total(n);
     }
+    let skipped = mapper.stats().frames;
+    let points_before = mapper.stats().total.points;
+    mapper.insert_stream(
+        frames,
+        plan.checkpoint.as_ref().map(|c| (c, &identity)),
+        |s| progress.update(s, s.total.points - points_before, skipped),
+    )?;
+    progress.finish();
+    let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
     mapper.finish();
     let stats = *mapper.stats();
     let mut tree = mapper.into_tree();

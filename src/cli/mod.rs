@@ -20,14 +20,6 @@ macro_rules! errln {
     }};
 }
 
-/// [`errln!`] without the newline (a progress line rewritten in place).
-macro_rules! err {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = write!(std::io::stderr().lock(), $($arg)*);
-    }};
-}
-
 mod args;
 mod bench;
 mod convert;
@@ -36,6 +28,7 @@ mod export;
 mod grid;
 mod info;
 mod map;
+mod progress;
 mod reduce;
 mod render;
 mod segment;

@@ -25,8 +25,9 @@
 //! sensor origin is the cloud frame's origin carried through the same chain; then
 //! [`McapOptions::sensor_pose`] maps the fixed frame to the world.
 //!
-//! The whole file is read into memory (MCAP's chunk index needs random access); chunks may
-//! be uncompressed or zstd-compressed (lz4 is not built in). A compressed chunk whose declared
+//! The file is read by seeking, one chunk in memory at a time ([`mcap_frames`] yields one
+//! cloud at a time after a first pass that collects the transforms); chunks may be
+//! uncompressed or zstd-compressed (lz4 is not built in). A compressed chunk whose declared
 //! size passes the [`DecompressionLimit`](crate::DecompressionLimit) is refused before it is
 //! allocated, and a tf chain is composed over at most 256 links, so the work per cloud is
 //! bounded.
@@ -38,5 +39,7 @@ mod tf;
 
 pub use cdr::{DecodeError, Encoding};
 pub use pointcloud2::{datatype, decode_point_cloud2, CloudStats, PointCloud2, PointField};
-pub use reader::{list_topics, read_mcap, read_mcap_frames, McapOptions, TopicInfo};
+pub use reader::{
+    list_topics, mcap_frames, read_mcap, read_mcap_frames, McapFrames, McapOptions, TopicInfo,
+};
 pub use tf::{decode_tf_message, Transform};

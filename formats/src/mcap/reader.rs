@@ -1,6 +1,12 @@
 //! Reading an MCAP file: its topics ([`list_topics`]) and every cloud of one topic posed in a
-//! fixed frame ([`read_mcap`]), through the chunk-size checks that keep a damaged file from
-//! aborting the process.
+//! fixed frame ([`read_mcap`], or one cloud at a time with [`mcap_frames`]), through the
+//! chunk-size checks that keep a damaged file from aborting the process.
+//!
+//! The file is never read whole: the checks seek from record header to record header, the
+//! summary is read by seeking to the footer, and messages come from the `mcap` crate's
+//! sans-io reader fed from the file, which holds one chunk (compressed and decompressed) at a
+//! time. A first pass keeps only the tf messages (the pose of a cloud may depend on
+//! transforms logged after it); the second decodes and poses the clouds as they come.
 
 use super::cdr::{DecodeError, Encoding};
 use super::pointcloud2::{decode_point_cloud2, CloudStats, PointCloud2, CLOUD_SCHEMAS};
@@ -11,7 +17,9 @@ use crate::pose::isometry_transform;
 use crate::source::decompression_limit;
 use nalgebra::{Isometry3, Point3};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
 
 /// How [`read_mcap`] selects and places clouds.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -44,44 +52,142 @@ fn mcap_err(path: &Path, e: ::mcap::McapError) -> FormatError {
     )
 }
 
-fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
-    std::fs::read(path).map_err(|e| FormatError::io(path, Location::File, e))
+/// What the readers need of a file: reads at an offset, and its length.
+trait Input: Read + Seek {}
+impl<T: Read + Seek> Input for T {}
+
+fn open_file(path: &Path) -> Result<BufReader<File>, FormatError> {
+    File::open(path)
+        .map(|f| BufReader::with_capacity(1 << 16, f))
+        .map_err(|e| FormatError::io(path, Location::File, e))
 }
 
-/// Every message of an MCAP file in file order, with its channel, through `visit`.
+fn file_len(path: &Path, r: &mut impl Input) -> Result<u64, FormatError> {
+    r.seek(SeekFrom::End(0))
+        .map_err(|e| FormatError::io(path, Location::File, e))
+}
+
+/// Move to `at`, keeping a buffered reader's buffer when `at` is inside it.
+fn seek_to(path: &Path, r: &mut impl Input, at: u64) -> Result<(), FormatError> {
+    let io = |e| FormatError::io(path, Location::Byte(at), e);
+    let cur = r.stream_position().map_err(io)?;
+    match i64::try_from(i128::from(at) - i128::from(cur)) {
+        Ok(d) => r.seek_relative(d).map_err(io),
+        Err(_) => r.seek(SeekFrom::Start(at)).map(drop).map_err(io),
+    }
+}
+
+/// Up to `n` bytes at `at` (fewer at the end of the input); `n` is bounded by the caller.
+fn read_at(path: &Path, r: &mut impl Input, at: u64, n: u64) -> Result<Vec<u8>, FormatError> {
+    seek_to(path, r, at)?;
+    let mut buf = Vec::new();
+    r.take(n)
+        .read_to_end(&mut buf)
+        .map_err(|e| FormatError::io(path, Location::Byte(at), e))?;
+    Ok(buf)
+}
+
+/// Fill `buf` from `at` as far as the input goes; the number of bytes read.
+fn read_into(
+    path: &Path,
+    r: &mut impl Input,
+    at: u64,
+    buf: &mut [u8],
+) -> Result<usize, FormatError> {
+    seek_to(path, r, at)?;
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(FormatError::io(path, Location::Byte(at), e)),
+        }
+    }
+    Ok(got)
+}
+
+/// The messages of an MCAP file in file order, each with its index and channel.
 ///
 /// The `mcap` crate's `MessageStream` sets no limit on the length a record inside a chunk may
 /// declare, and allocates (and zero-fills) that length before reading it: one damaged length
 /// field (say 2^59 bytes) aborts the process. So the chunk headers are checked first
 /// ([`check_chunk_sizes`]), and the messages are read with the crate's `MessageReader` under a
 /// record length limit: the file's size or the largest chunk's decompressed size, whichever
-/// is larger. No record can be longer than that in a valid file.
-fn for_each_message<F>(path: &Path, bytes: &[u8], mut visit: F) -> Result<(), FormatError>
+/// is larger. No record can be longer than that in a valid file. The reader asks for bytes
+/// as it needs them: one chunk is in memory at a time.
+struct Messages<R> {
+    path: PathBuf,
+    input: R,
+    /// Bytes of the input not yet handed to the reader.
+    left: u64,
+    reader: ::mcap::sans_io::MessageReader,
+    index: usize,
+}
+
+impl<R: Input> Messages<R> {
+    fn new(path: &Path, mut input: R) -> Result<Self, FormatError> {
+        let len = file_len(path, &mut input)?;
+        let largest_chunk = check_chunk_sizes(path, &mut input, len)?;
+        let limit = usize::try_from(largest_chunk.max(len)).unwrap_or(usize::MAX);
+        input
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| FormatError::io(path, Location::File, e))?;
+        let reader = ::mcap::sans_io::MessageReader::new_with_options(
+            ::mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
+        );
+        Ok(Messages {
+            path: path.to_path_buf(),
+            input,
+            left: len,
+            reader,
+            index: 0,
+        })
+    }
+
+    /// The next message with its index, or `None` after the last.
+    fn next_message(&mut self) -> Result<Option<(usize, ::mcap::Message<'static>)>, FormatError> {
+        while let Some(event) = self.reader.next_event() {
+            match event.map_err(|e| mcap_err(&self.path, e))? {
+                ::mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
+                    // never more than the input still holds: a length field cannot make
+                    // this allocate past the file
+                    let n = usize::try_from(self.left).map_or(need, |l| need.min(l));
+                    let at = self.left;
+                    let buf = self.reader.insert(n);
+                    let mut got = 0;
+                    while got < n {
+                        match self.input.read(&mut buf[got..]) {
+                            Ok(0) => break,
+                            Ok(k) => got += k,
+                            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                            Err(e) => {
+                                return Err(FormatError::io(&self.path, Location::Byte(at), e))
+                            }
+                        }
+                    }
+                    self.left -= got as u64;
+                    self.reader.notify_read(got);
+                }
+                ::mcap::sans_io::MessageReadEvent::Message(m) => {
+                    let i = self.index;
+                    self.index += 1;
+                    return Ok(Some((i, m)));
+                }
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// Every message of an MCAP file in file order, with its channel, through `visit`.
+fn for_each_message<F>(path: &Path, input: impl Input, mut visit: F) -> Result<(), FormatError>
 where
     F: FnMut(usize, &::mcap::Message<'static>) -> Result<(), FormatError>,
 {
-    let largest_chunk = check_chunk_sizes(path, bytes)?;
-    let limit = usize::try_from(largest_chunk)
-        .unwrap_or(usize::MAX)
-        .max(bytes.len());
-    let mut reader = ::mcap::sans_io::MessageReader::new_with_options(
-        ::mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit),
-    );
-    let mut rest = bytes;
-    let mut index = 0;
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| mcap_err(path, e))? {
-            ::mcap::sans_io::MessageReadEvent::ReadRequest(need) => {
-                let n = need.min(rest.len());
-                reader.insert(n).copy_from_slice(&rest[..n]);
-                reader.notify_read(n);
-                rest = &rest[n..];
-            }
-            ::mcap::sans_io::MessageReadEvent::Message(m) => {
-                visit(index, &m)?;
-                index += 1;
-            }
-        }
+    let mut messages = Messages::new(path, input)?;
+    while let Some((i, m)) = messages.next_message()? {
+        visit(i, &m)?;
     }
     Ok(())
 }
@@ -92,12 +198,12 @@ where
 /// before decompressing, so a damaged size field would abort the process instead of failing.
 /// Walks the records (opcode, `u64` length, content) from the leading magic to the footer;
 /// anything else malformed is left for the crate to report.
-fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
+fn check_chunk_sizes(path: &Path, input: &mut impl Input, len: u64) -> Result<u64, FormatError> {
     const MAGIC: &[u8] = b"\x89MCAP0\r\n";
     const OP_FOOTER: u8 = 0x02;
     const OP_CHUNK: u8 = 0x06;
     let mut largest = 0;
-    if !bytes.starts_with(MAGIC) {
+    if read_at(path, input, 0, MAGIC.len() as u64)? != MAGIC {
         return Ok(largest);
     }
     let u64_at = |b: &[u8], at: usize| -> Option<u64> {
@@ -112,10 +218,15 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
     };
     let limit = decompression_limit();
     let mut chunk = 0u64;
-    let mut pos = MAGIC.len();
-    while let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(bytes, pos + 1)) {
+    let mut pos = MAGIC.len() as u64;
+    loop {
+        let mut head = [0u8; 9];
+        let got = read_into(path, input, pos, &mut head)?;
+        let (Some(&op), Some(rec_len)) = (head[..got].first(), u64_at(&head[..got], 1)) else {
+            break;
+        };
         let start = pos + 9;
-        let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)) else {
+        let Some(end) = start.checked_add(rec_len) else {
             break;
         };
         if op == OP_FOOTER {
@@ -128,29 +239,36 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
             // then the compressed records with their u64 length
             // (read within the record only: a chunk too short for them is the crate's to report;
             // a chunk cut short by the end of the file is read by the crate as far as it goes)
-            let rec = &bytes[start..end.min(bytes.len())];
-            let declared = u64_at(rec, 16);
-            let name_len = u32_at(rec, 28).map(|n| n as usize);
-            let records = name_len.and_then(|n| u64_at(rec, 32usize.checked_add(n)?));
-            let compression = name_len.and_then(|n| rec.get(32..32usize.checked_add(n)?));
-            if let (Some(declared), Some(records), Some(compression)) =
-                (declared, records, compression)
-            {
+            let rec_in_file = end.min(len).saturating_sub(start);
+            let mut fixed = [0u8; 32];
+            let got = read_into(
+                path,
+                input,
+                start,
+                &mut fixed[..rec_in_file.min(32) as usize],
+            )?;
+            let declared = u64_at(&fixed[..got], 16);
+            let name_len = u32_at(&fixed[..got], 28).map(u64::from);
+            // the compression name and the records' length, when the chunk holds them
+            let tail = match name_len {
+                Some(n) if 40 + n <= rec_in_file => Some(read_at(path, input, start + 32, n + 8)?),
+                _ => None,
+            };
+            if let (Some(declared), Some(n), Some(tail)) = (declared, name_len, tail) {
+                let n_us = tail.len() - 8;
+                let compression = &tail[..n_us];
+                let records = u64_at(&tail, n_us).unwrap_or(0);
                 // the compressed bytes the file holds: a chunk cut short by the end of the
                 // file may claim any size
-                let records = records
-                    .min((rec.len() as u64).saturating_sub(40 + name_len.unwrap_or(0) as u64));
+                let records = records.min(rec_in_file.saturating_sub(40 + n));
                 // an uncompressed chunk's records are read as they lie in the file, whatever
                 // size its header declares
                 if compression.is_empty() {
-                    let body = usize::try_from(records).ok().and_then(|r| {
-                        let from = 40usize.checked_add(name_len?)?;
-                        rec.get(from..from.checked_add(r)?)
-                    });
-                    if let Some(at) = body.and_then(record_overrun) {
+                    let body = read_at(path, input, start + 40 + n, records)?;
+                    if let Some(at) = record_overrun(&body) {
                         return Err(FormatError::syntax(
                             path,
-                            Location::Byte((pos + 49 + name_len.unwrap_or(0) + at) as u64),
+                            Location::Byte(pos + 49 + n + at as u64),
                             "a record inside an uncompressed chunk runs past the chunk's end",
                         ));
                     }
@@ -161,7 +279,7 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
                 if let Some(msg) = limit.check(records, declared) {
                     return Err(FormatError::syntax(
                         path,
-                        Location::Byte(pos as u64),
+                        Location::Byte(pos),
                         format!(
                             "chunk {index} ({} compressed) declares a decompressed size that is \
                              damaged or a decompression bomb: {msg}",
@@ -172,7 +290,7 @@ fn check_chunk_sizes(path: &Path, bytes: &[u8]) -> Result<u64, FormatError> {
                 largest = largest.max(declared);
             }
         }
-        if end > bytes.len() {
+        if end > len {
             break;
         }
         pos = end;
@@ -204,41 +322,64 @@ fn record_overrun(records: &[u8]) -> Option<usize> {
 /// Whether the summary section (from the footer's `summary_start` to the footer) holds a
 /// chunk record. Walks records as the crate does; a length running past the footer ends the
 /// walk (the crate stops there too).
-fn summary_has_chunk(bytes: &[u8]) -> bool {
+fn summary_has_chunk(path: &Path, input: &mut impl Input, len: u64) -> Result<bool, FormatError> {
     // footer: opcode 0x02, u64 length, summary_start, summary_offset_start, CRC; then magic
-    let Some(footer) = bytes.len().checked_sub(8 + 29) else {
-        return false;
+    let Some(footer) = len.checked_sub(8 + 29) else {
+        return Ok(false);
     };
-    let u64_at = |at: usize| {
-        bytes
-            .get(at..at + 8)
+    let u64_of = |b: &[u8], at: usize| {
+        b.get(at..at + 8)
             .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
     };
-    let Some(mut pos) = u64_at(footer + 9).and_then(|s| usize::try_from(s).ok()) else {
-        return false;
+    let Some(mut pos) = u64_of(&read_at(path, input, footer + 9, 8)?, 0) else {
+        return Ok(false);
     };
     if pos == 0 {
-        return false;
+        return Ok(false);
     }
     while pos < footer {
-        let (Some(&op), Some(len)) = (bytes.get(pos), u64_at(pos + 1)) else {
-            return false;
+        let head = read_at(path, input, pos, 9)?;
+        let (Some(&op), Some(rec_len)) = (head.first(), u64_of(&head, 1)) else {
+            return Ok(false);
         };
         if op == 0x06 {
-            return true;
+            return Ok(true);
         }
-        match usize::try_from(len)
-            .ok()
-            .and_then(|l| (pos + 9).checked_add(l))
-        {
+        match (pos + 9).checked_add(rec_len) {
             Some(end) if end <= footer => pos = end,
-            _ => return false,
+            _ => return Ok(false),
         }
     }
-    false
+    Ok(false)
 }
 
-fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
+/// The summary section, read by seeking to the footer (what `mcap::Summary::read` does on a
+/// whole file in memory).
+fn read_summary(
+    path: &Path,
+    input: &mut impl Input,
+    len: u64,
+) -> Result<Option<::mcap::Summary>, FormatError> {
+    use ::mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
+    let mut reader =
+        SummaryReader::new_with_options(SummaryReaderOptions::default().with_file_size(len));
+    let io = |e| FormatError::io(path, Location::File, e);
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| mcap_err(path, e))? {
+            SummaryReadEvent::ReadRequest(n) => {
+                let got = input.read(reader.insert(n)).map_err(io)?;
+                reader.notify_read(got);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let at = input.seek(to).map_err(io)?;
+                reader.notify_seeked(at);
+            }
+        }
+    }
+    Ok(reader.finish())
+}
+
+fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, FormatError> {
     let mut map: BTreeMap<String, TopicInfo> = BTreeMap::new();
     let mut add = |c: &::mcap::Channel| {
         map.entry(c.topic.clone()).or_insert_with(|| TopicInfo {
@@ -251,22 +392,23 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
             encoding: c.message_encoding.clone(),
         });
     };
+    let len = file_len(path, &mut input)?;
     // A chunk in the summary section (where none belongs) would reach the crate's unchecked
     // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above:
     // such a file is read linearly instead.
-    let summary = if summary_has_chunk(bytes) {
-        Ok(None)
+    let summary = if summary_has_chunk(path, &mut input, len)? {
+        None
     } else {
-        ::mcap::Summary::read(bytes)
+        read_summary(path, &mut input, len).ok().flatten()
     };
     match summary {
-        Ok(Some(summary)) if !summary.channels.is_empty() => {
+        Some(summary) if !summary.channels.is_empty() => {
             for c in summary.channels.values() {
                 add(c);
             }
         }
         _ => {
-            for_each_message(path, bytes, |_, m| {
+            for_each_message(path, input, |_, m| {
                 add(&m.channel);
                 Ok(())
             })?;
@@ -277,8 +419,7 @@ fn topics_of(path: &Path, bytes: &[u8]) -> Result<Vec<TopicInfo>, FormatError> {
 
 /// The topics of an MCAP file with their message types and encodings, sorted by name.
 pub fn list_topics(path: &Path) -> Result<Vec<TopicInfo>, FormatError> {
-    let bytes = read_bytes(path)?;
-    topics_of(path, &bytes)
+    topics_of(path, open_file(path)?)
 }
 
 fn describe(topics: &[TopicInfo]) -> String {
@@ -289,7 +430,8 @@ fn describe(topics: &[TopicInfo]) -> String {
         .join(", ")
 }
 
-/// Every cloud of the selected topic as a frame, with per-cloud counts.
+/// Every cloud of the selected topic as a frame, with per-cloud counts: [`mcap_frames`]
+/// collected.
 ///
 /// Errors name the file and what is wrong: unreadable MCAP, unknown topic (listing the
 /// topics), a topic that is not PointCloud2, an unknown message encoding, a malformed
@@ -298,8 +440,22 @@ pub fn read_mcap(
     path: &Path,
     options: &McapOptions,
 ) -> Result<(Vec<Frame>, Vec<CloudStats>), FormatError> {
-    let bytes = read_bytes(path)?;
-    let topics = topics_of(path, &bytes)?;
+    let mut frames = Vec::new();
+    let mut stats = Vec::new();
+    for r in mcap_frames(path, options)? {
+        let (f, s) = r?;
+        frames.push(f);
+        stats.push(s);
+    }
+    Ok((frames, stats))
+}
+
+/// [`read_mcap_frames`] with the counts, one cloud at a time: the topic is chosen and every
+/// transform of `/tf` and `/tf_static` is read first (a pass over the file that keeps only
+/// the transforms), then each cloud is decoded and posed when it is asked for. Errors are
+/// those of [`read_mcap`]; the stream ends after the first.
+pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, FormatError> {
+    let topics = topics_of(path, open_file(path)?)?;
     let topic = match &options.topic {
         Some(t) => {
             let info = topics.iter().find(|i| &i.topic == t).ok_or_else(|| {
@@ -352,8 +508,7 @@ pub fn read_mcap(
     };
 
     let mut tf = TfTree::default();
-    let mut clouds: Vec<(u64, PointCloud2)> = Vec::new();
-    for_each_message(path, &bytes, |index, m| {
+    for_each_message(path, open_file(path)?, |index, m| {
         let ch = &m.channel;
         let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
         let is_cloud = ch.topic == topic;
@@ -361,45 +516,106 @@ pub fn read_mcap(
         if !is_cloud && !is_tf {
             return Ok(());
         }
-        let encoding = Encoding::from_mcap(&ch.message_encoding).ok_or_else(|| {
-            FormatError::unsupported(
-                path,
-                Location::File,
-                format!(
-                    "topic {:?} uses message encoding {:?}; only \"ros1\" and \"cdr\" are supported",
-                    ch.topic, ch.message_encoding
-                ),
-            )
-        })?;
-        let bad = |e: DecodeError| {
-            FormatError::syntax(
-                path,
-                Location::File,
-                format!("message {index} on {:?}: {e}", ch.topic),
-            )
-        };
-        if is_cloud {
-            clouds.push((
-                m.log_time,
-                decode_point_cloud2(&m.data, encoding).map_err(bad)?,
-            ));
-        } else {
-            for t in decode_tf_message(&m.data, encoding).map_err(bad)? {
+        let encoding = message_encoding(path, ch)?;
+        if is_tf {
+            for t in
+                decode_tf_message(&m.data, encoding).map_err(|e| bad_message(path, index, ch, e))?
+            {
                 tf.add(t, m.log_time, ch.topic == "/tf_static");
             }
         }
         Ok(())
     })?;
+    Ok(McapFrames {
+        path: path.to_path_buf(),
+        topic,
+        fixed_frame: options.fixed_frame.clone(),
+        world: options.sensor_pose.unwrap_or_else(Isometry3::identity),
+        tf,
+        messages: Messages::new(path, open_file(path)?)?,
+        clouds: 0,
+        done: false,
+    })
+}
 
-    let world = options.sensor_pose.unwrap_or_else(Isometry3::identity);
-    let mut frames = Vec::with_capacity(clouds.len());
-    let mut stats = Vec::with_capacity(clouds.len());
-    for (i, (time, cloud)) in clouds.iter().enumerate() {
-        let fixed = options
+fn message_encoding(path: &Path, ch: &::mcap::Channel) -> Result<Encoding, FormatError> {
+    Encoding::from_mcap(&ch.message_encoding).ok_or_else(|| {
+        FormatError::unsupported(
+            path,
+            Location::File,
+            format!(
+                "topic {:?} uses message encoding {:?}; only \"ros1\" and \"cdr\" are supported",
+                ch.topic, ch.message_encoding
+            ),
+        )
+    })
+}
+
+fn bad_message(path: &Path, index: usize, ch: &::mcap::Channel, e: DecodeError) -> FormatError {
+    FormatError::syntax(
+        path,
+        Location::File,
+        format!("message {index} on {:?}: {e}", ch.topic),
+    )
+}
+
+/// The clouds of one MCAP topic as posed frames, read one chunk at a time ([`mcap_frames`]).
+pub struct McapFrames {
+    path: PathBuf,
+    topic: String,
+    fixed_frame: Option<String>,
+    world: Isometry3<f64>,
+    tf: TfTree,
+    messages: Messages<BufReader<File>>,
+    /// Clouds yielded so far.
+    clouds: usize,
+    done: bool,
+}
+
+impl std::fmt::Debug for McapFrames {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapFrames")
+            .field("path", &self.path)
+            .field("topic", &self.topic)
+            .field("clouds", &self.clouds)
+            .finish_non_exhaustive()
+    }
+}
+
+impl McapFrames {
+    /// The next cloud of the topic, decoded and posed, or `None` after the last.
+    fn next_cloud(&mut self) -> Result<Option<(Frame, CloudStats)>, FormatError> {
+        let path = self.path.as_path();
+        let topic = &self.topic;
+        let (index, m) = loop {
+            match self.messages.next_message()? {
+                None => return Ok(None),
+                Some((index, m)) => {
+                    let ch = &m.channel;
+                    let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
+                    let is_tf = TF_SCHEMAS.contains(&schema)
+                        && (ch.topic == "/tf" || ch.topic == "/tf_static");
+                    // the first pass refused any unknown encoding in order; the same here
+                    if ch.topic == *topic || is_tf {
+                        message_encoding(path, ch)?;
+                    }
+                    if ch.topic == *topic {
+                        break (index, m);
+                    }
+                }
+            }
+        };
+        let ch = &m.channel;
+        let encoding = message_encoding(path, ch)?;
+        let cloud: PointCloud2 =
+            decode_point_cloud2(&m.data, encoding).map_err(|e| bad_message(path, index, ch, e))?;
+        let i = self.clouds;
+        let time = m.log_time;
+        let fixed = self
             .fixed_frame
             .clone()
-            .unwrap_or_else(|| tf.root(&cloud.frame_id));
-        let to_fixed = match tf.lookup(&fixed, &cloud.frame_id, *time) {
+            .unwrap_or_else(|| self.tf.root(&cloud.frame_id));
+        let to_fixed = match self.tf.lookup(&fixed, &cloud.frame_id, time) {
             Ok(t) => t,
             Err(why) => {
                 return Err(FormatError::missing_pose(
@@ -408,12 +624,12 @@ pub fn read_mcap(
                     format!(
                         "cloud {i} on {topic:?}: {why} from {:?} to {fixed:?} (frames in tf: {})",
                         cloud.frame_id,
-                        tf.frames().join(", ")
+                        self.tf.frames().join(", ")
                     ),
                 ))
             }
         };
-        let pose = world * to_fixed;
+        let pose = self.world * to_fixed;
         let (pts, st) = cloud.points().map_err(|message| {
             FormatError::syntax(
                 path,
@@ -425,15 +641,30 @@ pub fn read_mcap(
             .into_iter()
             .map(|p| isometry_transform(&pose, &p))
             .collect();
-        frames.push(Frame {
-            origin: isometry_transform(&pose, &Point3::origin()),
-            points,
-            stamp: Some(cloud.stamp),
-            camera: None,
-        });
-        stats.push(st);
+        self.clouds += 1;
+        Ok(Some((
+            Frame {
+                origin: isometry_transform(&pose, &Point3::origin()),
+                points,
+                stamp: Some(cloud.stamp),
+                camera: None,
+            },
+            st,
+        )))
     }
-    Ok((frames, stats))
+}
+
+impl Iterator for McapFrames {
+    type Item = Result<(Frame, CloudStats), FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        let r = self.next_cloud().transpose();
+        self.done = !matches!(r, Some(Ok(_)));
+        r
+    }
 }
 
 /// [`read_mcap`] without the counts.
@@ -444,6 +675,7 @@ pub fn read_mcap_frames(path: &Path, options: &McapOptions) -> Result<Vec<Frame>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Cursor;
 
     /// An MCAP file with one uncompressed chunk holding `body` as its records, then `tail`.
     fn file_with_chunk(body: &[u8], tail: &[u8]) -> Vec<u8> {
@@ -475,7 +707,9 @@ mod tests {
         body.extend_from_slice(&100u64.to_le_bytes());
         body.extend_from_slice(&[1, 2, 3]);
         let bytes = file_with_chunk(&body, &[0u8; 200]);
-        let e = topics_of(path, &bytes).unwrap_err().to_string();
+        let e = topics_of(path, Cursor::new(&bytes))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
         assert!(e.contains("overrun.mcap"), "{e}");
         // the record starts right after magic (8), chunk opcode and length (9) and the
@@ -493,7 +727,7 @@ mod tests {
         let mut cut = file_with_chunk(&body, &[0u8; 200]);
         let chunk_len_at = 9;
         cut[chunk_len_at..chunk_len_at + 8].copy_from_slice(&(40u64 + 12 + 300).to_le_bytes());
-        let e = topics_of(path, &cut).unwrap_err().to_string();
+        let e = topics_of(path, Cursor::new(&cut)).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
 
         // the same chunk in the summary section (found by the fuzz target after the fix
@@ -509,8 +743,8 @@ mod tests {
         f.extend_from_slice(&0u64.to_le_bytes());
         f.extend_from_slice(&0u32.to_le_bytes());
         f.extend_from_slice(b"\x89MCAP0\r\n");
-        assert!(summary_has_chunk(&f));
-        let e = topics_of(path, &f).unwrap_err().to_string();
+        assert!(summary_has_chunk(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
+        let e = topics_of(path, Cursor::new(&f)).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
 
         // a zstd chunk cut short by the end of the file, claiming 2^40 compressed bytes and
@@ -527,7 +761,7 @@ mod tests {
         f.push(0x06);
         f.extend_from_slice(&(1u64 << 41).to_le_bytes());
         f.extend_from_slice(&chunk);
-        let e = topics_of(path, &f).unwrap_err().to_string();
+        let e = topics_of(path, Cursor::new(&f)).unwrap_err().to_string();
         // refused before any allocation: by the decompression limit, or as a damaged size
         assert!(e.contains("damaged") && e.contains("chunk"), "{e}");
 
@@ -538,7 +772,7 @@ mod tests {
         let mut cut = file_with_chunk(&ok, &[]);
         cut[9..17].copy_from_slice(&(1u64 << 53).to_le_bytes());
         cut[17 + 32..17 + 40].copy_from_slice(&(1u64 << 52).to_le_bytes());
-        let largest = check_chunk_sizes(path, &cut).unwrap();
+        let largest = check_chunk_sizes(path, &mut Cursor::new(&cut), cut.len() as u64).unwrap();
         assert!(largest <= cut.len() as u64, "{largest}");
 
         let mut two = ok.clone();
