@@ -5,6 +5,10 @@ use octoquant_octree::io::{self, TreeFormat};
 use octoquant_octree::{OcTree, OctreeError};
 use std::path::{Path, PathBuf};
 
+/// The extensions of tree files, as [`TreeFormat::from_path`] knows them (lowercase, no
+/// dot): what an output name may end in.
+pub const TREE_EXTENSIONS: [&str; 2] = ["bt", "ot"];
+
 /// Errors from tree files, naming the file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -89,8 +89,12 @@ impl InputFormat {
             path: path.to_path_buf(),
             message,
         };
-        let ext = source::logical_extension(path)
-            .ok_or_else(|| unknown("the file name has no extension".into()))?;
+        let ext = source::logical_extension(path).ok_or_else(|| {
+            unknown(format!(
+                "the file name has no extension; {}",
+                Self::name_it_hint()
+            ))
+        })?;
         Ok(match ext.as_str() {
             "graph" => InputFormat::Graph,
             "frames" => InputFormat::Frames,
@@ -108,8 +112,23 @@ impl InputFormat {
             "png" => InputFormat::TumDepth,
             "mcap" => InputFormat::Mcap,
             "ply" => InputFormat::Ply,
-            other => return Err(unknown(format!("unknown extension .{other}"))),
+            other => {
+                return Err(unknown(format!(
+                    "unknown extension .{other}; {}",
+                    Self::name_it_hint()
+                )))
+            }
         })
+    }
+
+    /// How to name the format when it cannot be told from the file: `--format` on the
+    /// command line, [`ReadOptions::format`] in the library, and the names they take.
+    fn name_it_hint() -> String {
+        let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
+        format!(
+            "name the format with --format (ReadOptions::format): one of {}",
+            names.join(", ")
+        )
     }
 }
 

@@ -355,6 +355,16 @@ pub fn run(a: &Args) -> Result<()> {
     }
     mapper.finish();
     let stats = *mapper.stats();
+    let all = &stats.total;
+    if all.outside_map > 0 && all.outside_map + all.non_finite == all.points {
+        // the key range is 2^16 voxels around the origin
+        let half = plan.options.resolution * 32768.0;
+        bail!(
+            "all {} points lie outside the map: at --res {} it spans only ±{half} m around the origin; choose a coarser resolution",
+            all.points,
+            plan.options.resolution
+        );
+    }
     let mut tree = mapper.into_tree();
     // blocks freed by pruning are kept for reuse while mapping; measure (and write) the tree
     // as it stands, as `bench` and `info` do
