@@ -407,3 +407,94 @@ fn a_resolution_that_puts_every_point_outside_the_map_is_an_error() {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn vtk_directories_take_a_trajectory_or_identity_poses() {
+    let dir = scratch("cli-vtk-identity");
+    let scans = dir.join("run/scans");
+    std::fs::create_dir_all(&scans).unwrap();
+    let wall: String = (0..50)
+        .map(|j| format!("2 {} {}\n", (j % 10) as f64 * 0.1, (j / 10) as f64 * 0.1))
+        .collect();
+    for stamp in ["cloud_10_0.vtk", "cloud_11_500000000.vtk"] {
+        std::fs::write(
+            scans.join(stamp),
+            format!(
+                "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 50 float\n{wall}"
+            ),
+        )
+        .unwrap();
+    }
+    let map = |extra: &[&str], out: &str| {
+        octoquant(&dir)
+            .args(["map", "run", "--res", "0.1", "-o", out])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = map(&[], "a.bt");
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--trajectory") && stderr(&o).contains("--identity-poses"),
+        "{}",
+        stderr(&o)
+    );
+    let o = map(&["--identity-poses"], "identity.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    // the same as a trajectory of identity poses
+    std::fs::write(
+        dir.join("poses.csv"),
+        "header.stamp.sec,header.stamp.nanosec,pose.pose.position.x,pose.pose.position.y,pose.pose.position.z,pose.pose.orientation.x,pose.pose.orientation.y,pose.pose.orientation.z,pose.pose.orientation.w\n\
+         10,0,0,0,0,0,0,0,1\n11,500000000,0,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let o = map(&["--trajectory", "poses.csv"], "trajectory.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = std::fs::read(dir.join("identity.bt")).unwrap();
+    assert_eq!(a, std::fs::read(dir.join("trajectory.bt")).unwrap());
+    // and a shifted trajectory gives another map
+    std::fs::write(
+        dir.join("shifted.csv"),
+        "header.stamp.sec,header.stamp.nanosec,pose.pose.position.x,pose.pose.position.y,pose.pose.position.z,pose.pose.orientation.x,pose.pose.orientation.y,pose.pose.orientation.z,pose.pose.orientation.w\n\
+         10,0,1,0,0,0,0,0,1\n11,500000000,1,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let o = map(&["--trajectory", "shifted.csv"], "shifted.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ne!(a, std::fs::read(dir.join("shifted.bt")).unwrap());
+}
+
+#[test]
+fn reader_options_are_on_the_command_line() {
+    let dir = scratch("cli-reader-options");
+    let o = octoquant(&dir).args(["map", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&o.stdout);
+    for option in [
+        "--intrinsics <FX> <FY> <CX> <CY>",
+        "--depth-scale",
+        "--trajectory",
+        "--identity-poses",
+        "--pcd-viewpoint",
+        "possible values: origin, apply, ignore",
+    ] {
+        assert!(help.contains(option), "{option} missing from\n{help}");
+    }
+    // bad intrinsics reach the reader's check, which names the file
+    std::fs::write(dir.join("d.png"), b"").unwrap();
+    let o = octoquant(&dir)
+        .args([
+            "map",
+            "d.png",
+            "--intrinsics",
+            "0",
+            "525",
+            "319.5",
+            "239.5",
+            "-o",
+            "m.bt",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("d.png"), "{}", stderr(&o));
+}

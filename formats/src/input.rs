@@ -152,6 +152,9 @@ pub struct ReadOptions {
     /// The trajectory CSV of a VTK sequence, when it is not `trajectory.csv` (or the only
     /// `.csv`) in the input directory or its parent.
     pub trajectory: Option<PathBuf>,
+    /// Read a VTK sequence with identity poses (sensor at the origin, points as stored, for
+    /// scans already in the world frame) instead of matching its scans to a trajectory.
+    pub vtk_identity_poses: bool,
     /// MCAP options (topic, fixed frame, sensor pose).
     pub mcap: mcap::McapOptions,
     /// How far compressed data (`.gz`/`.bz2`, LZF, MCAP chunks, PNG) may expand before the
@@ -175,8 +178,13 @@ fn read_frames_in(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, Form
         InputFormat::Frames => frames::read_frames_file(path),
         InputFormat::Text => text::read_text(path),
         InputFormat::Vtk => vtk::read_vtk(path),
+        InputFormat::VtkSequence if options.vtk_identity_poses => {
+            let (scans, _) = vtk_sequence_inputs(path, None, false)?;
+            vtk::read_vtk_sequence_identity(&scans)
+        }
         InputFormat::VtkSequence => {
-            let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref())?;
+            let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref(), true)?;
+            let csv = csv.expect("a trajectory is found or an error when one is needed");
             vtk::read_vtk_sequence(&scans, &csv)
         }
         InputFormat::Pcd => pcd::read_pcd(path, &options.pcd),
@@ -281,11 +289,13 @@ fn find_csv(dir: &Path) -> Result<Option<PathBuf>, FormatError> {
     })
 }
 
-/// (scans directory, trajectory CSV) for a VTK sequence given as a directory or a CSV.
+/// (scans directory, trajectory CSV) for a VTK sequence given as a directory or a CSV; a
+/// directory without a trajectory is an error when `need_trajectory`.
 fn vtk_sequence_inputs(
     path: &Path,
     trajectory: Option<&Path>,
-) -> Result<(PathBuf, PathBuf), FormatError> {
+    need_trajectory: bool,
+) -> Result<(PathBuf, Option<PathBuf>), FormatError> {
     let parent_of = |p: &Path| {
         p.parent()
             .filter(|d| !d.as_os_str().is_empty())
@@ -308,13 +318,13 @@ fn vtk_sequence_inputs(
                 None => find_csv(&parent_of(path))?,
             },
         };
-        let csv = csv.ok_or_else(|| {
-            FormatError::missing_pose(
+        if csv.is_none() && need_trajectory {
+            return Err(FormatError::missing_pose(
                 path,
                 Location::File,
-                "no trajectory.csv (or single .csv) found; pass the trajectory",
-            )
-        })?;
+                "no trajectory.csv (or single .csv) found; pass the trajectory (--trajectory), or --identity-poses for scans already in the world frame",
+            ));
+        }
         return Ok((scans, csv));
     }
     let dir = parent_of(path);
@@ -322,6 +332,6 @@ fn vtk_sequence_inputs(
     let scans = if scans.is_dir() { scans } else { dir };
     Ok((
         scans,
-        trajectory.map_or_else(|| path.to_path_buf(), Path::to_path_buf),
+        Some(trajectory.map_or_else(|| path.to_path_buf(), Path::to_path_buf)),
     ))
 }

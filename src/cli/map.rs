@@ -75,7 +75,8 @@ pub struct Args {
         value_name = "DIR",
         conflicts_with_all = [
             "checkpoint", "every", "inputs", "format", "global", "topic", "fixed_frame",
-            "pixel_step", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
+            "pixel_step", "max_expansion", "intrinsics", "depth_scale", "trajectory",
+            "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
             "sensor", "reduce", "output", "ot",
         ]
     )]
