@@ -496,5 +496,9 @@ fn reader_options_are_on_the_command_line() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("d.png"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("d.png") && stderr(&o).contains("focal"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -361,7 +361,7 @@ pub fn run(a: &Args) -> Result<()> {
         // the key range is 2^16 voxels around the origin
         let half = plan.options.resolution * 32768.0;
         bail!(
-            "all {} points lie outside the map: at --res {} it spans only ±{half} m around the origin; choose a coarser resolution",
+            "all {} points lie outside the map: at --res {:?} it spans only ±{half:?} m around the origin; choose a coarser resolution",
             all.points,
             plan.options.resolution
         );
