@@ -22,7 +22,7 @@
 //! assert_eq!(grid.cell_at(&Point2::new(1.03, 2.04)), Some(Cell::Occupied));
 //! ```
 
-use crate::output::{check_output, write_atomic, OutputError};
+use crate::output::{check_extension, check_output, write_atomic, OutputError};
 use nalgebra::Point2;
 use octoquant_octree::{OcTree, KEY_CENTER, TREE_DEPTH};
 use std::io::Write;
@@ -128,6 +128,18 @@ pub enum GridError {
         width: u64,
         /// Cells along y.
         height: u64,
+    },
+    /// The output file name is not usable (no `.yaml`/`.yml` extension, or no file name).
+    #[error("{}: the map description must be a .yaml or .yml file", path.display())]
+    OutputName {
+        /// The name given.
+        path: PathBuf,
+    },
+    /// The output's directory does not exist.
+    #[error("{}: no such directory to write into", path.display())]
+    MissingDirectory {
+        /// The name given.
+        path: PathBuf,
     },
     /// Writing a file failed.
     #[error(transparent)]
@@ -275,9 +287,20 @@ pub fn write_nav2(grid: &OccupancyGrid, yaml: &Path) -> Result<PathBuf, GridErro
 
 /// Check, before long work, that `yaml` can name a map description: a `.yaml` or `.yml`
 /// file name that [`check_output`] accepts (writable directory, none of `inputs`), with the
-/// image beside it writable too; returns the image path [`write_nav2`] writes.
+/// image beside it writable too; returns the image path [`write_nav2`] writes. A wrong
+/// extension is [`GridError::OutputName`], a missing directory [`GridError::MissingDirectory`]
+/// (value errors in the Python package), other failures [`GridError::Output`].
 pub fn check_output_name(yaml: &Path, inputs: &[PathBuf]) -> Result<PathBuf, GridError> {
-    check_output(yaml, &["yaml", "yml"], inputs)?;
+    let path = || yaml.to_path_buf();
+    check_extension(yaml, &["yaml", "yml"]).map_err(|_| GridError::OutputName { path: path() })?;
+    check_output(yaml, &["yaml", "yml"], inputs).map_err(|e| {
+        let OutputError::Io { source, .. } = &e;
+        if source.kind() == std::io::ErrorKind::NotFound {
+            GridError::MissingDirectory { path: path() }
+        } else {
+            GridError::Output(e)
+        }
+    })?;
     let stem = yaml.file_stem().unwrap_or_default().to_string_lossy();
     let image = yaml.with_file_name(format!("{stem}.pgm"));
     check_output(&image, &["pgm"], inputs)?;

@@ -328,7 +328,7 @@ fn output_names_are_checked_before_reading_and_list_the_accepted_extensions() {
             ".ply",
         ),
         (&["segment", "absent.log", "--png", "out.svg"], ".png"),
-        (&["grid", "absent.bt", "-o", "out.png"], ".yaml, .yml"),
+        (&["grid", "absent.bt", "-o", "out.png"], ".yaml or .yml"),
         (
             &["convert", "absent.bt", "no/such/dir/out.bt"],
             "does not exist",

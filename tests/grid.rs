@@ -332,7 +332,7 @@ fn cli_grid() {
     );
     fail(
         &["missing.bt", "-o", dir.join("no/x.yaml").to_str().unwrap()],
-        "does not exist",
+        "no such directory",
     );
     fail(
         &[

@@ -175,31 +175,38 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     }
 }
 
+/// Check that `path`'s extension is one of `accepted` (lowercase, without the dot, compared
+/// ignoring case); the error names the file and lists the accepted extensions.
+pub fn check_extension(path: &Path, accepted: &[&str]) -> Result<(), OutputError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext
+        .as_deref()
+        .is_some_and(|e| accepted.iter().any(|a| a.eq_ignore_ascii_case(e)))
+    {
+        return Ok(());
+    }
+    let list: Vec<String> = accepted.iter().map(|a| format!(".{a}")).collect();
+    let what = match &ext {
+        Some(e) => format!("unknown extension .{e}"),
+        None => "no extension".to_string(),
+    };
+    Err(io_err(
+        path,
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{what}: the accepted extensions are {}", list.join(", ")),
+        ),
+    ))
+}
+
 /// Check an output name before any work: its extension is one of `accepted` (lowercase,
 /// without the dot, compared ignoring case; an error lists them, so that a file is never
 /// written under a name that mislabels its contents), [`check_writable`] passes and it is none
 /// of `inputs` ([`check_not_input`]). Every command that writes a file calls this first.
 pub fn check_output(path: &Path, accepted: &[&str], inputs: &[PathBuf]) -> Result<(), OutputError> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    if !ext
-        .as_deref()
-        .is_some_and(|e| accepted.iter().any(|a| a.eq_ignore_ascii_case(e)))
-    {
-        let list: Vec<String> = accepted.iter().map(|a| format!(".{a}")).collect();
-        let what = match &ext {
-            Some(e) => format!("unknown extension .{e}"),
-            None => "no extension".to_string(),
-        };
-        return Err(io_err(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                format!("{what}: the accepted extensions are {}", list.join(", ")),
-            ),
-        ));
-    }
+    check_extension(path, accepted)?;
     check_writable(path)?;
     check_not_input(path, inputs)
 }
