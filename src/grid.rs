@@ -22,7 +22,7 @@
 //! assert_eq!(grid.cell_at(&Point2::new(1.03, 2.04)), Some(Cell::Occupied));
 //! ```
 
-use crate::output::{write_atomic, OutputError};
+use crate::output::{check_extension, check_output, write_atomic, OutputError};
 use nalgebra::Point2;
 use octoquant_octree::{OcTree, KEY_CENTER, TREE_DEPTH};
 use std::io::Write;
@@ -267,7 +267,7 @@ pub fn project(tree: &OcTree, options: &GridOptions) -> Result<OccupancyGrid, Gr
 /// beside it with the same stem and `.pgm` (binary P5, rows from the largest y down, as
 /// map_server reads them). Both are written atomically; returns the image's path.
 pub fn write_nav2(grid: &OccupancyGrid, yaml: &Path) -> Result<PathBuf, GridError> {
-    let image = check_output_name(yaml)?;
+    let image = check_output_name(yaml, &[])?;
     let image_name = image
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -285,24 +285,26 @@ pub fn write_nav2(grid: &OccupancyGrid, yaml: &Path) -> Result<PathBuf, GridErro
     Ok(image)
 }
 
-/// Check that `yaml` can name a map description (a `.yaml` or `.yml` file name in an existing
-/// directory) and return
-/// the image path [`write_nav2`] writes beside it; call it before long work to fail early.
-pub fn check_output_name(yaml: &Path) -> Result<PathBuf, GridError> {
-    let ext = yaml.extension().and_then(|e| e.to_str());
-    let (Some("yaml" | "yml"), Some(stem)) = (ext, yaml.file_stem()) else {
-        return Err(GridError::OutputName {
-            path: yaml.to_path_buf(),
-        });
-    };
-    if let Some(dir) = yaml.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(GridError::MissingDirectory {
-                path: yaml.to_path_buf(),
-            });
+/// Check, before long work, that `yaml` can name a map description: a `.yaml` or `.yml`
+/// file name that [`check_output`] accepts (writable directory, none of `inputs`), with the
+/// image beside it writable too; returns the image path [`write_nav2`] writes. A wrong
+/// extension is [`GridError::OutputName`], a missing directory [`GridError::MissingDirectory`]
+/// (value errors in the Python package), other failures [`GridError::Output`].
+pub fn check_output_name(yaml: &Path, inputs: &[PathBuf]) -> Result<PathBuf, GridError> {
+    let path = || yaml.to_path_buf();
+    check_extension(yaml, &["yaml", "yml"]).map_err(|_| GridError::OutputName { path: path() })?;
+    check_output(yaml, &["yaml", "yml"], inputs).map_err(|e| {
+        let OutputError::Io { source, .. } = &e;
+        if source.kind() == std::io::ErrorKind::NotFound {
+            GridError::MissingDirectory { path: path() }
+        } else {
+            GridError::Output(e)
         }
-    }
-    Ok(yaml.with_file_name(format!("{}.pgm", stem.to_string_lossy())))
+    })?;
+    let stem = yaml.file_stem().unwrap_or_default().to_string_lossy();
+    let image = yaml.with_file_name(format!("{stem}.pgm"));
+    check_output(&image, &["pgm"], inputs)?;
+    Ok(image)
 }
 
 /// The grid as a binary PGM (P5, maxval 255), top row = largest y.

@@ -1,5 +1,51 @@
 //! octoquant: OctoMap-compatible occupancy mapping, fast.
 //!
+//! # Quick start
+//!
+//! Build a map from frames (a sensor origin and the end points of its rays, in world
+//! coordinates) with a [`Mapper`], query it, cast a ray through it and save it:
+//!
+//! ```
+//! use nalgebra::Point3;
+//! use octoquant::raycast::{cast_ray, CastOptions};
+//! use octoquant::treefile::{read_tree_file, save_tree_file};
+//! use octoquant::{Frame, Mapper, MapperOptions};
+//!
+//! let mut mapper = Mapper::new(MapperOptions {
+//!     resolution: 0.1,
+//!     max_range: Some(20.0),
+//!     ..MapperOptions::default()
+//! })?;
+//! // one frame: a sensor at (0, 0.52, 0.52) facing a wall 2 m away
+//! let wall: Vec<Point3<f32>> = (0..400)
+//!     .map(|i| Point3::new(2.02, 0.02 + 0.05 * (i % 20) as f32, 0.02 + 0.05 * (i / 20) as f32))
+//!     .collect();
+//! mapper.insert(&Frame::new(Point3::new(0.0, 0.52, 0.52), wall));
+//! let tree = mapper.into_tree();
+//!
+//! // the wall is occupied, the space in front of it free, the space behind it unknown
+//! assert!(tree.probability_at(&Point3::new(2.02, 0.52, 0.52)).unwrap() > 0.5);
+//! assert!(tree.probability_at(&Point3::new(1.05, 0.52, 0.52)).unwrap() < 0.5);
+//! assert_eq!(tree.probability_at(&Point3::new(3.05, 0.52, 0.52)), None);
+//!
+//! // a ray along +x from the sensor stops at the wall
+//! let ray = cast_ray(
+//!     &tree,
+//!     &Point3::new(0.0, 0.52, 0.52),
+//!     &Point3::new(1.0, 0.0, 0.0),
+//!     &CastOptions::default(),
+//! );
+//! assert!(ray.hit && (ray.end.unwrap().x - 2.05).abs() < 1e-6);
+//!
+//! // save as OctoMap's .bt (the tree itself is left as it is) and read it back
+//! let path = std::env::temp_dir().join(format!("quick-start-{}.bt", std::process::id()));
+//! save_tree_file(&tree, &path)?;
+//! let back = read_tree_file(&path)?;
+//! assert!(back.probability_at(&Point3::new(2.02, 0.52, 0.52)).unwrap() > 0.5);
+//! # std::fs::remove_file(&path)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! This crate wires the workspace together: it re-exports the octree crate and the sensor
 //! formats (with their atomic file output), and adds the insertion pipeline, tree file reading
 //! with errors that name the file, rendering, export, collision queries, the scene simulator
@@ -23,3 +69,4 @@ pub use octoquant_octree::{InnerNodes, Key, KeyConverter, OcTree, OccupancyParam
 /// callers that use only this crate (the Python bindings).
 pub use octoquant_raycast as raycast;
 pub use parry3d;
+pub use pipeline::{Mapper, MapperOptions};

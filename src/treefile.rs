@@ -5,6 +5,10 @@ use octoquant_octree::io::{self, TreeFormat};
 use octoquant_octree::{OcTree, OctreeError};
 use std::path::{Path, PathBuf};
 
+/// The extensions of tree files, as [`TreeFormat::from_path`] knows them (lowercase, no
+/// dot): what an output name may end in.
+pub const TREE_EXTENSIONS: [&str; 2] = ["bt", "ot"];
+
 /// Errors from tree files, naming the file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -51,10 +55,28 @@ pub fn read_tree_file(path: &Path) -> Result<OcTree, TreeFileError> {
 }
 
 /// Write a tree to `path` atomically, in the format its extension names. `.bt` converts the
-/// tree to max-likelihood and prunes it first, as OctoMap's `writeBinary` does.
+/// tree to max-likelihood and prunes it first, in place, as OctoMap's `writeBinary` does; use
+/// [`save_tree_file`] to keep the tree as it is.
 pub fn write_tree_file(tree: &mut OcTree, path: &Path) -> Result<(), TreeFileError> {
     match TreeFormat::from_path(path) {
         Some(TreeFormat::Bt) => Ok(write_atomic(path, |w| io::write_bt(tree, w))?),
+        Some(TreeFormat::Ot) => Ok(write_atomic(path, |w| io::write_ot(tree, w))?),
+        None => Err(TreeFileError::UnknownFormat {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// Write a tree to `path` atomically, in the format its extension names, leaving the tree as
+/// it is: `.ot` holds it unchanged, `.bt` holds what OctoMap's `writeBinary` writes (the
+/// max-likelihood, pruned tree), converted on a copy, so the bytes equal
+/// [`write_tree_file`]'s at the cost of the copy's memory while it is written.
+pub fn save_tree_file(tree: &OcTree, path: &Path) -> Result<(), TreeFileError> {
+    match TreeFormat::from_path(path) {
+        Some(TreeFormat::Bt) => {
+            let mut copy = tree.clone();
+            Ok(write_atomic(path, |w| io::write_bt(&mut copy, w))?)
+        }
         Some(TreeFormat::Ot) => Ok(write_atomic(path, |w| io::write_ot(tree, w))?),
         None => Err(TreeFileError::UnknownFormat {
             path: path.to_path_buf(),

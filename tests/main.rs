@@ -1,6 +1,7 @@
 //! Integration tests: one binary (see Cargo.toml `autotests = false`).
 
 mod checkpoint;
+mod cli;
 mod common;
 mod formats;
 mod grid;

@@ -237,13 +237,9 @@ fn cli_info_json_numbers_are_short() {
         );
         String::from_utf8(out.stdout).unwrap()
     };
-    run(&[
-        "map".as_ref(),
-        "--res".as_ref(),
-        "1e-300".as_ref(),
-        "-o".as_ref(),
-        map.as_ref(),
-    ]);
+    // (`map` refuses this resolution: every point would lie outside the map)
+    let mut tiny = OcTree::new(1e-300).unwrap();
+    write_tree_file(&mut tiny, &map).unwrap();
     let json = run(&["info".as_ref(), map.as_ref(), "--json".as_ref()]);
     assert!(json.contains("\"resolution\":1e-300,"), "{json}");
     assert!(json.len() < 400, "{json}");
@@ -309,4 +305,34 @@ fn cli_info_and_convert_on_geb079() {
         .unwrap();
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("nope.bt"));
+}
+
+/// `save_tree_file` writes the bytes `write_tree_file` writes (for `.bt`, OctoMap's
+/// max-likelihood pruned tree) and leaves the tree as it was, which `write_tree_file` does not.
+#[test]
+fn save_tree_file_writes_the_same_bytes_without_changing_the_tree() {
+    let dir = common::scratch("tree_files_save_const");
+    let tree = small_tree();
+    let mut before = Vec::new();
+    write_ot(&tree, &mut before).unwrap();
+    for name in ["a.bt", "a.ot"] {
+        octoquant::treefile::save_tree_file(&tree, &dir.join(name)).unwrap();
+        let mut after = Vec::new();
+        write_ot(&tree, &mut after).unwrap();
+        assert_eq!(before, after, "{name}: the tree changed");
+        let mut copy = tree.clone();
+        write_tree_file(&mut copy, &dir.join(format!("m{name}"))).unwrap();
+        assert_eq!(
+            std::fs::read(dir.join(name)).unwrap(),
+            std::fs::read(dir.join(format!("m{name}"))).unwrap(),
+            "{name}"
+        );
+    }
+    // and the in-place writer does change a tree with values between the clamps
+    let mut copy = tree.clone();
+    write_tree_file(&mut copy, &dir.join("b.bt")).unwrap();
+    let mut changed = Vec::new();
+    write_ot(&copy, &mut changed).unwrap();
+    assert_ne!(before, changed, "the test tree is already max-likelihood");
+    assert!(octoquant::treefile::save_tree_file(&tree, &dir.join("a.png")).is_err());
 }

@@ -89,8 +89,12 @@ impl InputFormat {
             path: path.to_path_buf(),
             message,
         };
-        let ext = source::logical_extension(path)
-            .ok_or_else(|| unknown("the file name has no extension".into()))?;
+        let ext = source::logical_extension(path).ok_or_else(|| {
+            unknown(format!(
+                "the file name has no extension; {}",
+                Self::name_it_hint()
+            ))
+        })?;
         Ok(match ext.as_str() {
             "graph" => InputFormat::Graph,
             "frames" => InputFormat::Frames,
@@ -108,8 +112,23 @@ impl InputFormat {
             "png" => InputFormat::TumDepth,
             "mcap" => InputFormat::Mcap,
             "ply" => InputFormat::Ply,
-            other => return Err(unknown(format!("unknown extension .{other}"))),
+            other => {
+                return Err(unknown(format!(
+                    "unknown extension .{other}; {}",
+                    Self::name_it_hint()
+                )))
+            }
         })
+    }
+
+    /// How to name the format when it cannot be told from the file: `--format` on the
+    /// command line, [`ReadOptions::format`] in the library, and the names they take.
+    fn name_it_hint() -> String {
+        let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
+        format!(
+            "name the format with --format (ReadOptions::format): one of {}",
+            names.join(", ")
+        )
     }
 }
 
@@ -133,6 +152,9 @@ pub struct ReadOptions {
     /// The trajectory CSV of a VTK sequence, when it is not `trajectory.csv` (or the only
     /// `.csv`) in the input directory or its parent.
     pub trajectory: Option<PathBuf>,
+    /// Read a VTK sequence with identity poses (sensor at the origin, points as stored, for
+    /// scans already in the world frame) instead of matching its scans to a trajectory.
+    pub vtk_identity_poses: bool,
     /// MCAP options (topic, fixed frame, sensor pose).
     pub mcap: mcap::McapOptions,
     /// How far compressed data (`.gz`/`.bz2`, LZF, MCAP chunks, PNG) may expand before the
@@ -219,8 +241,19 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
         InputFormat::Frames => Ok(Box::new(frames::frames_file_stream(path)?)),
         InputFormat::Text => all(text::read_text(path)),
         InputFormat::Vtk => all(vtk::read_vtk(path)),
+        InputFormat::VtkSequence if options.vtk_identity_poses => {
+            let (scans, _) = vtk_sequence_inputs(path, None, false)?;
+            all(vtk::read_vtk_sequence_identity(&scans))
+        }
         InputFormat::VtkSequence => {
-            let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref())?;
+            let (scans, csv) = vtk_sequence_inputs(path, options.trajectory.as_deref(), true)?;
+            let Some(csv) = csv else {
+                return Err(FormatError::missing_pose(
+                    path,
+                    Location::File,
+                    "no trajectory for the VTK scans",
+                ));
+            };
             Ok(Box::new(vtk::vtk_sequence_frames(&scans, &csv)?))
         }
         InputFormat::Pcd => all(pcd::read_pcd(path, &options.pcd)),
@@ -327,11 +360,13 @@ fn find_csv(dir: &Path) -> Result<Option<PathBuf>, FormatError> {
     })
 }
 
-/// (scans directory, trajectory CSV) for a VTK sequence given as a directory or a CSV.
+/// (scans directory, trajectory CSV) for a VTK sequence given as a directory or a CSV; a
+/// directory without a trajectory is an error when `need_trajectory`.
 fn vtk_sequence_inputs(
     path: &Path,
     trajectory: Option<&Path>,
-) -> Result<(PathBuf, PathBuf), FormatError> {
+    need_trajectory: bool,
+) -> Result<(PathBuf, Option<PathBuf>), FormatError> {
     let parent_of = |p: &Path| {
         p.parent()
             .filter(|d| !d.as_os_str().is_empty())
@@ -354,13 +389,13 @@ fn vtk_sequence_inputs(
                 None => find_csv(&parent_of(path))?,
             },
         };
-        let csv = csv.ok_or_else(|| {
-            FormatError::missing_pose(
+        if csv.is_none() && need_trajectory {
+            return Err(FormatError::missing_pose(
                 path,
                 Location::File,
-                "no trajectory.csv (or single .csv) found; pass the trajectory",
-            )
-        })?;
+                "no trajectory.csv (or single .csv) found; pass the trajectory (--trajectory), or --identity-poses for scans already in the world frame",
+            ));
+        }
         return Ok((scans, csv));
     }
     let dir = parent_of(path);
@@ -368,6 +403,6 @@ fn vtk_sequence_inputs(
     let scans = if scans.is_dir() { scans } else { dir };
     Ok((
         scans,
-        trajectory.map_or_else(|| path.to_path_buf(), Path::to_path_buf),
+        Some(trajectory.map_or_else(|| path.to_path_buf(), Path::to_path_buf)),
     ))
 }

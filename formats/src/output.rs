@@ -175,6 +175,42 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     }
 }
 
+/// Check that `path`'s extension is one of `accepted` (lowercase, without the dot, compared
+/// ignoring case); the error names the file and lists the accepted extensions.
+pub fn check_extension(path: &Path, accepted: &[&str]) -> Result<(), OutputError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext
+        .as_deref()
+        .is_some_and(|e| accepted.iter().any(|a| a.eq_ignore_ascii_case(e)))
+    {
+        return Ok(());
+    }
+    let list: Vec<String> = accepted.iter().map(|a| format!(".{a}")).collect();
+    let what = match &ext {
+        Some(e) => format!("unknown extension .{e}"),
+        None => "no extension".to_string(),
+    };
+    Err(io_err(
+        path,
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{what}: the accepted extensions are {}", list.join(", ")),
+        ),
+    ))
+}
+
+/// Check an output name before any work: its extension is one of `accepted` (lowercase,
+/// without the dot, compared ignoring case; an error lists them, so that a file is never
+/// written under a name that mislabels its contents), [`check_writable`] passes and it is none
+/// of `inputs` ([`check_not_input`]). Every command that writes a file calls this first.
+pub fn check_output(path: &Path, accepted: &[&str], inputs: &[PathBuf]) -> Result<(), OutputError> {
+    check_extension(path, accepted)?;
+    check_writable(path)?;
+    check_not_input(path, inputs)
+}
+
 /// Check that the output `path` is none of `inputs` (the same file by device and inode, or
 /// by absolute path when it does not exist yet), so that a run never overwrites what it reads.
 pub fn check_not_input(path: &Path, inputs: &[PathBuf]) -> Result<(), OutputError> {
@@ -385,6 +421,27 @@ mod tests {
         write_atomic(&target, |w| w.write_all(b"new")).unwrap();
         assert!(!dead.exists());
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn output_names_need_an_accepted_extension() {
+        let dir = scratch("ext");
+        let ok = |p: &Path| check_output(p, &["bt", "ot"], &[]);
+        assert!(ok(&dir.join("m.bt")).is_ok());
+        assert!(ok(&dir.join("m.OT")).is_ok());
+        for bad in ["m.png", "m", "m.bt.gz"] {
+            let e = ok(&dir.join(bad)).unwrap_err().to_string();
+            assert!(e.contains(bad) && e.contains(".bt, .ot"), "{e}");
+        }
+        let e = ok(&dir.join("nope/m.bt")).unwrap_err().to_string();
+        assert!(e.contains("does not exist"), "{e}");
+        let input = dir.join("in.bt");
+        std::fs::write(&input, b"x").unwrap();
+        let e = check_output(&input, &["bt"], std::slice::from_ref(&input))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("also an input"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -389,6 +389,25 @@ pub fn vtk_sequence_frames(
     }))
 }
 
+/// Read a scan sequence with identity poses: every `.vtk` in `scans_dir` in stamp order, its
+/// points as stored (already in the world frame), the sensor at the origin, the stamp from
+/// the file name.
+pub fn read_vtk_sequence_identity(scans_dir: &Path) -> Result<Vec<Frame>, FormatError> {
+    let scans = list_scans(scans_dir)?;
+    let mut frames = Vec::with_capacity(scans.len());
+    for (sec, nsec, path) in scans {
+        let data = read_all(&path)?;
+        let points = parse_vtk_points(&path, &data)?
+            .iter()
+            .map(|p| p.cast::<f32>())
+            .collect();
+        let mut f = Frame::new(Point3::origin(), points);
+        f.stamp = Some(sec as f64 + f64::from(nsec) * 1e-9);
+        frames.push(f);
+    }
+    Ok(frames)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

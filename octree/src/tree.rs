@@ -459,6 +459,15 @@ impl OcTree {
         self.search(self.conv.point_to_key(point)?, TREE_DEPTH)
     }
 
+    /// The occupancy probability at `point` (metres): that of the node holding it (the voxel,
+    /// or the pruned leaf above it that covers it), `None` in unknown space or outside the
+    /// map. The probability form of [`OcTree::search_point`]'s log-odds, as OctoMap's
+    /// `getOccupancy`.
+    pub fn probability_at(&self, point: &Point3<f64>) -> Option<f64> {
+        self.search_point(point)
+            .map(|n| crate::params::probability(f64::from(n.value)))
+    }
+
     /// `Some(true)` if the voxel is known occupied, `Some(false)` if known free, `None` if
     /// unknown.
     pub fn is_occupied(&self, key: Key) -> Option<bool> {

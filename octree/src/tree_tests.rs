@@ -190,3 +190,47 @@ fn more_values_than_the_palette_holds() {
     assert!(t.memory_usage() < wide_bytes);
     crate::validate::assert_well_formed(&t, InnerNodes::Defer);
 }
+
+/// `probability_at` is `1 - 1/(1 + e^l)` of the log-odds the voxel holds (written out here,
+/// not through `probability`), for pruned nodes too; `None` in unknown space and outside.
+#[test]
+fn probability_at_a_point() {
+    let mut t = OcTree::new(0.1).unwrap();
+    let oracle = |l: f32| 1.0 - 1.0 / (1.0 + f64::from(l).exp());
+    let p = Point3::new(1.03, -0.42, 0.27);
+    assert_eq!(t.probability_at(&p), None);
+    let l = t
+        .update_point(&p, Update::Hit, InnerNodes::Refresh)
+        .unwrap();
+    assert_eq!(t.probability_at(&p), Some(oracle(l)));
+    assert!((t.probability_at(&p).unwrap() - 0.7).abs() < 1e-6);
+    let l = t
+        .update_point(&p, Update::Miss, InnerNodes::Refresh)
+        .unwrap();
+    assert_eq!(t.probability_at(&p), Some(oracle(l)));
+    // a neighbour in the same voxel, one in the next
+    assert_eq!(
+        t.probability_at(&Point3::new(1.01, -0.41, 0.21)),
+        Some(oracle(l))
+    );
+    assert_eq!(t.probability_at(&Point3::new(1.13, -0.42, 0.27)), None);
+    assert_eq!(t.probability_at(&Point3::new(1e9, 0.0, 0.0)), None);
+    assert_eq!(t.probability_at(&Point3::new(f64::NAN, 0.0, 0.0)), None);
+    // eight sibling voxels driven to the clamp prune into one leaf, which answers for all
+    let mut t = OcTree::new(0.1).unwrap();
+    let base = Key::new(32770, 32770, 32770);
+    for _ in 0..20 {
+        for i in 0..8u16 {
+            let k = Key::new(
+                base[0] + (i & 1),
+                base[1] + (i >> 1 & 1),
+                base[2] + (i >> 2),
+            );
+            t.update_node(k, Update::Hit, InnerNodes::Refresh);
+        }
+    }
+    let centre = t.converter().key_to_point(&base);
+    let n = t.search_point(&centre).unwrap();
+    assert!(n.depth < TREE_DEPTH, "not pruned");
+    assert_eq!(t.probability_at(&centre), Some(oracle(n.value)));
+}

@@ -2,9 +2,9 @@
 //! `#[command(flatten)]`), so that an option is spelled, defaulted and explained once, and
 //! their resolution into the library's settings (`ReadOptions`, the tree's size and range).
 
-use super::vocab::FormatArg;
+use super::vocab::{FormatArg, ViewpointArg};
 use anyhow::{bail, Result};
-use octoquant::formats::{read_frames, DecompressionLimit, ReadOptions};
+use octoquant::formats::{read_frames, CameraIntrinsics, DecompressionLimit, ReadOptions};
 use octoquant::Frame;
 use std::path::PathBuf;
 
@@ -27,6 +27,25 @@ pub struct ReadArgs {
     /// Use only every N-th pixel of TUM depth images.
     #[arg(long, default_value_t = 1)]
     pixel_step: u32,
+    /// TUM depth images: the camera intrinsics in pixels (default: TUM's recommended 525 525
+    /// 319.5 239.5).
+    #[arg(long, num_args = 4, value_names = ["FX", "FY", "CX", "CY"])]
+    intrinsics: Option<Vec<f64>>,
+    /// TUM depth images: raw depth units per metre (default 5000, TUM's convention).
+    #[arg(long, value_name = "UNITS")]
+    depth_scale: Option<f64>,
+    /// VTK scan directories: the trajectory CSV, when it is not `trajectory.csv` (or the only
+    /// `.csv`) in the directory or its parent.
+    #[arg(long, value_name = "CSV", conflicts_with = "identity_poses")]
+    trajectory: Option<PathBuf>,
+    /// VTK scan directories: no trajectory, every scan at the origin with its points as
+    /// stored (scans already in the world frame).
+    #[arg(long)]
+    identity_poses: bool,
+    /// PCD input: how the VIEWPOINT is used: `origin` (the sensor origin only, PCL's meaning;
+    /// the default), `apply` (also transform the points by it) or `ignore`.
+    #[arg(long, value_enum, value_name = "USE")]
+    pcd_viewpoint: Option<ViewpointArg>,
     /// Compressed input (.gz/.bz2, PCD binary_compressed, MCAP chunks, PNG) may expand to N
     /// times its size (and always to 64 MiB) before the read fails as a decompression bomb;
     /// 0: no limit.
@@ -45,6 +64,22 @@ impl ReadArgs {
         read.mcap.topic = self.topic.clone();
         read.mcap.fixed_frame = self.fixed_frame.clone();
         read.tum.pixel_step = self.pixel_step.max(1);
+        if let Some([fx, fy, cx, cy]) = self.intrinsics.as_deref() {
+            read.tum.intrinsics = CameraIntrinsics {
+                fx: *fx,
+                fy: *fy,
+                cx: *cx,
+                cy: *cy,
+            };
+        }
+        if let Some(d) = self.depth_scale {
+            read.tum.depth_scale = d;
+        }
+        read.trajectory = self.trajectory.clone();
+        read.vtk_identity_poses = self.identity_poses;
+        if let Some(v) = self.pcd_viewpoint {
+            read.pcd.viewpoint = v.into();
+        }
         read.decompression = match self.max_expansion {
             0 => DecompressionLimit::UNLIMITED,
             n => DecompressionLimit {
@@ -75,6 +110,27 @@ impl ReadArgs {
         }
         s.push(("pixel_step".into(), self.pixel_step.to_string()));
         s.push(("max_expansion".into(), self.max_expansion.to_string()));
+        // `{:?}` writes the shortest decimal that reads back to the same f64
+        if let Some(i) = &self.intrinsics {
+            let words: Vec<String> = i.iter().map(|x| format!("{x:?}")).collect();
+            s.push(("intrinsics".into(), words.join(" ")));
+        }
+        if let Some(d) = self.depth_scale {
+            s.push(("depth_scale".into(), format!("{d:?}")));
+        }
+        if let Some(t) = &self.trajectory {
+            // absolute, so that a resume from another directory reads the same file
+            let t = std::path::absolute(t).unwrap_or_else(|_| t.clone());
+            s.push(("trajectory".into(), t.to_string_lossy().into_owned()));
+        }
+        if self.identity_poses {
+            s.push(("identity_poses".into(), "true".into()));
+        }
+        if let Some(v) = self.pcd_viewpoint {
+            if let Some(v) = clap::ValueEnum::to_possible_value(&v) {
+                s.push(("pcd_viewpoint".into(), v.get_name().to_string()));
+            }
+        }
         s
     }
 
@@ -99,12 +155,43 @@ impl ReadArgs {
                 .parse()
                 .map_err(|_| anyhow::anyhow!("max_expansion {m:?} is not a number"))?,
         };
+        let number = |k: &str, v: &str| -> Result<f64> {
+            v.parse()
+                .map_err(|_| anyhow::anyhow!("{k} {v:?} is not a number"))
+        };
+        let intrinsics = match get("intrinsics") {
+            None => None,
+            Some(v) => {
+                let i = v
+                    .split(' ')
+                    .map(|w| number("intrinsics", w))
+                    .collect::<Result<Vec<f64>>>()?;
+                if i.len() != 4 {
+                    bail!("intrinsics {v:?} are not four numbers");
+                }
+                Some(i)
+            }
+        };
+        let pcd_viewpoint = match get("pcd_viewpoint") {
+            None => None,
+            Some(v) => Some(
+                <ViewpointArg as clap::ValueEnum>::from_str(v, true)
+                    .map_err(|_| anyhow::anyhow!("unknown PCD viewpoint use {v:?}"))?,
+            ),
+        };
         Ok(ReadArgs {
             format,
             global: get("global") == Some("true"),
             topic: get("topic").map(str::to_string),
             fixed_frame: get("fixed_frame").map(str::to_string),
             pixel_step,
+            intrinsics,
+            depth_scale: get("depth_scale")
+                .map(|v| number("depth_scale", v))
+                .transpose()?,
+            trajectory: get("trajectory").map(PathBuf::from),
+            identity_poses: get("identity_poses") == Some("true"),
+            pcd_viewpoint,
             max_expansion,
         })
     }
@@ -163,5 +250,69 @@ impl TreeArgs {
             bail!("--res {} is not a positive number of metres", self.res);
         }
         Ok(self.res)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        read: ReadArgs,
+    }
+
+    fn parse(args: &[&str]) -> ReadArgs {
+        Cli::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{e}"))
+            .read
+    }
+
+    /// Every reader option survives a checkpoint: the settings read back give the same
+    /// `ReadOptions`, and each option changes them (so none is dropped on the way).
+    #[test]
+    fn settings_round_trip_every_reader_option() {
+        let trajectory = std::env::temp_dir().join("poses.csv");
+        let trajectory = trajectory.to_str().unwrap();
+        let cases: Vec<Vec<&str>> = vec![
+            vec![],
+            vec!["--format", "pcd", "--pcd-viewpoint", "apply"],
+            vec!["--pcd-viewpoint", "ignore"],
+            vec!["--global", "--topic", "/points", "--fixed-frame", "map"],
+            vec!["--pixel-step", "4", "--max-expansion", "0"],
+            vec!["--intrinsics", "517.3", "516.5", "318.6", "255.3"],
+            vec!["--depth-scale", "1000.000000000001"],
+            vec!["--trajectory", trajectory],
+            vec!["--identity-poses"],
+        ];
+        let default = parse(&[]).options();
+        for args in &cases {
+            let a = parse(args);
+            let settings = a.to_settings();
+            let back = ReadArgs::from_settings(|k| {
+                settings
+                    .iter()
+                    .find(|(key, _)| key == k)
+                    .map(|(_, v)| v.as_str())
+            })
+            .unwrap();
+            assert_eq!(back.options(), a.options(), "{args:?}: {settings:?}");
+            assert_eq!(args.is_empty(), a.options() == default, "{args:?}");
+        }
+        let a = parse(&["--intrinsics", "1", "2", "3", "4", "--depth-scale", "5"]);
+        let tum = a.options().tum;
+        assert_eq!(
+            [
+                tum.intrinsics.fx,
+                tum.intrinsics.fy,
+                tum.intrinsics.cx,
+                tum.intrinsics.cy
+            ],
+            [1.0, 2.0, 3.0, 4.0]
+        );
+        assert_eq!(tum.depth_scale, 5.0);
+        assert!(Cli::try_parse_from(["x", "--trajectory", "t.csv", "--identity-poses"]).is_err());
     }
 }

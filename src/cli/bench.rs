@@ -2,7 +2,7 @@
 //! optionally against the C++ OctoMap reference program, as ratios.
 
 use super::args::{InputArgs, TreeArgs};
-use super::json_number;
+use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use octoquant::octree::io::write_bt;
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
@@ -221,11 +221,12 @@ fn run_reference(
         .arg("script")
         .arg(&sp)
         .output()
-        .with_context(|| format!("cannot run {}", prog.display()))?;
+        .with_context(|| format!("cannot run the reference program {}", prog.display()))?;
     if !out.status.success() {
         bail!(
-            "reference program failed: {}",
-            String::from_utf8_lossy(&out.stderr)
+            "the reference program {} failed: {}",
+            prog.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
         );
     }
     let ms = String::from_utf8_lossy(&out.stdout)
@@ -239,9 +240,54 @@ fn run_reference(
     Ok((ms, std::fs::read(&bt)?))
 }
 
+/// Check, before any work, that `prog` can be run: a path to an executable file, or a bare
+/// name found as one on `PATH`. The error names `what` and the program.
+fn check_program(what: &str, prog: &Path) -> Result<()> {
+    let runnable = |p: &Path| {
+        std::fs::metadata(p).is_ok_and(|m| {
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                m.is_file() && m.permissions().mode() & 0o111 != 0
+            }
+            #[cfg(not(unix))]
+            {
+                m.is_file()
+            }
+        })
+    };
+    let bare = prog.components().count() == 1 && !prog.as_os_str().is_empty();
+    let found = if bare {
+        std::env::var_os("PATH")
+            .is_some_and(|path| std::env::split_paths(&path).any(|d| runnable(&d.join(prog))))
+    } else {
+        runnable(prog)
+    };
+    if !found {
+        bail!(
+            "cannot run {what} {}: {}",
+            prog.display(),
+            if bare {
+                "no such program on PATH"
+            } else if prog.exists() {
+                "not an executable file"
+            } else {
+                "no such file"
+            }
+        );
+    }
+    Ok(())
+}
+
 pub fn run(a: &Args) -> Result<()> {
     if a.input.inputs.is_empty() {
         bail!("bench needs input files (see `octoquant bench --help`)");
+    }
+    if let Some(prog) = &a.reference {
+        check_program("the reference program", prog)?;
+    }
+    for (name, prog) in &a.peer {
+        check_program(&format!("peer {name}:"), prog)?;
     }
     let base = MapperOptions {
         resolution: a.tree.resolution()?,
@@ -342,77 +388,72 @@ pub fn run(a: &Args) -> Result<()> {
         rows.push((r, med, total_s, vs_octomap, classes, vs_quantized));
     }
     if a.json {
-        let mut s = format!(
-            "{{\"frames\":{},\"repetitions\":{},\"points\":{},\"res\":{},\"max_range\":{},\"runs\":[",
-            frames.len(),
-            a.repeat.max(1),
-            points,
-            json_number(base.resolution),
-            base.max_range.map_or("null".into(), json_number)
-        );
-        for (i, (r, med, total_s, vs, classes, vs_q)) in rows.iter().enumerate() {
-            if i > 0 {
-                s.push(',');
-            }
-            s.push_str(&format!(
-                "{{\"mode\":\"{}\",\"threads\":{},\"median_ms\":{:.3},\"points_per_second\":{:.0},\"ray_seconds\":{:.4},\"tree_seconds\":{:.4},\"rays\":{},\"heads_skipped\":{},\"nodes\":{},\"bytes_per_node\":{:.3},\"speedup_vs_exact\":{:.3}",
-                r.mode.name(), r.threads, med, r.points as f64 / total_s.max(1e-12), median(&r.ray_s), median(&r.tree_s),
-                r.rays, r.heads_skipped, r.nodes, r.bytes_per_node, exact1 / med.max(1e-12)
-            ));
+        use serde_json::{json, Value};
+        let mut list = Vec::new();
+        for (r, med, total_s, vs, classes, vs_q) in &rows {
             let c = &classes.counts;
-            s.push_str(&format!(
-                ",\"class_agreement_with_exact\":{:.6},\"class_agreement_with_quantized\":{:.6},\"classes_vs_exact\":[[{},{},{}],[{},{},{}],[{},{},{}]]",
-                classes.agreement(),
-                vs_q.agreement(),
-                c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]
-            ));
+            let mut run = json!({
+                "mode": r.mode.name(),
+                "threads": r.threads,
+                "median_ms": med,
+                "points_per_second": r.points as f64 / total_s.max(1e-12),
+                "ray_seconds": median(&r.ray_s),
+                "tree_seconds": median(&r.tree_s),
+                "rays": r.rays,
+                "heads_skipped": r.heads_skipped,
+                "nodes": r.nodes,
+                "bytes_per_node": r.bytes_per_node,
+                "speedup_vs_exact": exact1 / med.max(1e-12),
+                "class_agreement_with_exact": classes.agreement(),
+                "class_agreement_with_quantized": vs_q.agreement(),
+                "classes_vs_exact": c,
+            });
             if let Some((ratio, same)) = vs {
-                s.push_str(&format!(
-                    ",\"speedup_vs_octomap\":{ratio:.3},\"bt_identical_to_octomap\":{same}"
-                ));
+                run["speedup_vs_octomap"] = json!(ratio);
+                run["bt_identical_to_octomap"] = json!(same);
             }
             if !peers.is_empty() {
-                let ratios: serde_json::Map<String, serde_json::Value> = a
+                let ratios: serde_json::Map<String, Value> = a
                     .peer
                     .iter()
                     .zip(&peers)
                     .map(|((name, _), p)| {
-                        (name.clone(), (median(&p.frame_ms) / med.max(1e-12)).into())
+                        (name.clone(), json!(median(&p.frame_ms) / med.max(1e-12)))
                     })
                     .collect();
-                s.push_str(&format!(
-                    ",\"speedup_vs_peers\":{}",
-                    serde_json::Value::Object(ratios)
-                ));
+                run["speedup_vs_peers"] = Value::Object(ratios);
             }
-            s.push('}');
+            list.push(run);
         }
-        s.push(']');
+        let mut summary = json!({
+            "frames": frames.len(),
+            "repetitions": a.repeat.max(1),
+            "points": points,
+            "res": base.resolution,
+            "max_range": base.max_range,
+            "runs": list,
+        });
         if let Some(((e, _), (d, _))) = &reference {
-            s.push_str(&format!(
-                ",\"octomap_median_ms\":{:.3},\"octomap_discretize_median_ms\":{:.3}",
-                median(e),
-                median(d)
-            ));
+            summary["octomap_median_ms"] = json!(median(e));
+            summary["octomap_discretize_median_ms"] = json!(median(d));
         }
         if !peers.is_empty() {
-            let list: Vec<serde_json::Value> = a
+            let list: Vec<Value> = a
                 .peer
                 .iter()
                 .zip(&peers)
                 .map(|((name, prog), p)| {
-                    serde_json::json!({
+                    json!({
                         "name": name,
-                        "program": prog.display().to_string(),
+                        "program": json_path(prog),
                         "median_ms": median(&p.frame_ms),
                         "memory_bytes": p.memory,
                     })
                 })
                 .collect();
-            s.push_str(&format!(",\"peers\":{}", serde_json::Value::Array(list)));
+            summary["peers"] = Value::Array(list);
         }
-        s.push('}');
-        outln!("{s}")?;
+        print_json(&summary)?;
         return Ok(());
     }
     outln!(

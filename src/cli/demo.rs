@@ -1,9 +1,14 @@
 //! `octoquant demo --out DIR`: scan the built-in scene, build the map in each insertion mode,
-//! write `map.bt` and `map.png`, print a timing table. `octoquant` alone runs it into `.`.
+//! write `map.bt` and `map.png`, print a timing table. Without `--out` (and so `octoquant`
+//! alone) it writes into a new directory, `octoquant-demo/` or `octoquant-demo-N/`, and says
+//! which: trying the tool never overwrites a file.
 
 use super::args::TreeArgs;
+use super::fresh_dir::{create_fresh_dir, DEMO_DIR};
+use super::{json_path, print_json};
 use anyhow::{Context, Result};
 use clap::Parser;
+use octoquant::output::check_writable;
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
 use octoquant::render::{render_png_file, RenderOptions};
 use octoquant::scene::{
@@ -12,14 +17,15 @@ use octoquant::scene::{
 };
 use octoquant::treefile::write_tree_file;
 use octoquant::{Frame, OcTree};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Output directory for map.bt and map.png (created if missing).
-    #[arg(long, default_value = ".")]
-    out: PathBuf,
+    /// Output directory for map.bt and map.png (created if missing). Default: a new directory
+    /// `octoquant-demo/` (or `octoquant-demo-2/`, ... when it exists) in the current one.
+    #[arg(long)]
+    out: Option<PathBuf>,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -55,6 +61,9 @@ pub struct Args {
     /// pose: tens of millions of free voxels at 0.1 m, and a much slower demo.
     #[arg(long)]
     carve_misses: bool,
+    /// Print the summary as one JSON object on stdout instead of the tables.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Parses the defaults of [`Args`], for `octoquant` with no subcommand.
@@ -64,7 +73,7 @@ struct Defaults {
     args: Args,
 }
 
-/// The demo with every option at its default, writing into the current directory.
+/// The demo with every option at its default, writing into a new directory.
 pub fn run_default() -> Result<()> {
     run(&Defaults::parse_from(["octoquant"]).args)
 }
@@ -76,8 +85,27 @@ struct Row {
 }
 
 pub fn run(a: &Args) -> Result<()> {
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    // the options are checked before a directory is made
+    let resolution = a.tree.resolution()?;
+    let max_range = a.tree.max_range()?;
+    let out = match &a.out {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            dir.clone()
+        }
+        None => {
+            let dir = create_fresh_dir(Path::new("."), DEMO_DIR)?;
+            errln!(
+                "writing into {}/ (a new directory; --out DIR to choose)",
+                dir.display()
+            );
+            dir
+        }
+    };
+    let bt = out.join("map.bt");
+    let png = out.join("map.png");
+    check_writable(&bt)?;
     let scene = Scene::builtin();
     let options = ScanOptions {
         seed: a.seed,
@@ -97,7 +125,7 @@ pub fn run(a: &Args) -> Result<()> {
     // the scanners return their misses beyond this range; insertion clears space up to it
     // unless --max-range says otherwise
     let scan_range = lidar.max_range.max(tls.max_range);
-    let max_range = a.tree.max_range()?.unwrap_or(scan_range);
+    let max_range = max_range.unwrap_or(scan_range);
 
     let mut frames: Vec<Frame> = Vec::new();
     let mut stats: Vec<ScanStats> = Vec::new();
@@ -127,21 +155,23 @@ pub fn run(a: &Args) -> Result<()> {
     let rays: usize = stats.iter().map(|s| s.rays).sum();
     let hits: usize = stats.iter().map(|s| s.hits).sum();
     let misses: usize = stats.iter().map(|s| s.misses).sum();
-    outln!(
-        "scene: {} shapes; {} frames, {} rays, {} hits, {} misses ({})",
-        scene.len(),
-        frames.len(),
-        rays,
-        hits,
-        misses,
-        if a.carve_misses {
-            format!("returned beyond {scan_range} m to carve free space")
-        } else {
-            "dropped; --carve-misses to carve free space with them".to_string()
+    if !a.json {
+        outln!(
+            "scene: {} shapes; {} frames, {} rays, {} hits, {} misses ({})",
+            scene.len(),
+            frames.len(),
+            rays,
+            hits,
+            misses,
+            if a.carve_misses {
+                format!("returned beyond {scan_range} m to carve free space")
+            } else {
+                "dropped; --carve-misses to carve free space with them".to_string()
+            }
+        )?;
+        for (name, n, s) in &scan_rows {
+            outln!("  simulated {name:<12} {n:>4} frames in {s:>7.3} s")?;
         }
-    )?;
-    for (name, n, s) in &scan_rows {
-        outln!("  simulated {name:<12} {n:>4} frames in {s:>7.3} s")?;
     }
 
     // (mode, lazy insertion)
@@ -155,7 +185,7 @@ pub fn run(a: &Args) -> Result<()> {
     let mut rows = Vec::new();
     for (mode, lazy) in modes {
         let mut mapper = Mapper::new(MapperOptions {
-            resolution: a.tree.resolution()?,
+            resolution,
             max_range: Some(max_range),
             mode,
             lazy,
@@ -177,41 +207,75 @@ pub fn run(a: &Args) -> Result<()> {
         });
     }
 
-    outln!()?;
-    outln!(
-        "{:<20} {:>9} {:>12} {:>9} {:>11} {:>10} {:>10}",
-        "mode",
-        "seconds",
-        "points/s",
-        "vs exact",
-        "nodes",
-        "leaves",
-        "occupied"
-    )?;
     let exact_s = rows[0].seconds;
-    for r in &rows {
-        let c = r.tree.counts();
+    if !a.json {
+        outln!()?;
         outln!(
-            "{:<20} {:>9.3} {:>12.0} {:>8.2}x {:>11} {:>10} {:>10}",
-            r.label,
-            r.seconds,
-            points as f64 / r.seconds.max(1e-9),
-            exact_s / r.seconds.max(1e-9),
-            c.nodes,
-            c.leaves,
-            c.occupied_leaves
+            "{:<20} {:>9} {:>12} {:>9} {:>11} {:>10} {:>10}",
+            "mode",
+            "seconds",
+            "points/s",
+            "vs exact",
+            "nodes",
+            "leaves",
+            "occupied"
         )?;
+        for r in &rows {
+            let c = r.tree.counts();
+            outln!(
+                "{:<20} {:>9.3} {:>12.0} {:>8.2}x {:>11} {:>10} {:>10}",
+                r.label,
+                r.seconds,
+                points as f64 / r.seconds.max(1e-9),
+                exact_s / r.seconds.max(1e-9),
+                c.nodes,
+                c.leaves,
+                c.occupied_leaves
+            )?;
+        }
     }
-
+    let rows_summary: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            let c = r.tree.counts();
+            serde_json::json!({
+                "mode": r.label,
+                "seconds": r.seconds,
+                "points_per_second": points as f64 / r.seconds.max(1e-9),
+                "speedup_vs_exact": exact_s / r.seconds.max(1e-9),
+                "nodes": c.nodes,
+                "leaves": c.leaves,
+                "occupied_leaves": c.occupied_leaves,
+            })
+        })
+        .collect();
     let mut tree = rows.swap_remove(0).tree;
-    let bt = a.out.join("map.bt");
-    let png = a.out.join("map.png");
     let t = Instant::now();
     write_tree_file(&mut tree, &bt)?;
     let t_bt = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let image = render_png_file(&tree, &png, &RenderOptions::default())?;
     let t_png = t.elapsed().as_secs_f64();
+    if a.json {
+        let runs: Vec<serde_json::Value> = rows_summary;
+        print_json(&serde_json::json!({
+            "directory": json_path(&out),
+            "bt": json_path(&bt),
+            "png": json_path(&png),
+            "shapes": scene.len(),
+            "frames": frames.len(),
+            "points": points,
+            "rays": rays,
+            "hits": hits,
+            "misses": misses,
+            "max_range": max_range,
+            "runs": runs,
+            "bt_seconds": t_bt,
+            "png_seconds": t_png,
+            "png_size": [image.width, image.height],
+        }))?;
+        return Ok(());
+    }
     outln!()?;
     outln!("wrote {} ({t_bt:.3} s, exact mode)", bt.display())?;
     outln!(

@@ -1,7 +1,9 @@
-//! `octoquant export MAP -o OUT.ply [--free] [--cubes] [--ascii]`.
+//! `octoquant export MAP -o OUT.ply [--free] [--cubes] [--ascii] [--json]`.
 
+use super::{json_path, print_json};
 use anyhow::Result;
 use octoquant::export::{export_ply_file, ExportOptions};
+use octoquant::output::check_output;
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
 
@@ -21,9 +23,13 @@ pub struct Args {
     /// Write ASCII PLY instead of binary little-endian.
     #[arg(long)]
     ascii: bool,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(a: &Args) -> Result<()> {
+    check_output(&a.output, &["ply"], std::slice::from_ref(&a.map))?;
     let tree = read_tree_file(&a.map)?;
     let options = ExportOptions {
         free: a.free,
@@ -31,13 +37,24 @@ pub fn run(a: &Args) -> Result<()> {
         ascii: a.ascii,
     };
     let s = export_ply_file(&tree, &a.output, &options)?;
-    errln!(
-        "wrote {}: {} occupied, {} free leaves, {} vertices, {} faces",
-        a.output.display(),
-        s.occupied,
-        s.free,
-        s.vertices,
-        s.faces
-    );
+    if a.json {
+        print_json(&serde_json::json!({
+            "map": json_path(&a.map),
+            "output": json_path(&a.output),
+            "occupied": s.occupied,
+            "free": s.free,
+            "vertices": s.vertices,
+            "faces": s.faces,
+        }))?;
+    } else {
+        errln!(
+            "wrote {}: {} occupied, {} free leaves, {} vertices, {} faces",
+            a.output.display(),
+            s.occupied,
+            s.free,
+            s.vertices,
+            s.faces
+        );
+    }
     Ok(())
 }

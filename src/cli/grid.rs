@@ -1,6 +1,7 @@
 //! `octoquant grid MAP -o map.yaml [--zmin Z] [--zmax Z] [--depth D] [--unknown free|unknown]`.
 
 use super::vocab::UnknownArg;
+use super::{json_path, print_json};
 use anyhow::Result;
 use octoquant::grid::{project, write_nav2, GridOptions};
 use octoquant::treefile::read_tree_file;
@@ -39,23 +40,23 @@ pub fn run(a: &Args) -> Result<()> {
         depth: a.depth,
         unknown: a.unknown.into(),
     };
-    octoquant::grid::check_output_name(&a.output)?;
+    octoquant::grid::check_output_name(&a.output, std::slice::from_ref(&a.map))?;
     let tree = read_tree_file(&a.map)?;
     let grid = project(&tree, &options)?;
     let image = write_nav2(&grid, &a.output)?;
     let (unknown, free, occupied) = grid.counts();
     if a.json {
         let summary = serde_json::json!({
-            "map": a.map.display().to_string(),
-            "yaml": a.output.display().to_string(),
-            "image": image.display().to_string(),
+            "map": json_path(&a.map),
+            "yaml": json_path(&a.output),
+            "image": json_path(&image),
             "resolution": grid.resolution,
             "origin": [grid.origin.x, grid.origin.y, 0.0],
             "width": grid.width,
             "height": grid.height,
             "cells": {"occupied": occupied, "free": free, "unknown": unknown},
         });
-        outln!("{summary}")?;
+        print_json(&summary)?;
     } else {
         outln!(
             "wrote {} and {} ({} x {} cells of {} m; {} occupied, {} free, {} unknown)",

@@ -1,6 +1,6 @@
 //! `octoquant info FILE [--json]`.
 
-use super::json_number;
+use super::{json_path, print_json};
 use anyhow::Result;
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
@@ -32,31 +32,26 @@ pub fn run(a: &Args) -> Result<()> {
         0.0
     };
     if a.json {
-        let b = match bounds {
-            Some((lo, hi)) => {
-                let [lo, hi] = [lo, hi].map(|p| p.coords.map(json_number));
-                format!(
-                    "{{\"min\":[{},{},{}],\"max\":[{},{},{}]}}",
-                    lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-                )
-            }
-            None => "null".into(),
-        };
-        outln!(
-            "{{\"file\":{:?},\"resolution\":{},\"nodes\":{},\"inner\":{},\"leaves\":{},\"occupied_leaves\":{},\"free_leaves\":{},\"bounds\":{},\"memory_bytes\":{},\"bytes_per_node\":{:.3},\"octomap_memory_bytes\":{},\"octomap_bytes_per_node\":{:.3}}}",
-            a.file.display().to_string(),
-            json_number(tree.resolution()),
-            c.nodes,
-            c.inner,
-            c.leaves,
-            c.occupied_leaves,
-            c.free_leaves,
-            b,
-            mem,
-            bpn,
-            octomap_mem,
-            octomap_bpn
-        )?;
+        let b = bounds.map(|(lo, hi)| {
+            serde_json::json!({
+                "min": [lo.x, lo.y, lo.z],
+                "max": [hi.x, hi.y, hi.z],
+            })
+        });
+        print_json(&serde_json::json!({
+            "file": json_path(&a.file),
+            "resolution": tree.resolution(),
+            "nodes": c.nodes,
+            "inner": c.inner,
+            "leaves": c.leaves,
+            "occupied_leaves": c.occupied_leaves,
+            "free_leaves": c.free_leaves,
+            "bounds": b,
+            "memory_bytes": mem,
+            "bytes_per_node": bpn,
+            "octomap_memory_bytes": octomap_mem,
+            "octomap_bytes_per_node": octomap_bpn,
+        }))?;
     } else {
         outln!("file:            {}", a.file.display())?;
         outln!("resolution:      {:?} m", tree.resolution())?;

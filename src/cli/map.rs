@@ -1,6 +1,7 @@
 //! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
 
 use super::args::{InputArgs, ReadArgs, TreeArgs};
+use super::fresh_dir::{create_fresh_dir, DEMO_DIR};
 use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
@@ -50,9 +51,11 @@ pub struct Args {
     reduce: Option<f64>,
     #[command(flatten)]
     input: InputArgs,
-    /// Output .bt (max-likelihood, pruned, as OctoMap writes it).
-    #[arg(short, long, default_value = "map.bt")]
-    output: PathBuf,
+    /// Output .bt (max-likelihood, pruned, as OctoMap writes it). Default: map.bt, or, without
+    /// inputs (the built-in scene), map.bt in a new directory `octoquant-demo/` (or
+    /// `octoquant-demo-2/`, ...).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
     /// Also write the full tree as .ot (before the .bt's max-likelihood conversion).
     #[arg(long)]
     ot: Option<PathBuf>,
@@ -81,7 +84,8 @@ pub struct Args {
         value_name = "DIR",
         conflicts_with_all = [
             "checkpoint", "every", "inputs", "format", "global", "topic", "fixed_frame",
-            "pixel_step", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
+            "pixel_step", "max_expansion", "intrinsics", "depth_scale", "trajectory",
+            "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
             "sensor", "reduce", "output", "ot",
         ]
     )]
@@ -158,13 +162,31 @@ fn absolute(path: &std::path::Path) -> Result<PathBuf> {
     std::path::absolute(path).with_context(|| format!("cannot resolve {}", path.display()))
 }
 
+/// The output the arguments name; without one, `map.bt`, or for the built-in scene (no
+/// inputs) `map.bt` in a new directory, which is said.
+fn output_path(a: &Args) -> Result<PathBuf> {
+    if let Some(o) = &a.output {
+        return Ok(o.clone());
+    }
+    if !a.input.inputs.is_empty() {
+        return Ok(PathBuf::from("map.bt"));
+    }
+    let dir = create_fresh_dir(std::path::Path::new("."), DEMO_DIR)?;
+    errln!(
+        "writing into {}/ (a new directory; -o to choose the output)",
+        dir.display()
+    );
+    Ok(dir.join("map.bt"))
+}
+
 impl Plan {
     fn from_args(a: &Args) -> Result<Plan> {
+        let options = mapper_options(a)?;
         Ok(Plan {
-            options: mapper_options(a)?,
+            options,
             inputs: a.input.inputs.clone(),
             read: a.input.read.clone(),
-            output: a.output.clone(),
+            output: output_path(a)?,
             ot: a.ot.clone(),
             checkpoint: a.checkpoint.as_ref().map(|dir| CheckpointOptions {
                 dir: dir.clone(),
@@ -412,6 +434,16 @@ pub fn run(a: &Args) -> Result<()> {
     let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
     mapper.finish();
     let stats = *mapper.stats();
+    let all = &stats.total;
+    if all.outside_map > 0 && all.outside_map + all.non_finite == all.points {
+        // the key range is 2^16 voxels around the origin
+        let half = plan.options.resolution * 32768.0;
+        bail!(
+            "all {} points lie outside the map: at --res {:?} it spans only ±{half:?} m around the origin; choose a coarser resolution",
+            all.points,
+            plan.options.resolution
+        );
+    }
     let mut tree = mapper.into_tree();
     // blocks freed by pruning are kept for reuse while mapping; measure (and write) the tree
     // as it stands, as `bench` and `info` do

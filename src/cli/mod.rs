@@ -25,6 +25,7 @@ mod bench;
 mod convert;
 mod demo;
 mod export;
+mod fresh_dir;
 mod grid;
 mod info;
 mod map;
@@ -46,7 +47,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Scan the built-in scene, build the map, write map.bt and map.png, print timings.
+    /// Scan the built-in scene, build the map, write map.bt and map.png (into a new directory
+    /// unless --out names one), print timings.
     Demo(demo::Args),
     /// Draw a map as PNG: height-coloured top view, front/side view, or a slice.
     Render(render::Args),
@@ -95,14 +97,17 @@ pub fn main() -> std::process::ExitCode {
     }
 }
 
-/// A number for a JSON object: the shortest form that reads back to the same value (`1e-300`,
-/// not three hundred digits), or `null` for infinities and NaN, which JSON cannot hold.
-fn json_number(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:?}")
-    } else {
-        "null".into()
-    }
+/// A file name as a JSON string: names that are not UTF-8 are printed lossily (each invalid
+/// sequence as U+FFFD), the same as in the text output; `serde_json` escapes quotes,
+/// backslashes and control characters, so the JSON stays valid for any name.
+fn json_path(path: &std::path::Path) -> serde_json::Value {
+    serde_json::Value::String(path.to_string_lossy().into_owned())
+}
+
+/// Print `value` as one line of JSON on stdout (non-finite numbers are `null`, as
+/// `serde_json` writes them).
+fn print_json(value: &serde_json::Value) -> std::io::Result<()> {
+    outln!("{value}")
 }
 
 /// An error and its causes on one line, each cause once: the library errors already name

@@ -2,11 +2,13 @@
 //! reducer over a whole cloud, written as PLY.
 
 use super::args::ReadArgs;
+use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
 use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
 use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
+use octoquant::output::check_output;
 use octoquant_density::{CentreDistance, DensityGrid, GridSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -77,6 +79,7 @@ pub fn run(a: &Args) -> Result<()> {
             DistanceArg::Euclidean => CentreDistance::Euclidean,
             DistanceArg::CellUnits => CentreDistance::CellUnits,
         });
+    check_output(&a.output, &["ply"], std::slice::from_ref(&a.input))?;
 
     let t0 = Instant::now();
     let points = read_points(&a.input, &a.read.options())?;
@@ -109,22 +112,17 @@ pub fn run(a: &Args) -> Result<()> {
     write_ply_file(&a.output, &out, encoding)?;
 
     if a.json {
-        outln!(
-            "{{\"input\":{:?},\"output\":{:?},\"cell\":[{},{},{}],\"points\":{},\"rejected\":{},\"grid\":{},\"eliminated\":{},\"reduced\":{},\"seconds\":{{\"read\":{:.6},\"grid\":{:.6},\"output\":{:.6}}}}}",
-            a.input.display().to_string(),
-            a.output.display().to_string(),
-            cell[0],
-            cell[1],
-            cell[2],
-            points.len(),
-            counts.rejected,
-            cells,
-            cycle.eliminated,
-            out.len(),
-            t_read,
-            t_grid,
-            t_output
-        )?;
+        print_json(&serde_json::json!({
+            "input": json_path(&a.input),
+            "output": json_path(&a.output),
+            "cell": cell,
+            "points": points.len(),
+            "rejected": counts.rejected,
+            "grid": cells,
+            "eliminated": cycle.eliminated,
+            "reduced": out.len(),
+            "seconds": {"read": t_read, "grid": t_grid, "output": t_output},
+        }))?;
     } else {
         let rate = |n: usize, t: f64| if t > 0.0 { n as f64 / t / 1e6 } else { 0.0 };
         outln!(

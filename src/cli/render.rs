@@ -1,7 +1,9 @@
-//! `octoquant render MAP -o OUT.png [--view top|front|side] [--slice C]`.
+//! `octoquant render MAP -o OUT.png [--view top|front|side] [--slice C] [--json]`.
 
 use super::vocab::ViewArg;
+use super::{json_path, print_json};
 use anyhow::Result;
+use octoquant::output::check_output;
 use octoquant::render::{render_png_file, RenderOptions};
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
@@ -25,9 +27,13 @@ pub struct Args {
     /// Do not draw free space.
     #[arg(long)]
     no_free: bool,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(a: &Args) -> Result<()> {
+    check_output(&a.output, &["png"], std::slice::from_ref(&a.map))?;
     let tree = read_tree_file(&a.map)?;
     let options = RenderOptions {
         view: a.view.into(),
@@ -36,11 +42,20 @@ pub fn run(a: &Args) -> Result<()> {
         show_free: !a.no_free,
     };
     let image = render_png_file(&tree, &a.output, &options)?;
-    errln!(
-        "wrote {} ({} × {} px)",
-        a.output.display(),
-        image.width,
-        image.height
-    );
+    if a.json {
+        print_json(&serde_json::json!({
+            "map": json_path(&a.map),
+            "output": json_path(&a.output),
+            "width": image.width,
+            "height": image.height,
+        }))?;
+    } else {
+        errln!(
+            "wrote {} ({} × {} px)",
+            a.output.display(),
+            image.width,
+            image.height
+        );
+    }
     Ok(())
 }

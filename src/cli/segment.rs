@@ -1,9 +1,10 @@
 //! `octoquant segment LOG [--scan N | --all] [--eps-theta A] [--eps-dist D] [--min-points K]
 //! [--png OUT.png] [--json]`: line segments of 2D laser scans from a CARMEN log.
 
+use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use octoquant::formats::carmen::{CarmenReader, LaserScan};
-use octoquant::output::write_atomic;
+use octoquant::output::{check_output, write_atomic};
 use octoquant_segment::{segment_scan, Line, LineParams, Segmentation, NOISE};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -47,6 +48,9 @@ pub fn run(a: &Args) -> Result<()> {
     params
         .validate()
         .context("invalid segmentation parameters")?;
+    if let Some(png) = &a.png {
+        check_output(png, &["png"], std::slice::from_ref(&a.log))?;
+    }
     let mut reader = CarmenReader::open(&a.log)?;
     if a.all {
         return run_all(a, &mut reader, &params);
@@ -85,32 +89,34 @@ fn print_scan(
 ) -> Result<()> {
     let inliers = seg.labels().iter().filter(|&&l| l != NOISE).count();
     if a.json {
-        let lines: Vec<String> = seg
+        let lines: Vec<serde_json::Value> = seg
             .lines()
             .iter()
             .map(|l| {
-                format!(
-                    "{{\"normal_angle\":{},\"distance\":{},\"start\":[{},{}],\"end\":[{},{}],\"points\":{},\"length\":{},\"rms_residual\":{},\"max_residual\":{}}}",
-                    l.normal_angle, l.distance, l.start[0], l.start[1], l.end[0], l.end[1],
-                    l.n_points, l.length(), l.rms_residual, l.max_residual
-                )
+                serde_json::json!({
+                    "normal_angle": l.normal_angle,
+                    "distance": l.distance,
+                    "start": l.start,
+                    "end": l.end,
+                    "points": l.n_points,
+                    "length": l.length(),
+                    "rms_residual": l.rms_residual,
+                    "max_residual": l.max_residual,
+                })
             })
             .collect();
-        outln!(
-            "{{\"file\":{:?},\"scan\":{},\"line\":{},\"kind\":\"{:?}\",\"readings\":{},\"valid\":{},\"on_lines\":{},\"laser_pose\":[{},{},{}],\"ms\":{:.4},\"lines\":[{}]}}",
-            a.log.display().to_string(),
-            a.scan,
-            scan.line,
-            scan.kind,
-            scan.ranges.len(),
-            points.len(),
-            inliers,
-            scan.laser_pose.x,
-            scan.laser_pose.y,
-            scan.laser_pose.theta,
-            ms,
-            lines.join(",")
-        )?;
+        print_json(&serde_json::json!({
+            "file": json_path(&a.log),
+            "scan": a.scan,
+            "line": scan.line,
+            "kind": format!("{:?}", scan.kind),
+            "readings": scan.ranges.len(),
+            "valid": points.len(),
+            "on_lines": inliers,
+            "laser_pose": [scan.laser_pose.x, scan.laser_pose.y, scan.laser_pose.theta],
+            "ms": ms,
+            "lines": lines,
+        }))?;
         return Ok(());
     }
     outln!("file:        {}", a.log.display())?;
@@ -180,10 +186,14 @@ fn run_all(a: &Args, reader: &mut CarmenReader, params: &LineParams) -> Result<(
     let (m50, m95, mmax) = stats(&mut ms);
     let on_lines = inliers as f64 / valid.max(1) as f64;
     if a.json {
-        outln!(
-            "{{\"file\":{:?},\"scans\":{n},\"lines_per_scan\":{{\"mean\":{mean_lines:.3},\"median\":{l50},\"p95\":{l95},\"max\":{lmax}}},\"ms_per_scan\":{{\"median\":{m50:.4},\"p95\":{m95:.4},\"max\":{mmax:.4}}},\"total_ms\":{total_ms:.2},\"fraction_on_lines\":{on_lines:.4}}}",
-            a.log.display().to_string()
-        )?;
+        print_json(&serde_json::json!({
+            "file": json_path(&a.log),
+            "scans": n,
+            "lines_per_scan": {"mean": mean_lines, "median": l50, "p95": l95, "max": lmax},
+            "ms_per_scan": {"median": m50, "p95": m95, "max": mmax},
+            "total_ms": total_ms,
+            "fraction_on_lines": on_lines,
+        }))?;
     } else {
         outln!("file:            {}", a.log.display())?;
         outln!("scans:           {n}")?;

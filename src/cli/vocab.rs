@@ -6,7 +6,7 @@
 //! format is spelled the same on the command line, in text and JSON output and in the docs.
 //! The tests below keep the two lists in step.
 
-use octoquant::formats::InputFormat;
+use octoquant::formats::{InputFormat, ViewpointUse};
 use octoquant::grid::UnknownCells;
 use octoquant::pipeline::InsertMode;
 use octoquant::render::View;
@@ -116,6 +116,24 @@ impl From<UnknownArg> for UnknownCells {
         match u {
             UnknownArg::Unknown => UnknownCells::Unknown,
             UnknownArg::Free => UnknownCells::Free,
+        }
+    }
+}
+
+/// `--pcd-viewpoint`: what a PCD file's VIEWPOINT means (see [`ViewpointUse`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ViewpointArg {
+    Origin,
+    Apply,
+    Ignore,
+}
+
+impl From<ViewpointArg> for ViewpointUse {
+    fn from(v: ViewpointArg) -> ViewpointUse {
+        match v {
+            ViewpointArg::Origin => ViewpointUse::OriginOnly,
+            ViewpointArg::Apply => ViewpointUse::Apply,
+            ViewpointArg::Ignore => ViewpointUse::Ignore,
         }
     }
 }

@@ -1,0 +1,504 @@
+//! A command line that never surprises: the demo and `map` without inputs write into a new
+//! directory, every `--json` is valid JSON whatever the file names, output names are checked
+//! before any work, the readers' options are reachable.
+
+use crate::common::scratch;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn octoquant(cwd: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_octoquant"));
+    c.current_dir(cwd);
+    c
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// A small demo: one LiDAR ring set, no terrestrial scanner or depth camera.
+const SMALL_DEMO: [&str; 10] = [
+    "--no-terrestrial",
+    "--no-depth",
+    "--rings",
+    "4",
+    "--columns",
+    "64",
+    "--spacing",
+    "4",
+    "--res",
+    "0.5",
+];
+
+#[test]
+fn demo_without_out_writes_into_a_new_directory() {
+    let dir = scratch("cli-demo-fresh");
+    // what a user may have here already: a map.bt of their own and an earlier demo
+    std::fs::write(dir.join("map.bt"), b"mine").unwrap();
+    std::fs::create_dir(dir.join("octoquant-demo")).unwrap();
+    std::fs::write(dir.join("octoquant-demo/map.bt"), b"earlier").unwrap();
+    let o = octoquant(&dir)
+        .arg("demo")
+        .args(SMALL_DEMO)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("octoquant-demo-2"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.join("map.bt")).unwrap(), b"mine");
+    assert_eq!(
+        std::fs::read(dir.join("octoquant-demo/map.bt")).unwrap(),
+        b"earlier"
+    );
+    assert_eq!(names(&dir.join("octoquant-demo-2")), ["map.bt", "map.png"]);
+    let bt = std::fs::read(dir.join("octoquant-demo-2/map.bt")).unwrap();
+    assert!(bt.starts_with(b"# Octomap OcTree binary file"));
+    // a second run takes the next name
+    let o = octoquant(&dir)
+        .arg("demo")
+        .args(SMALL_DEMO)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("octoquant-demo-3/map.bt").is_file());
+    assert_eq!(
+        names(&dir),
+        [
+            "map.bt",
+            "octoquant-demo",
+            "octoquant-demo-2",
+            "octoquant-demo-3"
+        ]
+    );
+    // --out is obeyed as told
+    let o = octoquant(&dir)
+        .arg("demo")
+        .args(SMALL_DEMO)
+        .args(["--out", "mine"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(names(&dir.join("mine")), ["map.bt", "map.png"]);
+}
+
+#[test]
+fn demo_checks_its_options_before_making_a_directory() {
+    let dir = scratch("cli-demo-bad-res");
+    let o = octoquant(&dir)
+        .args(["demo", "--res", "-1"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--res"), "{}", stderr(&o));
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
+}
+
+#[test]
+fn map_without_inputs_writes_into_a_new_directory() {
+    let dir = scratch("cli-map-fresh");
+    std::fs::write(dir.join("map.bt"), b"mine").unwrap();
+    let o = octoquant(&dir)
+        .args(["map", "--res", "0.5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("octoquant-demo"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.join("map.bt")).unwrap(), b"mine");
+    assert_eq!(names(&dir.join("octoquant-demo")), ["map.bt"]);
+    let o = String::from_utf8(o.stdout).unwrap();
+    assert!(o.contains("octoquant-demo/map.bt"), "{o}");
+}
+
+/// A file name JSON printed with `format!` would break: quotes, a backslash, a tab, a newline,
+/// a bell (which Rust's `{:?}` writes as `\u{7}`, not JSON) and a byte that is not UTF-8
+/// (printed lossily, as U+FFFD, as the text output does).
+#[cfg(unix)]
+fn awkward(stem: &str, ext: &str) -> std::path::PathBuf {
+    use std::os::unix::ffi::OsStrExt;
+    let mut name = format!("{stem} \"q\" \\ \t\n\u{7}").into_bytes();
+    name.push(0xff);
+    name.extend_from_slice(format!(".{ext}").as_bytes());
+    std::path::PathBuf::from(std::ffi::OsStr::from_bytes(&name))
+}
+
+/// The one JSON object `o` printed on stdout.
+fn json_of(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", stderr(o));
+    let text = String::from_utf8(o.stdout.clone()).expect("JSON output is UTF-8");
+    assert_eq!(text.lines().count(), 1, "{text}");
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"))
+}
+
+#[cfg(unix)]
+#[test]
+fn every_json_is_valid_for_any_file_name() {
+    use nalgebra::Point3;
+    let dir = scratch("cli-json-names");
+    let lossy = |p: &Path| p.to_string_lossy().into_owned();
+    let frames = dir.join(awkward("scan", "frames"));
+    let wall: Vec<octoquant::Frame> = (0..3)
+        .map(|i| {
+            octoquant::Frame::new(
+                Point3::new(0.0, 0.0, 0.2 * i as f32),
+                (0..400)
+                    .map(|j| Point3::new(3.0, (j % 20) as f32 * 0.1, (j / 20) as f32 * 0.1))
+                    .collect(),
+            )
+        })
+        .collect();
+    octoquant::formats::frames::write_frames_file(&frames, &wall).unwrap();
+    let map = dir.join(awkward("map", "bt"));
+    let o = octoquant(&dir)
+        .arg("map")
+        .arg(&frames)
+        .arg("-o")
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("info")
+            .arg(&map)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(v["file"], lossy(&map));
+    assert!(v["occupied_leaves"].as_u64().unwrap() > 0);
+    assert_eq!(v["resolution"], 0.1);
+
+    let ot = dir.join(awkward("full", "ot"));
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("convert")
+            .arg(&map)
+            .arg(&ot)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(
+        (v["input"].clone(), v["output"].clone()),
+        (lossy(&map).into(), lossy(&ot).into())
+    );
+    assert!(ot.is_file());
+
+    let ply = dir.join(awkward("cloud", "ply"));
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("export")
+            .arg(&map)
+            .arg("-o")
+            .arg(&ply)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(v["output"], lossy(&ply));
+    assert!(v["occupied"].as_u64().unwrap() > 0);
+
+    let png = dir.join(awkward("top", "png"));
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("render")
+            .arg(&map)
+            .arg("-o")
+            .arg(&png)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(v["output"], lossy(&png));
+    assert!(v["width"].as_u64().unwrap() > 0);
+
+    let yaml = dir.join(awkward("floor", "yaml"));
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("grid")
+            .arg(&map)
+            .arg("-o")
+            .arg(&yaml)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(v["yaml"], lossy(&yaml));
+
+    let reduced = dir.join(awkward("thin", "ply"));
+    let v = json_of(
+        &octoquant(&dir)
+            .arg("reduce")
+            .arg(&frames)
+            .args(["--format", "frames", "--cell", "0.3", "-o"])
+            .arg(&reduced)
+            .arg("--json")
+            .output()
+            .unwrap(),
+    );
+    assert_eq!(v["input"], lossy(&frames));
+    assert_eq!(v["points"], 1200);
+
+    let log = dir.join(awkward("laser", "log"));
+    let ranges = vec!["2.0"; 90].join(" ");
+    std::fs::write(
+        &log,
+        format!("FLASER 90 {ranges} 0 0 0 0 0 0 1.0 host 1.0\n"),
+    )
+    .unwrap();
+    for extra in [&[][..], &["--all"][..]] {
+        let v = json_of(
+            &octoquant(&dir)
+                .arg("segment")
+                .arg(&log)
+                .args(extra)
+                .arg("--json")
+                .output()
+                .unwrap(),
+        );
+        assert_eq!(v["file"], lossy(&log));
+    }
+}
+
+#[test]
+fn bench_names_a_program_it_cannot_run_before_any_work() {
+    let dir = scratch("cli-bench-programs");
+    // the input does not exist: the program's error must come first
+    let not_executable = dir.join("ref.txt");
+    std::fs::write(&not_executable, b"not a program").unwrap();
+    for (args, needles) in [
+        (
+            vec![
+                "--reference".to_string(),
+                dir.join("gone").display().to_string(),
+            ],
+            vec!["reference program", "gone", "no such file"],
+        ),
+        (
+            vec![
+                "--reference".to_string(),
+                not_executable.display().to_string(),
+            ],
+            vec!["reference program", "ref.txt", "not an executable"],
+        ),
+        (
+            vec![
+                "--peer".to_string(),
+                "ghost=octoquant-no-such-peer".to_string(),
+            ],
+            vec!["peer ghost", "octoquant-no-such-peer", "PATH"],
+        ),
+    ] {
+        let o = octoquant(&dir)
+            .args(["bench", "absent.frames"])
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        for n in needles {
+            assert!(
+                err.contains(n) && !err.contains("absent"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+}
+
+#[test]
+fn output_names_are_checked_before_reading_and_list_the_accepted_extensions() {
+    let dir = scratch("cli-output-names");
+    // the inputs do not exist: the output's error must come first
+    let cases: [(&[&str], &str); 7] = [
+        (&["convert", "absent.bt", "out.png"], ".bt, .ot"),
+        (&["render", "absent.bt", "-o", "out.jpg"], ".png"),
+        (&["export", "absent.bt", "-o", "out.obj"], ".ply"),
+        (
+            &["reduce", "absent.ply", "--cell", "0.1", "-o", "out.pcd"],
+            ".ply",
+        ),
+        (&["segment", "absent.log", "--png", "out.svg"], ".png"),
+        (&["grid", "absent.bt", "-o", "out.png"], ".yaml or .yml"),
+        (
+            &["convert", "absent.bt", "no/such/dir/out.bt"],
+            "does not exist",
+        ),
+    ];
+    for (args, needle) in cases {
+        let o = octoquant(&dir).args(args).output().unwrap();
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            err.contains(needle) && !err.contains("absent"),
+            "{args:?}: {err}"
+        );
+    }
+    // an output that is the input
+    std::fs::write(dir.join("in.ply"), b"ply\n").unwrap();
+    let o = octoquant(&dir)
+        .args(["reduce", "in.ply", "--cell", "0.1", "-o", "in.ply"])
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("also an input"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.join("in.ply")).unwrap(), b"ply\n");
+    assert_eq!(names(&dir), ["in.ply"]);
+}
+
+#[test]
+fn unknown_input_extension_names_format_and_its_values() {
+    let dir = scratch("cli-unknown-extension");
+    std::fs::write(dir.join("scan.xyzw"), b"1 2 3\n").unwrap();
+    let o = octoquant(&dir)
+        .args(["map", "scan.xyzw", "-o", "m.bt"])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        err.contains(".xyzw") && err.contains("--format") && err.contains("vtk-seq, pcd"),
+        "{err}"
+    );
+    // and --format's help lists its values
+    let o = octoquant(&dir).args(["map", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        help.contains("possible values: graph, frames, text"),
+        "{help}"
+    );
+}
+
+#[test]
+fn a_resolution_that_puts_every_point_outside_the_map_is_an_error() {
+    use nalgebra::Point3;
+    let dir = scratch("cli-res-outside");
+    // a wall 3 m away; at 0.05 mm the map spans only ±1.6 m
+    let wall = vec![octoquant::Frame::new(
+        Point3::origin(),
+        (0..100)
+            .map(|j| Point3::new(3.0, (j % 10) as f32 * 0.1, (j / 10) as f32 * 0.1))
+            .collect(),
+    )];
+    octoquant::formats::frames::write_frames_file(&dir.join("wall.frames"), &wall).unwrap();
+    let o = octoquant(&dir)
+        .args(["map", "wall.frames", "--res", "0.00005", "-o", "m.bt"])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("all 100 points lie outside the map") && err.contains("--res"),
+        "{err}"
+    );
+    assert!(!dir.join("m.bt").exists());
+    // a resolution that keeps them is fine
+    let o = octoquant(&dir)
+        .args(["map", "wall.frames", "--res", "0.001", "-o", "m.bt"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn vtk_directories_take_a_trajectory_or_identity_poses() {
+    let dir = scratch("cli-vtk-identity");
+    let scans = dir.join("run/scans");
+    std::fs::create_dir_all(&scans).unwrap();
+    let wall: String = (0..50)
+        .map(|j| format!("2 {} {}\n", (j % 10) as f64 * 0.1, (j / 10) as f64 * 0.1))
+        .collect();
+    for stamp in ["cloud_10_0.vtk", "cloud_11_500000000.vtk"] {
+        std::fs::write(
+            scans.join(stamp),
+            format!(
+                "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 50 float\n{wall}"
+            ),
+        )
+        .unwrap();
+    }
+    let map = |extra: &[&str], out: &str| {
+        octoquant(&dir)
+            .args(["map", "run", "--res", "0.1", "-o", out])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = map(&[], "a.bt");
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--trajectory") && stderr(&o).contains("--identity-poses"),
+        "{}",
+        stderr(&o)
+    );
+    let o = map(&["--identity-poses"], "identity.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    // the same as a trajectory of identity poses
+    std::fs::write(
+        dir.join("poses.csv"),
+        "header.stamp.sec,header.stamp.nanosec,pose.pose.position.x,pose.pose.position.y,pose.pose.position.z,pose.pose.orientation.x,pose.pose.orientation.y,pose.pose.orientation.z,pose.pose.orientation.w\n\
+         10,0,0,0,0,0,0,0,1\n11,500000000,0,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let o = map(&["--trajectory", "poses.csv"], "trajectory.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = std::fs::read(dir.join("identity.bt")).unwrap();
+    assert_eq!(a, std::fs::read(dir.join("trajectory.bt")).unwrap());
+    // and a shifted trajectory gives another map
+    std::fs::write(
+        dir.join("shifted.csv"),
+        "header.stamp.sec,header.stamp.nanosec,pose.pose.position.x,pose.pose.position.y,pose.pose.position.z,pose.pose.orientation.x,pose.pose.orientation.y,pose.pose.orientation.z,pose.pose.orientation.w\n\
+         10,0,1,0,0,0,0,0,1\n11,500000000,1,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let o = map(&["--trajectory", "shifted.csv"], "shifted.bt");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ne!(a, std::fs::read(dir.join("shifted.bt")).unwrap());
+}
+
+#[test]
+fn reader_options_are_on_the_command_line() {
+    let dir = scratch("cli-reader-options");
+    let o = octoquant(&dir).args(["map", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&o.stdout);
+    for option in [
+        "--intrinsics <FX> <FY> <CX> <CY>",
+        "--depth-scale",
+        "--trajectory",
+        "--identity-poses",
+        "--pcd-viewpoint",
+        "possible values: origin, apply, ignore",
+    ] {
+        assert!(help.contains(option), "{option} missing from\n{help}");
+    }
+    // bad intrinsics reach the reader's check, which names the file
+    std::fs::write(dir.join("d.png"), b"").unwrap();
+    let o = octoquant(&dir)
+        .args([
+            "map",
+            "d.png",
+            "--intrinsics",
+            "0",
+            "525",
+            "319.5",
+            "239.5",
+            "-o",
+            "m.bt",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("d.png") && stderr(&o).contains("focal"),
+        "{}",
+        stderr(&o)
+    );
+}
