@@ -404,7 +404,10 @@ impl PointFilters {
                     continue;
                 }
             }
-            if self.z_min.is_some_and(|z| !(w.z >= z)) || self.z_max.is_some_and(|z| !(w.z <= z)) {
+            // (a NaN bound drops everything: w is finite here)
+            let below = self.z_min.is_some_and(|z| w.z < z || z.is_nan());
+            let above = self.z_max.is_some_and(|z| w.z > z || z.is_nan());
+            if below || above {
                 c.dropped.z_band += 1;
                 continue;
             }
@@ -454,7 +457,7 @@ impl SplitMix64 {
 
     /// Uniform in `0..n` (`n > 0`), by the multiply-shift reduction.
     fn below(&mut self, n: usize) -> usize {
-        ((self.next() >> 32) * n as u64 >> 32) as usize
+        (((self.next() >> 32) * n as u64) >> 32) as usize
     }
 }
 
@@ -525,7 +528,7 @@ pub fn fit_ground_plane(
 fn plane_through(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>) -> Option<Plane> {
     let n = (b - a).cross(&(c - a));
     let len = n.norm();
-    if !(len > 1e-12) {
+    if len.is_nan() || len <= 1e-12 {
         return None;
     }
     Some(oriented(n / len, a))

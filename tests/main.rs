@@ -2,6 +2,7 @@
 
 mod checkpoint;
 mod common;
+mod filters;
 mod formats;
 mod grid;
 mod map_diff;

@@ -47,8 +47,9 @@ pub struct Args {
     /// Thin each frame with the online density reducer first (cell size, metres).
     #[arg(long)]
     reduce: Option<f64>,
+    // boxed: inline, it would make `map::Args` the largest command by far
     #[command(flatten)]
-    filters: FilterArgs,
+    filters: Box<FilterArgs>,
     #[command(flatten)]
     input: InputArgs,
     /// Output .bt (max-likelihood, pruned, as OctoMap writes it).
