@@ -606,7 +606,7 @@ mod tests {
             })
             .collect();
         let p = least_squares_plane(&pts).unwrap();
-        assert!((p.normal - n).norm() < 1e-9, "{p:?}");
-        assert!((p.offset - 0.5).abs() < 1e-9, "{p:?}");
+        assert!((p.normal - n).norm() < 1e-7, "{p:?}");
+        assert!((p.offset - 0.5).abs() < 1e-7, "{p:?}");
     }
 }

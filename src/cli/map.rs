@@ -47,9 +47,6 @@ pub struct Args {
     /// Thin each frame with the online density reducer first (cell size, metres).
     #[arg(long)]
     reduce: Option<f64>,
-    // boxed: inline, it would make `map::Args` the largest command by far
-    #[command(flatten)]
-    filters: Box<FilterArgs>,
     #[command(flatten)]
     input: InputArgs,
     /// Output .bt (max-likelihood, pruned, as OctoMap writes it).
@@ -83,6 +80,10 @@ pub struct Args {
         ]
     )]
     resume: Option<PathBuf>,
+    // last: its help heading applies to the options after it; boxed: inline, it would make
+    // `map::Args` the largest command by far
+    #[command(flatten)]
+    filters: Box<FilterArgs>,
 }
 
 /// octoquant's point filters (octomap_server's and more), applied to each frame before
