@@ -14,6 +14,7 @@
 //! [`crate::pipeline::Mapper::insert_run`], [`crate::pipeline::Mapper::save_checkpoint`] and
 //! [`crate::pipeline::Mapper::resume`] are the entry points.
 
+use crate::filters::{CropBox, GroundFilter};
 use crate::output::{remove_stale_temporaries_in, write_atomic, OutputError};
 use crate::pipeline::{FrameStats, InsertMode, MapStats, MapperOptions};
 use crate::Frame;
@@ -405,6 +406,7 @@ impl Write for HashingWriter<'_> {
 /// order: what a checkpoint stores and compares.
 pub(crate) fn options_to_settings(o: &MapperOptions) -> Vec<(&'static str, String)> {
     let p = &o.params;
+    let f = &o.filters;
     vec![
         ("resolution", format!("{:?}", o.resolution)),
         ("mode", o.mode.name().to_string()),
@@ -438,7 +440,42 @@ pub(crate) fn options_to_settings(o: &MapperOptions) -> Vec<(&'static str, Strin
             "quantize_parallel_threshold",
             o.quantize.parallel_threshold.to_string(),
         ),
+        ("drop_zero", f.drop_zero.to_string()),
+        ("min_range", opt(f.min_range)),
+        ("crop_sensor", crop(&f.crop_sensor)),
+        ("crop_world", crop(&f.crop_world)),
+        ("z_min", opt(f.z_min)),
+        ("z_max", opt(f.z_max)),
+        (
+            "ground",
+            f.ground.map_or("none".into(), |g| {
+                format!("{:?} {:?} {} {}", g.distance, g.angle, g.iterations, g.seed)
+            }),
+        ),
     ]
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or("none".into(), |v| format!("{v:?}"))
+}
+
+fn crop(b: &Option<CropBox>) -> String {
+    b.map_or("none".into(), |b| {
+        b.to_array()
+            .iter()
+            .map(|v| format!("{v:?}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    })
+}
+
+/// `v` as space-separated numbers, `n` of them.
+fn numbers(v: &str, n: usize) -> Result<Vec<f64>, String> {
+    let c: Vec<f64> = v.split(' ').map(parse_num).collect::<Result<_, _>>()?;
+    if c.len() != n {
+        return Err(format!("{v:?} is not {n} numbers"));
+    }
+    Ok(c)
 }
 
 fn parse_num<T: std::str::FromStr>(v: &str) -> Result<T, String> {
@@ -488,6 +525,42 @@ fn set_option(o: &mut MapperOptions, key: &str, v: &str) -> Result<bool, String>
         "quantize_max_grid_bits" => o.quantize.max_grid_bits = parse_num(v)?,
         "quantize_bits_per_point" => o.quantize.bits_per_point = parse_num(v)?,
         "quantize_parallel_threshold" => o.quantize.parallel_threshold = parse_num(v)?,
+        "drop_zero" => {
+            o.filters.drop_zero = v.parse().map_err(|_| format!("{v:?} is not true/false"))?
+        }
+        "min_range" => o.filters.min_range = opt_f64(v)?,
+        "crop_sensor" | "crop_world" => {
+            let b = if v == "none" {
+                None
+            } else {
+                Some(CropBox::from_slice(key, &numbers(v, 6)?).map_err(|e| e.to_string())?)
+            };
+            if key == "crop_sensor" {
+                o.filters.crop_sensor = b;
+            } else {
+                o.filters.crop_world = b;
+            }
+        }
+        "z_min" => o.filters.z_min = opt_f64(v)?,
+        "z_max" => o.filters.z_max = opt_f64(v)?,
+        "ground" => {
+            o.filters.ground = if v == "none" {
+                None
+            } else {
+                let mut it = v.split(' ');
+                let (Some(d), Some(a), Some(i), Some(s), None) =
+                    (it.next(), it.next(), it.next(), it.next(), it.next())
+                else {
+                    return Err(format!("{v:?} is not: distance angle iterations seed"));
+                };
+                Some(GroundFilter {
+                    distance: parse_num(d)?,
+                    angle: parse_num(a)?,
+                    iterations: parse_num(i)?,
+                    seed: parse_num(s)?,
+                })
+            }
+        }
         _ => return Ok(false),
     }
     Ok(true)
@@ -500,6 +573,13 @@ fn stats_fields(s: &MapStats) -> Vec<(&'static str, String)> {
         ("points", t.points.to_string()),
         ("non_finite", t.non_finite.to_string()),
         ("outside_map", t.outside_map.to_string()),
+        ("zero", t.zero.to_string()),
+        ("dropped_zero", t.dropped.zero.to_string()),
+        ("dropped_min_range", t.dropped.min_range.to_string()),
+        ("dropped_crop_sensor", t.dropped.crop_sensor.to_string()),
+        ("dropped_crop_world", t.dropped.crop_world.to_string()),
+        ("dropped_z_band", t.dropped.z_band.to_string()),
+        ("dropped_ground", t.dropped.ground.to_string()),
         ("reduced", t.reduced.to_string()),
         ("rays", t.rays.to_string()),
         ("heads_skipped", t.heads_skipped.to_string()),
@@ -518,6 +598,13 @@ fn set_stat(s: &mut MapStats, key: &str, v: &str) -> Result<bool, String> {
         "points" => t.points = parse_num(v)?,
         "non_finite" => t.non_finite = parse_num(v)?,
         "outside_map" => t.outside_map = parse_num(v)?,
+        "zero" => t.zero = parse_num(v)?,
+        "dropped_zero" => t.dropped.zero = parse_num(v)?,
+        "dropped_min_range" => t.dropped.min_range = parse_num(v)?,
+        "dropped_crop_sensor" => t.dropped.crop_sensor = parse_num(v)?,
+        "dropped_crop_world" => t.dropped.crop_world = parse_num(v)?,
+        "dropped_z_band" => t.dropped.z_band = parse_num(v)?,
+        "dropped_ground" => t.dropped.ground = parse_num(v)?,
         "reduced" => t.reduced = parse_num(v)?,
         "rays" => t.rays = parse_num(v)?,
         "heads_skipped" => t.heads_skipped = parse_num(v)?,
@@ -864,6 +951,7 @@ fn is_checkpoint_file(name: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filters::PointFilters;
     use nalgebra::Point3;
 
     fn scratch(tag: &str) -> PathBuf {
@@ -893,6 +981,24 @@ mod tests {
             mode: InsertMode::QuantizedBresenham,
             lazy: true,
             reduce: Some([0.1, 0.2, 1.0 / 3.0]),
+            filters: PointFilters {
+                drop_zero: true,
+                min_range: Some(0.3),
+                crop_sensor: Some(
+                    CropBox::from_slice("b", &[-0.5, -0.25, -1.0, 0.5, 0.25, 0.1]).unwrap(),
+                ),
+                crop_world: Some(
+                    CropBox::from_slice("b", &[-1e3, -2e3, -3.0, 1e3, 2e3, 1.0 / 3.0]).unwrap(),
+                ),
+                z_min: Some(-0.7),
+                z_max: Some(2.5),
+                ground: Some(GroundFilter {
+                    distance: 0.05,
+                    angle: 0.2,
+                    iterations: 77,
+                    seed: u64::MAX,
+                }),
+            },
             ..MapperOptions::default()
         };
         o.params.hit = 0.8472979;

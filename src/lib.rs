@@ -54,6 +54,7 @@
 
 pub mod checkpoint;
 pub mod export;
+pub mod filters;
 pub mod grid;
 pub mod pipeline;
 pub mod query;

@@ -8,13 +8,14 @@
 use crate::checkpoint::{
     options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
 };
+use crate::filters::{count_zero, DroppedPoints, PointFilters};
 use crate::frame::Frame;
-use nalgebra::{Isometry3, Point3};
+use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
     apply_update, compute_discrete_update, compute_update, compute_update_grid,
-    compute_update_with, ApplyOptions, RayModel, ScanStats, ScanUpdate,
+    compute_update_with, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -71,6 +72,9 @@ pub struct MapperOptions {
     pub reduce: Option<[f64; 3]>,
     /// Limits of the dense quantization grid.
     pub quantize: QuantizeOptions,
+    /// Points to drop before insertion (octomap_server's filters and more; see
+    /// [`crate::filters`]). The default drops nothing.
+    pub filters: PointFilters,
 }
 
 impl Default for MapperOptions {
@@ -83,6 +87,7 @@ impl Default for MapperOptions {
             lazy: false,
             reduce: None,
             quantize: QuantizeOptions::default(),
+            filters: PointFilters::default(),
         }
     }
 }
@@ -115,7 +120,13 @@ pub struct FrameStats {
     pub non_finite: usize,
     /// Finite points outside the map, dropped (as OctoMap drops them).
     pub outside_map: usize,
-    /// Points left after density reduction (equal to `points` without it).
+    /// Points exactly at the sensor origin (drivers' `(0, 0, 0)` "no return" points), counted
+    /// whether or not they are dropped (they are only with
+    /// [`PointFilters::drop_zero`]; OctoMap inserts them).
+    pub zero: usize,
+    /// Points dropped by the [`MapperOptions::filters`], by reason.
+    pub dropped: DroppedPoints,
+    /// Points left after the filters and density reduction (equal to `points` without them).
     pub reduced: usize,
     /// Rays cast (after quantization).
     pub rays: usize,
@@ -206,16 +217,24 @@ impl Mapper {
 
     /// Insert one frame (world coordinates). Never panics on bad points: they are counted.
     pub fn insert(&mut self, frame: &Frame) -> FrameStats {
+        self.insert_oriented(frame, &UnitQuaternion::identity())
+    }
+
+    /// [`Mapper::insert`] for a frame whose sensor orientation is known (`rotation`, sensor to
+    /// world): the sensor-frame crop box is then applied in the sensor's own axes.
+    fn insert_oriented(&mut self, frame: &Frame, rotation: &UnitQuaternion<f64>) -> FrameStats {
         let start = Instant::now();
         if self.options.mode == InsertMode::Simple {
             let mut st = FrameStats {
                 points: frame.points.len(),
-                reduced: frame.points.len(),
                 ..FrameStats::default()
             };
+            let filtered = filter_frame(&self.options.filters, frame, rotation, &mut st);
+            let kept: &[Point3<f32>] = filtered.as_ref().map_or(&frame.points, |(p, _)| p);
+            st.reduced = kept.len();
             let points = match self.options.reduce {
-                Some(cell) => reduce(&frame.points, cell, &mut st),
-                None => frame.points.clone(),
+                Some(cell) => reduce(kept, cell, &mut st),
+                None => kept.to_vec(),
             };
             let s = octoquant_raycast::insert_point_cloud_rays(
                 &mut self.tree,
@@ -239,6 +258,7 @@ impl Mapper {
             &conv,
             &self.options,
             frame,
+            rotation,
             &mut self.update,
             &mut self.centres,
         );
@@ -267,10 +287,12 @@ impl Mapper {
         let lazy = self.options.lazy;
         let mut out = Vec::with_capacity(frames.len());
         let mut mark = Instant::now();
+        let identity = UnitQuaternion::identity();
         let mut cur = prepare(
             &conv,
             &self.options,
             &frames[0],
+            &identity,
             &mut self.update,
             &mut self.centres,
         );
@@ -288,7 +310,7 @@ impl Mapper {
                 Some(f) => {
                     let (t, n) = rayon::join(
                         || apply(tree, update, lazy),
-                        || prepare(&conv, options, f, next_update, next_centres),
+                        || prepare(&conv, options, f, &identity, next_update, next_centres),
                     );
                     (t, Some(n))
                 }
@@ -309,7 +331,8 @@ impl Mapper {
     }
 
     /// Insert points given in the sensor frame, with the sensor pose in the world
-    /// (`world = pose * p`, computed in f64, stored as f32); the origin is the pose's translation.
+    /// (`world = pose * p`, computed in f64, stored as f32); the origin is the pose's translation,
+    /// and the [`crate::filters::PointFilters::crop_sensor`] box is taken in the pose's axes.
     pub fn insert_sensor_frame(
         &mut self,
         points: &[Point3<f32>],
@@ -322,7 +345,7 @@ impl Mapper {
                 .map(|p| (pose * p.cast::<f64>()).cast::<f32>())
                 .collect(),
         );
-        self.insert(&frame)
+        self.insert_oriented(&frame, &pose.rotation)
     }
 
     /// Insert the rest of a run: `frames` are the whole run's frames, of which the first
@@ -479,10 +502,13 @@ impl Mapper {
         let conv = self.tree.converter().clone();
         let lazy = self.options.lazy;
         let mut mark = Instant::now();
+        // files carry no sensor orientation: the filters' sensor frame has the world's axes
+        let identity = UnitQuaternion::identity();
         let mut cur = prepare(
             &conv,
             &self.options,
             &frame,
+            &identity,
             &mut self.update,
             &mut self.centres,
         );
@@ -506,7 +532,7 @@ impl Mapper {
                 Some(f) => {
                     let (t, n) = rayon::join(
                         || apply(tree, update, lazy),
-                        || prepare(&conv, options, f, next_update, next_centres),
+                        || prepare(&conv, options, f, &identity, next_update, next_centres),
                     );
                     (t, Some(n))
                 }
@@ -578,6 +604,8 @@ impl Mapper {
         t.points += st.points;
         t.non_finite += st.non_finite;
         t.outside_map += st.outside_map;
+        t.zero += st.zero;
+        t.dropped.add(&st.dropped);
         t.reduced += st.reduced;
         t.rays += st.rays;
         t.heads_skipped += st.heads_skipped;
@@ -623,30 +651,65 @@ fn reduce(points: &[Point3<f32>], cell: [f64; 3], st: &mut FrameStats) -> Vec<Po
         .iter()
         .filter(|p| p.iter().all(|c| c.is_finite()))
         .count();
-    st.non_finite = points.len() - finite;
+    st.non_finite += points.len() - finite;
     // cell sizes were validated when the options were built; fall back to no reduction
     let out = octoquant_density::reduce_points(points, cell).unwrap_or_else(|_| points.to_vec());
     st.reduced = out.len();
     out
 }
 
-/// Everything of a frame's insertion except the tree: reduction, quantization and rays into
-/// `update`'s key sets. Fills the statistics but `tree_seconds` and `seconds`.
+/// The frame's points that `filters` keep (and their camera pixels, if any), with the counts
+/// in `st`; `None` (and only the zero points counted, one comparison per point) when no
+/// filter is set, so that the unfiltered path costs nothing more.
+fn filter_frame(
+    filters: &PointFilters,
+    frame: &Frame,
+    rotation: &UnitQuaternion<f64>,
+    st: &mut FrameStats,
+) -> Option<(Vec<Point3<f32>>, Vec<u32>)> {
+    if !filters.is_active() {
+        st.zero = count_zero(&frame.origin, &frame.points);
+        return None;
+    }
+    let mut points = Vec::with_capacity(frame.points.len());
+    let mut pixels = Vec::new();
+    let c = filters.apply(
+        &frame.origin,
+        rotation,
+        &frame.points,
+        frame.camera.as_ref().map(|c| &c.pixels[..]),
+        &mut points,
+        &mut pixels,
+    );
+    st.non_finite += c.non_finite;
+    st.zero = c.zero;
+    st.dropped = c.dropped;
+    Some((points, pixels))
+}
+
+/// Everything of a frame's insertion except the tree: filters, reduction, quantization and
+/// rays into `update`'s key sets. Fills the statistics but `tree_seconds` and `seconds`.
 fn prepare(
     conv: &KeyConverter,
     options: &MapperOptions,
     frame: &Frame,
+    rotation: &UnitQuaternion<f64>,
     update: &mut ScanUpdate,
     centres: &mut Vec<Point3<f32>>,
 ) -> FrameStats {
     let start = Instant::now();
     let mut st = FrameStats {
         points: frame.points.len(),
-        reduced: frame.points.len(),
         ..FrameStats::default()
     };
+    let filtered = filter_frame(&options.filters, frame, rotation, &mut st);
+    let grid = frame.camera.as_ref().map(|c| PixelGrid {
+        camera: c.camera,
+        pixels: filtered.as_ref().map_or(&c.pixels[..], |(_, px)| px),
+    });
     let reduced;
-    let mut points: &[Point3<f32>] = &frame.points;
+    let mut points: &[Point3<f32>] = filtered.as_ref().map_or(&frame.points, |(p, _)| p);
+    st.reduced = points.len();
     if let Some(cell) = options.reduce {
         reduced = reduce(points, cell, &mut st);
         points = &reduced;
@@ -654,10 +717,10 @@ fn prepare(
     let origin = frame.origin;
     let max_range = options.max_range;
     let scan: ScanStats = match options.mode {
-        InsertMode::Exact | InsertMode::Simple => match &frame.camera {
+        InsertMode::Exact | InsertMode::Simple => match &grid {
             // a reduced frame has lost the pixel order
-            Some(camera) if options.reduce.is_none() => {
-                compute_update_grid(conv, points, &camera.grid(), &origin, max_range, update)
+            Some(grid) if options.reduce.is_none() => {
+                compute_update_grid(conv, points, grid, &origin, max_range, update)
             }
             _ => compute_update(conv, points, &origin, max_range, update),
         },

@@ -272,7 +272,24 @@ class Mapper:
         clamping_min: float = 0.1192,
         clamping_max: float = 0.971,
         occupancy_threshold: float = 0.5,
-    ) -> None: ...
+        *,
+        drop_zero: bool = False,
+        min_range: Optional[float] = None,
+        crop_sensor: Optional[Sequence[float]] = None,
+        crop_world: Optional[Sequence[float]] = None,
+        zmin: Optional[float] = None,
+        zmax: Optional[float] = None,
+        ground: Optional[float] = None,
+        ground_angle: float = 0.15,
+        ground_iterations: int = 200,
+        ground_seed: int = 0,
+    ) -> None:
+        """Point filters are keyword-only and off by default (the map is then OctoMap's):
+        ``drop_zero`` points exactly at the sensor origin, ``min_range`` metres,
+        ``crop_sensor``/``crop_world`` boxes ``(xmin, ymin, zmin, xmax, ymax, zmax)`` (drop
+        inside the sensor-centred box / keep inside the world box), ``zmin``/``zmax`` world
+        heights, ``ground`` RANSAC ground-plane distance. Statistics count ``zero`` points and
+        the points each filter ``dropped`` (a dict by reason)."""
     def insert(
         self,
         points: Points,

@@ -15,6 +15,7 @@ pub use octoquant::octree::{
     logodds, probability, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem, OcTree,
     OccupancyParams, OctreeError, Update, TREE_DEPTH,
 };
+pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;
 

@@ -18,6 +18,15 @@ use pyo3::types::PyDict;
 /// threads for ray casting (None: all cores). ``lazy``: skip inner-node upkeep until ``tree``
 /// is read. ``reduce``: thin each frame with the density reducer first (cell edge in metres,
 /// one number or three). The sensor model is OctoMap's unless given.
+///
+/// Point filters (keyword-only; none by default, which keeps the map OctoMap's; see the
+/// library's ``filters`` module): ``drop_zero`` (points exactly at the sensor origin),
+/// ``min_range`` (metres), ``crop_sensor`` (drop points inside this box around the sensor:
+/// ``(xmin, ymin, zmin, xmax, ymax, zmax)``, in the pose's axes when inserted with ``pose``,
+/// the world's otherwise), ``crop_world`` (keep only points inside this world box), ``zmin`` /
+/// ``zmax`` (world height band), ``ground`` (drop the RANSAC ground plane's points within this
+/// distance; ``ground_angle``, ``ground_iterations``, ``ground_seed``). The statistics count
+/// ``zero`` points and the points each filter ``dropped``.
 #[pyclass(module = "octoquant", name = "Mapper")]
 pub struct PyMapper {
     /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
@@ -43,6 +52,12 @@ fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, PyDic
     d.set_item("points", s.points)?;
     d.set_item("non_finite", s.non_finite)?;
     d.set_item("outside_map", s.outside_map)?;
+    d.set_item("zero", s.zero)?;
+    let dropped = PyDict::new(py);
+    for (name, n) in s.dropped.named() {
+        dropped.set_item(name, n)?;
+    }
+    d.set_item("dropped", dropped)?;
     d.set_item("reduced", s.reduced)?;
     d.set_item("rays", s.rays)?;
     d.set_item("free", s.free)?;
@@ -109,7 +124,9 @@ impl PyMapper {
     #[pyo3(signature = (
         resolution=0.1, mode="exact", max_range=None, threads=None, lazy=false, reduce=None,
         prob_hit=0.7, prob_miss=0.4, clamping_min=0.1192, clamping_max=0.971,
-        occupancy_threshold=0.5
+        occupancy_threshold=0.5, *, drop_zero=false, min_range=None, crop_sensor=None,
+        crop_world=None, zmin=None, zmax=None, ground=None, ground_angle=0.15,
+        ground_iterations=200, ground_seed=0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn py_new(
@@ -124,7 +141,38 @@ impl PyMapper {
         clamping_min: f64,
         clamping_max: f64,
         occupancy_threshold: f64,
+        drop_zero: bool,
+        min_range: Option<f64>,
+        crop_sensor: Option<Vec<f64>>,
+        crop_world: Option<Vec<f64>>,
+        zmin: Option<f64>,
+        zmax: Option<f64>,
+        ground: Option<f64>,
+        ground_angle: f64,
+        ground_iterations: u32,
+        ground_seed: u64,
     ) -> PyResult<Self> {
+        let filter_err = |e: engine::FilterError| PyValueError::new_err(e.to_string());
+        let crop = |name: &str, v: Option<Vec<f64>>| {
+            v.map(|v| engine::CropBox::from_slice(name, &v))
+                .transpose()
+                .map_err(filter_err)
+        };
+        let filters = engine::PointFilters {
+            drop_zero,
+            min_range,
+            crop_sensor: crop("crop_sensor", crop_sensor)?,
+            crop_world: crop("crop_world", crop_world)?,
+            z_min: zmin,
+            z_max: zmax,
+            ground: ground.map(|distance| engine::GroundFilter {
+                distance,
+                angle: ground_angle,
+                iterations: ground_iterations,
+                seed: ground_seed,
+            }),
+        };
+        filters.validate().map_err(filter_err)?;
         let params = engine::OccupancyParams::from_probabilities(
             prob_hit,
             prob_miss,
@@ -170,6 +218,7 @@ impl PyMapper {
             mode: self::mode(mode)?,
             lazy,
             reduce,
+            filters,
             ..MapperOptions::default()
         };
         let mapper = Mapper::new(options).map_err(|e| convert::value_error("Mapper", &e))?;

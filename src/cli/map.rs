@@ -6,6 +6,7 @@ use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
+use octoquant::filters::{CropBox, GroundFilter, PointFilters};
 use octoquant::formats::{frame_stream, FormatError, FrameStream, ReadOptions};
 use octoquant::octree::io::TreeFormat;
 use octoquant::output::{check_not_input, check_writable, remove_stale_temporaries, same_file};
@@ -85,11 +86,118 @@ pub struct Args {
         conflicts_with_all = [
             "checkpoint", "every", "inputs", "format", "global", "topic", "fixed_frame",
             "pixel_step", "max_expansion", "intrinsics", "depth_scale", "trajectory",
-            "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray", "lazy", "clamping",
-            "sensor", "reduce", "output", "ot",
+            "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray",
+            "lazy", "clamping", "sensor", "reduce", "output", "ot", "drop_zero", "min_range",
+            "crop_sensor", "crop_world", "zmin", "zmax", "ground", "ground_angle",
+            "ground_iterations", "ground_seed",
         ]
     )]
     resume: Option<PathBuf>,
+    // last: its help heading applies to the options after it; boxed: inline, it would make
+    // `map::Args` the largest command by far
+    #[command(flatten)]
+    filters: Box<FilterArgs>,
+}
+
+/// octoquant's point filters (octomap_server's and more), applied to each frame before
+/// insertion, in the order listed; each dropped point is counted under the first that drops
+/// it. Without them the map is OctoMap's, byte for byte.
+#[derive(clap::Args)]
+#[command(next_help_heading = "Point filters")]
+struct FilterArgs {
+    /// Drop points exactly at the sensor origin (drivers' (0, 0, 0) "no return" points).
+    /// They are counted either way; OctoMap inserts them, so this changes the map.
+    #[arg(long)]
+    drop_zero: bool,
+    /// Drop readings closer than M metres to the sensor origin (sensor housing, robot body).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    min_range: Option<f64>,
+    /// Drop points inside this box of the sensor frame: centred on the sensor origin, with the
+    /// world's axes (frames record the sensor's position, not its orientation).
+    #[arg(long, num_args = 6, allow_negative_numbers = true,
+          value_names = ["XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"])]
+    crop_sensor: Option<Vec<f64>>,
+    /// Keep only points inside this world box.
+    #[arg(long, num_args = 6, allow_negative_numbers = true,
+          value_names = ["XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"])]
+    crop_world: Option<Vec<f64>>,
+    /// Drop points below this world height (octomap_server's pointcloud_min_z).
+    #[arg(long, value_name = "Z", allow_negative_numbers = true)]
+    zmin: Option<f64>,
+    /// Drop points above this world height (octomap_server's pointcloud_max_z).
+    #[arg(long, value_name = "Z", allow_negative_numbers = true)]
+    zmax: Option<f64>,
+    /// Drop each frame's dominant ground plane (points within D metres of it), found by a
+    /// seeded RANSAC among near-horizontal planes below the sensor (octomap_server's
+    /// filter_ground, whose ground_filter/distance is 0.04). Ground rays do not clear space.
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
+    ground: Option<f64>,
+    /// Largest angle between the ground's normal and the z axis, radians.
+    #[arg(
+        long,
+        value_name = "RAD",
+        default_value_t = 0.15,
+        requires = "ground",
+        allow_negative_numbers = true
+    )]
+    ground_angle: f64,
+    /// RANSAC iterations per frame.
+    #[arg(long, value_name = "N", default_value_t = 200, requires = "ground")]
+    ground_iterations: u32,
+    /// Seed of the RANSAC sampler (the same seed gives the same map on every run).
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "ground")]
+    ground_seed: u64,
+}
+
+impl FilterArgs {
+    /// The filters asked for, checked; errors name the option.
+    fn filters(&self) -> Result<PointFilters> {
+        let crop = |name: &str, v: &Option<Vec<f64>>| -> Result<Option<CropBox>> {
+            v.as_ref()
+                .map(|v| CropBox::from_slice(name, v))
+                .transpose()
+                .map_err(Into::into)
+        };
+        if let Some(m) = self.min_range {
+            if !(m.is_finite() && m >= 0.0) {
+                bail!("--min-range needs a finite distance >= 0, got {m}");
+            }
+        }
+        for (name, z) in [("--zmin", self.zmin), ("--zmax", self.zmax)] {
+            if let Some(z) = z {
+                if !z.is_finite() {
+                    bail!("{name} needs a finite height, got {z}");
+                }
+            }
+        }
+        if let (Some(lo), Some(hi)) = (self.zmin, self.zmax) {
+            if lo > hi {
+                bail!("--zmin {lo} is above --zmax {hi}: no point would be kept");
+            }
+        }
+        let ground = match self.ground {
+            None => None,
+            Some(d) => {
+                let g = GroundFilter {
+                    distance: d,
+                    angle: self.ground_angle,
+                    iterations: self.ground_iterations,
+                    seed: self.ground_seed,
+                };
+                g.validate("--ground")?;
+                Some(g)
+            }
+        };
+        Ok(PointFilters {
+            drop_zero: self.drop_zero,
+            min_range: self.min_range.filter(|m| *m > 0.0),
+            crop_sensor: crop("--crop-sensor", &self.crop_sensor)?,
+            crop_world: crop("--crop-world", &self.crop_world)?,
+            z_min: self.zmin,
+            z_max: self.zmax,
+            ground,
+        })
+    }
 }
 
 fn builtin_frames() -> Result<Vec<Frame>> {
@@ -142,6 +250,7 @@ fn mapper_options(a: &Args) -> Result<MapperOptions> {
         mode,
         lazy: a.lazy,
         reduce: a.reduce.map(|c| [c; 3]),
+        filters: a.filters.filters()?,
         ..MapperOptions::default()
     })
 }
@@ -465,12 +574,47 @@ pub fn run(a: &Args) -> Result<()> {
         0.0
     };
     if a.json {
-        outln!(
-            "{{\"frames\":{},\"points\":{},\"non_finite\":{},\"outside_map\":{},\"rays\":{},\"heads_skipped\":{},\"free_updates\":{},\"occupied_updates\":{},\"load_seconds\":{:.6},\"insert_seconds\":{:.6},\"points_per_second\":{:.1},\"nodes\":{},\"bytes_per_node\":{:.3},\"bt_nodes\":{},\"output\":{:?}}}",
-            stats.frames, t.points, t.non_finite, t.outside_map, t.rays, t.heads_skipped, t.free, t.occupied,
-            load_s, t.seconds, pps, full_nodes, bytes_per_node, tree.size(),
-            plan.output.display().to_string()
-        )?;
+        let path = |p: &std::path::Path| p.to_string_lossy().into_owned();
+        let mut dropped = serde_json::Map::new();
+        dropped.insert("non_finite".into(), t.non_finite.into());
+        dropped.insert("outside_map".into(), t.outside_map.into());
+        for (name, n) in t.dropped.named() {
+            dropped.insert(name.into(), n.into());
+        }
+        let bounds = match tree.metric_bounds() {
+            Some((lo, hi)) => serde_json::json!({
+                "min": [lo.x, lo.y, lo.z],
+                "max": [hi.x, hi.y, hi.z],
+            }),
+            None => serde_json::Value::Null,
+        };
+        let json = serde_json::json!({
+            "frames": stats.frames,
+            "points": t.points,
+            "non_finite": t.non_finite,
+            "outside_map": t.outside_map,
+            "zero_points": t.zero,
+            "dropped": dropped,
+            "dropped_total": t.non_finite + t.outside_map + t.dropped.total(),
+            "rays": t.rays,
+            "heads_skipped": t.heads_skipped,
+            "free_updates": t.free,
+            "occupied_updates": t.occupied,
+            "load_seconds": load_s,
+            "insert_seconds": t.seconds,
+            "points_per_second": pps,
+            "resolution": tree.resolution(),
+            "bounds": bounds,
+            "nodes": full_nodes,
+            "bytes_per_node": bytes_per_node,
+            "bt_nodes": tree.size(),
+            "output": path(&plan.output),
+            "outputs": {
+                "bt": path(&plan.output),
+                "ot": plan.ot.as_deref().map(path),
+            },
+        });
+        outln!("{json}")?;
     } else {
         outln!("frames:          {}", stats.frames)?;
         outln!(
@@ -479,6 +623,27 @@ pub fn run(a: &Args) -> Result<()> {
             t.non_finite,
             t.outside_map
         )?;
+        let filtered: Vec<String> = t
+            .dropped
+            .named()
+            .iter()
+            .filter(|(_, n)| *n > 0)
+            .map(|(name, n)| format!("{n} {name}"))
+            .collect();
+        if !filtered.is_empty() {
+            outln!("filtered out:    {}", filtered.join(", "))?;
+        }
+        if t.zero > 0 {
+            outln!(
+                "zero points:     {} at the sensor origin ({})",
+                t.zero,
+                if plan.options.filters.drop_zero {
+                    "dropped"
+                } else {
+                    "inserted as OctoMap does; --drop-zero drops them"
+                }
+            )?;
+        }
         outln!(
             "rays:            {} ({} walked from where their neighbours stop covering them)",
             t.rays,
@@ -499,6 +664,9 @@ pub fn run(a: &Args) -> Result<()> {
             tree.size()
         )?;
         outln!("wrote:           {}", plan.output.display())?;
+        if let Some(ot) = &plan.ot {
+            outln!("                 {}", ot.display())?;
+        }
     }
     Ok(())
 }
