@@ -17,6 +17,7 @@ use octoquant_raycast::{
     apply_update, compute_discrete_update, compute_update, compute_update_grid,
     compute_update_with, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
 };
+use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -283,50 +284,14 @@ impl Mapper {
         {
             return frames.iter().map(|f| self.insert(f)).collect();
         }
-        let conv = self.tree.converter().clone();
-        let lazy = self.options.lazy;
         let mut out = Vec::with_capacity(frames.len());
-        let mut mark = Instant::now();
-        let identity = UnitQuaternion::identity();
-        let mut cur = prepare(
-            &conv,
-            &self.options,
-            &frames[0],
-            &identity,
-            &mut self.update,
-            &mut self.centres,
-        );
-        for i in 0..frames.len() {
-            let Mapper {
-                tree,
-                options,
-                update,
-                centres,
-                next_update,
-                next_centres,
-                ..
-            } = self;
-            let (tree_s, next) = match frames.get(i + 1) {
-                Some(f) => {
-                    let (t, n) = rayon::join(
-                        || apply(tree, update, lazy),
-                        || prepare(&conv, options, f, &identity, next_update, next_centres),
-                    );
-                    (t, Some(n))
-                }
-                None => (apply(tree, update, lazy), None),
-            };
-            std::mem::swap(update, next_update);
-            std::mem::swap(centres, next_centres);
-            cur.tree_seconds = tree_s;
-            cur.seconds = mark.elapsed().as_secs_f64();
-            mark = Instant::now();
-            self.account(&frames[i], &cur);
-            out.push(cur);
-            if let Some(n) = next {
-                cur = n;
-            }
-        }
+        let mut in_memory = frames.iter().map(Ok::<&Frame, RunError>);
+        let done = self.pipeline(&mut in_memory, &mut |_, st| {
+            out.push(*st);
+            Ok(())
+        });
+        // frames in memory cannot fail to read, and collecting the stats cannot fail
+        debug_assert!(done.is_ok());
         out
     }
 
@@ -457,7 +422,7 @@ impl Mapper {
             .into());
         }
         let every = checkpoint.map_or(0, |(c, _)| c.every);
-        let mut after = |m: &mut Mapper| -> Result<(), RunError> {
+        let mut after = |m: &mut Mapper, _: &FrameStats| -> Result<(), RunError> {
             if let Some((c, identity)) = checkpoint {
                 if every > 0 && m.stats.frames.is_multiple_of(every) {
                     m.save_checkpoint(&c.dir, identity)?;
@@ -469,8 +434,8 @@ impl Mapper {
         if self.options.mode == InsertMode::Simple || rayon::current_num_threads() < 2 {
             for f in frames {
                 let f = f?;
-                self.insert(&f);
-                after(self)?;
+                let st = self.insert(&f);
+                after(self, &st)?;
             }
         } else {
             self.pipeline(frames, &mut after)?;
@@ -486,14 +451,14 @@ impl Mapper {
         Ok(())
     }
 
-    /// The pipelined loop of [`Mapper::insert_frames`] over a stream: while frame `i` is
-    /// applied to the tree, the rays of frame `i + 1` are cast; `after` runs once each frame
-    /// is in the tree (the next one's rays may be ready, but the tree holds exactly the
-    /// frames counted).
-    fn pipeline(
+    /// The pipelined loop of [`Mapper::insert_frames`] and [`Mapper::insert_stream`] (frames
+    /// owned or borrowed): while frame `i` is applied to the tree, the rays of frame `i + 1`
+    /// are cast; `after` runs with the frame's stats once each frame is in the tree (the next
+    /// one's rays may be ready, but the tree holds exactly the frames counted).
+    fn pipeline<F: Borrow<Frame> + Sync>(
         &mut self,
-        frames: &mut dyn Iterator<Item = Result<Frame, RunError>>,
-        after: &mut dyn FnMut(&mut Mapper) -> Result<(), RunError>,
+        frames: &mut dyn Iterator<Item = Result<F, RunError>>,
+        after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
     ) -> Result<(), RunError> {
         let Some(first) = frames.next() else {
             return Ok(());
@@ -507,7 +472,7 @@ impl Mapper {
         let mut cur = prepare(
             &conv,
             &self.options,
-            &frame,
+            frame.borrow(),
             &identity,
             &mut self.update,
             &mut self.centres,
@@ -532,7 +497,16 @@ impl Mapper {
                 Some(f) => {
                     let (t, n) = rayon::join(
                         || apply(tree, update, lazy),
-                        || prepare(&conv, options, f, &identity, next_update, next_centres),
+                        || {
+                            prepare(
+                                &conv,
+                                options,
+                                f.borrow(),
+                                &identity,
+                                next_update,
+                                next_centres,
+                            )
+                        },
                     );
                     (t, Some(n))
                 }
@@ -543,8 +517,8 @@ impl Mapper {
             cur.tree_seconds = tree_s;
             cur.seconds = mark.elapsed().as_secs_f64();
             mark = Instant::now();
-            self.account(&frame, &cur);
-            after(self)?;
+            self.account(frame.borrow(), &cur);
+            after(self, &cur)?;
             if let Some(e) = failed {
                 return Err(e);
             }
