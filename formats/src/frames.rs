@@ -18,6 +18,17 @@ pub const FRAMES_MAGIC: &[u8; 8] = b"OCTFRAME";
 /// The only version this crate reads and writes.
 pub const FRAMES_VERSION: u32 = 1;
 
+/// The points of a frame's body: little-endian `f32` x, y, z per 12 bytes.
+fn points_from_le(bytes: &[u8]) -> Vec<Point3<f32>> {
+    bytes
+        .chunks_exact(12)
+        .map(|c| {
+            let f = |k: usize| f32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
+            Point3::new(f(0), f(4), f(8))
+        })
+        .collect()
+}
+
 /// Parse `.frames` bytes; `path` only names the file in errors.
 pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError> {
     let mut r = ByteReader::new(path, data);
@@ -39,14 +50,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
         let origin = Point3::new(r.f32(&what)?, r.f32(&what)?, r.f32(&what)?);
         let n = r.u32(&what)?;
         let bytes = r.take_checked(u64::from(n) * 12, &format!("{n} points of frame {i}"))?;
-        let points = bytes
-            .chunks_exact(12)
-            .map(|c| {
-                let f = |k: usize| f32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
-                Point3::new(f(0), f(4), f(8))
-            })
-            .collect();
-        frames.push(Frame::new(origin, points));
+        frames.push(Frame::new(origin, points_from_le(bytes)));
     }
     if r.remaining() != 0 {
         return Err(r.error_at(
@@ -154,16 +158,9 @@ impl FramesStream {
             u64::from(n) * 12,
             &format!("{n} points of frame {i}"),
         )?;
-        let points = bytes
-            .chunks_exact(12)
-            .map(|c| {
-                let f = |k: usize| f32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
-                Point3::new(f(0), f(4), f(8))
-            })
-            .collect();
         self.next += 1;
         self.left -= 1;
-        Ok(Frame::new(origin, points))
+        Ok(Frame::new(origin, points_from_le(&bytes)))
     }
 
     /// After the last frame: nothing may follow.
