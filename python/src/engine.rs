@@ -10,12 +10,12 @@ use octoquant::octree::io;
 use octoquant::raycast::{self, InsertOptions};
 use std::path::Path;
 
+pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::grid::{GridError, GridOptions, OccupancyGrid, UnknownCells};
 pub use octoquant::octree::{
     logodds, probability, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem, OcTree,
     OccupancyParams, OctreeError, Update, TREE_DEPTH,
 };
-pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;
 
