@@ -86,7 +86,9 @@ fn missing_directory_is_an_error_before_reading_inputs() {
     let out = map(&dir.join("absent.frames"), &dir.join("map.png"));
     let err = stderr(&out);
     assert!(
-        !out.status.success() && err.contains("unknown tree format"),
+        !out.status.success()
+            && err.contains("unknown extension .png")
+            && err.contains("the accepted extensions are .bt, .ot"),
         "{err}"
     );
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);

@@ -4,7 +4,7 @@
 //! reports progress on stderr as asked (`--quiet`, `--progress-every`).
 
 use crate::common::{self, first_diff, scratch};
-use octoquant::formats::{frame_stream, read_frames, ReadOptions};
+use octoquant::formats::{count_frames, frame_stream, read_frames, ReadOptions};
 use octoquant::octree::io::write_bt;
 use octoquant::pipeline::{Mapper, MapperOptions, READ_AHEAD};
 use octoquant::scene::{
@@ -82,6 +82,44 @@ fn stream_equals_read_all_on_real_data_and_the_scene() {
         if let Some(p) = common::data_file(rel) {
             check_stream_equals_read_all(&p, &options);
         }
+    }
+}
+
+/// The frame count an input announces before any point is read ([`count_frames`], which
+/// `map` sums for its ETA over several inputs) and the one its stream hints after opening
+/// are the frames it gives, on every kind of real input that announces one; text logs
+/// announce none.
+#[test]
+fn announced_frame_counts_are_the_frames_read() {
+    let read = ReadOptions::default();
+    let mut checked = 0;
+    for rel in [
+        "lidar3d/norlab_icp_mapper_example",
+        "mcap/pointcloudset_ouster_os1/test.mcap",
+        "rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt",
+        "rgbd/tum_fr2_pioneer_slam2_subset",
+        "octomap_reference/spherical_scan.graph",
+        "octomap_reference/derived/scan.frames",
+        "pcd/pcl_table_scene_mug_stereo_textured/table_scene_mug_stereo_textured.pcd",
+    ] {
+        let Some(p) = common::data_file(rel) else {
+            continue;
+        };
+        let n = read_frames(&p, &read)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .len();
+        assert!(n > 0, "{rel}");
+        assert_eq!(count_frames(&p, &read), Some(n), "{rel}");
+        let stream = frame_stream(&p, &read).unwrap();
+        assert_eq!(stream.size_hint().0, n, "{rel}");
+        checked += 1;
+    }
+    if let Some(p) = common::data_file("octomap_reference/derived/tiny.txt") {
+        assert!(!read_frames(&p, &read).unwrap().is_empty());
+        assert_eq!(count_frames(&p, &read), None);
+    }
+    if common::data_dir().is_some() {
+        assert_eq!(checked, 7);
     }
 }
 
@@ -188,8 +226,45 @@ fn map_progress_lines_and_quiet() {
     let (_, err) = run(&["--progress-every", "3"]);
     let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("map: ")).collect();
     assert_eq!(lines.len(), n / 3, "{err}");
-    assert!(lines[0].starts_with("map: 3 frames inserted"), "{err}");
-    assert!(lines.iter().all(|l| l.contains("points/s")), "{err}");
+    assert!(
+        lines[0].starts_with(&format!("map: 3/{n} frames inserted")),
+        "{err}"
+    );
+    assert!(
+        lines
+            .iter()
+            .all(|l| l.contains("points/s") && l.contains("ETA")),
+        "{err}"
+    );
+    // two inputs: the total is the sum of the counts they announce
+    let (_, err) = run(&[input.to_str().unwrap(), "--progress-every", &n.to_string()]);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("map: ")).collect();
+    assert_eq!(lines.len(), 2, "{err}");
+    assert!(
+        lines[0].starts_with(&format!("map: {n}/{} frames inserted", 2 * n)),
+        "{err}"
+    );
+    // an input that announces nothing (a text log): no total, no ETA
+    let text = dir.join("scene.txt");
+    let mut t = String::new();
+    for f in &frames {
+        t.push_str(&format!(
+            "NODE {} {} {} 0 0 0\n",
+            f.origin.x, f.origin.y, f.origin.z
+        ));
+        for p in &f.points {
+            t.push_str(&format!("{} {} {}\n", p.x, p.y, p.z));
+        }
+    }
+    std::fs::write(&text, t).unwrap();
+    let (_, err) = run(&[text.to_str().unwrap(), "--progress-every", &n.to_string()]);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("map: ")).collect();
+    assert_eq!(lines.len(), 2, "{err}");
+    assert!(
+        lines[1].starts_with(&format!("map: {} frames inserted", 2 * n))
+            && !lines[1].contains("ETA"),
+        "{err}"
+    );
     let (_, err) = run(&["--quiet", "--progress-every", "3"]);
     assert_eq!(err, "");
     let (_, err) = run(&["--progress-every", "0"]);

@@ -183,6 +183,47 @@ pub fn frame_stream(path: &Path, options: &ReadOptions) -> Result<FrameStream, F
     })
 }
 
+/// How many frames `path` gives, when that can be known without reading its points (for a
+/// progress bar's ETA over several inputs): the count in a `.frames` or `.graph` header, one
+/// for a single scan (PCD, PLY, VTK, PNG), the scans of a VTK sequence, the rows of a TUM
+/// association, the cloud count in an MCAP file's summary statistics. `None` for text logs,
+/// for MCAP files without statistics, and whenever reading the count fails (the
+/// read itself then reports why). A count is what the input announces: a damaged input may
+/// end earlier with an error.
+pub fn count_frames(path: &Path, options: &ReadOptions) -> Option<usize> {
+    let format = match options.format {
+        Some(f) => f,
+        None => InputFormat::detect(path).ok()?,
+    };
+    source::with_decompression_limit(options.decompression, || match format {
+        InputFormat::Frames => Some(frames::frames_file_stream(path).ok()?.size_hint().0),
+        InputFormat::Graph => {
+            let mut head = [0u8; 4];
+            source::open(path).ok()?.read_exact(&mut head).ok()?;
+            usize::try_from(u32::from_le_bytes(head)).ok()
+        }
+        InputFormat::Text => None,
+        InputFormat::Vtk | InputFormat::Pcd | InputFormat::TumDepth | InputFormat::Ply => Some(1),
+        InputFormat::VtkSequence => {
+            let (scans, _) =
+                vtk_sequence_inputs(path, options.trajectory.as_deref(), false).ok()?;
+            Some(vtk::list_scans(&scans).ok()?.len())
+        }
+        InputFormat::TumAssociation => {
+            let assoc = if path.is_dir() {
+                match directory_kind(path).ok()? {
+                    DirKind::Tum(a) => a,
+                    DirKind::Vtk { .. } => return None,
+                }
+            } else {
+                path.to_path_buf()
+            };
+            Some(tum::read_association(&assoc).ok()?.len())
+        }
+        InputFormat::Mcap => mcap::announced_clouds(path, &options.mcap),
+    })
+}
+
 /// Frames read on demand from one input ([`frame_stream`]). Each call to `next` reads one
 /// frame under the input's decompression limit; memory held between calls is the reader's
 /// state (a file handle, the MCAP tf tree, an index of scan files), not the frames already

@@ -48,7 +48,7 @@ pub mod vtk;
 pub use error::{FormatError, Location};
 pub use frame::Frame;
 pub use graph::GraphOptions;
-pub use input::{frame_stream, read_frames, FrameStream, InputFormat, ReadOptions};
+pub use input::{count_frames, frame_stream, read_frames, FrameStream, InputFormat, ReadOptions};
 pub use pcd::{PcdOptions, ViewpointUse};
 pub use source::DecompressionLimit;
 pub use tum::{CameraIntrinsics, TumOptions};

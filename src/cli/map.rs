@@ -7,14 +7,13 @@ use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
 use octoquant::filters::{CropBox, GroundFilter, PointFilters};
-use octoquant::formats::{frame_stream, FormatError, FrameStream, ReadOptions};
-use octoquant::octree::io::TreeFormat;
-use octoquant::output::{check_not_input, check_writable, remove_stale_temporaries, same_file};
+use octoquant::formats::{count_frames, frame_stream, FormatError, FrameStream, ReadOptions};
+use octoquant::output::{check_output, check_writable, remove_stale_temporaries, same_file};
 use octoquant::pipeline::{CheckpointOptions, InsertMode, Mapper, MapperOptions};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
-use octoquant::treefile::write_tree_file;
+use octoquant::treefile::{write_tree_file, TREE_EXTENSIONS};
 use octoquant::{Frame, OccupancyParams};
 use octoquant_raycast::RayModel;
 use std::path::PathBuf;
@@ -365,14 +364,7 @@ impl Plan {
     /// are removed (and said).
     fn preflight(&self) -> Result<()> {
         for out in std::iter::once(&self.output).chain(&self.ot) {
-            if TreeFormat::from_path(out).is_none() {
-                bail!(
-                    "{}: unknown tree format (expected a .bt or .ot extension)",
-                    out.display()
-                );
-            }
-            check_writable(out)?;
-            check_not_input(out, &self.inputs)?;
+            check_output(out, &TREE_EXTENSIONS, &self.inputs)?;
             for p in remove_stale_temporaries(out).unwrap_or_default() {
                 errln!("removed {} (left by an interrupted run)", p.display());
             }
@@ -397,7 +389,8 @@ impl Plan {
 
     /// The run's frames as they are read (every input in turn, each opened when the one
     /// before is done), the number of frames when known up front (one input that knows
-    /// it, or the built-in scene), and the seconds spent reading so far (`load`, in ns).
+    /// it, several that all announce theirs, or the built-in scene), and the seconds spent
+    /// reading so far (`load`, in ns).
     fn frame_source(&self, load: Arc<AtomicU64>) -> Result<(Frames, Option<usize>)> {
         if self.inputs.is_empty() {
             errln!("no input given: mapping the built-in scene (pass files to map your own data)");
@@ -419,7 +412,13 @@ impl Plan {
                 (lo, Some(hi)) if hi <= lo + 1 => Some(lo),
                 _ => None,
             },
-            _ => None,
+            // several inputs: the counts their headers, indexes or summaries announce, when
+            // every one does
+            _ => self
+                .inputs
+                .iter()
+                .map(|p| count_frames(p, &inputs.read))
+                .sum::<Option<usize>>(),
         };
         Ok((Box::new(inputs), total))
     }

@@ -1,6 +1,6 @@
 //! Progress of a long `map` run on stderr: an indicatif bar when stderr is a terminal (frames,
 //! points/s, ETA when the number of frames is known), a plain line every N frames when it is
-//! not (a log file, CI), nothing with `--quiet`. Stdout is never touched, so `--json` stays
+//! not (a log file, CI; also with the total and an ETA when known), nothing with `--quiet`. Stdout is never touched, so `--json` stays
 //! pure JSON.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -14,8 +14,13 @@ pub enum Progress {
     Quiet,
     /// A bar redrawn in place (stderr is a terminal).
     Bar(ProgressBar),
-    /// A plain line every `every` frames (stderr is not a terminal).
-    Lines { every: usize, start: Instant },
+    /// A plain line every `every` frames (stderr is not a terminal), with the total and an
+    /// ETA when the number of frames is known.
+    Lines {
+        every: usize,
+        total: Option<usize>,
+        start: Instant,
+    },
 }
 
 impl Progress {
@@ -31,6 +36,7 @@ impl Progress {
             } else {
                 Progress::Lines {
                     every,
+                    total,
                     start: Instant::now(),
                 }
             };
@@ -60,10 +66,12 @@ impl Progress {
         Progress::Bar(bar)
     }
 
-    /// Frames known to come, once it is known (gives the bar an ETA).
-    pub fn set_total(&self, total: usize) {
-        if let Progress::Bar(b) = self {
-            b.set_length(total as u64);
+    /// Frames known to come, once it is known (gives the bar and the lines an ETA).
+    pub fn set_total(&mut self, n: usize) {
+        match self {
+            Progress::Bar(b) => b.set_length(n as u64),
+            Progress::Lines { total, .. } => *total = Some(n),
+            Progress::Quiet => {}
         }
     }
 
@@ -82,7 +90,11 @@ impl Progress {
                 }
                 b.set_position(stats.frames as u64);
             }
-            Progress::Lines { every, start } => {
+            Progress::Lines {
+                every,
+                total,
+                start,
+            } => {
                 let done = stats.frames;
                 if done > skipped && (done - skipped).is_multiple_of(*every) {
                     let secs = start.elapsed().as_secs_f64();
@@ -91,8 +103,17 @@ impl Progress {
                     } else {
                         0.0
                     };
+                    let (of, eta) = match *total {
+                        // the frames left at this process's own pace so far
+                        Some(n) => {
+                            let left = n.saturating_sub(done) as f64;
+                            let eta = secs / (done - skipped) as f64 * left;
+                            (format!("/{n}"), format!(", ETA {eta:.0} s"))
+                        }
+                        None => (String::new(), String::new()),
+                    };
                     errln!(
-                        "map: {done} frames inserted, {} points, {pps:.0} points/s, {secs:.1} s",
+                        "map: {done}{of} frames inserted, {} points, {pps:.0} points/s, {secs:.1} s{eta}",
                         stats.total.points
                     );
                 }

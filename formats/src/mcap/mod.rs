@@ -40,6 +40,7 @@ mod tf;
 pub use cdr::{DecodeError, Encoding};
 pub use pointcloud2::{datatype, decode_point_cloud2, CloudStats, PointCloud2, PointField};
 pub use reader::{
-    list_topics, mcap_frames, read_mcap, read_mcap_frames, McapFrames, McapOptions, TopicInfo,
+    announced_clouds, list_topics, mcap_frames, read_mcap, read_mcap_frames, McapFrames,
+    McapOptions, TopicInfo,
 };
 pub use tf::{decode_tf_message, Transform};

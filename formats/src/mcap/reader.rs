@@ -479,6 +479,49 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
     Ok(map.into_values().collect())
 }
 
+/// The clouds an MCAP file announces for the topic [`mcap_frames`] would read (the one
+/// given, else the only PointCloud2 topic), from the statistics record of its summary
+/// section, without reading any message; `None` when the file has no such record or the
+/// topic is not clear from it.
+pub fn announced_clouds(path: &Path, options: &McapOptions) -> Option<usize> {
+    let mut input = open_file(path).ok()?;
+    let len = file_len(path, &mut input).ok()?;
+    if summary_has_chunk(path, &mut input, len).ok()? {
+        return None;
+    }
+    let summary = read_summary(path, &mut input, len).ok()??;
+    let stats = summary.stats.as_ref()?;
+    let is_cloud = |c: &::mcap::Channel| {
+        c.schema
+            .as_ref()
+            .is_some_and(|s| CLOUD_SCHEMAS.contains(&s.name.as_str()))
+    };
+    let topic = match &options.topic {
+        Some(t) => t.clone(),
+        None => {
+            let mut clouds: Vec<&str> = summary
+                .channels
+                .values()
+                .filter(|c| is_cloud(c))
+                .map(|c| c.topic.as_str())
+                .collect();
+            clouds.sort_unstable();
+            clouds.dedup();
+            match clouds.as_slice() {
+                [one] => one.to_string(),
+                _ => return None,
+            }
+        }
+    };
+    let mut n = 0u64;
+    for (id, c) in &summary.channels {
+        if c.topic == topic {
+            n = n.checked_add(*stats.channel_message_counts.get(id)?)?;
+        }
+    }
+    usize::try_from(n).ok()
+}
+
 /// The topics of an MCAP file with their message types and encodings, sorted by name.
 pub fn list_topics(path: &Path) -> Result<Vec<TopicInfo>, FormatError> {
     topics_of(path, open_file(path)?)
@@ -570,6 +613,7 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
     };
 
     let mut tf = TfTree::default();
+    let mut total = 0usize;
     for_each_message(path, open_file(path)?, |index, m| {
         let ch = &m.channel;
         let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
@@ -578,6 +622,7 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         if !is_cloud && !is_tf {
             return Ok(());
         }
+        total += usize::from(is_cloud);
         let encoding = message_encoding(path, ch)?;
         if is_tf {
             for t in
@@ -596,6 +641,7 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         tf,
         messages: Messages::new(path, open_file(path)?)?,
         clouds: 0,
+        total,
         done: false,
     })
 }
@@ -631,6 +677,8 @@ pub struct McapFrames {
     messages: Messages<BufReader<File>>,
     /// Clouds yielded so far.
     clouds: usize,
+    /// Messages on the topic, counted by the first pass: one frame each, unless one fails.
+    total: usize,
     done: bool,
 }
 
@@ -726,6 +774,16 @@ impl Iterator for McapFrames {
         let r = self.next_cloud().transpose();
         self.done = !matches!(r, Some(Ok(_)));
         r
+    }
+
+    /// Exact: every message on the topic, counted before the first was read, is one frame
+    /// (the stream ends early only with an error, which is the last item).
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.done {
+            return (0, Some(0));
+        }
+        let left = self.total.saturating_sub(self.clouds);
+        (left, Some(left))
     }
 }
 
