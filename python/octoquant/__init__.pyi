@@ -175,6 +175,8 @@ class OcTree:
         """(occupied, empty) voxel centres, (N, 3) float64 each."""
     def getLabels(self, points: Points) -> NDArray[np.int32]:
         """1 occupied, 0 free, -1 unknown per point."""
+    def probability_at(self, point: Vec3) -> Optional[float]:
+        """Occupancy probability at one point; None in unknown space or outside the map."""
     def occupancy(self, points: Points) -> NDArray[np.float64]:
         """Occupancy probability per point, NaN in unknown space."""
     def grid(

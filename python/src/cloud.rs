@@ -1,7 +1,7 @@
 //! Whole-tree and many-point queries that return arrays: `extractPointCloud`, `getLabels`,
 //! occupancy per point, voxel lists. Pure Rust (called without the GIL).
 
-use crate::engine::{probability, OcTree, TREE_DEPTH};
+use crate::engine::{OcTree, TREE_DEPTH};
 use nalgebra::Point3;
 
 /// Rows of points.
@@ -90,10 +90,7 @@ pub fn labels(tree: &OcTree, points: &[Point3<f32>]) -> Vec<i32> {
 pub fn occupancy(tree: &OcTree, points: &[Point3<f64>]) -> Vec<f64> {
     points
         .iter()
-        .map(|p| {
-            tree.search_point(p)
-                .map_or(f64::NAN, |n| probability(n.value as f64))
-        })
+        .map(|p| tree.probability_at(p).unwrap_or(f64::NAN))
         .collect()
 }
 

@@ -553,6 +553,13 @@ impl PyOcTree {
         Ok(PyArray1::from_vec(py, labels))
     }
 
+    /// The occupancy probability at one point (metres), that of the node holding it (the
+    /// voxel, or the pruned leaf covering it); ``None`` in unknown space and outside the map.
+    /// The same value as ``search(point).getOccupancy()`` without a node in between.
+    fn probability_at(&self, point: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+        Ok(self.tree.probability_at(&convert::vec3(point, "point")?))
+    }
+
     /// Occupancy probability per point of an (N, 3) array; NaN in unknown space.
     fn occupancy<'py>(
         &self,

@@ -189,6 +189,34 @@ def test_search_and_labels(octomap, scan_trees):
     assert b.getLabels(pts).tolist() == a.getLabels(pts).tolist()
 
 
+def occupancy_of(octomap, node):
+    """octomap-python's getOccupancy of a node, or None for a null node (unknown space)."""
+    if node is None:
+        return None
+    try:
+        return node.getOccupancy()
+    except octomap.NullPointerException:
+        return None
+
+
+def test_probability_at_is_octomaps_get_occupancy(octomap, scan_trees):
+    a, b = scan_trees
+    rng = np.random.default_rng(11)
+    pts = np.concatenate(
+        [rng.uniform(-6, 6, (2000, 3)), a.extractPointCloud()[0][:300], [[1e7, 0.0, 0.0]]]
+    )
+    known = 0
+    for p in pts:
+        want = occupancy_of(octomap, a.search(p))
+        got = b.probability_at(p)
+        assert got == want, p
+        known += want is not None
+    # both kinds of answer occur: known space and unknown space
+    assert 0 < known < len(pts)
+    vec = b.occupancy(pts)
+    assert [None if np.isnan(v) else v for v in vec] == [b.probability_at(p) for p in pts]
+
+
 def test_extract_point_cloud(octomap, scan_dat):
     a, b = both(octomap, 0.2)
     a.insertPointCloud(scan_dat, np.zeros(3))
