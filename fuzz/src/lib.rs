@@ -36,3 +36,11 @@ pub fn with_file<T>(name: &str, data: &[u8], f: impl FnOnce(&Path) -> T) -> T {
     std::fs::write(&path, data).expect("cannot write the fuzz scratch file");
     f(&path)
 }
+
+/// A scratch directory called `name`, created if needed (its files stay from the previous
+/// input until the target overwrites them), for the targets whose reader takes a directory.
+pub fn scratch_subdir(name: &str) -> PathBuf {
+    let dir = scratch_dir().join(name);
+    std::fs::create_dir_all(&dir).expect("cannot create a fuzz scratch directory");
+    dir
+}
