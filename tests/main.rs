@@ -3,6 +3,7 @@
 mod checkpoint;
 mod cli;
 mod common;
+mod compare;
 mod filters;
 mod formats;
 mod grid;

@@ -40,7 +40,10 @@ mod tree_surgery;
 pub mod validate;
 
 pub use brick::Brick;
-pub use compare::{compare_classes, ClassComparison, VoxelClass};
+pub use compare::{
+    compare_classes, kl_divergence, voxel_kld, ClassComparison, Divergence, VoxelClass,
+    KLD_ORDERED_VOXELS,
+};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};

@@ -22,6 +22,7 @@ macro_rules! errln {
 
 mod args;
 mod bench;
+mod compare;
 mod convert;
 mod demo;
 mod export;
@@ -62,6 +63,9 @@ enum Command {
     Info(info::Args),
     /// Convert between .bt and .ot (by extension).
     Convert(convert::Args),
+    /// Compare two maps voxel by voxel: class agreement, changed volume, and the KLD of
+    /// OctoMap's compare_octrees.
+    Compare(compare::Args),
     /// Thin a point cloud with the online grid density reducer; writes PLY.
     Reduce(reduce::Args),
     /// Project a height band of a map onto a 2D occupancy grid (ROS map_server / Nav2 YAML + PGM).
@@ -80,6 +84,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Bench(a)) => bench::run(&a),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Convert(a)) => convert::run(&a),
+        Some(Command::Compare(a)) => compare::run(&a),
         Some(Command::Reduce(a)) => reduce::run(&a),
         Some(Command::Segment(a)) => segment::run(&a),
         Some(Command::Grid(a)) => grid::run(&a),
