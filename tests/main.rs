@@ -4,6 +4,7 @@ mod checkpoint;
 mod cli;
 mod common;
 mod compare;
+mod crop;
 mod filters;
 mod formats;
 mod grid;

@@ -27,6 +27,7 @@
 
 mod brick;
 mod compare;
+mod crop;
 mod error;
 pub mod io;
 mod iter;

@@ -24,6 +24,7 @@ mod args;
 mod bench;
 mod compare;
 mod convert;
+mod crop;
 mod demo;
 mod export;
 mod fresh_dir;
@@ -66,6 +67,9 @@ enum Command {
     /// Compare two maps voxel by voxel: class agreement, changed volume, and the KLD of
     /// OctoMap's compare_octrees.
     Compare(compare::Args),
+    /// Keep the voxels of a box (inclusive in keys, as OctoMap's bounding boxes), delete the
+    /// rest.
+    Crop(crop::Args),
     /// Thin a point cloud with the online grid density reducer; writes PLY.
     Reduce(reduce::Args),
     /// Project a height band of a map onto a 2D occupancy grid (ROS map_server / Nav2 YAML + PGM).
@@ -85,6 +89,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Convert(a)) => convert::run(&a),
         Some(Command::Compare(a)) => compare::run(&a),
+        Some(Command::Crop(a)) => crop::run(&a),
         Some(Command::Reduce(a)) => reduce::run(&a),
         Some(Command::Segment(a)) => segment::run(&a),
         Some(Command::Grid(a)) => grid::run(&a),
