@@ -175,11 +175,15 @@ impl Lanes {
 
 /// The four lanes' open bricks and the voxels met in them, and the bricks the lanes left,
 /// collected in the scratch buffers until they are handed on.
+///
+/// Nothing takes its address in the step loop (the hand-on gets its fields), so the open
+/// bricks, the count and the buffers' addresses stay in registers from step to step.
 struct Bricks4<'a> {
     brick: __m256i,
     bits: __m256i,
     left: usize,
-    scratch: &'a mut QuadLineScratch,
+    bricks_left: &'a mut [u64; LEFT + 4],
+    bits_left: &'a mut [u64; LEFT + 4],
 }
 
 impl<'a> Bricks4<'a> {
@@ -194,7 +198,8 @@ impl<'a> Bricks4<'a> {
                 _mm256_and_si256(first, _mm256_set1_epi64x(63)),
             ),
             left: 0,
-            scratch,
+            bricks_left: &mut scratch.bricks,
+            bits_left: &mut scratch.bits,
         }
     }
 
@@ -213,9 +218,8 @@ impl<'a> Bricks4<'a> {
         let left_m: U4 = bytemuck::cast(_mm256_permutevar8x32_epi32(self.bits, order));
         // `left` stays below LEFT between steps; the `min` lets the compiler see it
         let i = self.left.min(LEFT);
-        let s = &mut *self.scratch;
-        s.bricks[i..i + 4].copy_from_slice(&left_b);
-        s.bits[i..i + 4].copy_from_slice(&left_m);
+        self.bricks_left[i..i + 4].copy_from_slice(&left_b);
+        self.bits_left[i..i + 4].copy_from_slice(&left_m);
         self.left = i + count;
         let voxel = _mm256_sllv_epi64(
             _mm256_set1_epi64x(1),
@@ -225,26 +229,26 @@ impl<'a> Bricks4<'a> {
         self.bits = _mm256_or_si256(_mm256_and_si256(self.bits, same), voxel);
         self.brick = b;
         if self.left >= LEFT {
-            self.hand_on(flush);
+            hand_on(self.bricks_left, self.bits_left, self.left, flush);
+            self.left = 0;
         }
     }
 
-    /// Hand the bricks left so far to `flush`, each run of one brick merged first.
-    fn hand_on<F: BrickSink>(&mut self, flush: &mut F) {
-        let n = self.left.min(LEFT + 4);
-        let s = &mut *self.scratch;
-        hand_on_runs(&mut s.bricks[..n], &mut s.bits[..n], flush);
-        self.left = 0;
-    }
-
     /// Hand every brick to `flush`: those left, then the open ones.
-    fn finish<F: BrickSink>(mut self, flush: &mut F) {
-        self.hand_on(flush);
+    fn finish<F: BrickSink>(self, flush: &mut F) {
+        hand_on(self.bricks_left, self.bits_left, self.left, flush);
         let (brick, bits): (U4, U4) = (bytemuck::cast(self.brick), bytemuck::cast(self.bits));
         for (code, voxels) in brick.into_iter().zip(bits) {
             flush.put(Brick { code, voxels });
         }
     }
+}
+
+/// Hand the first `n` bricks left (`bricks[i]`, voxels `bits[i]`) to `flush`, each run of one
+/// brick merged first.
+fn hand_on<F: BrickSink>(bricks: &mut [u64], bits: &mut [u64], n: usize, flush: &mut F) {
+    let n = n.min(bricks.len()).min(bits.len());
+    hand_on_runs(&mut bricks[..n], &mut bits[..n], flush);
 }
 
 /// [`walk_lines`] once AVX2 is known to be there.
