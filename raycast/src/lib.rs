@@ -29,8 +29,8 @@
 //!   `bresenham.rs`: the opt-in Bresenham lines.
 //! - `lanes/`: many walks at once in the lanes of SIMD registers (`dispatch.rs` picks the
 //!   widest path: `avx512.rs`, `avx2.rs`, `sse2.rs` or `brick_walk.rs`, one at a time; the
-//!   Bresenham lines in `bresenham_avx512.rs`; the depth-image replay in
-//!   `replay_avx512.rs`; `refill.rs` and `runs.rs` shared by the AVX2 and AVX-512 lanes).
+//!   Bresenham lines in `bresenham_avx512.rs` or `bresenham_avx2.rs`; the depth-image replay
+//!   in `replay_avx512.rs`; `refill.rs` and `runs.rs` shared by the AVX2 and AVX-512 lanes).
 //! - `cpu.rs`: the run-time checks of the CPU's vector extensions, the one place that asks.
 //!
 //! ```
@@ -62,10 +62,11 @@
 #![deny(missing_docs)]
 // Audited exceptions: the calls into the AVX2 and AVX-512 code after the run-time checks of
 // `cpu.rs` that the CPU has it: `lanes/avx2.rs` (`walk_quads`), `lanes/avx512.rs`
-// (`walk_octs`), `lanes/bresenham_avx512.rs` (`walk_lines`), `lanes/replay_avx512.rs`
-// (`replay_rays`, and its loads and stores of whole arrays) and `setups.rs` (`set_up`'s call of
-// its AVX-512 build); in tests, the call of the AVX-512 run merge after the same check
-// (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe code.
+// (`walk_octs`), `lanes/bresenham_avx2.rs` and `lanes/bresenham_avx512.rs` (`walk_lines`),
+// `lanes/replay_avx512.rs` (`replay_rays`, and its loads and stores of whole arrays) and
+// `setups.rs` (`set_up`'s call of its AVX-512 build); in tests, the call of the AVX-512 run
+// merge after the same check (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe
+// code.
 #![deny(unsafe_code)]
 
 mod bresenham;

@@ -134,8 +134,7 @@ struct RayScratch {
     /// Bresenham lines (start and end keys, distinct) waiting to be walked together.
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
-    #[cfg(target_arch = "x86_64")]
-    line_lanes: crate::lanes::OctScratch,
+    line_lanes: crate::lanes::LineScratch,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
@@ -284,18 +283,10 @@ fn walk_tails(set: &mut BrickSet, scratch: &mut RayScratch) {
     walk_batch(set, scratch);
 }
 
-/// Walk the queued Bresenham lines into `set` and empty the queue: eight at a time where the
-/// CPU has AVX-512, else one after another.
+/// Walk the queued Bresenham lines into `set` and empty the queue, as many at a time as the
+/// CPU has lanes for ([`crate::lanes::walk_lines`]).
 fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
-    #[cfg(target_arch = "x86_64")]
-    let done = crate::lanes::walk_lines(&scratch.lines, &mut scratch.line_lanes, set).is_some();
-    #[cfg(not(target_arch = "x86_64"))]
-    let done = false;
-    if !done {
-        for &(a, b) in &scratch.lines {
-            crate::bresenham::walk_bresenham_bricks(a, b, &mut *set);
-        }
-    }
+    crate::lanes::walk_lines(&scratch.lines, &mut scratch.line_lanes, set);
     scratch.lines.clear();
 }
 

@@ -241,3 +241,146 @@ fn out_of_map_points_at_fine_resolution() {
     assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
     assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
 }
+
+/// facts §3.2's sets with Bresenham lines instead of OctoMap's DDA: the line from the
+/// origin's key to the (cut) end's key when both are in the map, by the scalar key walk.
+fn naive_bresenham_update(
+    c: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+) -> (HashSet<Key>, HashSet<Key>) {
+    let mut free = HashSet::new();
+    let mut occ = HashSet::new();
+    let okey = key_of(c, origin);
+    for p in points.iter().filter(|p| p.iter().all(|v| v.is_finite())) {
+        let diff = [p.x - origin.x, p.y - origin.y, p.z - origin.z];
+        let end = match beyond_range(origin, diff, max_range.unwrap_or(-1.0)) {
+            None => {
+                occ.extend(key_of(c, p));
+                *p
+            }
+            Some(e) => e,
+        };
+        if let (Some(a), Some(b)) = (okey, key_of(c, &end)) {
+            crate::walk_bresenham_keys(a, b, |k| {
+                free.insert(k);
+            });
+        }
+    }
+    free.retain(|k| !occ.contains(k));
+    (free, occ)
+}
+
+/// Points for the Bresenham scans: near and far, outside the map, NaN and infinite, on the
+/// origin and in its voxel (degenerate rays).
+fn line_point_strategy(origin: Point3<f32>) -> impl Strategy<Value = Point3<f32>> {
+    use nalgebra::Vector3;
+    prop_oneof![
+        20 => prop::array::uniform3(-2.0f32..2.0).prop_map(Point3::from),
+        6 => prop::array::uniform3(-30.0f32..30.0).prop_map(Point3::from),
+        1 => (-1.0e6f32..1.0e6).prop_map(|x| Point3::new(x.signum() * 1.0e6 + x, 0.5, -0.5)),
+        1 => Just(Point3::new(f32::NAN, 0.0, 1.0)),
+        1 => Just(Point3::new(0.0, f32::NEG_INFINITY, 1.0)),
+        1 => Just(origin),
+        1 => prop::array::uniform3(-0.01f32..0.01).prop_map(move |d| origin + Vector3::from(d)),
+    ]
+}
+
+/// A Bresenham scan through the lanes `widest` at most, and how many batches each path walked.
+fn bresenham_scan(
+    c: &KeyConverter,
+    pts: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    widest: crate::lanes::LinePath,
+) -> (ScanUpdate, ScanStats, [usize; 3]) {
+    let mut out = ScanUpdate::new();
+    let (stats, paths) = crate::lanes::test_paths::capped(widest, || {
+        compute_update_with(c, pts, origin, max_range, RayModel::Bresenham, &mut out)
+    });
+    (out, stats, paths)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// The Bresenham scan's sets are the same whichever lanes walk the lines: the AVX2 lanes
+    /// (forced, and proven to have run where the CPU has AVX2), the widest the CPU has, and the
+    /// scalar walk all give the same free and occupied bricks and counts, equal to the naive
+    /// sets of the scalar key walk.
+    #[test]
+    fn bresenham_scans_match_across_lanes(
+        (res, origin, max_range, pts) in (
+            prop::sample::select(vec![0.05, 0.1, 0.2]),
+            prop_oneof![
+                8 => prop::array::uniform3(-3.0f32..3.0),
+                1 => Just([1.0e6f32, 0.0, 0.0]),
+            ],
+            prop::option::of(0.5f64..20.0),
+        )
+            .prop_flat_map(|(res, o, max_range)| {
+                let origin = Point3::from(o);
+                (
+                    Just(res),
+                    Just(origin),
+                    Just(max_range),
+                    prop::collection::vec(line_point_strategy(origin), 0..400),
+                )
+            }),
+    ) {
+        use crate::lanes::LinePath;
+        let c = conv(res);
+        let (scalar, s_stats, s_paths) = bresenham_scan(&c, &pts, &origin, max_range, LinePath::Scalar);
+        let (avx2, a_stats, a_paths) = bresenham_scan(&c, &pts, &origin, max_range, LinePath::Avx2);
+        let (widest, w_stats, _) = bresenham_scan(&c, &pts, &origin, max_range, LinePath::Avx512);
+        prop_assert_eq!(s_paths[LinePath::Avx2 as usize] + s_paths[LinePath::Avx512 as usize], 0);
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2() {
+            // every batch went through the AVX2 lanes, and there were batches when lines were
+            prop_assert_eq!(a_paths[LinePath::Scalar as usize] + a_paths[LinePath::Avx512 as usize], 0);
+            prop_assert_eq!(a_paths[LinePath::Avx2 as usize] > 0, s_paths[LinePath::Scalar as usize] > 0);
+        }
+        let (free, occ) = naive_bresenham_update(&c, &pts, &origin, max_range);
+        for out in [&scalar, &avx2, &widest] {
+            prop_assert_eq!(out.free_bricks(), scalar.free_bricks());
+            prop_assert_eq!(out.occupied_bricks(), scalar.occupied_bricks());
+            prop_assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free.clone());
+            prop_assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ.clone());
+        }
+        prop_assert_eq!(a_stats, s_stats);
+        prop_assert_eq!(w_stats, s_stats);
+    }
+}
+
+/// Where the CPU has AVX2 but not AVX-512 (the benchmark hosts of issue 28), a Bresenham scan
+/// takes the AVX2 lanes by default; with AVX-512, the eight lanes.
+#[test]
+fn bresenham_scans_take_the_widest_lanes() {
+    use crate::lanes::LinePath;
+    let c = conv(0.1);
+    let origin = Point3::new(0.05f32, 0.05, 0.05);
+    let pts: Vec<Point3<f32>> = (0..500)
+        .map(|i| {
+            let a = i as f32 * 0.1;
+            Point3::new(5.0 * a.cos(), 5.0 * a.sin(), (i % 7) as f32 - 3.0)
+        })
+        .collect();
+    let (out, _, paths) = bresenham_scan(&c, &pts, &origin, None, LinePath::Avx512);
+    let (free, occ) = naive_bresenham_update(&c, &pts, &origin, None);
+    assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
+    assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
+    // 500 lines: batches of 64
+    assert_eq!(paths.iter().sum::<usize>(), 8);
+    #[cfg(target_arch = "x86_64")]
+    {
+        let want = if crate::cpu::has_avx512() {
+            LinePath::Avx512
+        } else if crate::cpu::has_avx2() {
+            LinePath::Avx2
+        } else {
+            LinePath::Scalar
+        };
+        assert_eq!(paths[want as usize], 8);
+    }
+}

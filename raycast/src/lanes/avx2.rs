@@ -52,8 +52,9 @@ impl Default for QuadScratch {
 }
 
 /// For each set of lanes (bit `l` for lane `l`), the 32-bit lane indices that move those
-/// 64-bit lanes to the front, in order, and their number.
-static COMPRESS: [([u32; 8], usize); 16] = {
+/// 64-bit lanes to the front, in order, and their number. Shared with the Bresenham lanes
+/// ([`crate::lanes::bresenham_avx2`]).
+pub(super) static COMPRESS: [([u32; 8], usize); 16] = {
     let mut t = [([0u32; 8], 0usize); 16];
     let mut set = 0;
     while set < 16 {

@@ -1,8 +1,9 @@
-//! The choice of lanes: [`walk_all`] walks a batch of rays with the widest path the CPU has.
+//! The choice of lanes: [`walk_all`] walks a batch of DDA rays and [`walk_lines`] a batch of
+//! Bresenham lines with the widest path the CPU has.
 
 use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
-use octoquant_octree::Brick;
+use octoquant_octree::{Brick, Key};
 
 /// Per-thread buffers of the lane walks, kept from batch to batch.
 #[derive(Debug, Clone, Default)]
@@ -34,6 +35,131 @@ where
         }
     }
     walk_pairs_or_each(rays, &mut scratch.bufs, flush)
+}
+
+/// The per-thread buffers of the Bresenham lanes, kept from batch to batch.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LineScratch {
+    #[cfg(target_arch = "x86_64")]
+    quad: super::bresenham_avx2::QuadLineScratch,
+    #[cfg(target_arch = "x86_64")]
+    oct: super::avx512::OctScratch,
+}
+
+/// Which way a batch of Bresenham lines was walked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum LinePath {
+    /// One line after another ([`crate::bresenham::walk_bresenham_bricks`]).
+    Scalar,
+    /// Four at a time ([`crate::lanes::bresenham_avx2`]).
+    Avx2,
+    /// Eight at a time ([`crate::lanes::bresenham_avx512`]).
+    Avx512,
+}
+
+/// Walk the Bresenham lines `start -> end` of `lines` and hand each brick they enter to
+/// `flush`: eight at a time where the CPU has AVX-512, four with AVX2, else one after another.
+/// Lines whose start and end are equal have no voxel. Returns the path taken.
+pub(crate) fn walk_lines<F>(
+    lines: &[(Key, Key)],
+    scratch: &mut LineScratch,
+    flush: &mut F,
+) -> LinePath
+where
+    F: BrickSink,
+{
+    let path = walk_lines_up_to(lines, scratch, flush, widest_line_path());
+    #[cfg(test)]
+    test_paths::taken(path);
+    path
+}
+
+/// The widest path [`walk_lines`] may take: all of them, except in tests that ask for less.
+#[cfg(not(test))]
+#[inline]
+fn widest_line_path() -> LinePath {
+    LinePath::Avx512
+}
+
+/// The widest path [`walk_lines`] may take: all of them, except in tests that ask for less.
+#[cfg(test)]
+fn widest_line_path() -> LinePath {
+    test_paths::widest()
+}
+
+/// [`walk_lines`] through the widest path the CPU has, `widest` at most.
+#[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
+fn walk_lines_up_to<F>(
+    lines: &[(Key, Key)],
+    scratch: &mut LineScratch,
+    flush: &mut F,
+    widest: LinePath,
+) -> LinePath
+where
+    F: BrickSink,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        let nonempty = || lines.iter().copied().filter(|(a, b)| a != b);
+        if widest >= LinePath::Avx512 && crate::cpu::has_avx512() {
+            // the eight lanes need lines with voxels; most batches have only those
+            let done = if lines.iter().all(|(a, b)| a != b) {
+                super::bresenham_avx512::walk_lines(lines, &mut scratch.oct, flush)
+            } else {
+                let kept: Vec<(Key, Key)> = nonempty().collect();
+                super::bresenham_avx512::walk_lines(&kept, &mut scratch.oct, flush)
+            };
+            if done.is_some() {
+                return LinePath::Avx512;
+            }
+        }
+        if widest >= LinePath::Avx2
+            && super::bresenham_avx2::walk_lines(lines, &mut scratch.quad, flush).is_some()
+        {
+            return LinePath::Avx2;
+        }
+    }
+    for &(a, b) in lines {
+        crate::bresenham::walk_bresenham_bricks(a, b, &mut *flush);
+    }
+    LinePath::Scalar
+}
+
+/// Test hooks of [`walk_lines`]: cap the path it may take on this thread, and count the
+/// batches each path walked, so tests can compare the paths and prove which one ran.
+#[cfg(test)]
+pub(crate) mod test_paths {
+    use super::LinePath;
+    use std::cell::Cell;
+
+    thread_local! {
+        static WIDEST: Cell<LinePath> = const { Cell::new(LinePath::Avx512) };
+        static TAKEN: Cell<[usize; 3]> = const { Cell::new([0; 3]) };
+    }
+
+    pub(super) fn widest() -> LinePath {
+        WIDEST.with(Cell::get)
+    }
+
+    pub(super) fn taken(path: LinePath) {
+        TAKEN.with(|t| {
+            let mut n = t.get();
+            n[path as usize] += 1;
+            t.set(n);
+        });
+    }
+
+    /// Run `f` on this thread with [`super::walk_lines`] taking `widest` at most, and return
+    /// its result and how many batches each path walked meanwhile (indexed by
+    /// `LinePath as usize`).
+    pub(crate) fn capped<R>(widest: LinePath, f: impl FnOnce() -> R) -> (R, [usize; 3]) {
+        let old = WIDEST.with(|w| w.replace(widest));
+        let before = TAKEN.with(Cell::get);
+        let r = f();
+        let after = TAKEN.with(Cell::get);
+        WIDEST.with(|w| w.set(old));
+        (r, [0, 1, 2].map(|i| after[i] - before[i]))
+    }
 }
 
 /// [`walk_all`] without AVX2: two at a time with SSE2, else one after another.

@@ -11,12 +11,15 @@
 //! [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes, and a
 //! set does not depend on it.
 //!
-//! - `dispatch`: [`walk_all`] and its per-thread [`LaneScratch`]: the choice of path.
+//! - `dispatch`: [`walk_all`] and [`walk_lines`], and their per-thread [`LaneScratch`] and
+//!   [`LineScratch`]: the choice of path.
 //! - `brick_walk`: one walk at a time (the scalar path, and the state of each SSE2 lane).
 //! - `sse2`: two walks at once with SSE2, through `safe_arch` (no unsafe code).
 //! - `avx2`: four DDA walks at once with AVX2.
-//! - `avx512`: eight DDA walks at once with AVX-512, and the eight lanes' bricks ([`OctScratch`]).
-//! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512 ([`walk_lines`]).
+//! - `avx512`: eight DDA walks at once with AVX-512, and the eight lanes' bricks
+//!   ([`OctScratch`](avx512::OctScratch)).
+//! - `bresenham_avx2`: four Bresenham lines at once with AVX2.
+//! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512.
 //! - `replay_avx512`: sixteen depth-image rays moved to the end of their heads at once
 //!   ([`replay_rays`], for [`crate::pixel_grid`]).
 //! - `refill` and `runs`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes
@@ -36,17 +39,17 @@ mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 #[cfg(target_arch = "x86_64")]
+mod bresenham_avx2;
+#[cfg(target_arch = "x86_64")]
 mod bresenham_avx512;
 #[cfg(target_arch = "x86_64")]
 mod replay_avx512;
 
 #[cfg(test)]
 pub(crate) use brick_walk::BrickWalk;
-pub(crate) use dispatch::{walk_all, LaneScratch};
+#[cfg(test)]
+pub(crate) use dispatch::{test_paths, LinePath};
+pub(crate) use dispatch::{walk_all, walk_lines, LaneScratch, LineScratch};
 
-#[cfg(target_arch = "x86_64")]
-pub(crate) use avx512::OctScratch;
-#[cfg(target_arch = "x86_64")]
-pub(crate) use bresenham_avx512::walk_lines;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use replay_avx512::{replay_rays, REPLAY_RAYS};
