@@ -26,6 +26,8 @@
 #![forbid(unsafe_code)]
 
 mod brick;
+mod color;
+mod color_tree;
 mod compare;
 mod error;
 pub mod io;
@@ -40,6 +42,8 @@ mod tree_surgery;
 pub mod validate;
 
 pub use brick::Brick;
+pub use color::Color;
+pub use color_tree::{ColorNodeInfo, ColorOcTree};
 pub use compare::{compare_classes, ClassComparison, VoxelClass};
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
