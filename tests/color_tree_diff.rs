@@ -5,7 +5,9 @@
 use crate::common::{self, first_diff};
 use octoquant::formats::pcd::{lzf_decompress, read_pcd_cloud};
 use octoquant::octree::io::{read_color_ot, write_color_ot};
-use octoquant::octree::{Color, ColorOcTree, InnerNodes, Key, OccupancyParams, Update};
+use octoquant::octree::{
+    Color, ColorOcTree, InnerNodes, Key, OccupancyParams, OctreeError, Update,
+};
 use proptest::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -472,8 +474,12 @@ fn color_ot_rejects_plain_trees_and_damage() {
     let tag = b"id ColorOcTree";
     let at = bytes.windows(tag.len()).position(|w| w == tag).unwrap();
     let plain = [&bytes[..at], b"id OcTree", &bytes[at + tag.len()..]].concat();
-    let err = read_color_ot(&plain[..]).unwrap_err().to_string();
-    assert!(err.contains("OcTree"), "{err}");
+    match read_color_ot(&plain[..]) {
+        Err(OctreeError::WrongTreeType { id, expected }) => {
+            assert_eq!((id.as_str(), expected), ("OcTree", "ColorOcTree"))
+        }
+        other => panic!("{other:?}"),
+    }
     // and a plain reader refuses a colour file
     let err = octoquant::octree::io::read_ot(&bytes[..])
         .unwrap_err()

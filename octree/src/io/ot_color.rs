@@ -59,7 +59,7 @@ fn write_node(tree: &ColorOcTree, n: NodeRef, id: NodeId, out: &mut Vec<u8>) {
 }
 
 /// Read an `.ot` stream holding a `ColorOcTree`; any other tree type is
-/// [`OctreeError::UnsupportedTreeType`]. Values and colours are taken as stored; NaN values,
+/// [`OctreeError::WrongTreeType`]. Values and colours are taken as stored; NaN values,
 /// trees deeper than 16 levels, truncated data and node counts that disagree with the header
 /// are rejected with the byte offset.
 pub fn read_color_ot<R: Read>(reader: R) -> Result<ColorOcTree, OctreeError> {
@@ -74,7 +74,10 @@ pub fn read_color_ot<R: Read>(reader: R) -> Result<ColorOcTree, OctreeError> {
     }
     let (h, id) = read_header_any(&mut s, FMT)?;
     if id != COLOR_OCTREE_ID {
-        return Err(OctreeError::UnsupportedTreeType { id });
+        return Err(OctreeError::WrongTreeType {
+            id,
+            expected: COLOR_OCTREE_ID,
+        });
     }
     let mut tree = ColorOcTree::from_occupancy(OcTree::new(h.res)?);
     if h.size > 0 {
