@@ -80,10 +80,10 @@ impl Color {
             b += u32::from(c.b);
             n += 1;
         }
-        if n == 0 {
-            Color::WHITE
-        } else {
-            Color::new((r / n) as u8, (g / n) as u8, (b / n) as u8)
+        let mean = |sum: u32| sum.checked_div(n).map(|m| m as u8);
+        match (mean(r), mean(g), mean(b)) {
+            (Some(r), Some(g), Some(b)) => Color::new(r, g, b),
+            _ => Color::WHITE,
         }
     }
 }

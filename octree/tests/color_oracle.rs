@@ -49,8 +49,8 @@ fn avg_child_color(n: &Node) -> [u8; 3] {
     if let Some(k) = &n.kids {
         for ch in k.iter().flatten() {
             if is_set(ch.c) {
-                for a in 0..3 {
-                    s[a] += ch.c[a] as i32;
+                for (sum, v) in s.iter_mut().zip(ch.c) {
+                    *sum += v as i32;
                 }
                 cnt += 1;
             }
