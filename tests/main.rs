@@ -2,6 +2,7 @@
 
 mod checkpoint;
 mod cli;
+mod color_tree_diff;
 mod common;
 mod compare;
 mod crop;

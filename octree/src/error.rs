@@ -67,10 +67,20 @@ pub enum OctreeError {
         /// What is wrong.
         message: String,
     },
-    /// The file holds a tree type other than `OcTree` (for example `ColorOcTree`).
-    #[error("unsupported tree type {id:?} (only OcTree is supported)")]
+    /// The file holds a tree type other than `OcTree` (for example `OcTreeStamped`, or a
+    /// `ColorOcTree`, which [`crate::io::read_color_ot`] reads).
+    #[error("unsupported tree type {id:?} (OcTree readers take OcTree only; ColorOcTree files have their own reader)")]
     UnsupportedTreeType {
         /// The id from the file header.
         id: String,
+    },
+    /// A reader for one tree type met a file of another (a `ColorOcTree` reader given an
+    /// `OcTree`, say).
+    #[error("the file holds a tree of type {id:?}, not the {expected} this reader takes")]
+    WrongTreeType {
+        /// The id from the file header.
+        id: String,
+        /// The tree type the reader takes.
+        expected: &'static str,
     },
 }

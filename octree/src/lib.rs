@@ -26,6 +26,8 @@
 #![forbid(unsafe_code)]
 
 mod brick;
+mod color;
+mod color_tree;
 mod compare;
 mod crop;
 mod error;
@@ -41,6 +43,8 @@ mod tree_surgery;
 pub mod validate;
 
 pub use brick::Brick;
+pub use color::Color;
+pub use color_tree::{ColorNodeInfo, ColorOcTree};
 pub use compare::{
     compare_classes, kl_divergence, voxel_kld, ClassComparison, Divergence, VoxelClass,
     KLD_ORDERED_VOXELS,

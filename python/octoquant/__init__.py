@@ -7,6 +7,8 @@ migration table.
 """
 
 from octoquant._octoquant import (
+    ColorOcTree,
+    ColorOcTreeNode,
     DensityReducer,
     Mapper,
     NullPointerException,
@@ -26,6 +28,8 @@ from octoquant._octoquant import (
 )
 
 __all__ = [
+    "ColorOcTree",
+    "ColorOcTreeNode",
     "DensityReducer",
     "Mapper",
     "NullPointerException",

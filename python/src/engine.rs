@@ -13,8 +13,8 @@ use std::path::Path;
 pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::grid::{GridError, GridOptions, OccupancyGrid, UnknownCells};
 pub use octoquant::octree::{
-    logodds, probability, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem, OcTree,
-    OccupancyParams, OctreeError, Update, TREE_DEPTH,
+    logodds, probability, Color, ColorOcTree, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem,
+    OcTree, OccupancyParams, OctreeError, Update, TREE_DEPTH,
 };
 pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::Frame;
@@ -171,6 +171,18 @@ pub fn write_bt(tree: &mut OcTree) -> std::io::Result<Vec<u8>> {
 pub fn write_ot(tree: &OcTree) -> std::io::Result<Vec<u8>> {
     let mut out = Vec::new();
     io::write_ot(tree, &mut out)?;
+    Ok(out)
+}
+
+/// A `ColorOcTree` from `.ot` bytes of that tree type.
+pub fn read_color_ot(bytes: &[u8]) -> Result<ColorOcTree, OctreeError> {
+    io::read_color_ot(bytes)
+}
+
+/// `.ot` bytes of a `ColorOcTree` (OctoMap's `write`): every node's log-odds and colour.
+pub fn write_color_ot(tree: &ColorOcTree) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    io::write_color_ot(tree, &mut out)?;
     Ok(out)
 }
 

@@ -2,14 +2,15 @@
 //! drop-in for octomap-python (`octoquant.OcTree`) with NumPy in and out.
 //!
 //! Layout: [`engine`] is the only file that names the octoquant library's paths and free
-//! functions; [`convert`] checks and converts Python arguments; [`tree`], [`node`], [`iter`]
-//! and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
+//! functions; [`convert`] checks and converts Python arguments; [`tree`], [`color_tree`],
+//! [`node`], [`iter`] and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
 //! bounding-box insertion they call; [`density`] and [`segment`] wrap the density reducer and
 //! the 1-D DBSCAN / laser-line segmentation.
 #![deny(missing_docs)]
 
 mod bbx;
 mod cloud;
+mod color_tree;
 mod convert;
 mod density;
 mod engine;
@@ -130,6 +131,8 @@ fn read_frames<'py>(
 #[pymodule]
 fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tree::PyOcTree>()?;
+    m.add_class::<color_tree::PyColorOcTree>()?;
+    m.add_class::<color_tree::PyColorNode>()?;
     m.add_class::<mapper::PyMapper>()?;
     m.add_class::<node::PyKey>()?;
     m.add_class::<node::PyNode>()?;

@@ -37,12 +37,12 @@ type CastArrays<'py> = (Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>);
 type CloudArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// A key-or-point argument (`updateNode`, `search`, ...).
-enum Target {
+pub(crate) enum Target {
     Key(Key),
     Point(Point3<f64>),
 }
 
-fn target(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Target> {
+pub(crate) fn target(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Target> {
     if obj.cast::<PyKey>().is_ok() {
         Ok(Target::Key(key_arg(obj, name)?))
     } else {
@@ -51,7 +51,7 @@ fn target(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Target> {
 }
 
 /// `update` of `updateNode`: a Python bool is a hit or a miss, anything else a log-odds delta.
-fn update_arg(obj: &Bound<'_, PyAny>) -> PyResult<Update> {
+pub(crate) fn update_arg(obj: &Bound<'_, PyAny>) -> PyResult<Update> {
     if let Ok(b) = obj.cast::<PyBool>() {
         return Ok(if b.is_true() {
             Update::Hit
@@ -89,7 +89,7 @@ fn prob(p: f64, name: &str) -> PyResult<f32> {
     }
 }
 
-fn bytes_or_true<'py>(
+pub(crate) fn bytes_or_true<'py>(
     py: Python<'py>,
     data: Vec<u8>,
     filename: Option<&Bound<'py, PyAny>>,

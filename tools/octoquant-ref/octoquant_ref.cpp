@@ -4,6 +4,7 @@
 // resulting bytes. Every mode reads and writes plain files; see README.md beside this file.
 //
 //   octoquant-ref script FILE|-          run a command script (one command per line)
+//   octoquant-ref color-script FILE|-    the same on a ColorOcTree, with the colour commands
 //   octoquant-ref rays RES IN OUT        computeRayKeys for a batch of rays
 //   octoquant-ref castray TREE IN OUT    castRay on a .bt/.ot tree for a batch of rays
 //   octoquant-ref keys RES IN OUT        coordToKeyChecked / coordToKey / keyToCoord
@@ -29,14 +30,24 @@
 //   changes_on | changes_reset        enableChangeDetection(true) / resetChangeDetection()
 //   print_changes                     prints "change KX KY KZ NEW" per changed key, sorted
 //
+// Colour commands (color-script only; "inner" is then ColorOcTree::updateInnerOccupancy, skipped
+// on an empty tree where OctoMap 1.9.7 crashes, and read_ot expects a ColorOcTree):
+//   color|avgcolor|intcolor KX KY KZ R G B
+//                                     setNodeColor / averageNodeColor / integrateNodeColor
+//   points FILE LAZY                  per point: updateNode(point, true, lazy), then
+//                                     integrateNodeColor(x, y, z, r, g, b)
+//
 // Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
-// f32 origin[3], u32 n, n x f32[3].
+// f32 origin[3], u32 n, n x f32[3]. Coloured points (points): u32 n, n x (f32[3], u8 r g b,
+// u8 padding).
 
 #include <octomap/octomap.h>
 #include <octomap/OcTree.h>
+#include <octomap/ColorOcTree.h>
 
 #include <algorithm>
 #include <tuple>
+#include <type_traits>
 
 #include <chrono>
 #include <cstdint>
@@ -121,8 +132,32 @@ static bool lazy_from(std::istringstream& ls) {
   return lazy != 0;
 }
 
+static uint8_t byte_from(std::istringstream& ls) {
+  unsigned v;
+  if (!(ls >> v) || v > 255) die("expected a colour channel 0..255");
+  return static_cast<uint8_t>(v);
+}
+
+// Coloured points: u32 n, n x (f32 x y z, u8 r g b, u8 padding).
+static void insert_colored_points(ColorOcTree& tree, const std::string& path, bool lazy) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) die("cannot open " + path);
+  uint32_t n = get<uint32_t>(in, "point count");
+  for (uint32_t i = 0; i < n; ++i) {
+    float p[3];
+    for (float& v : p) v = get<float>(in, "point");
+    uint8_t c[4];
+    for (uint8_t& v : c) v = get<uint8_t>(in, "colour");
+    tree.updateNode(point3d(p[0], p[1], p[2]), true, lazy);
+    tree.integrateNodeColor(p[0], p[1], p[2], c[0], c[1], c[2]);
+  }
+}
+
+// TREE is OcTree ("script") or ColorOcTree ("color-script").
+template <class TREE>
 static int run_script(std::istream& in) {
-  std::unique_ptr<OcTree> tree(new OcTree(0.1));
+  constexpr bool color = std::is_same<TREE, ColorOcTree>::value;
+  std::unique_ptr<TREE> tree(new TREE(0.1));
   std::string line;
   size_t lineno = 0;
   while (std::getline(in, line)) {
@@ -133,7 +168,7 @@ static int run_script(std::istream& in) {
     if (cmd == "tree") {
       std::string res;
       ls >> res;
-      tree.reset(new OcTree(std::strtod(res.c_str(), nullptr)));
+      tree.reset(new TREE(std::strtod(res.c_str(), nullptr)));
     } else if (cmd == "params") {
       double hit, miss, cmin, cmax, thr;
       if (!(ls >> hit >> miss >> cmin >> cmax >> thr)) die("params needs 5 probabilities");
@@ -167,7 +202,9 @@ static int run_script(std::istream& in) {
     } else if (cmd == "ml") {
       tree->toMaxLikelihood();
     } else if (cmd == "inner") {
-      tree->updateInnerOccupancy();
+      // ColorOcTree::updateInnerOccupancy of 1.9.7 dereferences a null root (segfault);
+      // an empty tree has no inner node to update, so skip it there
+      if (!color || tree->getRoot() != nullptr) tree->updateInnerOccupancy();
     } else if (cmd == "write_ot") {
       std::string p;
       ls >> p;
@@ -183,13 +220,13 @@ static int run_script(std::istream& in) {
     } else if (cmd == "read_bt") {
       std::string p;
       ls >> p;
-      tree.reset(new OcTree(0.1));
+      tree.reset(new TREE(0.1));
       if (!tree->readBinary(p)) die("read_bt failed: " + p);
     } else if (cmd == "read_ot") {
       std::string p;
       ls >> p;
       AbstractOcTree* t = AbstractOcTree::read(p);
-      OcTree* ot = dynamic_cast<OcTree*>(t);
+      TREE* ot = dynamic_cast<TREE*>(t);
       if (!ot) die("read_ot failed: " + p);
       tree.reset(ot);
     } else if (cmd == "insert") {
@@ -235,6 +272,23 @@ static int run_script(std::istream& in) {
         std::printf("change %u %u %u %d\n", std::get<0>(t), std::get<1>(t), std::get<2>(t), std::get<3>(t));
     } else if (cmd == "print_size") {
       std::printf("size %zu\n", tree->size());
+    } else if (color && (cmd == "color" || cmd == "avgcolor" || cmd == "intcolor")) {
+      if constexpr (color) {
+        OcTreeKey k = key_from(ls);
+        uint8_t r = byte_from(ls), g = byte_from(ls), b = byte_from(ls);
+        if (cmd == "color")
+          tree->setNodeColor(k, r, g, b);
+        else if (cmd == "avgcolor")
+          tree->averageNodeColor(k, r, g, b);
+        else
+          tree->integrateNodeColor(k, r, g, b);
+      }
+    } else if (color && cmd == "points") {
+      if constexpr (color) {
+        std::string p;
+        ls >> p;
+        insert_colored_points(*tree, p, lazy_from(ls));
+      }
     } else {
       die("line " + std::to_string(lineno) + ": unknown command " + cmd);
     }
@@ -337,13 +391,14 @@ static int run_graph2frames(const std::string& inpath, const std::string& outpat
 }
 
 int main(int argc, char** argv) {
-  if (argc < 2) die("usage: octoquant-ref script|rays|castray|keys|graph2frames ...");
+  if (argc < 2) die("usage: octoquant-ref script|color-script|rays|castray|keys|graph2frames ...");
   std::string mode = argv[1];
-  if (mode == "script" && argc == 3) {
-    if (std::string(argv[2]) == "-") return run_script(std::cin);
+  if ((mode == "script" || mode == "color-script") && argc == 3) {
+    auto run = mode == "script" ? run_script<OcTree> : run_script<ColorOcTree>;
+    if (std::string(argv[2]) == "-") return run(std::cin);
     std::ifstream in(argv[2]);
     if (!in) die(std::string("cannot open ") + argv[2]);
-    return run_script(in);
+    return run(in);
   }
   if (mode == "rays" && argc == 5) return run_rays(std::strtod(argv[2], nullptr), argv[3], argv[4]);
   if (mode == "castray" && argc == 5) return run_castray(argv[2], argv[3], argv[4]);

@@ -34,16 +34,27 @@ pub fn format_resolution(v: f64) -> String {
     }
 }
 
-/// Write the header lines after the format's first line.
+/// Write the header lines after the format's first line, for an `OcTree`.
 pub(crate) fn write_header<W: Write>(
     w: &mut W,
     first_line: &str,
     size: usize,
     res: f64,
 ) -> std::io::Result<()> {
+    write_header_id(w, first_line, "OcTree", size, res)
+}
+
+/// Write the header lines with the tree type `id` (OctoMap's `getTreeType()`).
+pub(crate) fn write_header_id<W: Write>(
+    w: &mut W,
+    first_line: &str,
+    id: &str,
+    size: usize,
+    res: f64,
+) -> std::io::Result<()> {
     write!(
         w,
-        "{first_line}\n# (feel free to add / change comments, but leave the first line as it is!)\n#\nid OcTree\nsize {size}\nres {}\ndata\n",
+        "{first_line}\n# (feel free to add / change comments, but leave the first line as it is!)\n#\nid {id}\nsize {size}\nres {}\ndata\n",
         format_resolution(res)
     )
 }
@@ -54,6 +65,18 @@ pub(crate) fn read_header<R: Read>(
     s: &mut Stream<R>,
     format: &'static str,
 ) -> Result<Header, OctreeError> {
+    let (h, id) = read_header_any(s, format)?;
+    if id != "OcTree" && id != "1" {
+        return Err(OctreeError::UnsupportedTreeType { id });
+    }
+    Ok(h)
+}
+
+/// [`read_header`] for any tree type: the header and its id, unchecked.
+pub(crate) fn read_header_any<R: Read>(
+    s: &mut Stream<R>,
+    format: &'static str,
+) -> Result<(Header, String), OctreeError> {
     let start = s.offset;
     let mut id: Option<String> = None;
     let mut size: u64 = 0;
@@ -95,9 +118,6 @@ pub(crate) fn read_header<R: Read>(
         }
     }
     let id = id.ok_or_else(|| s.format_err(format, start, "header has no 'id'".into()))?;
-    if id != "OcTree" && id != "1" {
-        return Err(OctreeError::UnsupportedTreeType { id });
-    }
     let res = match res {
         Some(r) if r.is_finite() && r > 0.0 => r,
         Some(r) => {
@@ -105,7 +125,7 @@ pub(crate) fn read_header<R: Read>(
         }
         None => return Err(s.format_err(format, start, "header has no 'res'".into())),
     };
-    Ok(Header { size, res })
+    Ok((Header { size, res }, id))
 }
 
 #[cfg(test)]

@@ -8,11 +8,13 @@
 mod bt;
 mod header;
 mod ot;
+mod ot_color;
 mod stream;
 
 pub use bt::{read_bt, write_bt, write_bt_const};
 pub use header::format_resolution;
 pub use ot::{read_ot, write_ot};
+pub use ot_color::{read_color_ot, write_color_ot, COLOR_OCTREE_ID};
 
 /// Which of the two OctoMap tree formats a file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

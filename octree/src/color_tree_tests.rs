@@ -1,0 +1,94 @@
+use super::*;
+
+fn k(x: u16, y: u16, z: u16) -> Key {
+    Key::new(x, y, z)
+}
+
+/// The eight voxels of the depth-15 node holding `base` (`base` even on every axis).
+fn siblings(base: Key) -> [Key; 8] {
+    std::array::from_fn(|i| {
+        k(
+            base.x() + (i & 1) as u16,
+            base.y() + (i >> 1 & 1) as u16,
+            base.z() + (i >> 2 & 1) as u16,
+        )
+    })
+}
+
+#[test]
+fn prune_keeps_child_zero_white_else_averages() {
+    let base = k(32768, 32768, 32768);
+    let vox = siblings(base);
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    for v in vox {
+        t.set_node_value(v, 1.0, InnerNodes::Defer).unwrap();
+    }
+    // child 0 white, others coloured: the parent keeps child 0's white
+    for (i, v) in vox.iter().enumerate().skip(1) {
+        t.set_node_color(*v, Color::new(i as u8, 0, 0));
+    }
+    let mut a = t.clone();
+    a.prune();
+    assert_eq!(a.size(), t.size() - 8);
+    assert_eq!(a.node_color(vox[3]), Some(Color::WHITE));
+    assert_eq!(a.num_colored_nodes(), 0);
+    // child 0 coloured: the average of the coloured children
+    t.set_node_color(vox[0], Color::new(100, 8, 16));
+    t.prune();
+    // (100 + 1 + ... + 7) / 8 = 16, 8 / 8 = 1, 16 / 8 = 2
+    assert_eq!(t.node_color(vox[5]), Some(Color::new(16, 1, 2)));
+    assert_eq!(t.num_colored_nodes(), 1);
+}
+
+#[test]
+fn expansion_copies_colour_and_eager_prune_restores_it() {
+    let base = k(100, 200, 300);
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    for v in siblings(base) {
+        t.set_node_value(v, 2.0, InnerNodes::Refresh).unwrap();
+    }
+    let before = t.size();
+    assert_eq!(t.search(base, 16).unwrap().node.depth, 15);
+    t.set_node_color(base, Color::new(1, 2, 3));
+    // changing one voxel expands the pruned node: every child gets its colour
+    t.update_node(base, Update::Miss, InnerNodes::Refresh);
+    assert_eq!(t.size(), before + 8);
+    for v in siblings(base) {
+        assert_eq!(t.node_color(v), Some(Color::new(1, 2, 3)));
+    }
+    t.set_node_value(base, 2.0, InnerNodes::Refresh).unwrap();
+    assert_eq!(t.size(), before);
+    assert_eq!(t.node_color(base), Some(Color::new(1, 2, 3)));
+    assert_eq!(t.num_colored_nodes(), 1);
+}
+
+#[test]
+fn colour_ops_in_unknown_space_change_nothing() {
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    assert_eq!(t.set_node_color(k(1, 2, 3), Color::new(0, 0, 0)), None);
+    t.update_node(k(1, 2, 3), Update::Hit, InnerNodes::Refresh);
+    assert_eq!(
+        t.integrate_node_color(k(1, 2, 5), Color::new(0, 0, 0)),
+        None
+    );
+    assert_eq!(t.num_colored_nodes(), 0);
+}
+
+#[test]
+fn delete_forgets_colours() {
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    let v = k(10, 10, 10);
+    t.update_node(v, Update::Hit, InnerNodes::Refresh);
+    t.set_node_color(v, Color::new(9, 9, 9));
+    t.update_inner_occupancy();
+    assert!(t.num_colored_nodes() > 1);
+    assert!(t.delete_node(v, 16));
+    // the root stays, with its colour; the deleted path has none left
+    assert_eq!(t.num_colored_nodes(), 1);
+    // the childless root is expanded by the next update (as OctoMap does): the new path
+    // inherits the root's colour, not the deleted voxel's
+    t.set_node_color(v, Color::new(7, 7, 7));
+    t.update_node(v, Update::Hit, InnerNodes::Refresh);
+    assert_eq!(t.node_color(v), Some(Color::new(7, 7, 7)));
+    assert_eq!(t.node_color(k(40000, 10, 10)), Some(Color::new(7, 7, 7)));
+}

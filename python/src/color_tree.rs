@@ -1,0 +1,343 @@
+//! `octoquant.ColorOcTree` and `ColorOcTreeNode`: octomap-python's `ColorOcTree` (same names,
+//! signatures and `.ot` bytes) over the Rust library's colour tree.
+
+use crate::convert::{self, source};
+use crate::engine::{self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, TREE_DEPTH};
+use crate::node::{node_value, PyKey};
+use crate::tree::{bytes_or_true, target, update_arg, Target};
+use pyo3::exceptions::PyOSError;
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+/// A node of a ColorOcTree as it was when it was looked up: occupancy and colour
+/// (octomap-python's `ColorOcTreeNode` points into the live tree instead).
+#[pyclass(module = "octoquant", name = "ColorOcTreeNode", frozen)]
+#[derive(Clone, Copy)]
+pub struct PyColorNode {
+    value: f32,
+    has_children: bool,
+    depth: u8,
+    key: Key,
+    color: Color,
+}
+
+impl PyColorNode {
+    fn found(info: NodeInfo, key: Key, color: Color) -> Self {
+        PyColorNode {
+            value: info.value,
+            has_children: info.has_children,
+            depth: info.depth,
+            key: if info.depth < TREE_DEPTH {
+                key.at_depth(info.depth)
+            } else {
+                key
+            },
+            color,
+        }
+    }
+}
+
+#[pymethods]
+impl PyColorNode {
+    /// The node's log-odds (same as `getLogOdds`).
+    #[pyo3(name = "getValue")]
+    fn get_value(&self) -> f32 {
+        self.value
+    }
+
+    /// The node's log-odds occupancy.
+    #[pyo3(name = "getLogOdds")]
+    fn get_log_odds(&self) -> f32 {
+        self.value
+    }
+
+    /// The node's occupancy probability, `1 - 1/(1 + exp(log_odds))`.
+    #[pyo3(name = "getOccupancy")]
+    fn get_occupancy(&self) -> f64 {
+        probability(self.value as f64)
+    }
+
+    /// Whether the node had children when it was looked up.
+    #[pyo3(name = "hasChildren")]
+    fn has_children_py(&self) -> bool {
+        self.has_children
+    }
+
+    /// The node's depth (16 = voxel; smaller for a pruned node covering many voxels).
+    #[pyo3(name = "getDepth")]
+    fn get_depth(&self) -> u8 {
+        self.depth
+    }
+
+    /// The node's key at its depth.
+    #[pyo3(name = "getKey")]
+    fn get_key(&self) -> PyKey {
+        PyKey::new(self.key)
+    }
+
+    /// The node's colour ``(r, g, b)``; white (255, 255, 255) when none was set.
+    #[pyo3(name = "getColor")]
+    fn get_color(&self) -> (u8, u8, u8) {
+        (self.color.r, self.color.g, self.color.b)
+    }
+
+    /// Whether a colour was set: anything but white (OctoMap's ``isColorSet``).
+    #[pyo3(name = "isColorSet")]
+    fn is_color_set(&self) -> bool {
+        self.color.is_set()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "ColorOcTreeNode(log_odds={}, depth={}, color=({}, {}, {}))",
+            self.value, self.depth, self.color.r, self.color.g, self.color.b
+        )
+    }
+}
+
+/// OctoMap's ``ColorOcTree``: an occupancy octree whose nodes also carry an RGB colour.
+///
+/// ``ColorOcTree(resolution)`` makes an empty tree; ``ColorOcTree(filename)`` reads a ``.ot``
+/// file of type ColorOcTree (str, bytes or os.PathLike, or the bytes ``write()`` returned).
+/// Method names and results follow octomap-python; ``write()`` bytes are identical to
+/// OctoMap's for the same calls. Nodes are white (no colour) until ``setNodeColor``,
+/// ``averageNodeColor`` or ``integrateNodeColor`` gives them one.
+#[pyclass(module = "octoquant", name = "ColorOcTree")]
+pub struct PyColorOcTree {
+    /// Boxed: the tree's blocks are cache-line aligned (64 bytes), more than Python's
+    /// allocator guarantees for the object that holds it.
+    tree: Box<ColorOcTree>,
+}
+
+impl PyColorOcTree {
+    fn load(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<ColorOcTree> {
+        let (data, name) = source(obj, "filename")?.bytes()?;
+        py.detach(|| engine::read_color_ot(&data))
+            .map_err(|e| convert::value_error(&name, &e))
+    }
+
+    /// The key of a key-or-point argument (points as `float32`, like octomap-python's
+    /// `point3d`); `None` outside the map.
+    fn key_of(&self, value: &Bound<'_, PyAny>) -> PyResult<Option<Key>> {
+        Ok(match target(value, "value")? {
+            Target::Key(k) => Some(k),
+            Target::Point(p) => self
+                .tree
+                .converter()
+                .point_to_key(&p.cast::<f32>().cast::<f64>()),
+        })
+    }
+
+    fn node_at(&self, key: Key, depth: u8) -> Option<PyColorNode> {
+        self.tree
+            .search(key, depth)
+            .map(|n| PyColorNode::found(n.node, key, n.color))
+    }
+
+    fn color_op(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        color: Color,
+        op: fn(&mut ColorOcTree, Key, Color) -> Option<Color>,
+    ) -> PyResult<Option<PyColorNode>> {
+        let Some(key) = self.key_of(value)? else {
+            return Ok(None);
+        };
+        op(&mut self.tree, key, color);
+        Ok(self.node_at(key, TREE_DEPTH))
+    }
+}
+
+#[pymethods]
+impl PyColorOcTree {
+    #[new]
+    fn py_new(py: Python<'_>, arg: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let is_number = arg.extract::<f64>().is_ok()
+            && arg.cast::<pyo3::types::PyString>().is_err()
+            && arg.cast::<PyBytes>().is_err();
+        let tree = if is_number {
+            ColorOcTree::new(arg.extract()?).map_err(|e| convert::value_error("ColorOcTree", &e))?
+        } else {
+            Self::load(py, arg)?
+        };
+        Ok(PyColorOcTree {
+            tree: Box::new(tree),
+        })
+    }
+
+    /// Read a ColorOcTree from a ``.ot`` file or the bytes ``write()`` returned. Raises
+    /// OSError (FileNotFoundError, ...) or ValueError (damaged file, other tree type).
+    #[staticmethod]
+    fn read(py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Ok(PyColorOcTree {
+            tree: Box::new(Self::load(py, filename)?),
+        })
+    }
+
+    /// ``.ot`` bytes of the tree (every node's log-odds and colour), or write them to
+    /// ``filename`` and return True.
+    #[pyo3(signature = (filename=None))]
+    fn write<'py>(
+        &self,
+        py: Python<'py>,
+        filename: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let tree = &self.tree;
+        let data = py
+            .detach(|| engine::write_color_ot(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        bytes_or_true(py, data, filename)
+    }
+
+    /// ``b"ColorOcTree"``.
+    #[pyo3(name = "getTreeType")]
+    fn get_tree_type<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, b"ColorOcTree")
+    }
+
+    /// The leaf edge length in metres.
+    #[pyo3(name = "getResolution")]
+    fn get_resolution(&self) -> f64 {
+        self.tree.resolution()
+    }
+
+    /// Number of nodes, inner and leaves.
+    fn size(&self) -> usize {
+        self.tree.size()
+    }
+
+    /// Number of leaves.
+    #[pyo3(name = "getNumLeafNodes")]
+    fn get_num_leaf_nodes(&self) -> usize {
+        self.tree.occupancy().num_leaves()
+    }
+
+    /// Remove every node (the resolution and sensor model stay).
+    fn clear(&mut self) {
+        self.tree.clear();
+    }
+
+    /// Integrate one observation of the voxel at ``value`` (OcTreeKey or point): ``update``
+    /// True = hit, False = miss, a float = log-odds delta. Returns the updated node, or None
+    /// for a point outside the map.
+    #[pyo3(name = "updateNode", signature = (value, update, lazy_eval=false))]
+    fn update_node(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        update: &Bound<'_, PyAny>,
+        lazy_eval: bool,
+    ) -> PyResult<Option<PyColorNode>> {
+        let u = update_arg(update)?;
+        let Some(key) = self.key_of(value)? else {
+            return Ok(None);
+        };
+        self.tree
+            .update_node(key, u, InnerNodes::from_lazy(lazy_eval));
+        Ok(self.node_at(key, TREE_DEPTH))
+    }
+
+    /// The node holding ``value`` (an OcTreeKey or a point), descending at most to ``depth``
+    /// (0 = 16): the node, the pruned leaf covering it, or None in unknown space.
+    #[pyo3(signature = (value, depth=0))]
+    fn search(&self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<Option<PyColorNode>> {
+        let d = convert::depth(depth, "depth")?;
+        Ok(self.key_of(value)?.and_then(|k| self.node_at(k, d)))
+    }
+
+    /// Set the colour of the node holding ``value``, replacing the old one. Returns the node,
+    /// or None (and no change) in unknown space.
+    #[pyo3(name = "setNodeColor")]
+    fn set_node_color(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        r: u8,
+        g: u8,
+        b: u8,
+    ) -> PyResult<Option<PyColorNode>> {
+        self.color_op(value, Color::new(r, g, b), ColorOcTree::set_node_color)
+    }
+
+    /// Average ``(r, g, b)`` into the node's colour (integer mean per channel; the colour
+    /// itself when the node had none). Returns the node, or None in unknown space.
+    #[pyo3(name = "averageNodeColor")]
+    fn average_node_color(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        r: u8,
+        g: u8,
+        b: u8,
+    ) -> PyResult<Option<PyColorNode>> {
+        self.color_op(value, Color::new(r, g, b), ColorOcTree::average_node_color)
+    }
+
+    /// Integrate ``(r, g, b)`` weighted by the node's occupancy ``p``:
+    /// ``old·p + new·(0.99 − p)`` per channel (the colour itself when the node had none).
+    /// Returns the node, or None in unknown space.
+    #[pyo3(name = "integrateNodeColor")]
+    fn integrate_node_color(
+        &mut self,
+        value: &Bound<'_, PyAny>,
+        r: u8,
+        g: u8,
+        b: u8,
+    ) -> PyResult<Option<PyColorNode>> {
+        self.color_op(
+            value,
+            Color::new(r, g, b),
+            ColorOcTree::integrate_node_color,
+        )
+    }
+
+    /// Whether a node is occupied under the current threshold.
+    #[pyo3(name = "isNodeOccupied")]
+    fn is_node_occupied(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        if let Ok(n) = node.cast::<PyColorNode>() {
+            return Ok(self.tree.params().is_occupied(n.get().value));
+        }
+        Ok(self.tree.params().is_occupied(node_value(node)?))
+    }
+
+    /// Bring inner nodes up to date: occupancy to the max of the children, colour to the
+    /// average of the children that have one.
+    #[pyo3(name = "updateInnerOccupancy")]
+    fn update_inner_occupancy(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.update_inner_occupancy());
+    }
+
+    /// Set every node to the clamping bound on its side of the threshold (colours stay).
+    #[pyo3(name = "toMaxLikelihood")]
+    fn max_likelihood(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.to_max_likelihood());
+    }
+
+    /// Merge eight equal-occupancy leaves into their parent (colours do not stop a merge; the
+    /// parent takes child 0's colour, or the children's average when child 0 has one).
+    fn prune(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.prune());
+    }
+
+    /// Expand every pruned node down to voxels; children take the parent's colour.
+    fn expand(&mut self, py: Python<'_>) {
+        let tree = &mut self.tree;
+        py.detach(|| tree.expand());
+    }
+
+    /// Delete the node at ``depth`` (0 = 16) holding ``value`` with its subtree
+    /// (octomap-python's default depth is 1). Returns OctoMap's value: True only when the
+    /// tree was empty or is left without children.
+    #[pyo3(name = "deleteNode", signature = (value, depth=1))]
+    fn delete_node(&mut self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<bool> {
+        let d = convert::depth(depth, "depth")?;
+        let Some(key) = self.key_of(value)? else {
+            return Ok(false);
+        };
+        if self.tree.is_empty() {
+            return Ok(true);
+        }
+        let deleted = self.tree.delete_node(key, d);
+        Ok(deleted && self.tree.occupancy().nodes().nth(1).is_none())
+    }
+}
