@@ -291,7 +291,9 @@ proptest! {
 
     /// Exactly collinear points (one angle cluster, one distance cluster) at random positions
     /// along a random line: the lines are the clusters of the naive DBSCAN of those positions
-    /// that have at least `min_line_points` members, point for point.
+    /// that have at least `min_line_points` members, point for point, with the epsilon
+    /// computed from the definition (the larger of `split_eps` and the spacing factor times the
+    /// lower median gap).
     #[test]
     fn separation_matches_naive_dbscan(
         gaps in prop::collection::vec(
@@ -300,6 +302,7 @@ proptest! {
         offset in 0.5f64..20.0,
         start in -10.0f64..10.0,
         split_eps in 0.05f64..1.5,
+        factor in prop_oneof![Just(0.0), 0.0f64..6.0],
         split_min_points in 1usize..6,
         min_line_points in 2usize..6,
         border in border_policy(),
@@ -308,11 +311,15 @@ proptest! {
         for g in &gaps {
             t.push(t[t.len() - 1] + g);
         }
+        // The epsilon as documented: split_eps or the factor times the lower median gap.
+        let mut sorted_gaps = gaps.clone();
+        sorted_gaps.sort_by(f64::total_cmp);
+        let eps = split_eps.max(factor * sorted_gaps[(sorted_gaps.len() - 1) / 2]);
         // No pair at the boundary of a neighbourhood up to rounding: the code measures
         // positions on the fitted line, the oracle on the generated ones.
         for i in 0..t.len() {
             for j in i + 1..t.len() {
-                prop_assume!(((t[j] - t[i]) - split_eps).abs() > 1e-6);
+                prop_assume!(((t[j] - t[i]) - eps).abs() > 1e-6);
             }
         }
         let (s, c) = normal.sin_cos();
@@ -323,13 +330,14 @@ proptest! {
             min_points_theta: 3,
             min_points_dist: 3,
             split_eps,
+            split_spacing_factor: factor,
             split_min_points,
             min_line_points,
             border,
             ..LineParams::default()
         };
         let seg = segment(&points, &params);
-        let mut want: Vec<Vec<usize>> = naive_dbscan(&t, split_eps, split_min_points, border)
+        let mut want: Vec<Vec<usize>> = naive_dbscan(&t, eps, split_min_points, border)
             .into_iter()
             .filter(|m| m.len() >= min_line_points)
             .collect();
