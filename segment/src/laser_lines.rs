@@ -9,10 +9,12 @@
 //!    group's mean normal are clustered again, which separates parallel walls.
 //! 3. Optionally ([`LineParams::resegment`], the paper's first named shortcoming: close
 //!    features merge), a distance cluster whose TLS fit leaves an rms residual above a bound is
-//!    clustered once more on the distances along its fitted normal, with a stricter epsilon.
-//! 4. Collinear lines separation (the paper's section 3.6): the points of each cluster are
-//!    projected on the cluster's TLS line and clustered by that 1D position, so that one infinite
-//!    line seen in pieces (a wall broken by a doorway) gives one segment per piece.
+//!    clustered once more on the same distances, with a stricter epsilon.
+//! 4. Collinear lines separation (the paper's section 3.6, on by default): the points of each
+//!    cluster are projected on the cluster's TLS line and clustered by that 1D position, so
+//!    that one infinite line seen in pieces (a wall broken by a doorway) gives one segment per
+//!    piece. The epsilon is [`LineParams::split_eps`], widened on sparse lines by
+//!    [`LineParams::split_spacing_factor`] (our addition).
 //!
 //! Every final cluster becomes a [`Line`] with its own TLS fit.
 
@@ -36,11 +38,12 @@ pub struct LineParams {
     /// chain of members in between, become separate lines. `f64::INFINITY` turns the step off
     /// (the segmentation before this step existed).
     ///
-    /// The paper describes this step (its section 3.6) as part of the segmentation, so it is on
-    /// by default. The paper gives no value for it here; 0.5 m is half a narrow doorway and
-    /// several times the spacing of 1° beams along a wall seen from a few metres (9 cm at 5 m
-    /// head-on), so doorways and gaps between pieces of furniture split a line while the
-    /// sparser far ends of a wall seen at a grazing angle mostly do not.
+    /// Our reading of the paper: its section 3.6 makes this step the last one of the angular
+    /// segmentation itself (after the angle and distance steps), not an option, so it is on
+    /// by default. The 0.5 m default is ours: about half a narrow doorway and several times
+    /// the spacing of 1° beams along a wall seen from a few metres (9 cm at 5 m head-on), so
+    /// doorways and gaps between pieces of furniture split a line while the sparser far ends
+    /// of a wall seen at a grazing angle mostly do not.
     pub split_eps: f64,
     /// Core-point threshold of the collinear lines separation (default 2: a member with no
     /// other member within the epsilon along the line is noise). With 1 every member is a core
