@@ -553,10 +553,19 @@ def segment_scan(
     min_points_dist: Optional[int] = None,
     min_line_points: Optional[int] = None,
     border: Literal["first", "noise", "all"] = "first",
+    split_eps: Optional[float] = None,
+    split_min_points: Optional[int] = None,
+    split_spacing_factor: Optional[float] = None,
+    resegment_rms: Optional[float] = None,
+    resegment_eps: Optional[float] = None,
+    resegment_min_points: Optional[int] = None,
 ) -> tuple[NDArray[np.void], NDArray[np.int64]]:
     """Line segments of one 2D laser scan: ``points`` (N, 2) valid returns in beam order, laser
     at the origin. Defaults are the library's: ``eps_theta`` 2 degrees (in radians), ``eps_dist``
-    0.05 m, 5 points for each minimum. Returns ``(lines, labels)``: a structured array with
+    0.05 m, 5 points for each minimum; collinear lines separation ``split_eps`` 0.5 m (``inf``:
+    off), ``split_min_points`` 2, ``split_spacing_factor`` 3 (median point spacings; 0: fixed
+    epsilon); re-segmentation off unless ``resegment_rms`` is given
+    (``resegment_eps`` 0.01 m, ``resegment_min_points`` 5). Returns ``(lines, labels)``: a structured array with
     fields normal_angle, distance (``x cos(a) + y sin(a) = distance``), start_x, start_y, end_x,
     end_y, length, n_points, rms_residual, max_residual, and the int64 line of each point (-1
     for none)."""

@@ -6,6 +6,7 @@ use crate::engine::{
     self, BorderPolicy, Clustering, Dbscan1dParams, LineParams, SegmentError, Segmentation, NOISE,
 };
 use numpy::ndarray::Array2;
+use octoquant_segment::Resegment;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyFileNotFoundError, PyValueError};
 use pyo3::prelude::*;
@@ -129,8 +130,16 @@ pub fn dbscan1d<'py>(
 /// ``points``: (N, 2) valid returns in beam order, in a frame whose origin is the laser
 /// (distances are measured from it). ``eps_theta`` (radians, default 2 degrees) and
 /// ``min_points_theta`` cluster the local normal angles, ``eps_dist`` (metres, default 0.05)
-/// and ``min_points_dist`` the distances of each angular cluster; clusters with fewer than
-/// ``min_line_points`` points (at least 2) are not lines. Defaults are the library's.
+/// and ``min_points_dist`` the distances of each angular cluster. ``split_eps`` (metres along
+/// the line, default 0.5; ``math.inf`` turns the step off), ``split_min_points`` (default 2)
+/// and ``split_spacing_factor`` (default 3: the epsilon grows to that many median point
+/// spacings on far, sparse lines; 0 keeps it fixed) drive the collinear lines separation,
+/// which cuts a line where its points are far apart along it (a wall broken by a doorway
+/// gives two lines). ``resegment_rms`` (metres, default
+/// ``None``: off) re-clusters a distance cluster whose fitted line leaves a larger rms
+/// residual, with ``resegment_eps`` (default 0.01 m) and ``resegment_min_points`` (default 5),
+/// to separate close parallel features. Clusters with fewer than ``min_line_points`` points
+/// (at least 2) are not lines. Defaults are the library's.
 ///
 /// Returns ``(lines, labels)``: ``lines`` a structured array, one row per line in the order
 /// found, with fields ``normal_angle`` (radians in [0, 2 pi), pointing away from the origin),
@@ -140,7 +149,9 @@ pub fn dbscan1d<'py>(
 /// int64 line of each point, -1 for none. NaN/inf points raise ``ValueError``.
 #[pyfunction]
 #[pyo3(signature = (points, *, eps_theta=None, eps_dist=None, min_points_theta=None,
-    min_points_dist=None, min_line_points=None, border="first"))]
+    min_points_dist=None, min_line_points=None, border="first", split_eps=None,
+    split_min_points=None, split_spacing_factor=None, resegment_rms=None, resegment_eps=None,
+    resegment_min_points=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn segment_scan<'py>(
     py: Python<'py>,
@@ -151,8 +162,31 @@ pub fn segment_scan<'py>(
     min_points_dist: Option<i64>,
     min_line_points: Option<i64>,
     border: &str,
+    split_eps: Option<f64>,
+    split_min_points: Option<i64>,
+    split_spacing_factor: Option<f64>,
+    resegment_rms: Option<f64>,
+    resegment_eps: Option<f64>,
+    resegment_min_points: Option<i64>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<i64>>)> {
     let d = LineParams::default();
+    let r = Resegment::default();
+    if resegment_rms.is_none() && (resegment_eps.is_some() || resegment_min_points.is_some()) {
+        return Err(PyValueError::new_err(
+            "resegment_eps and resegment_min_points need resegment_rms",
+        ));
+    }
+    let resegment = match resegment_rms {
+        None => None,
+        Some(max_rms) => Some(Resegment {
+            max_rms,
+            eps: resegment_eps.unwrap_or(r.eps),
+            min_points: match resegment_min_points {
+                Some(v) => min_points(v, "resegment_min_points")?,
+                None => r.min_points,
+            },
+        }),
+    };
     let params = LineParams {
         eps_theta: eps_theta.unwrap_or(d.eps_theta),
         eps_dist: eps_dist.unwrap_or(d.eps_dist),
@@ -169,6 +203,13 @@ pub fn segment_scan<'py>(
             None => d.min_line_points,
         },
         border: self::border(border)?,
+        split_eps: split_eps.unwrap_or(d.split_eps),
+        split_min_points: match split_min_points {
+            Some(v) => min_points(v, "split_min_points")?,
+            None => d.split_min_points,
+        },
+        split_spacing_factor: split_spacing_factor.unwrap_or(d.split_spacing_factor),
+        resegment,
     };
     let (flat, _) = real_array(points, "points", 2, Some(2))?;
     let pts: Vec<[f64; 2]> = flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect();

@@ -240,3 +240,93 @@ def test_segment_scan_errors():
         octoquant.segment_scan(np.zeros((5, 2)), eps_dist=-1.0)
     with pytest.raises(ValueError, match="min_points_theta"):
         octoquant.segment_scan(np.zeros((5, 2)), min_points_theta=0)
+
+
+def raycast(walls, degrees, sigma=0.0, seed=0):
+    """Points of beams from the origin at ``degrees`` hitting the nearest wall segment
+    ((x0, y0), (x1, y1)), with Gaussian range noise; beams hitting nothing give no point."""
+    rng = np.random.default_rng(seed)
+    pts = []
+    for a in np.radians(degrees):
+        d = np.array([math.cos(a), math.sin(a)])
+        best = math.inf
+        for p0, p1 in walls:
+            p0, e = np.asarray(p0, float), np.asarray(p1, float) - np.asarray(p0, float)
+            den = d[0] * e[1] - d[1] * e[0]
+            if abs(den) < 1e-12:
+                continue
+            r = (p0[0] * e[1] - p0[1] * e[0]) / den
+            s = (p0[0] * d[1] - p0[1] * d[0]) / den
+            if r > 0 and 0 <= s <= 1:
+                best = min(best, r)
+        if best < math.inf:
+            pts.append((best + sigma * rng.standard_normal()) * d)
+    return np.array(pts)
+
+
+def test_segment_scan_doorway_splits_the_wall():
+    # a wall 2 m ahead with a 1 m doorway at x in [0.5, 1.5]
+    walls = [((-4.0, 2.0), (0.5, 2.0)), ((1.5, 2.0), (4.0, 2.0))]
+    pts = raycast(walls, np.arange(0.0, 181.0))
+    lines, labels = octoquant.segment_scan(pts)
+    check_lines(pts, lines, labels)
+    assert len(lines) == 2
+    # the ends next to the doorway are within a beam spacing (3.7 cm) of the jambs
+    inner = sorted(
+        min((l["start_x"], l["end_x"]), key=lambda x: abs(x - 1.0)) for l in lines
+    )
+    assert abs(inner[0] - 0.5) < 0.04 and abs(inner[1] - 1.5) < 0.04
+    whole, labels = octoquant.segment_scan(pts, split_eps=math.inf)
+    check_lines(pts, whole, labels)
+    assert len(whole) == 1 and whole["n_points"][0] == lines["n_points"].sum()
+    assert len(octoquant.segment_scan(pts, split_eps=1.2)[0]) == 1
+    assert len(octoquant.segment_scan(pts, split_min_points=50)[0]) == 0
+    # 40 median spacings (3.5 cm near the doorway) span it: one line again
+    assert len(octoquant.segment_scan(pts, split_spacing_factor=40.0)[0]) == 1
+
+
+def test_segment_scan_resegments_close_parallel_walls():
+    # two parallel walls 5 cm apart, side by side, 3 mm range noise
+    walls = [((-3.0, 2.0), (0.0, 2.0)), ((0.0, 1.95), (3.0, 1.95))]
+    for seed in range(10):
+        pts = raycast(walls, np.arange(0.0, 181.0), sigma=0.003, seed=seed)
+        merged, _ = octoquant.segment_scan(pts)
+        assert len(merged) == 1 and merged["rms_residual"][0] > 0.01
+        lines, labels = octoquant.segment_scan(pts, resegment_rms=0.01)
+        check_lines(pts, lines, labels)
+        assert len(lines) == 2
+        np.testing.assert_allclose(np.sort(lines["distance"]), [1.95, 2.0], atol=0.005)
+        # a re-segmentation epsilon above the separation changes nothing
+        same, _ = octoquant.segment_scan(pts, resegment_rms=0.01, resegment_eps=0.1)
+        assert len(same) == 1
+
+
+def test_segment_scan_split_errors():
+    pts = np.zeros((5, 2))
+    with pytest.raises(ValueError, match="split_eps"):
+        octoquant.segment_scan(pts, split_eps=-1.0)
+    with pytest.raises(ValueError, match="split_min_points"):
+        octoquant.segment_scan(pts, split_min_points=0)
+    with pytest.raises(ValueError, match="split_spacing_factor"):
+        octoquant.segment_scan(pts, split_spacing_factor=-1.0)
+    with pytest.raises(ValueError, match="resegment.max_rms"):
+        octoquant.segment_scan(pts, resegment_rms=math.nan)
+    with pytest.raises(ValueError, match="resegment_min_points"):
+        octoquant.segment_scan(pts, resegment_rms=0.01, resegment_min_points=0)
+    with pytest.raises(ValueError, match="need resegment_rms"):
+        octoquant.segment_scan(pts, resegment_eps=0.01)
+
+
+def test_segment_scan_real_log_split_only_cuts(intel_log):
+    scans = octoquant.read_laser_scans(intel_log)
+    with_split = without = 0
+    for pts, _ in scans[::15]:
+        lines, labels = octoquant.segment_scan(pts)
+        whole, whole_labels = octoquant.segment_scan(pts, split_eps=math.inf)
+        with_split += len(lines)
+        without += len(whole)
+        # every line of the default lies inside one line of the unsplit segmentation
+        for k in range(len(lines)):
+            parents = set(whole_labels[labels == k].tolist())
+            assert len(parents) == 1 and -1 not in parents
+    assert with_split >= without

@@ -6,7 +6,11 @@
 //! period) into a reusable [`Clustering`], exactly as the original DBSCAN would, in O(N) whatever
 //! epsilon; [`Dbscan1dParams`] holds epsilon, `min_points`, the [`BorderPolicy`] and the period.
 //! [`segment_scan`] turns the points of one laser scan into fitted [`Line`]s inside a reusable
-//! [`Segmentation`], tuned by [`LineParams`]. Errors are one [`SegmentError`] enum.
+//! [`Segmentation`], tuned by [`LineParams`]: angle clusters, distance clusters, then the
+//! paper's collinear lines separation (a wall broken by a doorway gives one line per piece),
+//! with an optional [`Resegment`] step for close parallel features. Two baselines from the
+//! comparison the paper calls for (Nguyen et al. 2007) fill the same [`Segmentation`]:
+//! [`split_and_merge`] and [`ransac_lines`]. Errors are one [`SegmentError`] enum.
 //!
 //! ```
 //! use octoquant_segment::{dbscan1d, segment_scan, Clustering, Dbscan1dParams, LineParams,
@@ -33,9 +37,13 @@
 mod dbscan1d;
 mod error;
 mod laser_lines;
+mod ransac_lines;
+mod split_and_merge;
 
 pub use dbscan1d::{
     dbscan1d, dbscan1d_by, recluster_in_place, BorderPolicy, Clustering, Dbscan1dParams, NOISE,
 };
 pub use error::SegmentError;
-pub use laser_lines::{segment_scan, Line, LineParams, Segmentation};
+pub use laser_lines::{segment_scan, Line, LineParams, Resegment, Segmentation};
+pub use ransac_lines::{ransac_lines, RansacParams};
+pub use split_and_merge::{split_and_merge, SplitMergeParams};

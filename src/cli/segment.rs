@@ -1,11 +1,12 @@
 //! `octoquant segment LOG [--scan N | --all] [--eps-theta A] [--eps-dist D] [--min-points K]
-//! [--png OUT.png] [--json]`: line segments of 2D laser scans from a CARMEN log.
+//! [--split-eps E] [--split-min-points K] [--split-spacing-factor F] [--resegment RMS
+//! [--resegment-eps E]] [--png OUT.png] [--json]`: line segments of 2D laser scans from a CARMEN log.
 
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use octoquant::formats::carmen::{CarmenReader, LaserScan};
 use octoquant::output::{check_output, write_atomic};
-use octoquant_segment::{segment_scan, Line, LineParams, Segmentation, NOISE};
+use octoquant_segment::{segment_scan, Line, LineParams, Resegment, Segmentation, NOISE};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -25,9 +26,29 @@ pub struct Args {
     /// Neighbourhood radius of the distance clustering, metres.
     #[arg(long, default_value_t = 0.05)]
     eps_dist: f64,
-    /// Core-point threshold of both clusterings, and the smallest line reported.
+    /// Core-point threshold of the angle, distance and re-segmentation clusterings, and the
+    /// smallest line reported.
     #[arg(long, default_value_t = 5)]
     min_points: usize,
+    /// Collinear lines separation: points of one line farther apart than this along it
+    /// (metres) make separate lines, so a wall broken by a doorway gives two; `inf` turns the
+    /// step off.
+    #[arg(long, default_value_t = LineParams::default().split_eps)]
+    split_eps: f64,
+    /// Core-point threshold of the collinear lines separation.
+    #[arg(long, default_value_t = LineParams::default().split_min_points)]
+    split_min_points: usize,
+    /// The separation's epsilon grows to this many times the median spacing of a line's
+    /// points when that is larger than --split-eps (far walls); 0 keeps it fixed.
+    #[arg(long, default_value_t = LineParams::default().split_spacing_factor)]
+    split_spacing_factor: f64,
+    /// Re-segment a cluster whose fitted line leaves an rms residual above this (metres) with
+    /// the stricter --resegment-eps, to separate close parallel features (off by default).
+    #[arg(long, value_name = "MAX_RMS")]
+    resegment: Option<f64>,
+    /// Distance epsilon of the re-segmentation, metres.
+    #[arg(long, default_value_t = Resegment::default().eps, requires = "resegment")]
+    resegment_eps: f64,
     /// Draw the scan (points coloured by line, fitted lines) to this PNG file.
     #[arg(long, conflicts_with = "all")]
     png: Option<PathBuf>,
@@ -43,6 +64,14 @@ pub fn run(a: &Args) -> Result<()> {
         min_points_theta: a.min_points,
         min_points_dist: a.min_points,
         min_line_points: a.min_points,
+        split_eps: a.split_eps,
+        split_min_points: a.split_min_points,
+        split_spacing_factor: a.split_spacing_factor,
+        resegment: a.resegment.map(|max_rms| Resegment {
+            max_rms,
+            eps: a.resegment_eps,
+            min_points: a.min_points,
+        }),
         ..LineParams::default()
     };
     params
