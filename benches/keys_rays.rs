@@ -4,7 +4,7 @@ mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use octoquant::KeyConverter;
-use octoquant_raycast::{compute_ray_keys, KeyRay};
+use octoquant_raycast::{compute_ray_keys_f32, KeyRay};
 use std::hint::black_box;
 
 fn keys(c: &mut Criterion) {
@@ -38,7 +38,7 @@ fn rays(c: &mut Criterion) {
             b.iter(|| {
                 let mut n = 0usize;
                 for p in &frame.points {
-                    compute_ray_keys(&conv, &frame.origin, p, &mut ray);
+                    compute_ray_keys_f32(&conv, &frame.origin, p, &mut ray);
                     n += ray.len();
                 }
                 black_box(n)

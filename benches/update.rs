@@ -5,13 +5,13 @@ mod common;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use octoquant::{InnerNodes, OcTree, Update};
-use octoquant_raycast::{compute_update, ScanUpdate};
+use octoquant_raycast::{compute_update_f32, ScanUpdate};
 
 fn update(c: &mut Criterion) {
     let frame = common::scan_frame();
     let tree = OcTree::new(0.1).unwrap();
     let mut up = ScanUpdate::new();
-    compute_update(
+    compute_update_f32(
         tree.converter(),
         &frame.points,
         &frame.origin,

@@ -963,7 +963,7 @@ mod tests {
     fn frames() -> Vec<Frame> {
         (0..4)
             .map(|i| {
-                Frame::new(
+                Frame::new_f32(
                     Point3::new(0.0, 0.0, i as f32 * 0.1),
                     (0..50)
                         .map(|j| Point3::new(2.0 + j as f32 * 0.013, 1.0 - j as f32 * 0.07, 0.3))

@@ -6,7 +6,7 @@
 //! coordinates) with a [`Mapper`], query it, cast a ray through it and save it:
 //!
 //! ```
-//! use nalgebra::Point3;
+//! use nalgebra::{Point3, Vector3};
 //! use octoquant::raycast::{cast_ray, CastOptions};
 //! use octoquant::treefile::{read_tree_file, save_tree_file};
 //! use octoquant::{Frame, Mapper, MapperOptions};
@@ -17,10 +17,10 @@
 //!     ..MapperOptions::default()
 //! })?;
 //! // one frame: a sensor at (0, 0.52, 0.52) facing a wall 2 m away
-//! let wall: Vec<Point3<f32>> = (0..400)
-//!     .map(|i| Point3::new(2.02, 0.02 + 0.05 * (i % 20) as f32, 0.02 + 0.05 * (i / 20) as f32))
+//! let wall: Vec<Point3<f64>> = (0..400)
+//!     .map(|i| Point3::new(2.02, 0.02 + 0.05 * (i % 20) as f64, 0.02 + 0.05 * (i / 20) as f64))
 //!     .collect();
-//! mapper.insert(&Frame::new(Point3::new(0.0, 0.52, 0.52), wall));
+//! mapper.insert(&Frame::new(Point3::new(0.0, 0.52, 0.52), &wall));
 //! let tree = mapper.into_tree();
 //!
 //! // the wall is occupied, the space in front of it free, the space behind it unknown
@@ -28,14 +28,14 @@
 //! assert!(tree.probability_at(&Point3::new(1.05, 0.52, 0.52)).unwrap() < 0.5);
 //! assert_eq!(tree.probability_at(&Point3::new(3.05, 0.52, 0.52)), None);
 //!
-//! // a ray along +x from the sensor stops at the wall
+//! // a ray along +x from the sensor stops at the wall, in the voxel centred at x = 2.05
 //! let ray = cast_ray(
 //!     &tree,
 //!     &Point3::new(0.0, 0.52, 0.52),
-//!     &Point3::new(1.0, 0.0, 0.0),
+//!     &Vector3::new(1.0, 0.0, 0.0),
 //!     &CastOptions::default(),
 //! );
-//! assert!(ray.hit && (ray.end.unwrap().x - 2.05).abs() < 1e-6);
+//! assert!(ray.hit && (ray.end.unwrap().x - 2.05).abs() < 1e-9);
 //!
 //! // save as OctoMap's .bt (the tree itself is left as it is) and read it back
 //! let path = std::env::temp_dir().join(format!("quick-start-{}.bt", std::process::id()));
@@ -45,6 +45,11 @@
 //! # std::fs::remove_file(&path)?;
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! Precision: coordinates are `f64` everywhere in the public API (as above), and the `f32`
+//! fast paths, which compute in OctoMap's `float` exactly as OctoMap does, carry `_f32` in
+//! their names (`cast_ray_f32`, `compute_update_f32`, [`Frame::new_f32`], ...); a [`Frame`]
+//! stores `f32`, as OctoMap's `Pointcloud` does, and [`Frame::new`] narrows into it.
 //!
 //! This crate wires the workspace together: it re-exports the octree crate and the sensor
 //! formats (with their atomic file output), and adds the insertion pipeline, tree file reading

@@ -14,8 +14,8 @@ use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
 use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
 use octoquant_raycast::{
-    apply_update, compute_discrete_update, compute_update, compute_update_grid,
-    compute_update_with, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
+    apply_update, compute_discrete_update_f32, compute_update_f32, compute_update_grid_f32,
+    compute_update_with_f32, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
 };
 use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
@@ -132,7 +132,7 @@ pub struct FrameStats {
     /// Rays cast (after quantization).
     pub rays: usize,
     /// Of which: depth-image rays walked only from where their neighbours stop covering them
-    /// (the same map either way; see [`octoquant_raycast::compute_update_grid`]).
+    /// (the same map either way; see [`octoquant_raycast::compute_update_grid_f32`]).
     pub heads_skipped: usize,
     /// Free-voxel updates applied.
     pub free: usize,
@@ -237,7 +237,7 @@ impl Mapper {
                 Some(cell) => reduce(kept, cell, &mut st),
                 None => kept.to_vec(),
             };
-            let s = octoquant_raycast::insert_point_cloud_rays(
+            let s = octoquant_raycast::insert_point_cloud_rays_f32(
                 &mut self.tree,
                 &points,
                 &frame.origin,
@@ -296,19 +296,35 @@ impl Mapper {
     }
 
     /// Insert points given in the sensor frame, with the sensor pose in the world
-    /// (`world = pose * p`, computed in f64, stored as f32); the origin is the pose's translation,
-    /// and the [`crate::filters::PointFilters::crop_sensor`] box is taken in the pose's axes.
+    /// (`world = pose * p`, computed in f64, narrowed once with `as f32` into the frame's `f32`
+    /// storage); the origin is the pose's translation, and the
+    /// [`crate::filters::PointFilters::crop_sensor`] box is taken in the pose's axes.
     pub fn insert_sensor_frame(
+        &mut self,
+        points: &[Point3<f64>],
+        pose: &Isometry3<f64>,
+    ) -> FrameStats {
+        self.insert_sensor_frame_with(points.iter().copied(), pose)
+    }
+
+    /// [`Mapper::insert_sensor_frame`] for `f32` points: each is widened to `f64` (exactly),
+    /// so the result is bit for bit that of the `f64` method on the widened points.
+    pub fn insert_sensor_frame_f32(
         &mut self,
         points: &[Point3<f32>],
         pose: &Isometry3<f64>,
     ) -> FrameStats {
-        let frame = Frame::new(
+        self.insert_sensor_frame_with(points.iter().map(|p| p.cast::<f64>()), pose)
+    }
+
+    fn insert_sensor_frame_with(
+        &mut self,
+        points: impl Iterator<Item = Point3<f64>>,
+        pose: &Isometry3<f64>,
+    ) -> FrameStats {
+        let frame = Frame::new_f32(
             Point3::from(pose.translation.vector.cast::<f32>()),
-            points
-                .iter()
-                .map(|p| (pose * p.cast::<f64>()).cast::<f32>())
-                .collect(),
+            points.map(|p| (pose * p).cast::<f32>()).collect(),
         );
         self.insert_oriented(&frame, &pose.rotation)
     }
@@ -694,11 +710,13 @@ fn prepare(
         InsertMode::Exact | InsertMode::Simple => match &grid {
             // a reduced frame has lost the pixel order
             Some(grid) if options.reduce.is_none() => {
-                compute_update_grid(conv, points, grid, &origin, max_range, update)
+                compute_update_grid_f32(conv, points, grid, &origin, max_range, update)
             }
-            _ => compute_update(conv, points, &origin, max_range, update),
+            _ => compute_update_f32(conv, points, &origin, max_range, update),
         },
-        InsertMode::Discretize => compute_discrete_update(conv, points, &origin, max_range, update),
+        InsertMode::Discretize => {
+            compute_discrete_update_f32(conv, points, &origin, max_range, update)
+        }
         InsertMode::Quantized | InsertMode::QuantizedBresenham => {
             let q = quantize_endpoints(conv, points, &options.quantize, centres);
             let model = if options.mode == InsertMode::Quantized {
@@ -706,7 +724,7 @@ fn prepare(
             } else {
                 RayModel::Bresenham
             };
-            let mut s = compute_update_with(conv, centres, &origin, max_range, model, update);
+            let mut s = compute_update_with_f32(conv, centres, &origin, max_range, model, update);
             s.points = q.points;
             s.non_finite += q.non_finite;
             s

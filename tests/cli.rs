@@ -147,7 +147,7 @@ fn every_json_is_valid_for_any_file_name() {
     let frames = dir.join(awkward("scan", "frames"));
     let wall: Vec<octoquant::Frame> = (0..3)
         .map(|i| {
-            octoquant::Frame::new(
+            octoquant::Frame::new_f32(
                 Point3::new(0.0, 0.0, 0.2 * i as f32),
                 (0..400)
                     .map(|j| Point3::new(3.0, (j % 20) as f32 * 0.1, (j / 20) as f32 * 0.1))
@@ -382,7 +382,7 @@ fn a_resolution_that_puts_every_point_outside_the_map_is_an_error() {
     use nalgebra::Point3;
     let dir = scratch("cli-res-outside");
     // a wall 3 m away; at 0.05 mm the map spans only ±1.6 m
-    let wall = vec![octoquant::Frame::new(
+    let wall = vec![octoquant::Frame::new_f32(
         Point3::origin(),
         (0..100)
             .map(|j| Point3::new(3.0, (j % 10) as f32 * 0.1, (j / 10) as f32 * 0.1))

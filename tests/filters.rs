@@ -9,7 +9,7 @@ use octoquant::checkpoint::RunIdentity;
 use octoquant::filters::{fit_ground_plane, CropBox, DroppedPoints, GroundFilter, PointFilters};
 use octoquant::frame::CameraPixels;
 use octoquant::octree::io::write_bt;
-use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
+use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
 use octoquant::raycast::PinholeCamera;
 use octoquant::Frame;
 use std::path::Path;
@@ -232,7 +232,7 @@ fn mapper_with_filters_equals_mapper_on_prefiltered_points() {
     let frames: Vec<Frame> = (0..4)
         .map(|i| {
             let o = Point3::new(0.25 * i as f32, -0.5, 0.1 * i as f32);
-            Frame::new(o, cloud(o, 3000, 10 + i as u64))
+            Frame::new_f32(o, cloud(o, 3000, 10 + i as u64))
         })
         .collect();
     for mode in [
@@ -260,7 +260,7 @@ fn mapper_with_filters_equals_mapper_on_prefiltered_points() {
             for (fr, st) in frames.iter().zip(&got) {
                 let (kept, non_finite, zero, dropped) =
                     naive(&f, fr.origin, Rotation3::identity(), &fr.points);
-                let pre = Frame::new(fr.origin, kept.iter().map(|&i| fr.points[i]).collect());
+                let pre = Frame::new_f32(fr.origin, kept.iter().map(|&i| fr.points[i]).collect());
                 let p = plain.insert(&pre);
                 assert_eq!(st.dropped, dropped, "{name} {}", mode.name());
                 assert_eq!(st.zero, zero, "{name}");
@@ -283,7 +283,7 @@ fn mapper_with_filters_equals_mapper_on_prefiltered_points() {
     }
 }
 
-/// `insert_sensor_frame` takes the crop box in the pose's axes.
+/// `insert_sensor_frame` (and its `_f32` twin) takes the crop box in the pose's axes.
 #[test]
 fn sensor_crop_box_follows_the_pose() {
     let pose = Isometry3::from_parts(
@@ -305,7 +305,24 @@ fn sensor_crop_box_follows_the_pose() {
         ..base.clone()
     })
     .unwrap();
-    let st = m.insert_sensor_frame(&local, &pose);
+    let st = m.insert_sensor_frame_f32(&local, &pose);
+    // the f64 method on the widened points is the same insertion, bit for bit
+    let mut wide = Mapper::new(MapperOptions {
+        filters: f,
+        ..base.clone()
+    })
+    .unwrap();
+    let widened: Vec<Point3<f64>> = local.iter().map(|p| p.cast::<f64>()).collect();
+    let untimed = |s: FrameStats| FrameStats {
+        seconds: 0.0,
+        ray_seconds: 0.0,
+        tree_seconds: 0.0,
+        ..s
+    };
+    assert_eq!(
+        untimed(wide.insert_sensor_frame(&widened, &pose)),
+        untimed(st)
+    );
     // the naive definition in the sensor frame itself: the points as given
     let b = b.unwrap();
     let keep: Vec<Point3<f32>> = local
@@ -316,8 +333,10 @@ fn sensor_crop_box_follows_the_pose() {
     assert!(st.dropped.crop_sensor > 100, "{st:?}");
     assert_eq!(st.dropped.crop_sensor, local.len() - keep.len());
     let mut plain = Mapper::new(base).unwrap();
-    plain.insert_sensor_frame(&keep, &pose);
-    assert_eq!(bt(&mut m.into_tree()), bt(&mut plain.into_tree()));
+    plain.insert_sensor_frame_f32(&keep, &pose);
+    let tree = bt(&mut m.into_tree());
+    assert_eq!(tree, bt(&mut plain.into_tree()));
+    assert_eq!(tree, bt(&mut wide.into_tree()));
 }
 
 /// A depth-image frame keeps its pixel grid through the filters: the same tree as the naive
@@ -356,7 +375,7 @@ fn filtered_depth_frame_keeps_its_pixel_grid() {
     }
     let frame = Frame {
         camera: Some(CameraPixels { camera, pixels }),
-        ..Frame::new(origin, points)
+        ..Frame::new_f32(origin, points)
     };
     let f = PointFilters {
         drop_zero: true,
@@ -378,7 +397,7 @@ fn filtered_depth_frame_keeps_its_pixel_grid() {
     assert_eq!(st.dropped, dropped);
     assert!(st.heads_skipped > 0, "{st:?}");
     let mut plain = Mapper::new(base).unwrap();
-    plain.insert(&Frame::new(
+    plain.insert(&Frame::new_f32(
         origin,
         kept.iter().map(|&i| frame.points[i]).collect(),
     ));
@@ -393,10 +412,10 @@ fn zero_points_are_counted_and_kept_by_default() {
     let zeros = pts.iter().filter(|p| **p == origin).count();
     assert!(zeros > 0);
     let mut m = Mapper::new(MapperOptions::default()).unwrap();
-    let st = m.insert(&Frame::new(origin, pts.clone()));
+    let st = m.insert(&Frame::new_f32(origin, pts.clone()));
     assert_eq!((st.zero, st.dropped.total()), (zeros, 0));
     let mut tree = octoquant::OcTree::new(0.1).unwrap();
-    octoquant::raycast::insert_point_cloud(
+    octoquant::raycast::insert_point_cloud_f32(
         &mut tree,
         &pts,
         &origin,
@@ -479,7 +498,7 @@ fn ransac_ground_recovers_a_known_plane_deterministically() {
     let frames: Vec<Frame> = (0..4)
         .map(|i| {
             let (p, ..) = ground_scene(20 + i);
-            Frame::new(Point3::new(0.0, 0.0, 0.0), p)
+            Frame::new_f32(Point3::new(0.0, 0.0, 0.0), p)
         })
         .collect();
     let options = MapperOptions {
@@ -608,7 +627,7 @@ fn resume_with_other_filters_is_refused() {
     let frames: Vec<Frame> = (0..3)
         .map(|i| {
             let o = Point3::new(0.0f32, 0.0, i as f32 * 0.1);
-            Frame::new(o, cloud(o, 500, 30 + i))
+            Frame::new_f32(o, cloud(o, 500, 30 + i))
         })
         .collect();
     let a = MapperOptions {

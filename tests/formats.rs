@@ -110,11 +110,11 @@ fn graph_write_round_trip_is_byte_identical() {
 #[test]
 fn graph_from_frames_with_global_option_gives_the_frames_back() {
     let frames_in = vec![
-        Frame::new(
+        Frame::new_f32(
             Point3::new(0.5, -1.0, 2.0),
             vec![Point3::new(1.0, 2.0, 3.0), Point3::new(-4.5, 0.1, 7.25)],
         ),
-        Frame::new(Point3::new(3.0, 3.0, 3.0), vec![]),
+        Frame::new_f32(Point3::new(3.0, 3.0, 3.0), vec![]),
     ];
     let dir = common::scratch("formats_graph_from_frames");
     let out = dir.join("g.graph");
@@ -718,7 +718,7 @@ fn arb_point() -> impl Strategy<Value = Point3<f32>> {
 fn arb_frames() -> impl Strategy<Value = Vec<Frame>> {
     prop::collection::vec(
         (arb_point(), prop::collection::vec(arb_point(), 0..20))
-            .prop_map(|(o, pts)| Frame::new(o, pts)),
+            .prop_map(|(o, pts)| Frame::new_f32(o, pts)),
         0..5,
     )
 }

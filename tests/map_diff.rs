@@ -251,14 +251,15 @@ fn tum_full_frames_skip_ray_heads_and_match_octomap() {
     };
     let frames = read_frames(&assoc, &ReadOptions::default()).unwrap();
     assert_eq!(frames.len(), 10);
-    use octoquant_raycast::{compute_update, compute_update_grid, ScanUpdate};
+    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
     for f in &frames {
         let camera = f.camera.as_ref().expect("TUM frames carry their pixels");
         for (res, mr) in [(0.05, None), (0.02, Some(2.0)), (0.1, None)] {
             let conv = octoquant::octree::KeyConverter::new(res).unwrap();
             let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
-            let a = compute_update(&conv, &f.points, &f.origin, mr, &mut plain);
-            let b = compute_update_grid(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
+            let a = compute_update_f32(&conv, &f.points, &f.origin, mr, &mut plain);
+            let b =
+                compute_update_grid_f32(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
             assert!(
                 b.heads_skipped * 2 > f.points.len(),
                 "res {res}: {} of {} rays skipped their heads",

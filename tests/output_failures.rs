@@ -17,7 +17,7 @@ fn octoquant() -> Command {
 fn write_input(path: &Path) {
     let frames: Vec<Frame> = (0..3)
         .map(|i| {
-            Frame::new(
+            Frame::new_f32(
                 Point3::new(0.0, 0.0, 0.2 * i as f32),
                 (0..400)
                     .map(|j| Point3::new(3.0, (j % 20) as f32 * 0.1, (j / 20) as f32 * 0.1))

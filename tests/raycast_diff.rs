@@ -7,8 +7,9 @@ use crate::common;
 use nalgebra::Point3;
 use octoquant_octree::{io, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams};
 use octoquant_raycast::{
-    cast_ray, compute_ray_keys, insert_point_cloud_rays, insert_point_cloud_reusing, ApplyOptions,
-    CastOptions, CastStop, InsertOptions, KeyRay, ScanUpdate,
+    cast_ray_f32, compute_ray_keys_f32, insert_point_cloud_rays_f32,
+    insert_point_cloud_reusing_f32, ApplyOptions, CastOptions, CastStop, InsertOptions, KeyRay,
+    ScanUpdate,
 };
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -156,7 +157,7 @@ struct RayTally {
     keys: usize,
 }
 
-/// Run `rays` through OctoMap and through `compute_ray_keys`; every ok flag and key list must
+/// Run `rays` through OctoMap and through `compute_ray_keys_f32`; every ok flag and key list must
 /// match. Returns what was covered.
 fn compare_rays(
     program: &Path,
@@ -201,7 +202,7 @@ fn compare_rays(
         for _ in 0..n {
             theirs.push(Key::new(r.u16(), r.u16(), r.u16()));
         }
-        let mine = compute_ray_keys(&conv, o, e, &mut ray);
+        let mine = compute_ray_keys_f32(&conv, o, e, &mut ray);
         tally.rays += 1;
         tally.keys += n;
         if !ok {
@@ -581,9 +582,15 @@ impl Case {
         for f in frames {
             if self.simple {
                 let apply = ApplyOptions { lazy: self.lazy };
-                insert_point_cloud_rays(&mut tree, &f.points, &f.origin, &apply);
+                insert_point_cloud_rays_f32(&mut tree, &f.points, &f.origin, &apply);
             } else {
-                insert_point_cloud_reusing(&mut tree, &f.points, &f.origin, &opts, &mut buffers);
+                insert_point_cloud_reusing_f32(
+                    &mut tree,
+                    &f.points,
+                    &f.origin,
+                    &opts,
+                    &mut buffers,
+                );
             }
             if self.compress_ml {
                 tree.to_max_likelihood();
@@ -819,7 +826,7 @@ fn insert_matches_graph2tree_expected_files() {
 // ---------------------------------------------------------------------------------------------
 // castRay
 
-/// Cast `rays` with OctoMap on the tree file and with `cast_ray` on `tree`; the return value
+/// Cast `rays` with OctoMap on the tree file and with `cast_ray_f32` on `tree`; the return value
 /// and the end point must match bit for bit. Returns counts per stop reason.
 fn compare_casts(
     program: &Path,
@@ -862,11 +869,11 @@ fn compare_casts(
             ignore_unknown: *ignore,
             max_range: (*m > 0.0).then_some(*m),
         };
-        let mine = cast_ray(tree, o, d, &options);
+        let mine = cast_ray_f32(tree, o, d, &options);
         *stops.entry(mine.stop).or_insert(0) += 1;
         // OctoMap leaves `end` untouched (the reference's zero-initialised point) when it
         // returns before walking
-        let my_end = mine.end.unwrap_or(Point3::origin());
+        let my_end = mine.end_f32().unwrap_or(Point3::origin());
         let same_end = [my_end.x, my_end.y, my_end.z]
             .iter()
             .zip(&end)
@@ -1036,7 +1043,7 @@ fn cast_ray_matches_octomap_at_the_map_edge() {
     let pts: Vec<Point3<f32>> = (0..50)
         .map(|i| Point3::new(edge - 1.0, -5.0 + i as f32 * 0.2, 0.3))
         .collect();
-    insert_point_cloud_reusing(
+    insert_point_cloud_reusing_f32(
         &mut tree,
         &pts,
         &Point3::new(edge - 20.0, 0.0, 0.3),

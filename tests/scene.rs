@@ -8,7 +8,7 @@ use octoquant::scene::{
     TerrestrialScanner, MISS_RANGE_FACTOR,
 };
 use octoquant::{Frame, OcTree};
-use octoquant_raycast::{insert_point_cloud, InsertOptions};
+use octoquant_raycast::{insert_point_cloud_f32, InsertOptions};
 
 fn quick_lidar() -> SpinningLidar {
     let mut l = SpinningLidar::builtin_path();
@@ -175,7 +175,7 @@ fn the_map_shows_walls_and_a_free_corridor() {
         ..InsertOptions::default()
     };
     for f in &frames {
-        insert_point_cloud(&mut tree, &f.points, &f.origin, &opts);
+        insert_point_cloud_f32(&mut tree, &f.points, &f.origin, &opts);
     }
     // (occupied, free) leaf counts and the occupied centres in a metric box
     let scan_box = |lo: [f64; 3], hi: [f64; 3]| {
@@ -242,7 +242,7 @@ fn invalid_inputs_are_errors() {
 #[test]
 fn depth_camera_frames_carry_their_pixels() {
     use octoquant::scene::{scan_depth, DepthCamera};
-    use octoquant_raycast::{compute_update, compute_update_grid, ScanUpdate};
+    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
     let scene = Scene::builtin();
     let mut camera = DepthCamera::builtin(&scene);
     camera.poses.truncate(2);
@@ -276,8 +276,8 @@ fn depth_camera_frames_carry_their_pixels() {
             for (res, max_range) in [(0.1, Some(8.0)), (0.05, None)] {
                 let conv = octoquant::octree::KeyConverter::new(res).unwrap();
                 let (mut plain, mut grid) = (ScanUpdate::new(), ScanUpdate::new());
-                let a = compute_update(&conv, &f.points, &f.origin, max_range, &mut plain);
-                let b = compute_update_grid(
+                let a = compute_update_f32(&conv, &f.points, &f.origin, max_range, &mut plain);
+                let b = compute_update_grid_f32(
                     &conv,
                     &f.points,
                     &c.grid(),

@@ -136,7 +136,8 @@ fn stream_holds_a_bounded_number_of_frames() {
                 pulled.fetch_add(1, Ordering::SeqCst);
                 let f = &base[i % base.len()];
                 // a small frame: every 64th point
-                let mut g = Frame::new(f.origin, f.points.iter().step_by(64).copied().collect());
+                let mut g =
+                    Frame::new_f32(f.origin, f.points.iter().step_by(64).copied().collect());
                 g.stamp = Some(i as f64);
                 Ok::<Frame, std::io::Error>(g)
             });
@@ -203,7 +204,7 @@ fn map_progress_lines_and_quiet() {
     let input = dir.join("scene.frames");
     let frames: Vec<Frame> = scene_frames()
         .into_iter()
-        .map(|f| Frame::new(f.origin, f.points.iter().step_by(32).copied().collect()))
+        .map(|f| Frame::new_f32(f.origin, f.points.iter().step_by(32).copied().collect()))
         .collect();
     let n = frames.len();
     assert!(n >= 10, "{n}");

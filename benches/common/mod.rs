@@ -40,5 +40,5 @@ pub fn scan_frame() -> Frame {
             ));
         }
     }
-    Frame::new(Point3::origin(), pts)
+    Frame::new_f32(Point3::origin(), pts)
 }

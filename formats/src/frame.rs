@@ -5,14 +5,17 @@ use octoquant_raycast::{PinholeCamera, PixelGrid};
 
 /// One scan ready for insertion: every ray starts at `origin` and ends at one of `points`.
 ///
-/// Coordinates are `f32` in the world (map) frame, as OctoMap's `Pointcloud` holds them, so
-/// the same frame gives the same keys and rays in both implementations.
+/// The coordinates are stored as `f32` in the world (map) frame, as OctoMap's `Pointcloud`
+/// holds them, so the same frame gives the same keys and rays in both implementations and
+/// goes to the `_f32` paths of the ray caster without a copy. Build one from `f64`
+/// coordinates with [`Frame::new`] (narrowing, as OctoMap's callers do) or from `f32` storage
+/// with [`Frame::new_f32`].
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Frame {
-    /// Sensor origin in world coordinates.
+    /// Sensor origin in world coordinates, stored as `f32` (OctoMap's `point3d`).
     pub origin: Point3<f32>,
-    /// Ray end points in world coordinates (may contain NaN/inf; insertion skips and counts
-    /// them).
+    /// Ray end points in world coordinates, stored as `f32` (OctoMap's `Pointcloud`); may
+    /// contain NaN/inf, which insertion skips and counts.
     pub points: Vec<Point3<f32>>,
     /// Acquisition time in seconds, when the source records one.
     pub stamp: Option<f64>,
@@ -42,13 +45,68 @@ impl CameraPixels {
 }
 
 impl Frame {
-    /// A frame from an origin and points, without a time stamp.
-    pub fn new(origin: Point3<f32>, points: Vec<Point3<f32>>) -> Self {
+    /// A frame from an origin and points in `f64`, without a time stamp: each coordinate is
+    /// narrowed to the `f32` storage with `as f32` (round to nearest; finite values beyond
+    /// `f32`'s range become infinite and are skipped as non-finite on insertion), exactly as
+    /// OctoMap's C++ and Python callers fill a `Pointcloud`. The points are copied; with `f32`
+    /// points already, [`Frame::new_f32`] takes them as they are.
+    pub fn new(origin: Point3<f64>, points: &[Point3<f64>]) -> Self {
+        let narrow = |p: &Point3<f64>| Point3::new(p.x as f32, p.y as f32, p.z as f32);
+        Frame::new_f32(narrow(&origin), points.iter().map(narrow).collect())
+    }
+
+    /// A frame from an origin and points in the `f32` storage type, taken as they are,
+    /// without a time stamp.
+    pub fn new_f32(origin: Point3<f32>, points: Vec<Point3<f32>>) -> Self {
         Frame {
             origin,
             points,
             stamp: None,
             camera: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bits(p: &Point3<f32>) -> [u32; 3] {
+        [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+    }
+
+    /// `Frame::new` is `Frame::new_f32` of the coordinates narrowed by hand with `as f32`,
+    /// bit for bit: rounding to nearest, overflow to infinity, NaN and signed zero kept.
+    #[test]
+    fn new_narrows_like_as_f32() {
+        let coords = [
+            0.1,
+            -0.0,
+            0.1 - 1e-9,
+            1e39,
+            -1e39,
+            f64::NAN,
+            f64::INFINITY,
+            3276.85,
+            1.0 + f64::EPSILON,
+            f64::MIN_POSITIVE,
+        ];
+        let points: Vec<Point3<f64>> = coords
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| Point3::new(c, coords[(i + 3) % coords.len()], -c))
+            .collect();
+        let origin = Point3::new(0.05, 1e39, -0.0);
+        let f = Frame::new(origin, &points);
+        let by_hand = |p: &Point3<f64>| Point3::new(p.x as f32, p.y as f32, p.z as f32);
+        let g = Frame::new_f32(by_hand(&origin), points.iter().map(by_hand).collect());
+        assert_eq!(bits(&f.origin), bits(&g.origin));
+        assert_eq!(f.points.len(), g.points.len());
+        for (a, b) in f.points.iter().zip(&g.points) {
+            assert_eq!(bits(a), bits(b));
+        }
+        assert_eq!(f.origin.y, f32::INFINITY);
+        assert_eq!(f.points[2].x, 0.1f32);
+        assert_eq!((f.stamp, f.camera), (None, None));
     }
 }

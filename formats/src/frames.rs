@@ -50,7 +50,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
         let origin = Point3::new(r.f32(&what)?, r.f32(&what)?, r.f32(&what)?);
         let n = r.u32(&what)?;
         let bytes = r.take_checked(u64::from(n) * 12, &format!("{n} points of frame {i}"))?;
-        frames.push(Frame::new(origin, points_from_le(bytes)));
+        frames.push(Frame::new_f32(origin, points_from_le(bytes)));
     }
     if r.remaining() != 0 {
         return Err(r.error_at(
@@ -160,7 +160,7 @@ impl FramesStream {
         )?;
         self.next += 1;
         self.left -= 1;
-        Ok(Frame::new(origin, points_from_le(&bytes)))
+        Ok(Frame::new_f32(origin, points_from_le(&bytes)))
     }
 
     /// After the last frame: nothing may follow.
@@ -250,11 +250,11 @@ mod tests {
     #[test]
     fn round_trip_keeps_bits() {
         let frames = vec![
-            Frame::new(
+            Frame::new_f32(
                 Point3::new(0.1, -0.0, 3.0),
                 vec![Point3::new(f32::NAN, 1.0, 2.0)],
             ),
-            Frame::new(Point3::origin(), vec![]),
+            Frame::new_f32(Point3::origin(), vec![]),
         ];
         let mut bytes = Vec::new();
         write_frames(&mut bytes, &frames).ok();

@@ -163,10 +163,10 @@ pub fn graph_to_frames(graph: &ScanGraph, options: &GraphOptions) -> Vec<Frame> 
         .iter()
         .map(|node| {
             if options.points_global {
-                Frame::new(Point3::from(node.pose.translation), node.points.clone())
+                Frame::new_f32(Point3::from(node.pose.translation), node.points.clone())
             } else {
                 let points = node.points.iter().map(|p| node.pose.transform(p)).collect();
-                Frame::new(node.pose.graph2tree_origin(), points)
+                Frame::new_f32(node.pose.graph2tree_origin(), points)
             }
         })
         .collect()

@@ -530,25 +530,19 @@ pub fn read_pcd(path: &Path, options: &PcdOptions) -> Result<Vec<Frame>, FormatE
     let t = cloud.viewpoint_translation;
     let bad_pose = |what: &str| FormatError::missing_pose(path, Location::File, what);
     let frame = match options.viewpoint {
-        ViewpointUse::Ignore => Frame::new(
-            Point3::origin(),
-            cloud.points.iter().map(|p| p.cast::<f32>()).collect(),
-        ),
+        ViewpointUse::Ignore => Frame::new(Point3::origin(), &cloud.points),
         ViewpointUse::OriginOnly => {
             if !t.iter().all(|c| c.is_finite()) {
                 return Err(bad_pose("VIEWPOINT translation is not finite"));
             }
-            Frame::new(
-                t.cast::<f32>().into(),
-                cloud.points.iter().map(|p| p.cast::<f32>()).collect(),
-            )
+            Frame::new(t.into(), &cloud.points)
         }
         ViewpointUse::Apply => {
             let q = cloud.viewpoint_rotation;
             let rot = unit_quaternion(q.w, q.i, q.j, q.k)
                 .filter(|_| t.iter().all(|c| c.is_finite()))
                 .ok_or_else(|| bad_pose("VIEWPOINT is not finite or has a zero quaternion"))?;
-            Frame::new(
+            Frame::new_f32(
                 t.cast::<f32>().into(),
                 cloud
                     .points

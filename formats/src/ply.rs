@@ -102,7 +102,7 @@ pub fn read_ply(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
 
 /// Read a PLY file as one frame with origin (0, 0, 0) and no stamp.
 pub fn read_ply_frames(path: &Path) -> Result<Vec<Frame>, FormatError> {
-    Ok(vec![Frame::new(Point3::origin(), read_ply(path)?)])
+    Ok(vec![Frame::new_f32(Point3::origin(), read_ply(path)?)])
 }
 
 /// Parse PLY bytes; `path` only names the input in errors.

@@ -162,7 +162,7 @@ fn parse(path: &Path) -> Result<Parsed, FormatError> {
                 if first == "origin" {
                     let o = parse_xyz(path, at, toks, "origin")?;
                     finite_pose(path, at, &[o.x, o.y, o.z])?;
-                    frames.push(Frame::new(o, Vec::new()));
+                    frames.push(Frame::new_f32(o, Vec::new()));
                 } else {
                     let p = parse_xyz(path, at, trimmed.split_ascii_whitespace(), "point")?;
                     match frames.last_mut() {
@@ -195,7 +195,7 @@ fn parse(path: &Path) -> Result<Parsed, FormatError> {
 /// gives one frame per `NODE`, transformed like graph2tree; origin frames are taken as is.
 pub fn read_text(path: &Path) -> Result<Vec<Frame>, FormatError> {
     Ok(match parse(path)? {
-        Parsed::Points(points) => vec![Frame::new(Point3::origin(), points)],
+        Parsed::Points(points) => vec![Frame::new_f32(Point3::origin(), points)],
         Parsed::Log(graph) => graph_to_frames(&graph, &GraphOptions::default()),
         Parsed::Frames(frames) => frames,
     })

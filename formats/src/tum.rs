@@ -219,8 +219,7 @@ pub fn read_tum_depth(path: &Path, options: &TumOptions) -> Result<Vec<Frame>, F
     options.check(path)?;
     let img = read_depth_png(path)?;
     let (points, camera) = depth_to_camera(&img, options, Rotation3::identity());
-    let points = points.into_iter().map(|p| p.cast::<f32>()).collect();
-    let mut f = Frame::new(Point3::origin(), points);
+    let mut f = Frame::new(Point3::origin(), &points);
     f.stamp = stamp_of(path);
     f.camera = Some(camera);
     Ok(vec![f])
@@ -334,7 +333,7 @@ pub fn tum_sequence_frames(
             .iter()
             .map(|p| rigid_transform(&row.rotation, &row.translation, p))
             .collect();
-        let mut f = Frame::new(row.translation.cast::<f32>().into(), points);
+        let mut f = Frame::new_f32(row.translation.cast::<f32>().into(), points);
         f.stamp = stamp_of(&row.depth);
         f.camera = Some(camera);
         Ok(f)

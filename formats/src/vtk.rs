@@ -197,7 +197,10 @@ pub fn read_vtk_points(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
 
 /// One VTK file as a single frame with origin (0, 0, 0) and no pose applied.
 pub fn read_vtk(path: &Path) -> Result<Vec<Frame>, FormatError> {
-    Ok(vec![Frame::new(Point3::origin(), read_vtk_points(path)?)])
+    Ok(vec![Frame::new_f32(
+        Point3::origin(),
+        read_vtk_points(path)?,
+    )])
 }
 
 /// One trajectory row: the pose T_world←scan at a stamp.
@@ -383,7 +386,7 @@ pub fn vtk_sequence_frames(
             .iter()
             .map(|p| pose.transform(p))
             .collect();
-        let mut f = Frame::new(pose.translation.cast::<f32>().into(), points);
+        let mut f = Frame::new_f32(pose.translation.cast::<f32>().into(), points);
         f.stamp = Some(pose.stamp());
         Ok(f)
     }))
@@ -397,11 +400,8 @@ pub fn read_vtk_sequence_identity(scans_dir: &Path) -> Result<Vec<Frame>, Format
     let mut frames = Vec::with_capacity(scans.len());
     for (sec, nsec, path) in scans {
         let data = read_all(&path)?;
-        let points = parse_vtk_points(&path, &data)?
-            .iter()
-            .map(|p| p.cast::<f32>())
-            .collect();
-        let mut f = Frame::new(Point3::origin(), points);
+        let points = parse_vtk_points(&path, &data)?;
+        let mut f = Frame::new(Point3::origin(), &points);
         f.stamp = Some(sec as f64 + f64::from(nsec) * 1e-9);
         frames.push(f);
     }

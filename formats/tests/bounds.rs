@@ -828,7 +828,7 @@ fn stream_peak(path: &Path, options: &ReadOptions) -> (usize, Cost) {
 #[test]
 fn frames_stream_holds_one_frame_at_a_time() {
     let _serial = serial();
-    let frame = octoquant_formats::Frame::new(
+    let frame = octoquant_formats::Frame::new_f32(
         nalgebra::Point3::origin(),
         (0..5000)
             .map(|i| nalgebra::Point3::new(i as f32, 1.0, 2.0))

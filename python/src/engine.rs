@@ -102,10 +102,10 @@ pub fn cast_ray(
         ignore_unknown,
         max_range: (max_range > 0.0).then_some(max_range),
     };
-    let r = raycast::cast_ray(tree, origin, direction, &options);
+    let r = raycast::cast_ray_f32(tree, origin, direction, &options);
     Cast {
         hit: r.hit,
-        end: r.end,
+        end: r.end_f32(),
     }
 }
 
@@ -124,7 +124,7 @@ pub fn insert_point_cloud(
         discretize,
         lazy,
     };
-    raycast::insert_point_cloud(tree, points, origin, &options);
+    raycast::insert_point_cloud_f32(tree, points, origin, &options);
 }
 
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
@@ -136,7 +136,7 @@ pub fn ray_keys(
     out: &mut Vec<Key>,
 ) -> bool {
     let mut ray = raycast::KeyRay::new();
-    let ok = raycast::compute_ray_keys(tree.converter(), origin, end, &mut ray);
+    let ok = raycast::compute_ray_keys_f32(tree.converter(), origin, end, &mut ray);
     out.clear();
     out.extend_from_slice(ray.keys());
     ok
@@ -145,7 +145,7 @@ pub fn ray_keys(
 /// OctoMap's `discretize` pre-pass: one voxel centre per end-point voxel, first-seen order.
 pub fn discretize(tree: &OcTree, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
     let mut centres = Vec::new();
-    raycast::discretize(tree.converter(), points, &mut centres);
+    raycast::discretize_f32(tree.converter(), points, &mut centres);
     centres
 }
 

@@ -247,14 +247,14 @@ impl PyMapper {
             }
             (_, Some(p)) => {
                 let iso = self::pose(p)?;
-                self.run(py, move |m| m.insert_sensor_frame(&pts, &iso))
+                self.run(py, move |m| m.insert_sensor_frame_f32(&pts, &iso))
             }
             (o, None) => {
                 let origin = match o {
                     Some(o) => vec3_f32(o, "origin")?,
                     None => Point3::origin(),
                 };
-                let frame = engine::Frame::new(origin, pts);
+                let frame = engine::Frame::new_f32(origin, pts);
                 self.run(py, move |m| m.insert(&frame))
             }
         };
@@ -272,7 +272,7 @@ impl PyMapper {
         let mut list = Vec::new();
         for item in frames.try_iter()? {
             let (pts, origin): (Bound<'py, PyAny>, Bound<'py, PyAny>) = item?.extract()?;
-            list.push(engine::Frame::new(
+            list.push(engine::Frame::new_f32(
                 vec3_f32(&origin, "origin")?,
                 convert::points_f32(&pts, "points")?,
             ));

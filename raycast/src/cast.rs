@@ -1,10 +1,10 @@
 //! Ray queries and single-ray insertion: OctoMap's `castRay` and `insertRay`.
 
-use crate::dda::{compute_ray_keys, key_of, min_axis, norm_f32, sub_f32, KeyRay};
+use crate::dda::{compute_ray_keys_f32, key_of, min_axis, norm_f32, sub_f32, KeyRay};
 use nalgebra::Point3;
-use octoquant_octree::{InnerNodes, Key, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{InnerNodes, Key, KeyConverter, OcTree, Update, TREE_DEPTH};
 
-/// Why a [`cast_ray`] stopped.
+/// Why a [`cast_ray`](crate::cast_ray) (or [`cast_ray_f32`]) stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CastStop {
     /// An occupied voxel was reached (the only case in which OctoMap returns `true`).
@@ -24,16 +24,23 @@ pub enum CastStop {
     Stalled,
 }
 
-/// The result of [`cast_ray`], with OctoMap's return conventions.
+/// The result of [`cast_ray`](crate::cast_ray) and [`cast_ray_f32`] (one type for both), with
+/// OctoMap's return conventions.
+///
+/// The voxel centre is reported in `f64` whichever door was used: it is a property of the
+/// voxel's key, exact in `f64` ([`KeyConverter::key_to_point`]), so the result carries no
+/// rounding of its own. OctoMap's `float` end point is that centre narrowed to `f32`, bit for
+/// bit: [`CastResult::end_f32`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CastResult {
     /// OctoMap's return value: `true` only when an occupied voxel was hit.
     pub hit: bool,
-    /// What OctoMap writes into its `end` argument: the centre (as `f32`) of the voxel where
-    /// the cast stopped (the hit voxel, the unknown voxel, the first voxel beyond max range,
-    /// or the last voxel before the map boundary). `None` when OctoMap leaves `end` untouched:
+    /// The centre of the voxel where the cast stopped (the hit voxel, the unknown voxel, the
+    /// first voxel beyond max range, or the last voxel before the map boundary), exact in
+    /// `f64`; OctoMap writes it, as `f32`, into its `end` argument (see
+    /// [`CastResult::end_f32`]). `None` when OctoMap leaves `end` untouched:
     /// [`CastStop::OriginOutsideMap`] and [`CastStop::BadDirection`].
-    pub end: Option<Point3<f32>>,
+    pub end: Option<Point3<f64>>,
     /// The key of the voxel whose centre is `end`.
     pub key: Option<Key>,
     /// Why the cast stopped.
@@ -41,18 +48,25 @@ pub struct CastResult {
 }
 
 impl CastResult {
-    fn stop(stop: CastStop, key: Option<Key>, end: Option<Point3<f32>>) -> Self {
+    fn stop(stop: CastStop, key: Option<Key>, conv: &KeyConverter) -> Self {
         CastResult {
             hit: stop == CastStop::Occupied,
-            end,
+            end: key.map(|k| conv.key_to_point(&k)),
             key,
             stop,
         }
     }
+
+    /// [`CastResult::end`] as OctoMap's `castRay` writes it into its `point3d& end`: the
+    /// centre narrowed to `f32` (`as f32` per axis, which is OctoMap's `keyToCoord` cast).
+    pub fn end_f32(&self) -> Option<Point3<f32>> {
+        self.end
+            .map(|p| Point3::new(p.x as f32, p.y as f32, p.z as f32))
+    }
 }
 
-/// How [`cast_ray`] walks; `Default` gives OctoMap's defaults (`ignoreUnknown = false`,
-/// `maxRange = -1`).
+/// How [`cast_ray`](crate::cast_ray) and [`cast_ray_f32`] walk; `Default` gives OctoMap's
+/// defaults (`ignoreUnknown = false`, `maxRange = -1`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CastOptions {
     /// Walk on through unknown voxels instead of stopping at the first (OctoMap's
@@ -67,7 +81,7 @@ pub struct CastOptions {
 /// OctoMap's `castRay(origin, direction, end, ignoreUnknown, maxRange)`: follow a ray from
 /// `origin` along `direction` until the first occupied voxel.
 ///
-/// The walk is OctoMap's DDA with two differences from [`crate::compute_ray_keys`]: the voxel
+/// The walk is OctoMap's DDA with two differences from [`crate::compute_ray_keys_f32`]: the voxel
 /// border adds the half-resolution in `f64` (no `f32` narrowing), and the map bounds are
 /// checked before every step. The origin voxel itself counts: if it is occupied the result is
 /// a hit there, and if it is unknown (and `ignore_unknown` is off) the cast stops there. It
@@ -75,7 +89,10 @@ pub struct CastOptions {
 /// [`CastOptions::max_range`] is `Some(m)` with `m > 0`, at the first voxel whose centre is
 /// farther than `m` from the origin (distance squared, per-axis differences in `f32`).
 /// `direction` need not be normalised. Never panics or loops forever.
-pub fn cast_ray(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`; [`crate::cast_ray`] takes
+/// `f64`.
+pub fn cast_ray_f32(
     tree: &OcTree,
     origin: &Point3<f32>,
     direction: &Point3<f32>,
@@ -87,17 +104,17 @@ pub fn cast_ray(
     let conv = tree.converter();
     let params = tree.params();
     let Some(mut current) = key_of(conv, origin) else {
-        return CastResult::stop(CastStop::OriginOutsideMap, None, None);
+        return CastResult::stop(CastStop::OriginOutsideMap, None, conv);
     };
     let centre = |k: &Key| conv.key_to_point_f32(k);
 
     match tree.search(current, TREE_DEPTH) {
         Some(n) if params.is_occupied(n.value) => {
-            return CastResult::stop(CastStop::Occupied, Some(current), Some(centre(&current)));
+            return CastResult::stop(CastStop::Occupied, Some(current), conv);
         }
         Some(_) => {}
         None if !ignore_unknown => {
-            return CastResult::stop(CastStop::Unknown, Some(current), Some(centre(&current)));
+            return CastResult::stop(CastStop::Unknown, Some(current), conv);
         }
         None => {}
     }
@@ -131,7 +148,7 @@ pub fn cast_ray(
         }
     }
     if step == [0; 3] {
-        return CastResult::stop(CastStop::BadDirection, None, None);
+        return CastResult::stop(CastStop::BadDirection, None, conv);
     }
     let max_range_sq = max_range * max_range;
 
@@ -141,7 +158,7 @@ pub fn cast_ray(
     loop {
         let dim = min_axis(&t_max);
         if (step[dim] < 0 && current[dim] == 0) || (step[dim] > 0 && current[dim] == u16::MAX) {
-            return CastResult::stop(CastStop::MapBoundary, Some(current), Some(centre(&current)));
+            return CastResult::stop(CastStop::MapBoundary, Some(current), conv);
         }
         current[dim] = (current[dim] as i32 + step[dim]) as u16;
         t_max[dim] += t_delta[dim];
@@ -155,17 +172,17 @@ pub fn cast_ray(
                 dist_sq += (d * d) as f64;
             }
             if dist_sq > max_range_sq {
-                return CastResult::stop(CastStop::MaxRange, Some(current), Some(end));
+                return CastResult::stop(CastStop::MaxRange, Some(current), conv);
             }
         }
 
         match tree.search(current, TREE_DEPTH) {
             Some(n) if params.is_occupied(n.value) => {
-                return CastResult::stop(CastStop::Occupied, Some(current), Some(end));
+                return CastResult::stop(CastStop::Occupied, Some(current), conv);
             }
             Some(_) => {}
             None if !ignore_unknown => {
-                return CastResult::stop(CastStop::Unknown, Some(current), Some(end));
+                return CastResult::stop(CastStop::Unknown, Some(current), conv);
             }
             None => {}
         }
@@ -173,7 +190,7 @@ pub fn cast_ray(
         if step[dim] == 0 {
             idle += 1;
             if idle >= 3 {
-                return CastResult::stop(CastStop::Stalled, Some(current), Some(end));
+                return CastResult::stop(CastStop::Stalled, Some(current), conv);
             }
         } else {
             idle = 0;
@@ -181,8 +198,8 @@ pub fn cast_ray(
     }
 }
 
-/// How [`insert_ray`] updates the tree; `Default` gives OctoMap's defaults (`maxrange = -1`,
-/// `lazy_eval = false`).
+/// How [`insert_ray`](crate::insert_ray) and [`insert_ray_f32`] update the tree; `Default`
+/// gives OctoMap's defaults (`maxrange = -1`, `lazy_eval = false`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct InsertRayOptions {
     /// Cut rays longer than this: only their misses up to this distance are applied, without
@@ -203,7 +220,10 @@ pub struct InsertRayOptions {
 /// than `m`, only the misses along `origin -> origin + m·direction` are applied, without a
 /// hit. Returns `false`, changing nothing, when an end of the (cut) ray is outside the map or
 /// not finite.
-pub fn insert_ray(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`; [`crate::insert_ray`] takes
+/// `f64`.
+pub fn insert_ray_f32(
     tree: &mut OcTree,
     origin: &Point3<f32>,
     end: &Point3<f32>,
@@ -216,7 +236,7 @@ pub fn insert_ray(
     let m = max_range.unwrap_or(-1.0);
     if m > 0.0 && norm_f32(diff) > m {
         let cut = crate::update::cut_at_range(origin, diff, m);
-        if !compute_ray_keys(&conv, origin, &cut, &mut ray) {
+        if !compute_ray_keys_f32(&conv, origin, &cut, &mut ray) {
             return false;
         }
         for k in ray.iter() {
@@ -224,7 +244,7 @@ pub fn insert_ray(
         }
         return true;
     }
-    if !compute_ray_keys(&conv, origin, end, &mut ray) {
+    if !compute_ray_keys_f32(&conv, origin, end, &mut ray) {
         return false;
     }
     for k in ray.iter() {

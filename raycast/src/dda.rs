@@ -1,8 +1,9 @@
 //! The free-space ray: OctoMap's 3D DDA (`OcTreeBaseImpl::computeRayKeys`), bit for bit.
 //!
-//! [`walk_ray_keys`] visits the keys of the voxels a segment crosses, from the origin voxel up
-//! to but excluding the end voxel, without allocating; [`compute_ray_keys`] collects them into a
-//! caller-owned [`KeyRay`] that is reused from ray to ray.
+//! [`walk_ray_keys_f32`] visits the keys of the voxels a segment crosses, from the origin voxel
+//! up to but excluding the end voxel, without allocating; [`compute_ray_keys_f32`] collects them
+//! into a caller-owned [`KeyRay`] that is reused from ray to ray. Both take OctoMap's `f32`
+//! points; the `f64` door is [`crate::compute_ray_keys`].
 //!
 //! The arithmetic follows OctoMap exactly, because the voxels a ray grazes depend on it:
 //! the direction and the length are `f32` (squared sum in `f32`, square root in `f64` cast to
@@ -15,7 +16,7 @@ use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
 
 /// Capacity of OctoMap's `KeyRay` (`KeyRay::maxSize`). OctoMap aborts (an `assert`) on a ray
-/// that reaches 99 999 keys; octoquant has no such limit (see [`compute_ray_keys`]).
+/// that reaches 99 999 keys; octoquant has no such limit (see [`compute_ray_keys_f32`]).
 pub const OCTOMAP_KEY_RAY_CAPACITY: usize = 100_000;
 
 /// Extra iterations beyond the Manhattan key distance that a walk may take before it is
@@ -25,7 +26,7 @@ pub(crate) const STEP_MARGIN: u32 = 16;
 
 /// A caller-owned, reusable list of ray keys (OctoMap's `KeyRay`).
 ///
-/// [`compute_ray_keys`] clears and refills it; its allocation is kept between rays, so one
+/// [`compute_ray_keys_f32`] clears and refills it; its allocation is kept between rays, so one
 /// `KeyRay` per thread avoids any allocation in the ray loop.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct KeyRay {
@@ -84,7 +85,7 @@ impl<'a> IntoIterator for &'a KeyRay {
     }
 }
 
-/// How a [`walk_ray_keys`] walk ended.
+/// How a [`walk_ray_keys_f32`] walk ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum RayWalk {
     /// Every key up to (excluding) the end voxel was visited; OctoMap returns `true`.
@@ -180,7 +181,7 @@ pub(crate) struct RaySetup {
     /// the key distance on that axis, so the walk ends long before the budget of the
     /// Manhattan distance plus [`STEP_MARGIN`]; only ill-conditioned rays (a zero, infinite
     /// or NaN length) can degenerate. Such walks need not buffer their keys (tested in
-    /// `dda_tests`, every walk against [`walk_ray_codes`]).
+    /// `dda_tests`, every walk against [`walk_ray_codes_f32`]).
     pub(crate) well_conditioned: bool,
 }
 
@@ -297,8 +298,11 @@ pub(crate) fn step_budget(from: Key, to: Key) -> u32 {
 /// panics and always terminates: rays whose float arithmetic degenerates (OctoMap would loop
 /// until its assertion aborts) end with [`RayWalk::Degenerate`] after at most the Manhattan
 /// key distance plus 16 visits.
+///
+/// An `f32` path only: coordinates as OctoMap's `point3d` (the `f64` door is
+/// [`crate::compute_ray_keys`]).
 #[inline]
-pub fn walk_ray_keys<F>(
+pub fn walk_ray_keys_f32<F>(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     end: &Point3<f32>,
@@ -354,11 +358,14 @@ pub(crate) fn mirror_mask(down: [bool; 3]) -> u64 {
         .fold(0, |m, b| m | b)
 }
 
-/// [`walk_ray_keys`] that hands out the keys' [`Key::morton`] codes instead of keys: the
+/// [`walk_ray_keys_f32`] that hands out the keys' [`Key::morton`] codes instead of keys: the
 /// same voxels in the same order, but the walk steps the code directly (dilated integer
 /// arithmetic), which is what set-building callers want. Never stops early.
+///
+/// An `f32` path only: coordinates as OctoMap's `point3d` (the `f64` door is
+/// [`crate::compute_ray_keys`]).
 #[inline]
-pub fn walk_ray_codes<F>(
+pub fn walk_ray_codes_f32<F>(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     end: &Point3<f32>,
@@ -467,7 +474,10 @@ impl AxisStep {
 /// continuing exactly the walk OctoMap would have made. Rays whose float arithmetic
 /// degenerates ([`RayWalk::Degenerate`], where OctoMap never terminates) return `false` with an
 /// empty ray.
-pub fn compute_ray_keys(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`; [`crate::compute_ray_keys`] takes
+/// `f64`.
+pub fn compute_ray_keys_f32(
     conv: &KeyConverter,
     origin: &Point3<f32>,
     end: &Point3<f32>,
@@ -475,7 +485,7 @@ pub fn compute_ray_keys(
 ) -> bool {
     ray.keys.clear();
     let keys = &mut ray.keys;
-    match walk_ray_keys(conv, origin, end, |k| {
+    match walk_ray_keys_f32(conv, origin, end, |k| {
         keys.push(k);
         true
     }) {

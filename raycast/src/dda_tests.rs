@@ -8,7 +8,7 @@ fn conv(res: f64) -> KeyConverter {
 
 fn keys(c: &KeyConverter, o: [f32; 3], e: [f32; 3]) -> (bool, Vec<Key>) {
     let mut ray = KeyRay::new();
-    let ok = compute_ray_keys(c, &Point3::from(o), &Point3::from(e), &mut ray);
+    let ok = compute_ray_keys_f32(c, &Point3::from(o), &Point3::from(e), &mut ray);
     (ok, ray.into_vec())
 }
 
@@ -70,14 +70,14 @@ fn same_voxel_and_outside_map() {
 fn a_failed_ray_clears_the_buffer() {
     let c = conv(0.1);
     let mut ray = KeyRay::new();
-    assert!(compute_ray_keys(
+    assert!(compute_ray_keys_f32(
         &c,
         &Point3::new(0.0, 0.0, 0.0),
         &Point3::new(1.05, 0.0, 0.0),
         &mut ray
     ));
     assert_eq!(ray.len(), 10);
-    assert!(!compute_ray_keys(
+    assert!(!compute_ray_keys_f32(
         &c,
         &Point3::new(0.0, 0.0, 0.0),
         &Point3::new(1e6, 0.0, 0.0),
@@ -101,7 +101,7 @@ fn end_on_a_boundary_drops_the_last_voxel() {
 fn visitor_can_stop() {
     let c = conv(0.1);
     let mut seen = 0;
-    let w = walk_ray_keys(
+    let w = walk_ray_keys_f32(
         &c,
         &Point3::new(0.0, 0.0, 0.0),
         &Point3::new(5.0, 0.0, 0.0),
@@ -128,7 +128,7 @@ fn degenerate_rays_terminate() {
     // two axes with an infinite direction: OctoMap steps y forever (until its assert aborts)
     let c = conv(0.1);
     let mut n = 0;
-    let w = walk_ray_keys(
+    let w = walk_ray_keys_f32(
         &c,
         &Point3::new(-1e-30, -1e-30, 0.0),
         &Point3::new(1e-30, 1e-30, 0.0),
@@ -258,19 +258,19 @@ fn code_walk_visits_the_same_voxels_as_the_key_walk() {
                 e.y = o.y; // in a plane: steps on two axes only
             }
             let mut keys = Vec::new();
-            let wk = walk_ray_keys(&conv, &o, &e, |k| {
+            let wk = walk_ray_keys_f32(&conv, &o, &e, |k| {
                 keys.push(k.morton());
                 true
             });
             let mut codes = Vec::new();
-            let wc = walk_ray_codes(&conv, &o, &e, |c| codes.push(c));
+            let wc = walk_ray_codes_f32(&conv, &o, &e, |c| codes.push(c));
             assert_eq!(wk, wc);
             assert_eq!(keys, codes, "ray {o:?} -> {e:?} at {res}");
         }
     }
 }
 
-/// [`walk_ray_codes`] for set-building callers that cannot take keys back: `None` (nothing
+/// [`walk_ray_codes_f32`] for set-building callers that cannot take keys back: `None` (nothing
 /// visited) when the ray's float set-up is not well-conditioned, otherwise the same voxels and
 /// the same outcome. The voxels are handed out per 4x4x4 brick (`code >> 6`) as a bit mask of
 /// the brick's visited voxels (bit `code & 63`): `flush` runs once per brick entered, not once
@@ -305,7 +305,7 @@ where
 /// and positive.
 fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result<(), String> {
     let mut want = Vec::new();
-    let w = walk_ray_codes(conv, &o, &e, |c| want.push(c));
+    let w = walk_ray_codes_f32(conv, &o, &e, |c| want.push(c));
     let mut got = Vec::new();
     let mut walked = Vec::new();
     let mut buf = Vec::new();

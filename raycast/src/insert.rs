@@ -1,8 +1,8 @@
 //! Inserting a scan into a tree: OctoMap's `insertPointCloud` and `insertPointCloudRays`.
 
-use crate::dda::{compute_ray_keys, key_of, KeyRay};
+use crate::dda::{compute_ray_keys_f32, key_of, KeyRay};
 use crate::stats::ScanStats;
-use crate::update::{compute_discrete_update, compute_update, ScanUpdate};
+use crate::update::{compute_discrete_update_f32, compute_update_f32, ScanUpdate};
 use nalgebra::Point3;
 use octoquant_octree::{InnerNodes, OcTree, Update};
 
@@ -10,8 +10,9 @@ use octoquant_octree::{InnerNodes, OcTree, Update};
 /// and hit updates applied.
 pub type InsertStats = ScanStats;
 
-/// How [`insert_point_cloud`] treats a scan; `Default` gives OctoMap's defaults
-/// (`maxrange = -1`, `lazy_eval = false`, `discretize = false`).
+/// How [`insert_point_cloud`](crate::insert_point_cloud) and its `_f32` paths treat a scan;
+/// `Default` gives OctoMap's defaults (`maxrange = -1`, `lazy_eval = false`,
+/// `discretize = false`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct InsertOptions {
     /// Readings farther than this from the origin only clear space up to this distance and
@@ -27,10 +28,10 @@ pub struct InsertOptions {
     pub lazy: bool,
 }
 
-/// How [`apply_update`] and [`insert_point_cloud_rays`] update the tree; `Default` gives
-/// OctoMap's default (`lazy_eval = false`). Neither takes a range or `discretize`: the key
-/// sets of the first are computed already, and OctoMap's `insertPointCloudRays` ignores its
-/// range.
+/// How [`apply_update`] and [`insert_point_cloud_rays`](crate::insert_point_cloud_rays) (and
+/// its `_f32` path) update the tree; `Default` gives OctoMap's default (`lazy_eval = false`).
+/// Neither takes a range or `discretize`: the key sets of the first are computed already, and
+/// OctoMap's `insertPointCloudRays` ignores its range.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ApplyOptions {
     /// Skip pruning and inner-node updates (OctoMap's `lazy_eval`); call
@@ -60,25 +61,31 @@ pub fn apply_update(tree: &mut OcTree, update: &ScanUpdate, options: &ApplyOptio
 }
 
 /// OctoMap's `insertPointCloud(scan, sensor_origin, maxrange, lazy_eval, discretize)`: compute
-/// the scan's free and occupied voxels ([`compute_update`] or [`compute_discrete_update`]) and
-/// update each once, misses first.
+/// the scan's free and occupied voxels ([`compute_update_f32`] or
+/// [`compute_discrete_update_f32`]) and update each once, misses first.
 ///
 /// Points are in the map frame, `origin` is the sensor position. Non-finite points are skipped
 /// and counted, points outside the map dropped and counted; never panics. With `lazy`, inner
 /// nodes are left stale: call [`OcTree::update_inner_occupancy`] before querying or writing.
-pub fn insert_point_cloud(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`; [`crate::insert_point_cloud`] takes
+/// `f64`.
+pub fn insert_point_cloud_f32(
     tree: &mut OcTree,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
     options: &InsertOptions,
 ) -> InsertStats {
     let mut buffers = ScanUpdate::new();
-    insert_point_cloud_reusing(tree, points, origin, options, &mut buffers)
+    insert_point_cloud_reusing_f32(tree, points, origin, options, &mut buffers)
 }
 
-/// [`insert_point_cloud`] with caller-owned buffers, to avoid reallocating them for every
+/// [`insert_point_cloud_f32`] with caller-owned buffers, to avoid reallocating them for every
 /// scan. After the call `buffers` holds the scan's key sets.
-pub fn insert_point_cloud_reusing(
+///
+/// An `f32` path only: coordinates as OctoMap's `point3d` (the `f64` door is
+/// [`crate::insert_point_cloud`]).
+pub fn insert_point_cloud_reusing_f32(
     tree: &mut OcTree,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
@@ -87,9 +94,9 @@ pub fn insert_point_cloud_reusing(
 ) -> InsertStats {
     let conv = tree.converter().clone();
     let stats = if options.discretize {
-        compute_discrete_update(&conv, points, origin, options.max_range, buffers)
+        compute_discrete_update_f32(&conv, points, origin, options.max_range, buffers)
     } else {
-        compute_update(&conv, points, origin, options.max_range, buffers)
+        compute_update_f32(&conv, points, origin, options.max_range, buffers)
     };
     apply_update(tree, buffers, &ApplyOptions { lazy: options.lazy });
     stats
@@ -102,7 +109,10 @@ pub fn insert_point_cloud_reusing(
 ///
 /// A point whose ray cannot be computed (an end outside the map) changes nothing, not even its
 /// hit. `free`/`occupied` in the result count the updates applied.
-pub fn insert_point_cloud_rays(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`;
+/// [`crate::insert_point_cloud_rays`] takes `f64`.
+pub fn insert_point_cloud_rays_f32(
     tree: &mut OcTree,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
@@ -125,7 +135,7 @@ pub fn insert_point_cloud_rays(
             stats.failed_rays += 1;
             continue;
         };
-        if !compute_ray_keys(&conv, origin, p, &mut ray) {
+        if !compute_ray_keys_f32(&conv, origin, p, &mut ray) {
             stats.failed_rays += 1;
             continue;
         }
@@ -163,7 +173,7 @@ mod tests {
         let mut tree = OcTree::new(0.1).unwrap();
         let origin = Point3::new(0.01f32, 0.02, 0.03);
         let mut buf = ScanUpdate::new();
-        let s = insert_point_cloud_reusing(
+        let s = insert_point_cloud_reusing_f32(
             &mut tree,
             &scan(),
             &origin,
@@ -196,8 +206,8 @@ mod tests {
             ..Default::default()
         };
         for _ in 0..3 {
-            insert_point_cloud(&mut eager, &scan(), &origin, &opts);
-            insert_point_cloud(
+            insert_point_cloud_f32(&mut eager, &scan(), &origin, &opts);
+            insert_point_cloud_f32(
                 &mut lazy,
                 &scan(),
                 &origin,
@@ -217,7 +227,7 @@ mod tests {
         let mut tree = OcTree::new(0.1).unwrap();
         let origin = Point3::new(0.05f32, 0.05, 0.05);
         let pts = vec![Point3::new(0.55f32, 0.05, 0.05); 3];
-        let s = insert_point_cloud_rays(&mut tree, &pts, &origin, &ApplyOptions::default());
+        let s = insert_point_cloud_rays_f32(&mut tree, &pts, &origin, &ApplyOptions::default());
         assert_eq!(s.rays, 3);
         assert_eq!(s.free, 15);
         let conv = tree.converter().clone();

@@ -70,7 +70,7 @@ pub struct PinholeCamera {
 }
 
 /// How the points of a frame lie on a pinhole camera's pixel grid, for
-/// [`crate::compute_update_grid`]: point `i` was measured through pixel `pixels[i]`
+/// [`crate::compute_update_grid_f32`]: point `i` was measured through pixel `pixels[i]`
 /// (`v·width + u`). Wrong information costs speed, never exactness: points whose direction
 /// from the origin does not match their pixel are walked whole.
 #[derive(Debug, Clone, Copy)]

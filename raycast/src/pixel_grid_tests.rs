@@ -1,6 +1,6 @@
 use super::*;
 use crate::dda::{key_of, setup_with_keys, STEP_MARGIN};
-use crate::update::{compute_update, compute_update_grid, ScanUpdate};
+use crate::update::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
 use nalgebra::{Point3, Rotation3, Vector3};
 use octoquant_octree::KeyConverter;
 use proptest::prelude::*;
@@ -222,8 +222,8 @@ fn same_as_plain(
     max_range: Option<f64>,
 ) -> Result<usize, TestCaseError> {
     let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
-    let a = compute_update(conv, points, origin, max_range, &mut plain);
-    let mut b = compute_update_grid(conv, points, grid, origin, max_range, &mut fast);
+    let a = compute_update_f32(conv, points, origin, max_range, &mut plain);
+    let mut b = compute_update_grid_f32(conv, points, grid, origin, max_range, &mut fast);
     let skipped = std::mem::take(&mut b.heads_skipped);
     prop_assert_eq!(a, b);
     prop_assert_eq!(plain.free_bricks(), fast.free_bricks());
@@ -301,14 +301,15 @@ fn most_rays_of_a_plain_scene_skip_their_heads() {
         s.points.len()
     );
     let mut one = ScanUpdate::new();
-    compute_update_grid(&conv, &s.points, &s.grid(), &s.origin, None, &mut one);
+    compute_update_grid_f32(&conv, &s.points, &s.grid(), &s.origin, None, &mut one);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()
         .unwrap();
     let mut two = ScanUpdate::new();
-    let st = pool
-        .install(|| compute_update_grid(&conv, &s.points, &s.grid(), &s.origin, None, &mut two));
+    let st = pool.install(|| {
+        compute_update_grid_f32(&conv, &s.points, &s.grid(), &s.origin, None, &mut two)
+    });
     assert_eq!(st.heads_skipped, skipped);
     assert_eq!(one.free_bricks(), two.free_bricks());
     assert_eq!(one.occupied_bricks(), two.occupied_bricks());

@@ -1,6 +1,6 @@
 //! The counts of one scan: what happened to its points and rays, and how many voxels it
-//! updates. Every scan function returns them ([`crate::compute_update`], [`crate::discretize()`],
-//! [`crate::insert_point_cloud`], ...).
+//! updates. Every scan function returns them ([`crate::compute_update`],
+//! [`crate::discretize()`], [`crate::insert_point_cloud`], their `_f32` paths, ...).
 
 /// Counts gathered while turning a scan into key sets (and while inserting it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -25,7 +25,7 @@ pub struct ScanStats {
     /// Points beyond the maximum range: their ray was cut and they add no occupied voxel.
     pub max_range_rays: usize,
     /// Rays of a depth image walked only from where their neighbours stop covering them (see
-    /// [`crate::compute_update_grid`]); the key sets are the same either way.
+    /// [`crate::compute_update_grid_f32`]); the key sets are the same either way.
     pub heads_skipped: usize,
     /// Distinct free voxels (after removing the occupied ones), or free updates applied.
     pub free: usize,

@@ -10,7 +10,9 @@
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
 use crate::brickset::{push_brick_keys, BrickSet};
-use crate::dda::{coded, is_finite, key_of, norm_f32, sub_f32, walk_ray_codes, RaySetup, RayWalk};
+use crate::dda::{
+    coded, is_finite, key_of, norm_f32, sub_f32, walk_ray_codes_f32, RaySetup, RayWalk,
+};
 use crate::discretize::discretize_into;
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
 use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
@@ -21,10 +23,11 @@ use std::sync::OnceLock;
 
 /// The free and occupied keys of one scan, plus reusable scratch space.
 ///
-/// Fill it with [`compute_update`] or [`compute_discrete_update`]; both clear it first. Keep
-/// one per thread and reuse it from scan to scan to avoid allocations. Both voxel sets are
-/// sorted in Morton order (the tree's depth-first child order), hold each voxel once, and are
-/// disjoint; they are kept as bricks of 4x4x4 voxels, and listed as keys on request.
+/// Fill it with [`crate::compute_update`] or [`crate::compute_discrete_update`] (or their
+/// `_f32` paths); all clear it first. Keep one per thread and reuse it from scan to scan to
+/// avoid allocations. Both voxel sets are sorted in Morton order (the tree's depth-first child
+/// order), hold each voxel once, and are disjoint; they are kept as bricks of 4x4x4 voxels,
+/// and listed as keys on request.
 #[derive(Debug, Clone, Default)]
 pub struct ScanUpdate {
     /// The free voxels as keys, listed from `bricks` on first request.
@@ -45,6 +48,8 @@ pub struct ScanUpdate {
     plan: SkipPlan,
     centres: Vec<Point3<f32>>,
     order: Vec<(u64, usize)>,
+    /// The points of the `f64` doors ([`crate::compute_update`]) narrowed to `f32`.
+    narrowed: Vec<Point3<f32>>,
 }
 
 impl ScanUpdate {
@@ -76,6 +81,17 @@ impl ScanUpdate {
     /// [`ScanUpdate::free_bricks`]).
     pub fn occupied_bricks(&self) -> &[Brick] {
         &self.occ_bricks
+    }
+
+    /// The narrowing buffer of the `f64` doors, taken out to be filled (give it back with
+    /// [`ScanUpdate::keep_narrowed`]).
+    pub(crate) fn take_narrowed(&mut self) -> Vec<Point3<f32>> {
+        std::mem::take(&mut self.narrowed)
+    }
+
+    /// Keep the narrowing buffer for the next scan.
+    pub(crate) fn keep_narrowed(&mut self, narrowed: Vec<Point3<f32>>) {
+        self.narrowed = narrowed;
     }
 
     /// Empty both voxel sets, keeping the allocations of the sets.
@@ -213,7 +229,7 @@ fn walk_buffered(
 ) -> bool {
     let codes = &mut scratch.codes;
     codes.clear();
-    let walk = walk_ray_codes(conv, origin, end, |c| {
+    let walk = walk_ray_codes_f32(conv, origin, end, |c| {
         // grows once to the longest ray, then never again
         if codes.len() == codes.capacity() {
             codes.reserve(codes.len().max(256));
@@ -546,20 +562,26 @@ fn sample_lengths(
 /// too, since their keys fail the range check). Points outside the map are dropped, also like
 /// OctoMap; when the origin is outside the map no ray can be cast, but endpoints inside the
 /// map still become occupied. Clears `out` first.
-pub fn compute_update(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`; [`crate::compute_update`] takes
+/// `f64`.
+pub fn compute_update_f32(
     conv: &KeyConverter,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
     max_range: Option<f64>,
     out: &mut ScanUpdate,
 ) -> ScanStats {
-    compute_update_with(conv, points, origin, max_range, RayModel::Dda, out)
+    compute_update_with_f32(conv, points, origin, max_range, RayModel::Dda, out)
 }
 
-/// [`compute_update`] with a choice of ray model: [`RayModel::Dda`] is OctoMap's
+/// [`compute_update_f32`] with a choice of ray model: [`RayModel::Dda`] is OctoMap's
 /// `computeUpdate`; [`RayModel::Bresenham`] keeps its set semantics (occupied wins, each key
 /// once, max-range rays cut without an occupied end) but clears the Bresenham line's voxels.
-pub fn compute_update_with(
+///
+/// An `f32` path only: coordinates as OctoMap's `point3d` (the `f64` door is
+/// [`crate::compute_update`]).
+pub fn compute_update_with_f32(
     conv: &KeyConverter,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
@@ -570,11 +592,14 @@ pub fn compute_update_with(
     compute(conv, points, None, origin, max_range, model, out)
 }
 
-/// [`compute_update`] for the points of a depth image: the same key sets, bit for bit, found
+/// [`compute_update_f32`] for the points of a depth image: the same key sets, bit for bit, found
 /// faster by walking most rays only from where their neighbours stop covering them (see
 /// [`PixelGrid`]). A `grid` that does not describe the points (another length, pixels out of
 /// range, directions that do not match) makes it slower, never different.
-pub fn compute_update_grid(
+///
+/// An `f32` path only: coordinates as OctoMap's `point3d` (the `f64` door is
+/// [`crate::compute_update`]).
+pub fn compute_update_grid_f32(
     conv: &KeyConverter,
     points: &[Point3<f32>],
     grid: &PixelGrid<'_>,
@@ -703,9 +728,12 @@ fn compute(
 }
 
 /// OctoMap's `computeDiscreteUpdate`: [`discretize`](crate::discretize()) the points, then
-/// [`compute_update`] on the voxel centres with the same, un-discretized origin (so rays go to
+/// [`compute_update_f32`] on the voxel centres with the same, un-discretized origin (so rays go to
 /// centres and `max_range` is measured to the centre). Clears `out` first.
-pub fn compute_discrete_update(
+///
+/// The `f32` fast path: coordinates as OctoMap's `point3d`;
+/// [`crate::compute_discrete_update`] takes `f64`.
+pub fn compute_discrete_update_f32(
     conv: &KeyConverter,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
@@ -715,7 +743,7 @@ pub fn compute_discrete_update(
     let mut centres = std::mem::take(&mut out.centres);
     let mut order = std::mem::take(&mut out.order);
     let mut stats = discretize_into(conv, points, &mut centres, &mut order);
-    let inner = compute_update(conv, &centres, origin, max_range, out);
+    let inner = compute_update_f32(conv, &centres, origin, max_range, out);
     out.centres = centres;
     out.order = order;
     stats.rays = inner.rays;

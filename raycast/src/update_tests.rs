@@ -1,6 +1,6 @@
 use super::*;
-use crate::dda::{compute_ray_keys, KeyRay};
-use crate::discretize::discretize;
+use crate::dda::{compute_ray_keys_f32, KeyRay};
+use crate::discretize::discretize_f32;
 use proptest::prelude::*;
 use std::collections::HashSet;
 
@@ -22,7 +22,7 @@ fn naive_update(
         let d = p - origin;
         let dist = ((d.x * d.x + d.y * d.y + d.z * d.z) as f64).sqrt();
         if max_range < 0.0 || dist <= max_range {
-            if compute_ray_keys(c, origin, p, &mut ray) {
+            if compute_ray_keys_f32(c, origin, p, &mut ray) {
                 free.extend(ray.iter().copied());
             }
             if let Some(k) = key_of(c, p) {
@@ -32,7 +32,7 @@ fn naive_update(
             let n = dist as f32;
             let dir = if dist > 0.0 { d / n } else { d };
             let new_end = origin + dir * max_range as f32;
-            if compute_ray_keys(c, origin, &new_end, &mut ray) {
+            if compute_ray_keys_f32(c, origin, &new_end, &mut ray) {
                 free.extend(ray.iter().copied());
             }
         }
@@ -83,7 +83,7 @@ fn max_range_ray_frees_up_to_the_cut_voxel() {
     // facts §3.2: origin 0.05, a point at x = 1.05, maxrange 0.5 -> free 32768..=32772
     let c = conv(0.1);
     let mut out = ScanUpdate::new();
-    let s = compute_update(
+    let s = compute_update_f32(
         &c,
         &[Point3::new(1.05, 0.05, 0.05)],
         &Point3::new(0.05, 0.05, 0.05),
@@ -109,7 +109,7 @@ fn occupied_wins_and_bad_points_are_counted() {
         Point3::new(0.07, 0.02, 0.01), // same voxel as the origin: occupied, no free
     ];
     let mut out = ScanUpdate::new();
-    let s = compute_update(&c, &pts, &o, None, &mut out);
+    let s = compute_update_f32(&c, &pts, &o, None, &mut out);
     assert_eq!(s.points, 6);
     assert_eq!(s.non_finite, 2);
     assert_eq!(s.outside_map, 1);
@@ -128,7 +128,7 @@ fn occupied_wins_and_bad_points_are_counted() {
 fn origin_outside_the_map_still_marks_endpoints() {
     let c = conv(0.1);
     let mut out = ScanUpdate::new();
-    let s = compute_update(
+    let s = compute_update_f32(
         &c,
         &[Point3::new(1.0, 1.0, 1.0)],
         &Point3::new(5000.0, 0.0, 0.0),
@@ -145,13 +145,13 @@ fn max_range_zero_and_nan() {
     let pts = [Point3::new(1.05, 0.05, 0.05), o];
     let mut out = ScanUpdate::new();
     // 0 is a real limit: only the point at the origin is a hit
-    let s = compute_update(&c, &pts, &o, Some(0.0), &mut out);
+    let s = compute_update_f32(&c, &pts, &o, Some(0.0), &mut out);
     assert_eq!((s.occupied, s.free, s.max_range_rays), (1, 0, 1));
     // NaN: every point is a max-range reading whose ray cannot be cast
-    let s = compute_update(&c, &pts, &o, Some(f64::NAN), &mut out);
+    let s = compute_update_f32(&c, &pts, &o, Some(f64::NAN), &mut out);
     assert_eq!((s.occupied, s.free, s.failed_rays), (0, 0, 2));
     // negative: no limit
-    let s = compute_update(&c, &pts, &o, Some(-3.0), &mut out);
+    let s = compute_update_f32(&c, &pts, &o, Some(-3.0), &mut out);
     assert_eq!((s.occupied, s.free), (2, 9));
 }
 
@@ -184,9 +184,9 @@ proptest! {
         let m = if max_range < 0.0 { None } else { Some(max_range) };
         let counts;
         let (free, occ) = if discrete {
-            let s = compute_discrete_update(&c, &pts, &origin, m, &mut out);
+            let s = compute_discrete_update_f32(&c, &pts, &origin, m, &mut out);
             let mut centres = Vec::new();
-            discretize(&c, &pts, &mut centres);
+            discretize_f32(&c, &pts, &mut centres);
             // naive discretize: first-seen keys of finite points
             let mut seen = HashSet::new();
             let naive: Vec<Point3<f32>> = pts
@@ -201,7 +201,7 @@ proptest! {
             counts = (s.free, s.occupied);
             naive_update(&c, &naive, &origin, max_range)
         } else {
-            let s = compute_update(&c, &pts, &origin, m, &mut out);
+            let s = compute_update_f32(&c, &pts, &origin, m, &mut out);
             prop_assert_eq!(s.points, pts.len());
             counts = (s.free, s.occupied);
             naive_update(&c, &pts, &origin, max_range)
@@ -235,7 +235,7 @@ fn out_of_map_points_at_fine_resolution() {
     let c = conv(0.001);
     let pts = [Point3::new(40.0f32, 0.0, 0.0), Point3::new(0.01, 0.0, 0.0)];
     let mut out = ScanUpdate::new();
-    let s = compute_update(&c, &pts, &Point3::origin(), None, &mut out);
+    let s = compute_update_f32(&c, &pts, &Point3::origin(), None, &mut out);
     let (free, occ) = naive_update(&c, &pts, &Point3::origin(), -1.0);
     assert_eq!((s.outside_map, s.failed_rays), (1, 1));
     assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);

@@ -143,7 +143,7 @@ pub fn scan_depth(
                 }
             }
         }
-        let mut frame = Frame::new(origin.cast::<f32>(), points);
+        let mut frame = Frame::new_f32(origin.cast::<f32>(), points);
         frame.stamp = Some(i as f64 / 30.0);
         frame.camera = Some(CameraPixels {
             camera: PinholeCamera { rotation, ..*image },

@@ -487,7 +487,7 @@ fn vtk(s: &mut Seeds) {
 fn frames_of(n: usize) -> Vec<Frame> {
     (0..n)
         .map(|i| {
-            Frame::new(
+            Frame::new_f32(
                 Point3::new(0.1 * i as f32, 0.0, 1.0),
                 scene_points(6 + i, i as f32 * 0.1),
             )

@@ -14,7 +14,7 @@
 //! idles on a voxel already recorded. Only the steps where walks end take a branch.
 //!
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
-//! exactly the voxels of [`crate::dda::walk_ray_codes`]. The module's one `unsafe` is the call
+//! exactly the voxels of [`crate::dda::walk_ray_codes_f32`]. The module's one `unsafe` is the call
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
 use super::refill::{first_stop, restart, LaneInit};

@@ -4,7 +4,7 @@
 //! the front of a register by the CPU (`vpcompressq`) instead of by a permutation table.
 //!
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
-//! exactly the voxels of [`crate::dda::walk_ray_codes`].
+//! exactly the voxels of [`crate::dda::walk_ray_codes_f32`].
 
 use super::refill::{first_stop, restart, LaneInit};
 use super::runs::merge_runs_from;

@@ -180,7 +180,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dda::{key_of, setup_from, walk_ray_codes};
+    use crate::dda::{key_of, setup_from, walk_ray_codes_f32};
     use crate::lanes::brick_walk::walk_each;
     use nalgebra::Point3;
     use octoquant_octree::KeyConverter;
@@ -191,7 +191,7 @@ mod tests {
     fn want(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> BTreeSet<u64> {
         let mut s = BTreeSet::new();
         for e in ends {
-            walk_ray_codes(conv, o, e, |c| {
+            walk_ray_codes_f32(conv, o, e, |c| {
                 s.insert(c);
             });
         }

@@ -8,7 +8,7 @@
 //! lanes of one register share those instructions and overlap their chains. [`walk_all`] picks
 //! at run time (through [`crate::cpu`]) the widest path the CPU has. The comparisons, additions
 //! and tie rules are OctoMap's, lane by lane, so every walk visits exactly the voxels of
-//! [`crate::dda::walk_ray_codes`]; only the order in which bricks reach the set changes, and a
+//! [`crate::dda::walk_ray_codes_f32`]; only the order in which bricks reach the set changes, and a
 //! set does not depend on it.
 //!
 //! - `dispatch`: [`walk_all`] and [`walk_lines`], and their per-thread [`LaneScratch`] and
