@@ -297,7 +297,7 @@ fn bresenham_scan(
 ) -> (ScanUpdate, ScanStats, [usize; 3]) {
     let mut out = ScanUpdate::new();
     let (stats, paths) = crate::lanes::test_paths::capped(widest, || {
-        compute_update_with(c, pts, origin, max_range, RayModel::Bresenham, &mut out)
+        compute_update_with_f32(c, pts, origin, max_range, RayModel::Bresenham, &mut out)
     });
     (out, stats, paths)
 }
