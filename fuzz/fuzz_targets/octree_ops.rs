@@ -192,6 +192,12 @@ fuzz_target!(|input: Input| {
                 if model_ok {
                     assert_eq!(deleted, model.len() != before, "delete_node's answer");
                 }
+                // OctoMap's deleteNodeRecurs refreshes only the parent that keeps children;
+                // the ancestors above keep their values (proven against liboctomap and
+                // octomap-python), so inner values may be stale from here
+                if deleted {
+                    strict = false;
+                }
                 if tree.size() == 1 {
                     model_ok = false;
                 }
