@@ -289,8 +289,8 @@ impl Plane {
 }
 
 /// The number of points exactly at `origin` (see the [module docs](self)): one comparison per
-/// point, cheap enough to run on every frame.
-pub fn count_zero(origin: &Point3<f32>, points: &[Point3<f32>]) -> usize {
+/// point, cheap enough to run on every frame. `f32`, as a [`Frame`](crate::Frame) stores them.
+pub fn count_zero_f32(origin: &Point3<f32>, points: &[Point3<f32>]) -> usize {
     points.iter().filter(|p| *p == origin).count()
 }
 

@@ -8,7 +8,7 @@
 use crate::checkpoint::{
     options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
 };
-use crate::filters::{count_zero, DroppedPoints, PointFilters};
+use crate::filters::{count_zero_f32, DroppedPoints, PointFilters};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
@@ -658,7 +658,7 @@ fn filter_frame(
     st: &mut FrameStats,
 ) -> Option<(Vec<Point3<f32>>, Vec<u32>)> {
     if !filters.is_active() {
-        st.zero = count_zero(&frame.origin, &frame.points);
+        st.zero = count_zero_f32(&frame.origin, &frame.points);
         return None;
     }
     let mut points = Vec::with_capacity(frame.points.len());

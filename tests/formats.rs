@@ -253,7 +253,7 @@ fn vtk_norlab_sequence_in_time_order_with_poses() {
         assert_eq!(f.origin, Point3::from(p.translation.cast::<f32>()));
     }
     // The transform is rigid: distances to the origin are the sensor-frame ranges.
-    let local = vtk::read_vtk_points(&dir.join("scans").join(NORLAB_SCANS[8].0))
+    let local = vtk::read_vtk_points_f32(&dir.join("scans").join(NORLAB_SCANS[8].0))
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(local.len(), 41406);
     for (w, l) in frames[8].points.iter().zip(&local).step_by(997) {

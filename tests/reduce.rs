@@ -2,7 +2,7 @@
 
 use crate::common;
 use nalgebra::Point3;
-use octoquant::formats::ply::{read_ply, write_ply, PlyEncoding};
+use octoquant::formats::ply::{read_ply_f32, write_ply, PlyEncoding};
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant_density::{reduce, reduce_points_counted, CentreDistance, DensityGrid, GridSpec};
 use std::collections::{HashMap, HashSet};
@@ -232,7 +232,7 @@ fn issue_5_cli_reduce_writes_ply_and_counts() {
     assert_eq!(field("grid"), counts.grid);
     assert_eq!(field("reduced"), counts.output);
     assert_eq!(field("eliminated"), counts.grid - counts.output);
-    let got = read_ply(&out).unwrap();
+    let got = read_ply_f32(&out).unwrap();
     assert_eq!(got, want);
 
     // The PLY it wrote reads back as an input too (ASCII this time), and reducing a reduced
@@ -256,7 +256,7 @@ fn issue_5_cli_reduce_writes_ply_and_counts() {
         text.contains("grid stage:") && text.contains("elimination:"),
         "{text}"
     );
-    let mut a: Vec<_> = read_ply(&again).unwrap().iter().map(key).collect();
+    let mut a: Vec<_> = read_ply_f32(&again).unwrap().iter().map(key).collect();
     let mut b: Vec<_> = want.iter().map(key).collect();
     a.sort();
     b.sort();
@@ -315,7 +315,7 @@ fn issue_27_cli_reduce_centre_distance() {
             .unwrap()
             .with_centre_distance(metric);
         let (want, _) = reduce(points.iter().copied(), spec);
-        let got: Vec<[f64; 3]> = read_ply(&out).unwrap().iter().map(f64s).collect();
+        let got: Vec<[f64; 3]> = read_ply_f32(&out).unwrap().iter().map(f64s).collect();
         let want: Vec<[f64; 3]> = want
             .iter()
             .map(|p| p.map(|v| f64::from(v as f32)))
@@ -342,7 +342,7 @@ fn issue_5_ply_round_trip_of_real_cloud() {
         let mut buf = Vec::new();
         write_ply(&mut buf, &points, enc).unwrap();
         std::fs::write(&p, &buf).unwrap();
-        let back = read_ply(&p).unwrap();
+        let back = read_ply_f32(&p).unwrap();
         assert_eq!(back.len(), points.len());
         assert!(back
             .iter()

@@ -94,19 +94,21 @@ enum Format {
     BinaryLe,
 }
 
-/// Read the vertex positions of a PLY file.
-pub fn read_ply(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
+/// Read the vertex positions of a PLY file, as `f32` (the `.frames` and OctoMap storage type;
+/// `_f32` by the crate's precision convention).
+pub fn read_ply_f32(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
     let data = source::read_all(path)?;
-    parse_ply(path, &data)
+    parse_ply_f32(path, &data)
 }
 
 /// Read a PLY file as one frame with origin (0, 0, 0) and no stamp.
 pub fn read_ply_frames(path: &Path) -> Result<Vec<Frame>, FormatError> {
-    Ok(vec![Frame::new_f32(Point3::origin(), read_ply(path)?)])
+    Ok(vec![Frame::new_f32(Point3::origin(), read_ply_f32(path)?)])
 }
 
-/// Parse PLY bytes; `path` only names the input in errors.
-pub fn parse_ply(path: &Path, data: &[u8]) -> Result<Vec<Point3<f32>>, FormatError> {
+/// Parse PLY bytes into `f32` vertex positions (see [`read_ply_f32`]); `path` only names the
+/// input in errors.
+pub fn parse_ply_f32(path: &Path, data: &[u8]) -> Result<Vec<Point3<f32>>, FormatError> {
     let (format, elements, body) = parse_header(path, data)?;
     match format {
         Format::Ascii => read_ascii(path, data, body, &elements),
@@ -492,7 +494,7 @@ mod tests {
         for enc in [PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian] {
             let mut buf = Vec::new();
             write_ply(&mut buf, &pts(), enc).unwrap();
-            let back = parse_ply(Path::new("t.ply"), &buf).unwrap();
+            let back = parse_ply_f32(Path::new("t.ply"), &buf).unwrap();
             assert_eq!(bits(&back), bits(&pts()), "{enc:?}");
         }
     }
@@ -508,12 +510,12 @@ mod tests {
         for c in [1.0f32, 2.0, 3.0] {
             data.extend_from_slice(&c.to_le_bytes());
         }
-        let points = parse_ply(Path::new("empty-element.ply"), &data).unwrap();
+        let points = parse_ply_f32(Path::new("empty-element.ply"), &data).unwrap();
         assert_eq!(points, vec![Point3::new(1.0, 2.0, 3.0)]);
         // a count whose byte size overflows u64 is truncation, not an overflow panic
         let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\n\
             property float x\nproperty float y\nproperty float z\nend_header\n";
-        let e = parse_ply(Path::new("huge.ply"), huge).unwrap_err();
+        let e = parse_ply_f32(Path::new("huge.ply"), huge).unwrap_err();
         assert!(matches!(e, FormatError::Truncated { .. }), "{e}");
     }
 
@@ -533,7 +535,7 @@ mod tests {
             b.extend_from_slice(&(-3i16).to_le_bytes());
             b.extend_from_slice(&y.to_le_bytes());
         }
-        let p = parse_ply(Path::new("t.ply"), &b).unwrap();
+        let p = parse_ply_f32(Path::new("t.ply"), &b).unwrap();
         assert_eq!(
             p,
             vec![
@@ -544,7 +546,7 @@ mod tests {
         let ascii = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n\
             property uchar q\nproperty float y\nproperty float z\nelement face 0\n\
             property list uchar int vertex_indices\nend_header\n1 7 2 3\n\n-4 0 5.5 nan\n";
-        let p = parse_ply(Path::new("a.ply"), ascii).unwrap();
+        let p = parse_ply_f32(Path::new("a.ply"), ascii).unwrap();
         assert_eq!(p[0], Point3::new(1.0, 2.0, 3.0));
         assert_eq!((p[1].x, p[1].y), (-4.0, 5.5));
         assert!(p[1].z.is_nan());
@@ -566,7 +568,7 @@ mod tests {
             (b"ply\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n", "no format"),
         ];
         for (data, want) in cases {
-            let e = parse_ply(path, data).unwrap_err().to_string();
+            let e = parse_ply_f32(path, data).unwrap_err().to_string();
             assert!(
                 e.contains("bad.ply") && e.contains(want),
                 "{e:?} lacks {want:?}"

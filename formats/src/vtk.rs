@@ -186,8 +186,9 @@ fn parse_vtk_points(path: &Path, data: &[u8]) -> Result<Vec<Point3<f64>>, Format
     Ok(points)
 }
 
-/// The points of one legacy ASCII VTK file, in the file's own frame.
-pub fn read_vtk_points(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
+/// The points of one legacy ASCII VTK file, in the file's own frame, as `f32` storage
+/// (`_f32` by the crate's precision convention).
+pub fn read_vtk_points_f32(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
     let data = read_all(path)?;
     Ok(parse_vtk_points(path, &data)?
         .into_iter()
@@ -199,7 +200,7 @@ pub fn read_vtk_points(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
 pub fn read_vtk(path: &Path) -> Result<Vec<Frame>, FormatError> {
     Ok(vec![Frame::new_f32(
         Point3::origin(),
-        read_vtk_points(path)?,
+        read_vtk_points_f32(path)?,
     )])
 }
 

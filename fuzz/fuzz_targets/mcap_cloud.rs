@@ -14,6 +14,6 @@ fuzz_target!(|data: &[u8]| {
         Encoding::Cdr
     };
     if let Ok(cloud) = decode_point_cloud2(msg, encoding) {
-        let _ = cloud.points();
+        let _ = cloud.points_f32();
     }
 });

@@ -1,19 +1,19 @@
-//! PLY (ascii, binary little and big endian): `parse_ply` on any bytes (the in-memory
-//! function `read_ply` calls). Points that read must survive a binary write and read back
+//! PLY (ascii, binary little and big endian): `parse_ply_f32` on any bytes (the in-memory
+//! function `read_ply_f32` calls). Points that read must survive a binary write and read back
 //! bit for bit.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use octoquant_formats::ply::{parse_ply, write_ply, PlyEncoding};
+use octoquant_formats::ply::{parse_ply_f32, write_ply, PlyEncoding};
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
     let path = Path::new("input.ply");
-    let Ok(points) = parse_ply(path, data) else {
+    let Ok(points) = parse_ply_f32(path, data) else {
         return;
     };
     let mut out = Vec::new();
     write_ply(&mut out, &points, PlyEncoding::BinaryLittleEndian).unwrap();
-    let back = parse_ply(path, &out).expect("our own PLY output does not read back");
+    let back = parse_ply_f32(path, &out).expect("our own PLY output does not read back");
     assert_eq!(back.len(), points.len());
     for (a, b) in points.iter().zip(&back) {
         for k in 0..3 {

@@ -5,7 +5,7 @@ use super::args::ReadArgs;
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
-use octoquant::formats::ply::{read_ply, write_ply_file, PlyEncoding};
+use octoquant::formats::ply::{read_ply_f32, write_ply_file, PlyEncoding};
 use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant::output::check_output;
@@ -60,7 +60,7 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
 
 fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
     if read.format.is_none() && logical_extension(path).as_deref() == Some("ply") {
-        return Ok(read_ply(path)?);
+        return Ok(read_ply_f32(path)?);
     }
     let frames = read_frames(path, read)?;
     let mut points = Vec::with_capacity(frames.iter().map(|f| f.points.len()).sum());

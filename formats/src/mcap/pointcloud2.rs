@@ -180,8 +180,8 @@ impl PointCloud2 {
         Ok(out)
     }
 
-    /// The valid points (row by row) and the counts of skipped ones.
-    pub fn points(&self) -> Result<(Vec<Point3<f32>>, CloudStats), String> {
+    /// The valid points (row by row, as `f32` storage) and the counts of skipped ones.
+    pub fn points_f32(&self) -> Result<(Vec<Point3<f32>>, CloudStats), String> {
         let layout = self.layout()?;
         let total = self.height as usize * self.width as usize;
         let mut stats = CloudStats {
@@ -254,7 +254,7 @@ mod tests {
             data: vec![0; 64],
             is_dense: true,
         };
-        let e = cloud.points().unwrap_err();
+        let e = cloud.points_f32().unwrap_err();
         assert!(e.contains("row_step"), "{e}");
         let cloud = PointCloud2 {
             width: 1 << 28,
@@ -262,7 +262,7 @@ mod tests {
             row_step: 12 << 28,
             ..cloud
         };
-        let e = cloud.points().unwrap_err();
+        let e = cloud.points_f32().unwrap_err();
         assert!(e.contains("data holds 64 bytes"), "{e}");
     }
 

@@ -740,7 +740,7 @@ impl McapFrames {
             }
         };
         let pose = self.world * to_fixed;
-        let (pts, st) = cloud.points().map_err(|message| {
+        let (pts, st) = cloud.points_f32().map_err(|message| {
             FormatError::syntax(
                 path,
                 Location::File,

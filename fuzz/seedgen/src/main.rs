@@ -87,7 +87,7 @@ fn check_seeds(out: &Path) -> usize {
         ok(
             "ply",
             &p,
-            ply::read_ply(&p).map(drop).map_err(|e| e.to_string()),
+            ply::read_ply_f32(&p).map(drop).map_err(|e| e.to_string()),
         );
         n += 1;
     }
