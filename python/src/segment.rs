@@ -6,8 +6,8 @@ use crate::engine::{
     self, BorderPolicy, Clustering, Dbscan1dParams, LineParams, SegmentError, Segmentation, NOISE,
 };
 use numpy::ndarray::Array2;
-use octoquant_segment::Resegment;
 use numpy::{PyArray1, PyArray2};
+use octoquant_segment::Resegment;
 use pyo3::exceptions::{PyFileNotFoundError, PyValueError};
 use pyo3::prelude::*;
 
