@@ -34,6 +34,12 @@ done
 [ ${#targets[@]} -gt 0 ] || targets=("${FUZZ_TARGETS[@]}")
 
 cargo +nightly fuzz build "${FUZZ_BUILD_FLAGS[@]}" || exit 1
+for t in "${targets[@]}"; do
+  if fuzz_is_fast "$t"; then
+    cargo +nightly fuzz build "${FUZZ_BUILD_FLAGS[@]}" --no-trace-compares \
+      --target-dir target/fast "$t" || exit 1
+  fi
+done
 scratch="$(fuzz_scratch)"
 trap 'rm -rf "$scratch"' EXIT
 export OCTOQUANT_FUZZ_TMP="$scratch"
@@ -47,7 +53,9 @@ for t in "${targets[@]}"; do
   [ -n "${MAX_TIME:-}" ] && opts+=("-max_total_time=$MAX_TIME")
   log="logs/$t-$(date -u +%Y%m%dT%H%M%SZ).log"
   echo "$(date -u +%H:%M:%S) $t: $runs runs, log $log"
-  "$FUZZ_BIN_DIR/$t" "${opts[@]}" "corpus/$t" "seeds/$t" >"$log" 2>&1
+  bin="$FUZZ_BIN_DIR/$t"
+  fuzz_is_fast "$t" && bin="$FUZZ_FAST_DIR/$t"
+  "$bin" "${opts[@]}" "corpus/$t" "seeds/$t" >"$log" 2>&1
   rc=$?
   # Final stats when the run ended normally, else the last status line.
   execs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)"

@@ -36,3 +36,18 @@ fuzz_scratch() {
   [ -d "$base" ] && [ -w "$base" ] || base="${TMPDIR:-/tmp}"
   mktemp -d "$base/octoquant-fuzz.XXXXXX"
 }
+
+# Targets whose campaign binary is built without comparison tracing
+# (`--no-trace-compares`, in target/fast/): structure-aware harnesses whose inputs are
+# decoded by `arbitrary`, so comparison hints buy little, while the tree checks after every
+# step are comparison-heavy (a profile of `octree_ops` spent 65% of its time in the
+# __sanitizer_cov_trace_cmp hooks). Edge coverage still guides them.
+FUZZ_FAST_TARGETS=(octree_ops)
+FUZZ_FAST_DIR="$FUZZ_DIR/target/fast/$FUZZ_TRIPLE/release"
+
+# Whether a target is in FUZZ_FAST_TARGETS.
+fuzz_is_fast() {
+  local t
+  for t in "${FUZZ_FAST_TARGETS[@]}"; do [ "$t" = "$1" ] && return 0; done
+  return 1
+}
