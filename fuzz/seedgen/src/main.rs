@@ -11,8 +11,8 @@ use octoquant_formats::frames::write_frames;
 use octoquant_formats::graph::{graph_from_frames, write_graph};
 use octoquant_formats::mcap::datatype;
 use octoquant_formats::ply::{write_ply, PlyEncoding};
-use octoquant_octree::io::{write_bt, write_ot};
-use octoquant_octree::{InnerNodes, Key, OcTree, Update};
+use octoquant_octree::io::{write_bt, write_color_ot, write_ot};
+use octoquant_octree::{Color, ColorOcTree, InnerNodes, Key, OcTree, Update};
 use std::collections::BTreeMap;
 use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
@@ -24,6 +24,7 @@ fn main() {
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../seeds"));
     let mut seeds = Seeds { out, count: 0 };
     trees(&mut seeds);
+    color_trees(&mut seeds);
     pcd(&mut seeds);
     ply(&mut seeds);
     vtk(&mut seeds);
@@ -67,6 +68,16 @@ fn check_seeds(out: &Path) -> usize {
             "tree",
             p,
             octoquant_octree::io::read_tree(bytes(p).as_slice())
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in &files("color_ot") {
+        ok(
+            "ColorOcTree",
+            p,
+            octoquant_octree::io::read_color_ot(bytes(p).as_slice())
                 .map(drop)
                 .map_err(|e| e.to_string()),
         );
@@ -281,6 +292,46 @@ fn trees(s: &mut Seeds) {
         write_bt(&mut tree, &mut bt).unwrap();
         s.put("bt", &format!("{name}.bt"), &bt);
     }
+}
+
+/// `ColorOcTree` `.ot` files: empty, a few coloured voxels (set, averaged, integrated; one
+/// left white), and a pruned block whose parent keeps the children's average colour.
+fn color_trees(s: &mut Seeds) {
+    s.put(
+        "color_ot",
+        "empty.ot",
+        &color_ot_bytes(&ColorOcTree::new(0.05).unwrap()),
+    );
+    let mut few = ColorOcTree::new(0.1).unwrap();
+    for i in 0..6u16 {
+        let key = Key::new(0x8000 + 3 * i, 0x7ff0 + i, 0x8000 - i);
+        let update = if i % 2 == 0 { Update::Hit } else { Update::Miss };
+        few.update_node(key, update, InnerNodes::Refresh);
+        let c = Color::new((40 * i) as u8, (255 - 30 * i) as u8, 7 * i as u8);
+        match i % 4 {
+            0 => few.set_node_color(key, c),
+            1 => few.average_node_color(key, c),
+            2 => few.integrate_node_color(key, c),
+            _ => None,
+        };
+    }
+    few.update_inner_occupancy();
+    s.put("color_ot", "few.ot", &color_ot_bytes(&few));
+    let mut pruned = ColorOcTree::new(0.2).unwrap();
+    for i in 0..8u16 {
+        let key = Key::new(0x8000 | (i & 1), 0x8000 | ((i >> 1) & 1), 0x8000 | (i >> 2));
+        pruned.update_node(key, Update::Hit, InnerNodes::Refresh);
+        pruned.set_node_color(key, Color::new(10 * i as u8, 200, 100));
+    }
+    pruned.update_inner_occupancy();
+    pruned.prune();
+    s.put("color_ot", "pruned.ot", &color_ot_bytes(&pruned));
+}
+
+fn color_ot_bytes(tree: &ColorOcTree) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_color_ot(tree, &mut out).unwrap();
+    out
 }
 
 // ---- PCD and LZF ---------------------------------------------------------------------
