@@ -12,13 +12,14 @@ FUZZ_BIN_DIR="$FUZZ_DIR/target/$FUZZ_TRIPLE/release"
 
 # The parsers most likely to break first: the campaign order.
 FUZZ_TARGETS=(bt ot pcd ply mcap source mcap_cloud mcap_tf lzf tum_png vtk graph text frames
-  carmen tum_assoc octree_ops checkpoint color_ot)
+  carmen tum_assoc octree_ops checkpoint color_ot count_frames)
 
 # The dictionary of a target (empty: none).
 fuzz_dict() {
   case "$1" in
     bt | ot | color_ot) echo octree ;;
     mcap_cloud | mcap_tf) echo ros_msg ;;
+    count_frames) echo mcap ;;
     tum_png) echo png ;;
     tum_assoc) echo tum ;;
     source) echo compression ;;

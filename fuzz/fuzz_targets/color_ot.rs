@@ -53,7 +53,11 @@ fuzz_target!(|data: &[u8]| {
             _ => tree.integrate_node_color(key, colour),
         };
         assert!(now.is_some(), "a colour update missed a voxel that exists");
-        assert_eq!(tree.node_color(key), now, "the colour read back is not the one set");
+        assert_eq!(
+            tree.node_color(key),
+            now,
+            "the colour read back is not the one set"
+        );
         if i % 3 == 0 {
             assert_eq!(now, Some(colour), "set_node_color did not set the colour");
         }

@@ -35,6 +35,7 @@ fn main() {
     mcap(&mut seeds);
     source(&mut seeds);
     octree_ops(&mut seeds);
+    count_frames(&mut seeds);
     let checked = check_seeds(&seeds.out);
     println!(
         "wrote {} seeds under {}, {checked} of them read back by the library",
@@ -305,7 +306,11 @@ fn color_trees(s: &mut Seeds) {
     let mut few = ColorOcTree::new(0.1).unwrap();
     for i in 0..6u16 {
         let key = Key::new(0x8000 + 3 * i, 0x7ff0 + i, 0x8000 - i);
-        let update = if i % 2 == 0 { Update::Hit } else { Update::Miss };
+        let update = if i % 2 == 0 {
+            Update::Hit
+        } else {
+            Update::Miss
+        };
         few.update_node(key, update, InnerNodes::Refresh);
         let c = Color::new((40 * i) as u8, (255 - 30 * i) as u8, 7 * i as u8);
         match i % 4 {
@@ -872,6 +877,37 @@ fn source(s: &mut Seeds) {
     let mut bz = bzip2::write::BzEncoder::new(vec![1u8], bzip2::Compression::default());
     bz.write_all(text).unwrap();
     s.put("source", "points.txt.bz2", &bz.finish().unwrap());
+}
+
+/// The `count_frames` target's seeds: the MCAP, `.frames`, `.graph` and TUM association
+/// seeds written above, each behind the byte that picks its file name in the target, and one
+/// gzip-wrapped `.frames` file.
+fn count_frames(s: &mut Seeds) {
+    for (pick, target) in [(0u8, "mcap"), (1, "frames"), (2, "graph"), (3, "tum_assoc")] {
+        let dir = s.out.join(target);
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        names.sort();
+        for name in names {
+            let mut data = vec![pick];
+            data.extend(std::fs::read(dir.join(&name)).unwrap());
+            s.put(
+                "count_frames",
+                &format!("{target}-{}", name.to_string_lossy()),
+                &data,
+            );
+        }
+    }
+    let frames = std::fs::read(s.out.join("frames/3-frames.frames")).unwrap();
+    let mut gz = flate2::write::GzEncoder::new(vec![4u8], flate2::Compression::default());
+    gz.write_all(&frames).unwrap();
+    s.put(
+        "count_frames",
+        "frames-3-frames.frames.gz",
+        &gz.finish().unwrap(),
+    );
 }
 
 // ---- octree operation sequences -------------------------------------------------------
