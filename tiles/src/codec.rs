@@ -47,10 +47,11 @@ fn put_codes(out: &mut Vec<u8>, base: u64, codes: &[u64]) {
 }
 
 impl TileUpdates {
-    /// The lists as bytes (see the module docs). The lists must satisfy
-    /// [`TileUpdates::check`] (the splitter's always do); codes outside the tile or out of
-    /// order are not representable and make the call panic in debug builds.
-    pub fn to_bytes(&self) -> Vec<u8> {
+    /// The lists as bytes (see the module docs). Lists that break [`TileUpdates::check`]
+    /// (codes outside the tile or out of order are not representable) are an error; the
+    /// splitter's never do.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, TileError> {
+        self.check()?;
         let base = self.tile.min_key().morton();
         let mut out = Vec::with_capacity(32 + 2 * self.voxel_updates() + 16 * self.frames.len());
         out.extend_from_slice(MAGIC);
@@ -68,7 +69,7 @@ impl TileUpdates {
         }
         let sum = fnv1a(&out);
         out.extend_from_slice(&sum.to_le_bytes());
-        out
+        Ok(out)
     }
 
     /// Read lists written by [`TileUpdates::to_bytes`], checking the magic, the version, the
@@ -246,11 +247,14 @@ mod tests {
     #[test]
     fn round_trips() {
         let s = sample();
-        let b = s.to_bytes();
+        let b = s.to_bytes().unwrap();
         assert_eq!(&b[..4], b"OQTU");
         assert_eq!(TileUpdates::from_bytes(&b).unwrap(), s);
         let empty = TileUpdates::new(Tile::new(0, 0).unwrap());
-        assert_eq!(TileUpdates::from_bytes(&empty.to_bytes()).unwrap(), empty);
+        assert_eq!(
+            TileUpdates::from_bytes(&empty.to_bytes().unwrap()).unwrap(),
+            empty
+        );
     }
 
     /// Re-seal a modified body with a valid checksum, to reach the checks behind it.
@@ -262,7 +266,7 @@ mod tests {
 
     #[test]
     fn bad_buffers_are_errors() {
-        let b = sample().to_bytes();
+        let b = sample().to_bytes().unwrap();
         let body = b[..b.len() - 8].to_vec();
         // every truncation, and every single-byte change, is caught
         for n in 0..b.len() {
@@ -319,7 +323,11 @@ mod tests {
         let mut s = sample();
         s.frames[0].occupied[0] = s.frames[0].free[1];
         s.frames[0].occupied.sort();
-        assert!(decode_msg(s.to_bytes()).contains("both free and occupied"));
+        assert!(s.to_bytes().is_err());
+        s.frames[0].free.remove(1);
+        let beyond = s.frames[0].occupied[1] + 7;
+        s.frames[0].free.push(beyond);
+        assert!(s.to_bytes().is_err(), "a code beyond the tile");
         assert!(decode_msg(b"nonsense-buffer!".to_vec()).contains("checksum"));
     }
 
@@ -351,7 +359,7 @@ mod tests {
             }
             let lists = TileUpdates { tile, frames: out };
             lists.check().unwrap();
-            let b = lists.to_bytes();
+            let b = lists.to_bytes().unwrap();
             prop_assert_eq!(TileUpdates::from_bytes(&b).unwrap(), lists);
         }
     }

@@ -53,7 +53,10 @@ fn tiled(
             s.add((b * batch.max(1) + i) as u64, &u).unwrap();
         }
         for l in s.finish() {
-            shipped.entry(l.tile).or_default().push(l.to_bytes());
+            shipped
+                .entry(l.tile)
+                .or_default()
+                .push(l.to_bytes().unwrap());
         }
     }
     let mut order: Vec<(Tile, Vec<Vec<u8>>)> = shipped.into_iter().collect();
