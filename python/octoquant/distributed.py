@@ -231,6 +231,10 @@ def build_map(
     ``LocalCluster`` of ``n_workers`` processes (default 2) is started and closed.
     ``tile_depth``: depth of the tiles in the key space (0..=16; default: tiles of about
     25.6 m); ``frames_per_task``: frames per ray task (default: two tasks per worker).
+
+    A script that lets this start a ``LocalCluster`` must call it under
+    ``if __name__ == "__main__":``, as for any Dask cluster of processes (the workers are
+    spawned and import the script's main module).
     """
     tree, _ = build_map_with_summary(
         inputs,
