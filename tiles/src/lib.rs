@@ -34,6 +34,39 @@
 //! against the sequential map byte for byte (`.bt` and `.ot`) on random frame sequences and
 //! on real data.
 //!
+//! ```
+//! use nalgebra::Point3;
+//! use octoquant_octree::{io, OcTree, OccupancyParams};
+//! use octoquant_raycast::{apply_update, compute_update_f32, ApplyOptions, ScanUpdate};
+//! use octoquant_tiles::{apply_tile_updates, join_tiles, TileSplitter, TileUpdates};
+//!
+//! let origin = Point3::new(0.05f32, 0.05, 0.05);
+//! let wall: Vec<Point3<f32>> = (0..400)
+//!     .map(|i| Point3::new(2.0, 0.1 * (i % 20) as f32 - 0.95, 0.1 * (i / 20) as f32 - 0.95))
+//!     .collect();
+//! let (mut sequential, mut update) = (OcTree::new(0.1)?, ScanUpdate::new());
+//! let mut splitter = TileSplitter::new(3)?;
+//! for frame in 0..3 {
+//!     compute_update_f32(sequential.converter(), &wall, &origin, None, &mut update);
+//!     apply_update(&mut sequential, &update, &ApplyOptions::default());
+//!     splitter.add(frame, &update)?;
+//! }
+//! // each tile's lists travel as bytes, are applied to the tile's own tree, then joined
+//! let mut tiles = Vec::new();
+//! for lists in splitter.finish() {
+//!     let back = TileUpdates::from_bytes(&lists.to_bytes()?)?;
+//!     let mut tree = OcTree::new(0.1)?;
+//!     apply_tile_updates(&mut tree, back.tile, &[back])?;
+//!     tiles.push(tree);
+//! }
+//! let joined = join_tiles(0.1, OccupancyParams::default(), 3, &tiles)?;
+//! let (mut a, mut b) = (Vec::new(), Vec::new());
+//! io::write_ot(&joined, &mut a)?;
+//! io::write_ot(&sequential, &mut b)?;
+//! assert_eq!(a, b);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Lazy insertion (`InnerNodes::Defer`) is not covered: its trees keep stale inner nodes and
 //! unpruned expansions, which this join does not reproduce.
 #![deny(missing_docs)]
