@@ -65,6 +65,7 @@ pub mod pipeline;
 pub mod query;
 pub mod render;
 pub mod scene;
+pub mod tiled;
 pub mod treefile;
 
 pub use octoquant_formats as formats;
@@ -74,5 +75,8 @@ pub use octoquant_octree::{InnerNodes, Key, KeyConverter, OcTree, OccupancyParam
 /// OctoMap's rays, `castRay` and `insertPointCloud` (the `octoquant-raycast` crate), for
 /// callers that use only this crate (the Python bindings).
 pub use octoquant_raycast as raycast;
+/// Exact tiled map building (the `octoquant-tiles` crate): a frame's voxel sets split by
+/// tile, applied per tile, joined; see [`tiled`] for frames in, tile lists out.
+pub use octoquant_tiles as tiles;
 pub use parry3d;
 pub use pipeline::{Mapper, MapperOptions};

@@ -155,6 +155,34 @@ pub struct MapStats {
     pub total: FrameStats,
 }
 
+impl MapStats {
+    /// Count one more frame with statistics `st`.
+    pub fn add(&mut self, st: &FrameStats) {
+        let t = &mut self.total;
+        self.frames += 1;
+        t.points += st.points;
+        t.non_finite += st.non_finite;
+        t.outside_map += st.outside_map;
+        t.zero += st.zero;
+        t.dropped.add(&st.dropped);
+        t.reduced += st.reduced;
+        t.rays += st.rays;
+        t.heads_skipped += st.heads_skipped;
+        t.free += st.free;
+        t.occupied += st.occupied;
+        t.seconds += st.seconds;
+        t.ray_seconds += st.ray_seconds;
+        t.tree_seconds += st.tree_seconds;
+    }
+
+    /// Count the frames of `other` too (statistics of another batch of the same run).
+    pub fn merge(&mut self, other: &MapStats) {
+        let frames = self.frames + other.frames;
+        self.add(&other.total);
+        self.frames = frames;
+    }
+}
+
 /// Builds an occupancy tree from frames.
 pub struct Mapper {
     tree: OcTree,
@@ -589,21 +617,7 @@ impl Mapper {
 
     fn account(&mut self, frame: &Frame, st: &FrameStats) {
         self.fingerprint.add(frame);
-        let t = &mut self.stats.total;
-        self.stats.frames += 1;
-        t.points += st.points;
-        t.non_finite += st.non_finite;
-        t.outside_map += st.outside_map;
-        t.zero += st.zero;
-        t.dropped.add(&st.dropped);
-        t.reduced += st.reduced;
-        t.rays += st.rays;
-        t.heads_skipped += st.heads_skipped;
-        t.free += st.free;
-        t.occupied += st.occupied;
-        t.seconds += st.seconds;
-        t.ray_seconds += st.ray_seconds;
-        t.tree_seconds += st.tree_seconds;
+        self.stats.add(st);
     }
 
     /// Bring inner nodes up to date after lazy insertion (a no-op otherwise).
@@ -632,6 +646,67 @@ impl Mapper {
     pub fn into_tree(mut self) -> OcTree {
         self.finish();
         self.tree
+    }
+}
+
+/// One frame's rays without a tree: the ray stage of [`Mapper`] on its own, for builds that
+/// apply the voxel sets elsewhere (the tiled build of `octoquant_tiles`, on other threads or
+/// machines). [`FrameCaster::cast`] fills the same free and occupied sets that
+/// [`Mapper::insert`] applies for the same options and frame (filters, density reduction,
+/// quantization, mode).
+pub struct FrameCaster {
+    conv: KeyConverter,
+    options: MapperOptions,
+    update: ScanUpdate,
+    centres: Vec<Point3<f32>>,
+}
+
+/// Why a [`FrameCaster`] cannot be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CasterError {
+    /// [`InsertMode::Simple`] updates voxels ray by ray, several times per frame: it has no
+    /// per-frame voxel sets.
+    #[error("mode {0} updates voxels ray by ray and has no per-frame voxel sets")]
+    NoFrameSets(&'static str),
+    /// The resolution is invalid.
+    #[error(transparent)]
+    Octree(#[from] OctreeError),
+}
+
+impl FrameCaster {
+    /// A caster for `options` (any mode but [`InsertMode::Simple`]; `lazy` plays no part).
+    pub fn new(options: MapperOptions) -> Result<Self, CasterError> {
+        if options.mode == InsertMode::Simple {
+            return Err(CasterError::NoFrameSets(options.mode.name()));
+        }
+        Ok(FrameCaster {
+            conv: KeyConverter::new(options.resolution)?,
+            options,
+            update: ScanUpdate::new(),
+            centres: Vec::new(),
+        })
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> &MapperOptions {
+        &self.options
+    }
+
+    /// Cast `frame` (world coordinates; a file's frame, so the sensor-frame crop box has the
+    /// world's axes, as in [`Mapper::insert`]): its voxel sets and statistics
+    /// (`tree_seconds` is 0, `seconds` the ray stage's).
+    pub fn cast(&mut self, frame: &Frame) -> (&ScanUpdate, FrameStats) {
+        let mut st = prepare(
+            &self.conv,
+            &self.options,
+            frame,
+            &UnitQuaternion::identity(),
+            &mut self.update,
+            &mut self.centres,
+        );
+        st.seconds = st.ray_seconds;
+        (&self.update, st)
     }
 }
 

@@ -21,4 +21,5 @@ mod render;
 mod scene;
 mod segment;
 mod stream;
+mod tiled;
 mod tree_files;

@@ -16,7 +16,9 @@ pub use octoquant::octree::{
     logodds, probability, Color, ColorOcTree, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem,
     OcTree, OccupancyParams, OctreeError, Update, TREE_DEPTH,
 };
-pub use octoquant::pipeline::{FrameStats, InsertMode, Mapper, MapperOptions};
+pub use octoquant::pipeline::{FrameCaster, FrameStats, InsertMode, Mapper, MapperOptions};
+pub use octoquant::tiled::{cast_frames, default_tile_depth};
+pub use octoquant::tiles::{apply_tile_updates, Tile, TileError, TileUpdates};
 pub use octoquant::Frame;
 
 pub use octoquant::formats::carmen::LaserScan;
@@ -29,6 +31,12 @@ pub use octoquant_density::{
 pub use octoquant_segment::{
     BorderPolicy, Clustering, Dbscan1dParams, Line, LineParams, SegmentError, Segmentation, NOISE,
 };
+
+/// Join tile trees built at `depth` into one tree of `resolution` with OctoMap's default
+/// sensor model (the tiles crate's `join_tiles`).
+pub fn join_tiles(resolution: f64, depth: u8, trees: &[OcTree]) -> Result<OcTree, TileError> {
+    octoquant::tiles::join_tiles(resolution, OccupancyParams::default(), depth, trees)
+}
 
 /// The input format with this CLI short name, or a message listing them.
 pub fn input_format(name: &str) -> Result<InputFormat, String> {

@@ -5,7 +5,8 @@
 //! functions; [`convert`] checks and converts Python arguments; [`tree`], [`color_tree`],
 //! [`node`], [`iter`] and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
 //! bounding-box insertion they call; [`density`] and [`segment`] wrap the density reducer and
-//! the 1-D DBSCAN / laser-line segmentation.
+//! the 1-D DBSCAN / laser-line segmentation; [`tiles`] the pieces of the exact tiled build
+//! that `octoquant.distributed` runs on Dask.
 #![deny(missing_docs)]
 
 mod bbx;
@@ -18,6 +19,7 @@ mod iter;
 mod mapper;
 mod node;
 mod segment;
+mod tiles;
 mod tree;
 
 use numpy::ndarray::Array2;
@@ -152,5 +154,9 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(segment::dbscan1d, m)?)?;
     m.add_function(wrap_pyfunction!(segment::segment_scan, m)?)?;
     m.add_function(wrap_pyfunction!(segment::read_laser_scans, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::cast_tiles, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::apply_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::join_tiles, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::default_tile_depth, m)?)?;
     Ok(())
 }

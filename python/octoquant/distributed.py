@@ -1,0 +1,334 @@
+"""Exact tiled map building on Dask distributed: one map from many workers, with the bytes of a
+single ``octoquant map`` run.
+
+The map's key space is cut into tiles (the nodes at depth ``tile_depth`` of OctoMap's octree).
+Tasks cast the rays of batches of frames and return, per tile, compact sorted update lists
+(Morton codes, free or occupied, tagged with the frame index, as checked bytes); one task per
+tile applies its lists in frame order to the tile's own tree (OctoMap's ``updateNode``:
+clamping, pruning); the driver joins the tile trees and recomputes the levels above the tile
+depth exactly as OctoMap keeps them. The Rust crate ``octoquant-tiles`` holds the pieces and
+the argument for why the result is the sequential tree, node for node; this module only
+orchestrates.
+
+Runs on a ``LocalCluster`` by default, or on any ``distributed.Client`` (dask-jobqueue,
+dask-kubernetes, cloud clusters). Command line::
+
+    python -m octoquant.distributed INPUT... --res R [--max-range M] -o OUT.bt [--ot OUT.ot]
+        [--workers N | --scheduler ADDR] [--tile-depth D] [--frames-per-task K] [--json]
+
+Not yet: modes other than ``exact``, workers reading their own frames (the driver reads the
+inputs and ships the frames), tiles spilled to disk, map merge.
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+from octoquant._octoquant import (
+    apply_tile,
+    cast_tiles,
+    default_tile_depth,
+    join_tiles,
+    read_frames,
+)
+
+__all__ = [
+    "apply_tile",
+    "build_map",
+    "build_map_with_summary",
+    "cast_tiles",
+    "default_tile_depth",
+    "join_tiles",
+    "main",
+]
+
+MODES = ("exact",)
+
+
+def _cast_batch(frames, first, resolution, tile_depth, max_range, mode):
+    """Task: cast a batch of frames; per-tile update lists as bytes, and the batch's counts."""
+    return cast_tiles(frames, first, resolution, tile_depth, max_range=max_range, mode=mode)
+
+
+def _batch_summary(result):
+    """Task: what the driver needs of a batch: its tiles with their list sizes, and counts."""
+    lists, stats = result
+    return {tile: len(b) for tile, b in lists.items()}, stats
+
+
+def _pick(result, tile):
+    """Task: one tile's lists of a batch (runs where the batch is, ships only this)."""
+    return result[0][tile]
+
+
+def _apply(tile_depth, tile, resolution, *buffers):
+    """Task: a tile's lists applied in frame order; the tile tree as .ot bytes and counts."""
+    return apply_tile(tile_depth, tile, list(buffers), resolution)
+
+
+def _read_inputs(inputs, reader_options):
+    frames = []
+    for path in inputs:
+        frames.extend(read_frames(os.fspath(path), **reader_options))
+    return frames
+
+
+def build_map_with_summary(
+    inputs,
+    resolution=0.1,
+    max_range=None,
+    mode="exact",
+    client=None,
+    n_workers=None,
+    tile_depth=None,
+    frames_per_task=None,
+    **reader_options,
+):
+    """:func:`build_map`, also returning a summary dict: frames, points, rays, tiles, workers,
+    bytes moved (frames shipped, update lists, tile trees) and seconds per stage (read, cast,
+    apply, join)."""
+    if mode not in MODES:
+        raise ValueError(
+            f"mode {mode!r} is not supported by the distributed build yet; expected one of {MODES}"
+        )
+    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"resolution must be finite and > 0, got {resolution!r}")
+    if max_range is not None and math.isnan(max_range):
+        raise ValueError("max_range must not be NaN")
+    if isinstance(inputs, (str, bytes, os.PathLike)):
+        inputs = [inputs]
+    inputs = list(inputs)
+    if not inputs:
+        raise ValueError("no inputs")
+    if tile_depth is None:
+        tile_depth = default_tile_depth(resolution)
+    if not (isinstance(tile_depth, int) and 0 <= tile_depth <= 16):
+        raise ValueError(f"tile_depth must be an integer 0..=16, got {tile_depth!r}")
+    if frames_per_task is not None and not (isinstance(frames_per_task, int) and frames_per_task >= 1):
+        raise ValueError(f"frames_per_task must be a positive integer, got {frames_per_task!r}")
+    if n_workers is not None and not (isinstance(n_workers, int) and n_workers >= 1):
+        raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
+    try:
+        import distributed
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "octoquant.distributed needs Dask distributed: pip install 'dask[distributed]'"
+        ) from e
+
+    seconds = {}
+    t0 = time.perf_counter()
+    frames = _read_inputs(inputs, reader_options)
+    seconds["read"] = time.perf_counter() - t0
+
+    own_cluster = None
+    if client is None:
+        own_cluster = distributed.LocalCluster(
+            n_workers=n_workers if n_workers is not None else 2,
+            threads_per_worker=1,
+            dashboard_address=":0",
+        )
+        client = distributed.Client(own_cluster)
+    try:
+        workers = len(client.scheduler_info()["workers"]) or 1
+        per_task = frames_per_task or max(1, math.ceil(len(frames) / (2 * workers)))
+
+        t = time.perf_counter()
+        batches = []
+        frame_bytes = 0
+        for first in range(0, len(frames), per_task):
+            chunk = frames[first : first + per_task]
+            frame_bytes += sum(p.nbytes + o.nbytes for p, o in chunk)
+            [data] = client.scatter([chunk])
+            batches.append(
+                client.submit(
+                    _cast_batch,
+                    data,
+                    first,
+                    resolution,
+                    tile_depth,
+                    max_range,
+                    mode,
+                    pure=False,
+                )
+            )
+        summaries = client.gather(client.map(_batch_summary, batches, pure=False))
+        seconds["cast"] = time.perf_counter() - t
+
+        t = time.perf_counter()
+        tiles = {}
+        list_bytes = 0
+        for batch, (sizes, _) in zip(batches, summaries):
+            for tile, n in sizes.items():
+                list_bytes += n
+                tiles.setdefault(tile, []).append(
+                    client.submit(_pick, batch, tile, pure=False)
+                )
+        tile_futures = [
+            client.submit(_apply, tile_depth, tile, resolution, *parts, pure=False)
+            for tile, parts in sorted(tiles.items())
+        ]
+        results = client.gather(tile_futures)
+        seconds["apply"] = time.perf_counter() - t
+        del batches, tiles, tile_futures
+    finally:
+        if own_cluster is not None:
+            client.close()
+            own_cluster.close()
+
+    t = time.perf_counter()
+    trees = [ot for ot, _ in results]
+    tree_bytes = sum(len(ot) for ot in trees)
+    tree = join_tiles(tile_depth, trees, resolution)
+    seconds["join"] = time.perf_counter() - t
+    seconds["total"] = time.perf_counter() - t0
+
+    totals = {"frames": 0, "points": 0, "rays": 0, "free": 0, "occupied": 0}
+    for _, stats in summaries:
+        for k in totals:
+            totals[k] += stats[k]
+    summary = dict(totals)
+    summary.update(
+        {
+            "tiles": len(results),
+            "tile_depth": tile_depth,
+            "workers": workers,
+            "tasks": len(summaries),
+            "frames_per_task": per_task,
+            "bytes_moved": {
+                "frames": frame_bytes,
+                "update_lists": list_bytes,
+                "tile_trees": tree_bytes,
+                "total": frame_bytes + list_bytes + tree_bytes,
+            },
+            "seconds": seconds,
+        }
+    )
+    return tree, summary
+
+
+def build_map(
+    inputs,
+    resolution=0.1,
+    max_range=None,
+    mode="exact",
+    client=None,
+    n_workers=None,
+    tile_depth=None,
+    frames_per_task=None,
+    **reader_options,
+):
+    """Build one map from sensor files on Dask: the ``OcTree`` ``octoquant map`` builds from
+    the same inputs and options, node for node (so the same ``.bt`` and ``.ot`` bytes), for any
+    worker count, tile depth and task size.
+
+    ``inputs``: a path or a list of paths (files or scan directories), read in order as
+    ``octoquant map`` reads them; ``reader_options`` are :func:`octoquant.read_frames`'s
+    keywords. ``resolution``, ``max_range``, ``mode`` (only ``"exact"`` for now): as
+    ``octoquant map``. ``client``: a ``distributed.Client`` to run on; without one a
+    ``LocalCluster`` of ``n_workers`` processes (default 2) is started and closed.
+    ``tile_depth``: depth of the tiles in the key space (0..=16; default: tiles of about
+    25.6 m); ``frames_per_task``: frames per ray task (default: two tasks per worker).
+
+    A script that lets this start a ``LocalCluster`` must call it under
+    ``if __name__ == "__main__":``, as for any Dask cluster of processes (the workers are
+    spawned and import the script's main module).
+    """
+    tree, _ = build_map_with_summary(
+        inputs,
+        resolution=resolution,
+        max_range=max_range,
+        mode=mode,
+        client=client,
+        n_workers=n_workers,
+        tile_depth=tile_depth,
+        frames_per_task=frames_per_task,
+        **reader_options,
+    )
+    return tree
+
+
+def _text_summary(s, out, ot):
+    b = s["bytes_moved"]
+    sec = s["seconds"]
+    lines = [
+        f"frames {s['frames']}, points {s['points']}, rays {s['rays']}",
+        f"tiles {s['tiles']} at depth {s['tile_depth']}, {s['tasks']} ray tasks of "
+        f"{s['frames_per_task']} frames on {s['workers']} workers",
+        f"bytes moved {b['total']} (frames {b['frames']}, update lists {b['update_lists']}, "
+        f"tile trees {b['tile_trees']})",
+        "seconds: "
+        + ", ".join(f"{k} {sec[k]:.3f}" for k in ("read", "cast", "apply", "join", "total")),
+        f"wrote {out}" + (f" and {ot}" if ot else ""),
+    ]
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    """The command line (``python -m octoquant.distributed --help``)."""
+    p = argparse.ArgumentParser(
+        prog="python -m octoquant.distributed",
+        description="Build one OctoMap map on Dask distributed, byte-identical to `octoquant map`.",
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help="sensor files or scan directories")
+    p.add_argument("--res", type=float, default=0.1, help="leaf size in metres (default 0.1)")
+    p.add_argument("--max-range", type=float, default=None, help="readings beyond only clear space")
+    p.add_argument("-o", "--output", required=True, help="the .bt to write")
+    p.add_argument("--ot", default=None, help="also write the full tree as .ot")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=None, help="LocalCluster workers (default 2)")
+    where.add_argument("--scheduler", default=None, help="a running scheduler, tcp://HOST:PORT")
+    p.add_argument("--tile-depth", type=int, default=None, help="tile depth 0..16")
+    p.add_argument("--frames-per-task", type=int, default=None, help="frames per ray task")
+    p.add_argument("--format", default=None, help="input format (as `octoquant map --format`)")
+    p.add_argument("--pixel-step", type=int, default=1, help="TUM depth images: every N-th pixel")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    a = p.parse_args(argv)
+    if not a.output.lower().endswith(".bt"):
+        p.error(f"-o must name a .bt file, got {a.output}")
+    if a.ot is not None and not a.ot.lower().endswith(".ot"):
+        p.error(f"--ot must name a .ot file, got {a.ot}")
+    reader = {"pixel_step": a.pixel_step}
+    if a.format is not None:
+        reader["format"] = a.format
+    client = None
+    try:
+        if a.scheduler is not None:
+            import distributed
+
+            client = distributed.Client(a.scheduler)
+        tree, summary = build_map_with_summary(
+            a.inputs,
+            resolution=a.res,
+            max_range=a.max_range,
+            client=client,
+            n_workers=a.workers,
+            tile_depth=a.tile_depth,
+            frames_per_task=a.frames_per_task,
+            **reader,
+        )
+    except (ValueError, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    finally:
+        if client is not None:
+            client.close()
+    # the .ot first: the .bt's max-likelihood conversion changes the tree
+    if a.ot is not None:
+        tree.write(a.ot)
+    tree.writeBinary(a.output)
+    summary["output"] = a.output
+    summary["ot"] = a.ot
+    if a.json:
+        print(json.dumps(summary))
+    else:
+        print(_text_summary(summary, a.output, a.ot))
+    return 0
+
+
+if __name__ == "__main__":
+    from octoquant.distributed import main as _main
+
+    sys.exit(_main())
