@@ -197,3 +197,70 @@ pub fn export_ply_file(
     })?;
     Ok(stats)
 }
+
+/// The most points [`write_pcd`] writes (2^32 - 1, the most a PCD `WIDTH` holds in practice):
+/// a map whose occupied leaves hold more voxels (a pruned block of 2^48 voxels, say) is refused.
+pub const MAX_PCD_POINTS: u64 = u32::MAX as u64;
+
+/// Write the tree's occupied voxels as an ASCII PCD v0.7 cloud into `w`: OctoMap's
+/// `octree2pointcloud`. Every occupied leaf is expanded to voxel level (a pruned block becomes
+/// its voxels, in the tree's child order, as the tool's `expandNode` loop leaves them) and
+/// each voxel's centre is one point, in the tree's pre-order.
+///
+/// The header is the tool's, line for line (`FIELDS x y z`, `TYPE F F F`, `VIEWPOINT 0 0 0 0
+/// 0 0 1`...). The tool prints coordinates with six significant digits, which can name the
+/// wrong voxel for fine resolutions far from the origin; here each coordinate is the centre as
+/// an `f32` (the tool's `point3d`) in the shortest form that reads back to the same `f32`.
+/// Returns the number of points; an `InvalidInput` error, before anything is written, when
+/// that would exceed [`MAX_PCD_POINTS`].
+pub fn write_pcd(tree: &OcTree, w: &mut dyn Write) -> std::io::Result<u64> {
+    let params = tree.params();
+    let conv = tree.converter();
+    let count: u64 = tree
+        .leaves()
+        .filter(|l| params.is_occupied(l.value))
+        .map(|l| u64::from(l.width()).pow(3))
+        .sum();
+    // a pruned block near the root holds up to 2^48 voxels: refuse before writing any
+    if count > MAX_PCD_POINTS {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "the map's occupied leaves hold {count} voxels, more than the {MAX_PCD_POINTS} \
+                 points a PCD export may have"
+            ),
+        ));
+    }
+    write!(
+        w,
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n\
+         WIDTH {count}\nHEIGHT 1\nVIEWPOINT 0 0 0 0 0 0 1\nPOINTS {count}\nDATA ascii\n"
+    )?;
+    for leaf in tree.leaves().filter(|l| params.is_occupied(l.value)) {
+        let min = leaf.min_key();
+        let levels = octoquant_octree::TREE_DEPTH - leaf.depth;
+        // the voxels of the block in child order: the Morton order of their offsets
+        for i in 0u64..u64::from(leaf.width()).pow(3) {
+            let mut off = [0u16; 3];
+            for level in 0..levels {
+                for (a, o) in off.iter_mut().enumerate() {
+                    *o |= (((i >> (3 * u64::from(level) + a as u64)) & 1) as u16) << level;
+                }
+            }
+            let key = octoquant_octree::Key([0, 1, 2].map(|a| min[a] + off[a]));
+            let c = conv.key_to_point_f32(&key);
+            writeln!(w, "{} {} {}", c.x, c.y, c.z)?;
+        }
+    }
+    Ok(count)
+}
+
+/// Write the tree's occupied voxels as a PCD file at `path` (atomically); see [`write_pcd`].
+pub fn export_pcd_file(tree: &OcTree, path: &Path) -> Result<u64, ExportError> {
+    let mut n = 0;
+    write_atomic(path, |w| {
+        n = write_pcd(tree, w)?;
+        Ok(())
+    })?;
+    Ok(n)
+}

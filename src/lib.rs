@@ -58,9 +58,12 @@
 #![deny(missing_docs)]
 
 pub mod checkpoint;
+pub mod compare_image;
+pub mod eval;
 pub mod export;
 pub mod filters;
 pub mod grid;
+pub mod import;
 pub mod pipeline;
 pub mod query;
 pub mod render;

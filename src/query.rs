@@ -384,3 +384,41 @@ impl Walk<'_> {
         }
     }
 }
+
+/// What a map says at one point: OctoMap's `search(point3d)` and `isNodeOccupied`, as
+/// `octoquant query` prints it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointOccupancy {
+    /// The class: unknown (no node), free or occupied (log-odds against the threshold).
+    pub class: octoquant_octree::VoxelClass,
+    /// The node found: the voxel, or the pruned leaf above it that covers it.
+    pub node: Option<octoquant_octree::NodeInfo>,
+}
+
+impl PointOccupancy {
+    /// The node's occupancy probability (OctoMap's `getOccupancy`), `None` in unknown space.
+    pub fn probability(&self) -> Option<f64> {
+        self.node
+            .map(|n| octoquant_octree::probability(f64::from(n.value)))
+    }
+}
+
+/// The node holding `point` and its class, as OctoMap's `search(point3d)` finds it: the
+/// coordinates are first narrowed to `f32` (OctoMap's `point3d`, which is what C++ and
+/// octomap-python callers pass), so a point on a voxel border lands where OctoMap puts it.
+/// Points outside the map, or not finite, are unknown.
+pub fn occupancy_at(tree: &OcTree, point: &Point3<f64>) -> PointOccupancy {
+    use octoquant_octree::VoxelClass;
+    let narrowed = point.map(|c| f64::from(c as f32));
+    let node = tree
+        .converter()
+        .point_to_key_checked(&narrowed)
+        .ok()
+        .and_then(|k| tree.search(k, TREE_DEPTH));
+    let class = match node {
+        None => VoxelClass::Unknown,
+        Some(n) if tree.params().is_occupied(n.value) => VoxelClass::Occupied,
+        Some(_) => VoxelClass::Free,
+    };
+    PointOccupancy { class, node }
+}

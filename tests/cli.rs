@@ -319,10 +319,15 @@ fn bench_names_a_program_it_cannot_run_before_any_work() {
 fn output_names_are_checked_before_reading_and_list_the_accepted_extensions() {
     let dir = scratch("cli-output-names");
     // the inputs do not exist: the output's error must come first
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 9] = [
         (&["convert", "absent.bt", "out.png"], ".bt, .ot"),
+        (&["import", "absent.binvox", "-o", "out.png"], ".bt, .ot"),
+        (
+            &["compare", "absent.bt", "absent2.bt", "--png", "out.jpg"],
+            ".png",
+        ),
         (&["render", "absent.bt", "-o", "out.jpg"], ".png"),
-        (&["export", "absent.bt", "-o", "out.obj"], ".ply"),
+        (&["export", "absent.bt", "-o", "out.obj"], ".ply, .pcd"),
         (
             &["reduce", "absent.ply", "--cell", "0.1", "-o", "out.pcd"],
             ".ply",

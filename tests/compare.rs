@@ -123,3 +123,116 @@ fn kld_and_refusals_match_compare_octrees_on_real_maps() {
     // the sensor-model pairs and the sph pairs are defined, the max-range pairs are not
     assert_eq!(defined, 6);
 }
+
+/// `compare --png`: a real pair (the scan with and without a maximum range), every pixel's
+/// colour checked against a voxel-by-voxel look-up of its column in both maps.
+#[test]
+fn png_colours_each_column_by_its_class_pairs() {
+    let Some(frames) = common::data_file("octomap_reference/derived/scan.frames") else {
+        return;
+    };
+    let dir = scratch("compare_png");
+    let plain = map_ot(&frames, &[], &dir.join("plain.ot"));
+    let ranged = map_ot(&frames, &["--max-range", "5"], &dir.join("ranged.ot"));
+    let png_path = dir.join("diff.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("compare")
+        .args([&plain, &ranged, &png_path])
+        .arg("--json")
+        .output()
+        .unwrap();
+    // the third path is not an argument: the picture needs --png
+    assert!(!out.status.success());
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("compare")
+        .args([&plain, &ranged])
+        .arg("--png")
+        .arg(&png_path)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let png = &summary["png"];
+    assert_eq!(png["columns_per_pixel"], 1, "{summary}");
+    let decoder = png::Decoder::new(std::fs::File::open(&png_path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (w, h) = (info.width, info.height);
+    assert_eq!(
+        (png["width"].as_u64(), png["height"].as_u64()),
+        (Some(w.into()), Some(h.into()))
+    );
+    let a = octoquant::treefile::read_tree_file(&plain).unwrap();
+    let b = octoquant::treefile::read_tree_file(&ranged).unwrap();
+    let conv = a.converter().clone();
+    let res = a.resolution();
+    let origin = [
+        png["origin"][0].as_f64().unwrap(),
+        png["origin"][1].as_f64().unwrap(),
+    ];
+    let key_of = |c: f64| {
+        conv.point_to_key(&nalgebra::Point3::new(c, 0.0, 0.0))
+            .unwrap()[0]
+    };
+    let (x0, y0) = (key_of(origin[0] + res / 2.0), key_of(origin[1] + res / 2.0));
+    // the z keys known anywhere
+    let (zlo, zhi) = a
+        .leaves()
+        .chain(b.leaves())
+        .map(|l| (l.min_key()[2], l.min_key()[2] + (l.width() - 1) as u16))
+        .fold((u16::MAX, 0), |(lo, hi), (l, h)| (lo.min(l), hi.max(h)));
+    use octoquant::compare_image::*;
+    let mut seen = std::collections::HashSet::new();
+    let mut checked = 0;
+    for row in (0..h).step_by(3) {
+        for col in (0..w).step_by(3) {
+            let i = (row as usize * w as usize + col as usize) * 3;
+            let got = [buf[i], buf[i + 1], buf[i + 2]];
+            let (kx, ky) = (x0 + col as u16, y0 + (h - 1 - row) as u16);
+            let (mut first, mut second, mut both_occ, mut one, mut both_free) =
+                (false, false, false, false, false);
+            for kz in zlo..=zhi {
+                let k = octoquant::Key::new(kx, ky, kz);
+                match (a.is_occupied(k), b.is_occupied(k)) {
+                    (Some(true), Some(true)) => both_occ = true,
+                    (Some(true), _) => first = true,
+                    (_, Some(true)) => second = true,
+                    (Some(false), Some(false)) => both_free = true,
+                    (None, None) => {}
+                    _ => one = true,
+                }
+            }
+            let want = if first && second {
+                BOTH_CHANGES
+            } else if first {
+                ONLY_FIRST
+            } else if second {
+                ONLY_SECOND
+            } else if both_occ {
+                BOTH_OCCUPIED
+            } else if one {
+                ONE_KNOWS
+            } else if both_free {
+                BOTH_FREE
+            } else {
+                octoquant::render::UNKNOWN_COLOUR
+            };
+            assert_eq!(got, want, "pixel ({col}, {row}), column key ({kx}, {ky})");
+            seen.insert(want);
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+    // the max range loses far obstacles and keeps near ones: several colours appear
+    assert!(
+        seen.contains(&ONLY_FIRST) && seen.contains(&BOTH_OCCUPIED),
+        "{seen:?}"
+    );
+    assert!(seen.len() >= 4, "{seen:?}");
+}

@@ -17,6 +17,7 @@
 //! | [`pcd`] | PCD v0.7 ascii / binary / binary_compressed | one |
 //! | [`mcap`] | `sensor_msgs/PointCloud2` in ROS 1 / ROS 2 MCAP bags, posed by tf | one per cloud |
 //! | [`ply`] | PLY `vertex` positions (read and write) | one |
+//! | [`binvox`] | binvox voxel grids (`binvox2bt`'s input) | voxels, not frames |
 //! | [`carmen`] | CARMEN laser logs (`FLASER`, `ROBOTLASER1`) | 2D scans, not frames |
 //!
 //! Every file may be `.gz`/`.bz2` compressed ([`source`]). Errors are one [`FormatError`]
@@ -29,6 +30,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod binvox;
 pub mod carmen;
 mod error;
 pub mod frame;

@@ -7,7 +7,7 @@
 //! the volume.
 
 use crate::error::OctreeError;
-use crate::key::TREE_DEPTH;
+use crate::key::{Key, TREE_DEPTH};
 use crate::store::{present, NodeRef, NO_BLOCK};
 use crate::tree::OcTree;
 
@@ -166,6 +166,79 @@ fn walk(a: &OcTree, b: &OcTree, sa: Side, sb: Side, depth: u8, out: &mut ClassCo
             let (ka, kb) = (a.child_sides(sa), b.child_sides(sb));
             for i in 0..8 {
                 walk(a, b, ka[i], kb[i], depth + 1, out);
+            }
+        }
+    }
+}
+
+/// A cube of space over which two maps are each uniform (a leaf, a pruned cube or unknown
+/// space in each), as [`for_each_class_cube`] visits them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClassCube {
+    /// The smallest depth-16 key inside the cube.
+    pub min_key: Key,
+    /// The cube's depth (16 = one voxel): it spans `2^(16 - depth)` keys per axis.
+    pub depth: u8,
+    /// Its class in the first map.
+    pub first: VoxelClass,
+    /// Its class in the second map.
+    pub second: VoxelClass,
+}
+
+impl ClassCube {
+    /// Keys per axis the cube spans.
+    pub fn width(&self) -> u32 {
+        1u32 << (TREE_DEPTH - self.depth)
+    }
+}
+
+/// Visit every cube of space known to at least one of two maps of the same resolution, each
+/// cube as large as both maps allow (where one map has a pruned leaf and the other detail, the
+/// detail's cubes), in depth-first child order: the walk of [`compare_classes`], with places.
+/// Errors when the resolutions differ by more than 1e-6 m.
+pub fn for_each_class_cube(
+    a: &OcTree,
+    b: &OcTree,
+    mut visit: impl FnMut(ClassCube),
+) -> Result<(), OctreeError> {
+    if (a.resolution() - b.resolution()).abs() > 1e-6 {
+        return Err(OctreeError::ResolutionMismatch {
+            first: a.resolution(),
+            second: b.resolution(),
+        });
+    }
+    cube_walk(a, b, a.root_side(), b.root_side(), 0, [0; 3], &mut visit);
+    Ok(())
+}
+
+fn cube_walk(
+    a: &OcTree,
+    b: &OcTree,
+    sa: Side,
+    sb: Side,
+    depth: u8,
+    min: [u16; 3],
+    visit: &mut impl FnMut(ClassCube),
+) {
+    let class = |s: Side| match s {
+        Side::Absent => Some(VoxelClass::Unknown),
+        Side::Leaf(c, _) => Some(c),
+        Side::Inner(_) => None,
+    };
+    match (class(sa), class(sb)) {
+        (Some(VoxelClass::Unknown), Some(VoxelClass::Unknown)) => {}
+        (Some(first), Some(second)) => visit(ClassCube {
+            min_key: Key(min),
+            depth,
+            first,
+            second,
+        }),
+        _ => {
+            let (ka, kb) = (a.child_sides(sa), b.child_sides(sb));
+            let half = 1u16 << (TREE_DEPTH - depth - 1);
+            for i in 0..8 {
+                let m = [0, 1, 2].map(|ax| min[ax] + if i >> ax & 1 == 1 { half } else { 0 });
+                cube_walk(a, b, ka[i], kb[i], depth + 1, m, visit);
             }
         }
     }
@@ -341,6 +414,23 @@ mod tests {
             }
             let got = compare_classes(&ta, &tb).unwrap();
             prop_assert_eq!(got, naive(&ta, &tb, LO, N));
+            // the cubes cover exactly the known voxels, each with both maps' classes there
+            let class = |t: &OcTree, k: Key| match t.is_occupied(k) {
+                None => VoxelClass::Unknown,
+                Some(false) => VoxelClass::Free,
+                Some(true) => VoxelClass::Occupied,
+            };
+            let mut from_cubes = ClassComparison::default();
+            for_each_class_cube(&ta, &tb, |c| {
+                let w = c.width() as u16;
+                for i in 0..u32::from(w).pow(3) {
+                    let o = [i % u32::from(w), i / u32::from(w) % u32::from(w), i / u32::from(w).pow(2)];
+                    let k = Key::new(c.min_key[0] + o[0] as u16, c.min_key[1] + o[1] as u16, c.min_key[2] + o[2] as u16);
+                    assert_eq!((class(&ta, k), class(&tb, k)), (c.first, c.second), "{c:?}");
+                }
+                from_cubes.counts[c.first as usize][c.second as usize] += u64::from(w).pow(3);
+            }).unwrap();
+            prop_assert_eq!(from_cubes, got);
             let same = compare_classes(&ta, &ta).unwrap();
             prop_assert_eq!(same.agreement(), 1.0);
             prop_assert_eq!(same.known_in_either(), naive(&ta, &ta, LO, N).known_in_either());

@@ -46,8 +46,8 @@ pub use brick::Brick;
 pub use color::Color;
 pub use color_tree::{ColorNodeInfo, ColorOcTree};
 pub use compare::{
-    compare_classes, kl_divergence, voxel_kld, ClassComparison, Divergence, VoxelClass,
-    KLD_ORDERED_VOXELS,
+    compare_classes, for_each_class_cube, kl_divergence, voxel_kld, ClassComparison, ClassCube,
+    Divergence, VoxelClass, KLD_ORDERED_VOXELS,
 };
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};

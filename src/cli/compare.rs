@@ -1,10 +1,14 @@
 //! `octoquant compare A B [--json]`: OctoMap's `compare_octrees`, and more: how two maps of
 //! the same resolution agree voxel by voxel (occupancy class), the volume that changed class,
-//! and the Kullback-Leibler divergence exactly as `compare_octrees` sums it.
+//! and the Kullback-Leibler divergence exactly as `compare_octrees` sums it; with `--png`, a
+//! top view coloured by where they differ (`octoquant::compare_image`).
 
 use super::{json_path, print_json};
 use anyhow::{bail, Result};
+use octoquant::compare_image::difference_image;
 use octoquant::octree::{compare_classes, kl_divergence, Divergence, VoxelClass};
+use octoquant::output::{check_output, write_atomic};
+use octoquant::render::write_png;
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
 
@@ -17,9 +21,21 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Also draw where the maps differ, seen from above: red occupied only in the first map,
+    /// green only in the second, yellow both kinds in one column, light grey occupied in both,
+    /// blue free in one map and unknown in the other, dark grey free in both.
+    #[arg(long, value_name = "OUT.png")]
+    png: Option<PathBuf>,
+    /// The picture's longer side at most, in pixels (a pixel covers more voxel columns
+    /// when the map is larger).
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    max_pixels: u32,
 }
 
 pub fn run(a: &Args) -> Result<()> {
+    if let Some(png) = &a.png {
+        check_output(png, &["png"], &[a.first.clone(), a.second.clone()])?;
+    }
     let ta = read_tree_file(&a.first)?;
     let tb = read_tree_file(&a.second)?;
     if (ta.resolution() - tb.resolution()).abs() > 1e-6 {
@@ -37,6 +53,38 @@ pub fn run(a: &Args) -> Result<()> {
     let changed = classes.known_in_either() - classes.agreeing();
     let changed_m3 = changed as f64 * res * res * res;
     let names = ["unknown", "free", "occupied"];
+    let picture = match &a.png {
+        Some(png) => {
+            let d = difference_image(&ta, &tb, a.max_pixels)?;
+            write_atomic(png, |w| write_png(&d.image, w))?;
+            Some((png, d))
+        }
+        None => None,
+    };
+    let picture_json = picture.as_ref().map(|(png, d)| {
+        let keys = [
+            "both_changes",
+            "only_first",
+            "only_second",
+            "both_occupied",
+            "one_knows",
+            "both_free",
+            "unknown",
+        ];
+        let pixels: serde_json::Map<String, serde_json::Value> = keys
+            .iter()
+            .zip(d.pixels)
+            .map(|(k, n)| (k.to_string(), n.into()))
+            .collect();
+        serde_json::json!({
+            "output": json_path(png),
+            "width": d.image.width,
+            "height": d.image.height,
+            "columns_per_pixel": d.columns_per_pixel,
+            "origin": d.origin,
+            "pixels": pixels,
+        })
+    });
     if a.json {
         let mut matrix = serde_json::Map::new();
         for ca in VoxelClass::ALL {
@@ -73,6 +121,7 @@ pub fn run(a: &Args) -> Result<()> {
             "changed_volume_m3": changed_m3,
             "kld": kld,
             "kld_note": kld_note,
+            "png": picture_json,
         }))?;
         return Ok(());
     }
@@ -124,6 +173,16 @@ pub fn run(a: &Args) -> Result<()> {
             "KLD:              not defined: the maps know different voxels (compare_octrees refuses them)"
         )?,
         Divergence::NotANumber => outln!("KLD:              not a number (a NaN log-odds in a map)")?,
+    }
+    if let Some((png, d)) = &picture {
+        errln!(
+            "wrote {} ({} x {} pixels, {} voxel columns per pixel side; {} pixels with changes)",
+            png.display(),
+            d.image.width,
+            d.image.height,
+            d.columns_per_pixel,
+            d.pixels[0] + d.pixels[1] + d.pixels[2]
+        );
     }
     Ok(())
 }

@@ -1,8 +1,9 @@
-//! `octoquant export MAP -o OUT.ply [--free] [--cubes] [--ascii] [--json]`.
+//! `octoquant export MAP -o OUT.ply [--free] [--cubes] [--ascii] [--json]`, or `-o OUT.pcd`:
+//! the occupied voxel centres as ASCII PCD (OctoMap's octree2pointcloud).
 
 use super::{json_path, print_json};
-use anyhow::Result;
-use octoquant::export::{export_ply_file, ExportOptions};
+use anyhow::{bail, Result};
+use octoquant::export::{export_pcd_file, export_ply_file, ExportOptions};
 use octoquant::output::check_output;
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
@@ -11,7 +12,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// The .bt or .ot map.
     map: PathBuf,
-    /// Output PLY.
+    /// Output .ply, or .pcd for the occupied voxel centres (every voxel of a pruned block).
     #[arg(short, long)]
     output: PathBuf,
     /// Also export free leaves (pale blue).
@@ -29,8 +30,31 @@ pub struct Args {
 }
 
 pub fn run(a: &Args) -> Result<()> {
-    check_output(&a.output, &["ply"], std::slice::from_ref(&a.map))?;
+    check_output(&a.output, &["ply", "pcd"], std::slice::from_ref(&a.map))?;
+    let pcd = a
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pcd"));
+    if pcd && (a.free || a.cubes) {
+        bail!(
+            "{}: a PCD export holds occupied voxel centres only (--free and --cubes are for PLY)",
+            a.output.display()
+        );
+    }
     let tree = read_tree_file(&a.map)?;
+    if pcd {
+        let n = export_pcd_file(&tree, &a.output)?;
+        if a.json {
+            print_json(&serde_json::json!({
+                "map": json_path(&a.map),
+                "output": json_path(&a.output),
+                "points": n,
+            }))?;
+        } else {
+            errln!("wrote {}: {n} occupied voxel centres", a.output.display());
+        }
+        return Ok(());
+    }
     let options = ExportOptions {
         free: a.free,
         cubes: a.cubes,

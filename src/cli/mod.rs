@@ -26,12 +26,15 @@ mod compare;
 mod convert;
 mod crop;
 mod demo;
+mod eval;
 mod export;
 mod fresh_dir;
 mod grid;
+mod import;
 mod info;
 mod map;
 mod progress;
+mod query;
 mod reduce;
 mod render;
 mod segment;
@@ -76,6 +79,14 @@ enum Command {
     Grid(grid::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
+    /// How well a map predicts scans (OctoMap's eval_octree_accuracy): the share of the
+    /// scans' free and end-point voxels the map holds in the same class.
+    Eval(eval::Args),
+    /// Turn binvox voxel grids into a map (OctoMap's binvox2bt).
+    Import(import::Args),
+    /// Look up points (class, probability, depth of the node found) and cast rays (castRay)
+    /// in a map.
+    Query(query::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -93,6 +104,9 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Reduce(a)) => reduce::run(&a),
         Some(Command::Segment(a)) => segment::run(&a),
         Some(Command::Grid(a)) => grid::run(&a),
+        Some(Command::Eval(a)) => eval::run(&a),
+        Some(Command::Import(a)) => import::run(&a),
+        Some(Command::Query(a)) => query::run(&a),
         None => demo::run_default(),
     };
     match result {

@@ -6,7 +6,7 @@
 //!   [`Frame`](crate::Frame) in a fixed frame, with per-cloud [`CloudStats`]; [`list_topics`]
 //!   names what a file holds.
 //! - [`decode_point_cloud2`]: one message, in either encoding, into a [`PointCloud2`]
-//!   whose [`PointCloud2::points`] extracts `x y z` from any field layout.
+//!   whose [`PointCloud2::points_f32`] extracts `x y z` from any field layout.
 //!
 //! **Encodings.** `ros1` (little-endian, packed, strings as `u32` length + bytes) and `cdr`
 //! (ROS 2: a 4-byte encapsulation header selecting little or big endian, then each primitive

@@ -1,5 +1,5 @@
 //! `sensor_msgs/PointCloud2`: decoding a message ([`decode_point_cloud2`]) and extracting the
-//! valid `x y z` of any field layout ([`PointCloud2::points`]).
+//! valid `x y z` of any field layout ([`PointCloud2::points_f32`]).
 //!
 //! The point bytes follow the message's own `is_bigendian`, `point_step`, `row_step` and field
 //! offsets; `x`, `y`, `z` may be `FLOAT32` or `FLOAT64`. Drivers store missing returns as NaN

@@ -35,6 +35,7 @@ fn main() {
     mcap(&mut seeds);
     source(&mut seeds);
     octree_ops(&mut seeds);
+    binvox(&mut seeds);
     count_frames(&mut seeds);
     let checked = check_seeds(&seeds.out);
     println!(
@@ -79,6 +80,16 @@ fn check_seeds(out: &Path) -> usize {
             "ColorOcTree",
             p,
             octoquant_octree::io::read_color_ot(bytes(p).as_slice())
+                .map(drop)
+                .map_err(|e| e.to_string()),
+        );
+        n += 1;
+    }
+    for p in files("binvox") {
+        ok(
+            "binvox",
+            &p,
+            octoquant_formats::binvox::read_binvox(&p)
                 .map(drop)
                 .map_err(|e| e.to_string()),
         );
@@ -536,6 +547,36 @@ fn vtk(s: &mut Seeds) {
                1700000000,5000,1.0,2.0,0.5,0,0,0,1\n1700000001,999999999,1.5,2.0,0.5,0,0,0.7071068,0.7071068\n";
     s.put("vtk", "trajectory.csv", csv.as_bytes());
     s.put("vtk", "scan-name.txt", b"scan_1700000000_000005000.vtk");
+}
+
+// ---- binvox ---------------------------------------------------------------------------
+
+fn binvox(s: &mut Seeds) {
+    use octoquant_formats::binvox::write_binvox;
+    // a 4 x 5 x 6 grid: a diagonal slab of voxels, a run of value 2
+    let cells: Vec<u8> = (0..120)
+        .map(|j| match j {
+            0..=9 => 2,
+            _ if (j / 30) == (j % 6) / 2 => 1,
+            _ => 0,
+        })
+        .collect();
+    s.put(
+        "binvox",
+        "slab.binvox",
+        &write_binvox([4, 5, 6], [-0.5, 0.25, 1.0], 1.5, &cells),
+    );
+    // 300 cells in one line: runs split at 255
+    s.put(
+        "binvox",
+        "line.binvox",
+        &write_binvox([300, 1, 1], [0.0; 3], 3.0, &[1; 300]),
+    );
+    // an unknown header line and header words in another order
+    let mut odd =
+        b"#binvox 1\nbbox 0 0 0 1 1 1\nscale 0.1\ntranslate 1 2 3\ndim 2 2 2\ndata\n".to_vec();
+    odd.extend_from_slice(&[0, 3, 1, 5]);
+    s.put("binvox", "header-order.binvox", &odd);
 }
 
 // ---- .graph and .frames --------------------------------------------------------------
