@@ -20,5 +20,6 @@ mod reduce;
 mod render;
 mod scene;
 mod segment;
+mod stamped_diff;
 mod stream;
 mod tree_files;
