@@ -22,6 +22,7 @@ mod reduce;
 mod render;
 mod scene;
 mod segment;
+mod stamped_diff;
 mod stream;
 mod tiled;
 mod tools_cli;

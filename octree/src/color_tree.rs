@@ -34,6 +34,7 @@
 use crate::color::Color;
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
+pub(crate) use crate::node_id::{child_id, node_id, NodeId};
 use crate::params::OccupancyParams;
 use crate::store::NodeRef;
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
@@ -47,28 +48,6 @@ pub struct ColorNodeInfo {
     pub node: NodeInfo,
     /// Its colour (white when none was set).
     pub color: Color,
-}
-
-/// The side table's key for a node: its depth and smallest voxel key.
-pub(crate) type NodeId = (u8, Key);
-
-/// The id of the node at `depth` containing `key`.
-#[inline]
-pub(crate) fn node_id(key: Key, depth: u8) -> NodeId {
-    (depth, key.min_at_depth(depth))
-}
-
-/// The id of child `i` of the node `id`.
-#[inline]
-pub(crate) fn child_id(id: NodeId, i: usize) -> NodeId {
-    let (depth, mut k) = id;
-    let half = 1u16 << (15 - depth);
-    for a in 0..3 {
-        if i >> a & 1 == 1 {
-            k.0[a] |= half;
-        }
-    }
-    (depth + 1, k)
 }
 
 /// OctoMap's `ColorOcTree`: occupancy log-odds and an RGB colour per node, with OctoMap

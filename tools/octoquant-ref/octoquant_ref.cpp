@@ -5,6 +5,7 @@
 //
 //   octoquant-ref script FILE|-          run a command script (one command per line)
 //   octoquant-ref color-script FILE|-    the same on a ColorOcTree, with the colour commands
+//   octoquant-ref stamped-script FILE|-  the same on an OcTreeStamped, with the clock commands
 //   octoquant-ref rays RES IN OUT        computeRayKeys for a batch of rays
 //   octoquant-ref castray TREE IN OUT    castRay on a .bt/.ot tree for a batch of rays
 //   octoquant-ref keys RES IN OUT        coordToKeyChecked / coordToKey / keyToCoord
@@ -37,6 +38,15 @@
 //   points FILE LAZY                  per point: updateNode(point, true, lazy), then
 //                                     integrateNodeColor(x, y, z, r, g, b)
 //
+// Clock commands (stamped-script only; the program defines time() itself, so OctoMap's
+// time(NULL) calls, made inside liboctomap, read this clock instead of the system's):
+//   clock T                           time(NULL) returns T from now on
+//   degrade THRES                     degradeOutdatedNodes(THRES)
+//   print_last_update                 prints "last_update T" (getLastUpdateTime; 0 if empty)
+//   print_nodes                       prints "node DEPTH KX KY KZ VALUEBITS STAMP" per node,
+//                                     pre-order, children 0..7, KX KY KZ the smallest voxel key
+//   insert ... stamps START STEP      frame I is inserted at time START + I * STEP
+//
 // Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
 // f32 origin[3], u32 n, n x f32[3]. Coloured points (points): u32 n, n x (f32[3], u8 r g b,
 // u8 padding).
@@ -44,6 +54,7 @@
 #include <octomap/octomap.h>
 #include <octomap/OcTree.h>
 #include <octomap/ColorOcTree.h>
+#include <octomap/OcTreeStamped.h>
 
 #include <algorithm>
 #include <tuple>
@@ -62,6 +73,40 @@
 #include <vector>
 
 using namespace octomap;
+
+// The clock of stamped-script: OctoMap's OcTreeStamped reads time(NULL) inside the library;
+// defining time() here interposes it (the executable's definition comes first in symbol
+// lookup). Negative: the real clock.
+static long long g_clock = -1;
+
+extern "C" time_t time(time_t* out) noexcept {
+  time_t now;
+  if (g_clock >= 0) {
+    now = static_cast<time_t>(g_clock);
+  } else {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    now = ts.tv_sec;
+  }
+  if (out) *out = now;
+  return now;
+}
+
+// Pre-order dump of an OcTreeStamped: depth, smallest voxel key, value bits, stamp.
+static void print_stamped_nodes(const OcTreeStamped& tree, const OcTreeNodeStamped* n,
+                                unsigned depth, unsigned kx, unsigned ky, unsigned kz) {
+  float v = n->getLogOdds();
+  uint32_t bits;
+  std::memcpy(&bits, &v, 4);
+  std::printf("node %u %u %u %u %08x %u\n", depth, kx, ky, kz, bits, n->getTimestamp());
+  if (!tree.nodeHasChildren(n)) return;
+  unsigned half = 1u << (15 - depth);
+  for (unsigned i = 0; i < 8; ++i) {
+    if (!tree.nodeChildExists(n, i)) continue;
+    print_stamped_nodes(tree, tree.getNodeChild(n, i), depth + 1, kx | ((i & 1) ? half : 0),
+                        ky | ((i & 2) ? half : 0), kz | ((i & 4) ? half : 0));
+  }
+}
 
 [[noreturn]] static void die(const std::string& msg) {
   std::cerr << "octoquant-ref: " << msg << std::endl;
@@ -153,10 +198,12 @@ static void insert_colored_points(ColorOcTree& tree, const std::string& path, bo
   }
 }
 
-// TREE is OcTree ("script") or ColorOcTree ("color-script").
+// TREE is OcTree ("script"), ColorOcTree ("color-script") or OcTreeStamped
+// ("stamped-script").
 template <class TREE>
 static int run_script(std::istream& in) {
   constexpr bool color = std::is_same<TREE, ColorOcTree>::value;
+  constexpr bool stamped = std::is_same<TREE, OcTreeStamped>::value;
   std::unique_ptr<TREE> tree(new TREE(0.1));
   std::string line;
   size_t lineno = 0;
@@ -234,8 +281,10 @@ static int run_script(std::istream& in) {
       ls >> p;
       double maxrange = -1.0;
       bool discretize = false, lazy = false, simple = false, inner = false;
+      long long stamp_start = -1, stamp_step = 0;
       while (ls >> opt) {
         if (opt == "maxrange") ls >> maxrange;
+        else if (opt == "stamps") ls >> stamp_start >> stamp_step;
         else if (opt == "discretize") discretize = true;
         else if (opt == "lazy") lazy = true;
         else if (opt == "simple") simple = true;
@@ -244,6 +293,7 @@ static int run_script(std::istream& in) {
       }
       std::vector<Frame> frames = read_frames(p);
       for (size_t i = 0; i < frames.size(); ++i) {
+        if (stamp_start >= 0) g_clock = stamp_start + static_cast<long long>(i) * stamp_step;
         auto t0 = std::chrono::steady_clock::now();
         if (simple)
           tree->insertPointCloudRays(frames[i].cloud, frames[i].origin, maxrange, lazy);
@@ -288,6 +338,22 @@ static int run_script(std::istream& in) {
         std::string p;
         ls >> p;
         insert_colored_points(*tree, p, lazy_from(ls));
+      }
+    } else if (stamped && cmd == "clock") {
+      if (!(ls >> g_clock) || g_clock < 0) die("clock needs a time >= 0");
+    } else if (stamped && cmd == "degrade") {
+      if constexpr (stamped) {
+        unsigned thres = 0;
+        if (!(ls >> thres)) die("degrade needs a threshold");
+        tree->degradeOutdatedNodes(thres);
+      }
+    } else if (stamped && cmd == "print_last_update") {
+      if constexpr (stamped) {
+        std::printf("last_update %u\n", tree->getRoot() ? tree->getLastUpdateTime() : 0u);
+      }
+    } else if (stamped && cmd == "print_nodes") {
+      if constexpr (stamped) {
+        if (tree->getRoot()) print_stamped_nodes(*tree, tree->getRoot(), 0, 0, 0, 0);
       }
     } else {
       die("line " + std::to_string(lineno) + ": unknown command " + cmd);
@@ -391,10 +457,12 @@ static int run_graph2frames(const std::string& inpath, const std::string& outpat
 }
 
 int main(int argc, char** argv) {
-  if (argc < 2) die("usage: octoquant-ref script|color-script|rays|castray|keys|graph2frames ...");
+  if (argc < 2) die("usage: octoquant-ref script|color-script|stamped-script|rays|castray|keys|graph2frames ...");
   std::string mode = argv[1];
-  if ((mode == "script" || mode == "color-script") && argc == 3) {
-    auto run = mode == "script" ? run_script<OcTree> : run_script<ColorOcTree>;
+  if ((mode == "script" || mode == "color-script" || mode == "stamped-script") && argc == 3) {
+    auto run = mode == "script"         ? run_script<OcTree>
+               : mode == "color-script" ? run_script<ColorOcTree>
+                                        : run_script<OcTreeStamped>;
     if (std::string(argv[2]) == "-") return run(std::cin);
     std::ifstream in(argv[2]);
     if (!in) die(std::string("cannot open ") + argv[2]);

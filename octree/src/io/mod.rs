@@ -9,12 +9,14 @@ mod bt;
 mod header;
 mod ot;
 mod ot_color;
+mod ot_stamped;
 mod stream;
 
 pub use bt::{read_bt, write_bt, write_bt_const};
 pub use header::format_resolution;
 pub use ot::{read_ot, write_ot};
 pub use ot_color::{read_color_ot, write_color_ot, COLOR_OCTREE_ID};
+pub use ot_stamped::{read_stamped_ot, write_stamped_ot, STAMPED_OCTREE_ID};
 
 /// Which of the two OctoMap tree formats a file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! `.ot`: OctoMap's full-tree format (`AbstractOcTree::write` / `read`) for `OcTree`.
 
-use super::header::{read_header, write_header};
+use super::header::{read_header, write_header_id, Header};
 use super::stream::Stream;
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
@@ -14,8 +14,14 @@ const FMT: &str = ".ot";
 /// Write the whole tree as it is: per node its `f32` log-odds (little-endian) and a child
 /// bitmask, pre-order. No max-likelihood conversion or pruning.
 pub fn write_ot<W: Write>(tree: &OcTree, w: W) -> std::io::Result<()> {
+    write_ot_typed(tree, "OcTree", w)
+}
+
+/// [`write_ot`] with the tree type `id` in the header: the tree types whose nodes write only
+/// their log-odds (`OcTree`, `OcTreeStamped`, whose time stamps OctoMap does not save).
+pub(crate) fn write_ot_typed<W: Write>(tree: &OcTree, id: &str, w: W) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::with_capacity(1 << 16, w);
-    write_header(&mut w, OT_HEADER, tree.size(), tree.resolution())?;
+    write_header_id(&mut w, OT_HEADER, id, tree.size(), tree.resolution())?;
     if !tree.is_empty() {
         let mut out = Vec::with_capacity(5 * tree.size());
         write_node(tree, NodeRef::ROOT, &mut out);
@@ -59,6 +65,11 @@ pub fn read_ot<R: Read>(reader: R) -> Result<OcTree, OctreeError> {
 
 pub(crate) fn read_ot_after_first_line<R: Read>(s: &mut Stream<R>) -> Result<OcTree, OctreeError> {
     let h = read_header(s, FMT)?;
+    read_ot_body(s, &h)
+}
+
+/// The node records after an `.ot` header whose tree type stores only log-odds per node.
+pub(crate) fn read_ot_body<R: Read>(s: &mut Stream<R>, h: &Header) -> Result<OcTree, OctreeError> {
     let mut tree = OcTree::new(h.res)?;
     if h.size > 0 {
         let data_start = s.offset;

@@ -1,0 +1,578 @@
+//! OctoMap's `OcTreeStamped`: an occupancy octree whose nodes also carry the time (whole
+//! seconds, `unsigned int`) of their last update, so a long-running robot can forget what it
+//! has not seen for a while ([`StampedOcTree::degrade_outdated_nodes`]).
+//!
+//! # Representation
+//!
+//! As [`ColorOcTree`](crate::ColorOcTree) keeps colours, a [`StampedOcTree`] is an [`OcTree`]
+//! for the occupancy plus a side table of time stamps keyed by node (depth and smallest voxel
+//! key), with an entry for every existing node whose stamp is not 0 (OctoMap's stamp of a new
+//! node). The plain tree's packed voxel blocks stay as they are, and every structural change
+//! OctoMap makes is mirrored in the table.
+//!
+//! # OctoMap's stamp semantics (1.9.7), reproduced
+//!
+//! - A voxel an update reaches gets the current time (`updateNodeLogOdds` calls
+//!   `updateTimestamp`); so does every inner node an eager update refreshes
+//!   (`updateOccupancyChildren`). An update that cannot change the voxel (already at the clamp
+//!   it pushes towards) returns early and refreshes nothing. Lazy updates stamp only the voxel.
+//! - Nodes compare equal only with equal log-odds *and* stamps (`OcTreeNodeStamped::
+//!   operator==`), so eight equal-valued leaves with different stamps are *not* pruned, unlike
+//!   in a plain `OcTree`. A pruned node takes child 0's stamp; expanding a node gives its
+//!   children its stamp (`copyData`).
+//! - `setNodeValue` leaves the voxel's stamp alone but refreshes the inner nodes it passes;
+//!   `updateInnerOccupancy` stamps every inner node; `deleteNode` stamps the parent that keeps
+//!   children; `toMaxLikelihood` changes no stamp.
+//! - [`StampedOcTree::degrade_outdated_nodes`] applies one miss, without a new stamp and
+//!   without refreshing inner nodes (`integrateMissNoTime`), to every occupied leaf whose stamp
+//!   is more than `time_thres` seconds older than now, in `unsigned int` arithmetic.
+//! - `.ot` files of type `OcTreeStamped` hold only the log-odds, exactly as a plain `.ot`:
+//!   OctoMap does not save stamps, and a tree read back has every stamp 0.
+//!
+//! OctoMap reads the clock (`time(NULL)`) inside each operation; here every operation that
+//! stamps has an `_at` form taking `now` explicitly (what tests and replays of recorded data
+//! need) and a plain form reading the system clock ([`now_seconds`]). A scan goes in with
+//! [`StampedOcTree::insert_update_at`] from the free and occupied voxel sets that
+//! `octoquant_raycast::compute_update` computes, as OctoMap's `insertPointCloud` does.
+//!
+//! ```
+//! use octoquant_octree::{InnerNodes, Key, StampedOcTree, Update};
+//!
+//! let mut tree = StampedOcTree::new(0.1).unwrap();
+//! let wall = Key::new(32800, 32768, 32768);
+//! for t in 100..103 {
+//!     tree.update_node_at(wall, Update::Hit, InnerNodes::Refresh, t);
+//! }
+//! assert_eq!(tree.timestamp(wall), Some(102));
+//! assert_eq!(tree.last_update_time(), 102);
+//! // not seen for 60 s: one miss each time the map is degraded
+//! let before = tree.search(wall, 16).unwrap().node.value;
+//! tree.degrade_outdated_nodes_at(30, 162);
+//! assert!(tree.search(wall, 16).unwrap().node.value < before);
+//! ```
+
+use crate::error::OctreeError;
+use crate::key::{Key, KeyConverter, TREE_DEPTH};
+use crate::node_id::{child_id, node_id, NodeId};
+use crate::params::OccupancyParams;
+use crate::store::NodeRef;
+use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
+use std::collections::HashMap;
+
+/// The current time as OctoMap stamps it: `(unsigned int) time(NULL)`, whole seconds since
+/// the Unix epoch, truncated to 32 bits (0 if the clock is before the epoch).
+pub fn now_seconds() -> u32 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as u32)
+        .unwrap_or(0)
+}
+
+/// A node of a [`StampedOcTree`] found by [`StampedOcTree::search`]: occupancy and stamp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampedNodeInfo {
+    /// The node's occupancy (log-odds, depth, whether it has children).
+    pub node: NodeInfo,
+    /// The time of its last update (seconds; 0 for a node never stamped).
+    pub timestamp: u32,
+}
+
+/// OctoMap's `OcTreeStamped`: occupancy log-odds and a time stamp per node, with OctoMap
+/// 1.9.7's stamp rules and `.ot` bytes (see the module docs).
+#[derive(Clone)]
+pub struct StampedOcTree {
+    pub(crate) tree: OcTree,
+    /// Stamps of the nodes whose stamp is not 0.
+    pub(crate) stamps: HashMap<NodeId, u32>,
+}
+
+impl std::fmt::Debug for StampedOcTree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StampedOcTree")
+            .field("resolution", &self.resolution())
+            .field("size", &self.size())
+            .field("last_update_time", &self.last_update_time())
+            .finish()
+    }
+}
+
+impl StampedOcTree {
+    /// An empty tree with leaf size `resolution` and OctoMap's default sensor model.
+    pub fn new(resolution: f64) -> Result<Self, OctreeError> {
+        Ok(Self::from_occupancy(OcTree::new(resolution)?))
+    }
+
+    /// An empty tree with the given sensor model.
+    pub fn with_params(resolution: f64, params: OccupancyParams) -> Result<Self, OctreeError> {
+        Ok(Self::from_occupancy(OcTree::with_params(
+            resolution, params,
+        )?))
+    }
+
+    /// A stamped tree over an existing occupancy tree, every stamp 0 (what OctoMap's reader
+    /// gives, since `.ot` files hold no stamps).
+    pub fn from_occupancy(tree: OcTree) -> Self {
+        StampedOcTree {
+            tree,
+            stamps: HashMap::new(),
+        }
+    }
+
+    /// The occupancy tree, for every read-only query `OcTree` offers.
+    pub fn occupancy(&self) -> &OcTree {
+        &self.tree
+    }
+
+    /// The occupancy tree without the stamps.
+    pub fn into_occupancy(self) -> OcTree {
+        self.tree
+    }
+
+    /// Leaf size in metres.
+    pub fn resolution(&self) -> f64 {
+        self.tree.resolution()
+    }
+
+    /// Key <-> coordinate conversion of this tree.
+    pub fn converter(&self) -> &KeyConverter {
+        self.tree.converter()
+    }
+
+    /// The sensor model.
+    pub fn params(&self) -> &OccupancyParams {
+        self.tree.params()
+    }
+
+    /// Number of nodes.
+    pub fn size(&self) -> usize {
+        self.tree.size()
+    }
+
+    /// Whether the tree has no node.
+    pub fn is_empty(&self) -> bool {
+        self.tree.is_empty()
+    }
+
+    /// Remove every node.
+    pub fn clear(&mut self) {
+        self.tree.clear();
+        self.stamps.clear();
+    }
+
+    pub(crate) fn stamp_of(&self, id: NodeId) -> u32 {
+        self.stamps.get(&id).copied().unwrap_or(0)
+    }
+
+    fn put_stamp(&mut self, id: NodeId, t: u32) {
+        if t == 0 {
+            self.stamps.remove(&id);
+        } else {
+            self.stamps.insert(id, t);
+        }
+    }
+
+    /// The node `search` finds for `key` at `depth` (16 = voxel), with its stamp; `None` in
+    /// unknown space.
+    pub fn search(&self, key: Key, depth: u8) -> Option<StampedNodeInfo> {
+        let node = self.tree.search(key, depth)?;
+        Some(StampedNodeInfo {
+            node,
+            timestamp: self.stamp_of(node_id(key, node.depth)),
+        })
+    }
+
+    /// The stamp of the node holding voxel `key` (the voxel or the pruned leaf covering it);
+    /// `None` in unknown space.
+    pub fn timestamp(&self, key: Key) -> Option<u32> {
+        self.search(key, TREE_DEPTH).map(|n| n.timestamp)
+    }
+
+    /// The root's stamp (OctoMap's `getLastUpdateTime`): the time of the last eager update
+    /// anywhere in the tree; 0 for an empty tree.
+    pub fn last_update_time(&self) -> u32 {
+        if self.tree.is_empty() {
+            0
+        } else {
+            self.stamp_of(node_id(Key::default(), 0))
+        }
+    }
+
+    /// [`StampedOcTree::update_node_at`] at the system clock's time.
+    pub fn update_node(&mut self, key: Key, update: Update, inner: InnerNodes) -> f32 {
+        self.update_node_at(key, update, inner, now_seconds())
+    }
+
+    /// Integrate one observation of voxel `key` at time `now` (OctoMap's `updateNode` on an
+    /// `OcTreeStamped` whose clock reads `now`). Returns the voxel's new log-odds.
+    pub fn update_node_at(&mut self, key: Key, update: Update, inner: InnerNodes, now: u32) -> f32 {
+        let delta = self.tree.delta(update);
+        if let Some(n) = self.tree.search(key, TREE_DEPTH) {
+            let p = self.tree.params();
+            if (delta >= 0.0 && n.value >= p.clamp_max) || (delta <= 0.0 && n.value <= p.clamp_min)
+            {
+                return n.value; // OctoMap's early exit: nothing changes, no stamp either
+            }
+        }
+        if delta.is_nan() {
+            return self.tree.update_node(key, update, inner);
+        }
+        self.before_descent(key);
+        let v = self.tree.update_node(key, update, inner);
+        self.after_descent(key, inner, Some(now), now);
+        v
+    }
+
+    /// [`StampedOcTree::set_node_value_at`] at the system clock's time.
+    pub fn set_node_value(
+        &mut self,
+        key: Key,
+        value: f32,
+        inner: InnerNodes,
+    ) -> Result<f32, OctreeError> {
+        self.set_node_value_at(key, value, inner, now_seconds())
+    }
+
+    /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
+    /// `setNodeValue`): the voxel keeps its stamp, the inner nodes refreshed on the way get
+    /// `now`. Errors on NaN.
+    pub fn set_node_value_at(
+        &mut self,
+        key: Key,
+        value: f32,
+        inner: InnerNodes,
+        now: u32,
+    ) -> Result<f32, OctreeError> {
+        if value.is_nan() {
+            return Err(OctreeError::NanValue);
+        }
+        self.before_descent(key);
+        let v = self.tree.set_node_value(key, value, inner)?;
+        self.after_descent(key, inner, None, now);
+        Ok(v)
+    }
+
+    /// Apply one scan's update as OctoMap's `insertPointCloud` does after `computeUpdate`:
+    /// every free voxel gets a miss, then every occupied voxel a hit, all at time `now`.
+    pub fn insert_update_at(
+        &mut self,
+        free: impl IntoIterator<Item = Key>,
+        occupied: impl IntoIterator<Item = Key>,
+        inner: InnerNodes,
+        now: u32,
+    ) {
+        for k in free {
+            self.update_node_at(k, Update::Miss, inner, now);
+        }
+        for k in occupied {
+            self.update_node_at(k, Update::Hit, inner, now);
+        }
+    }
+
+    /// A descent to `key` expands a pruned leaf on the path and every level below it; each
+    /// expansion gives the eight children the expanded node's stamp (`copyData`).
+    fn before_descent(&mut self, key: Key) {
+        let Some(n) = self.tree.search(key, TREE_DEPTH) else {
+            return; // unknown space: new nodes start at 0
+        };
+        if n.depth >= TREE_DEPTH {
+            return;
+        }
+        let t = self.stamp_of(node_id(key, n.depth));
+        if t == 0 {
+            return;
+        }
+        for d in n.depth..TREE_DEPTH {
+            let id = node_id(key, d);
+            for i in 0..8 {
+                self.stamps.insert(child_id(id, i), t);
+            }
+        }
+    }
+
+    /// After a descent to `key`: stamp the voxel (`leaf_now`, or keep its stamp for a `set`),
+    /// then replay `updateNodeRecurs`'s way back up. The plain tree pruned every ancestor
+    /// whose children were equal-valued leaves; OctoMap also needs equal stamps, so from the
+    /// deepest level where the stamps differ upwards those prunings are undone (the children
+    /// re-created by expansion had exactly the pruned value, and their stamps are still in
+    /// the table). Every ancestor left with children gets `now`.
+    fn after_descent(&mut self, key: Key, inner: InnerNodes, leaf_now: Option<u32>, now: u32) {
+        let leaf = node_id(key, TREE_DEPTH);
+        if let Some(t) = leaf_now {
+            self.put_stamp(leaf, t);
+        }
+        if inner.is_deferred() {
+            return;
+        }
+        let Some(n) = self.tree.search(key, TREE_DEPTH) else {
+            return;
+        };
+        let mut cur = self.stamp_of(leaf);
+        // the deepest level OctoMap would not have pruned, if the plain tree did
+        let mut unpruned_from = None;
+        for d in (n.depth..TREE_DEPTH).rev() {
+            let id = node_id(key, d);
+            let path_child = node_id(key, d + 1);
+            let equal = (0..8).all(|i| {
+                let c = child_id(id, i);
+                c == path_child || self.stamp_of(c) == cur
+            });
+            if !equal {
+                unpruned_from = Some(d);
+                break;
+            }
+            for i in 0..8 {
+                self.stamps.remove(&child_id(id, i));
+            }
+            self.put_stamp(id, cur);
+            cur = self.stamp_of(id);
+        }
+        let inner_to = match unpruned_from {
+            Some(k) => {
+                for d in n.depth..=k {
+                    let r = self
+                        .tree
+                        .search_ref(key, d)
+                        .expect("the pruned ancestor is on the path");
+                    self.tree.store.expand_node(r);
+                    self.tree.add_size(8);
+                }
+                k + 1
+            }
+            None => n.depth,
+        };
+        for d in 0..inner_to {
+            self.put_stamp(node_id(key, d), now);
+        }
+    }
+
+    /// [`StampedOcTree::degrade_outdated_nodes_at`] at the system clock's time.
+    pub fn degrade_outdated_nodes(&mut self, time_thres: u32) {
+        self.degrade_outdated_nodes_at(time_thres, now_seconds());
+    }
+
+    /// Forget stale obstacles (OctoMap's `degradeOutdatedNodes`): every occupied leaf whose
+    /// stamp is more than `time_thres` seconds before `now` (`now - stamp` in wrapping 32-bit
+    /// arithmetic, as OctoMap's `unsigned int`) gets one miss, clamped, keeping its stamp.
+    /// Inner nodes are not refreshed (call [`StampedOcTree::update_inner_occupancy_at`] for
+    /// that), exactly as OctoMap leaves them.
+    pub fn degrade_outdated_nodes_at(&mut self, time_thres: u32, now: u32) {
+        let p = *self.tree.params();
+        let miss = self.tree.delta(Update::Miss);
+        let stale: Vec<(Key, u8, f32)> = self
+            .tree
+            .leaves()
+            .filter(|l| {
+                p.is_occupied(l.value)
+                    && now.wrapping_sub(self.stamp_of(node_id(l.key, l.depth))) > time_thres
+            })
+            .map(|l| (l.key, l.depth, l.value))
+            .collect();
+        for (key, depth, v) in stale {
+            let v = v + miss;
+            let v = if v < p.clamp_min {
+                p.clamp_min
+            } else if v > p.clamp_max {
+                p.clamp_max
+            } else {
+                v
+            };
+            if let Some(r) = self.tree.search_ref(key, depth) {
+                self.tree.store.set_value(r, v);
+            }
+        }
+    }
+
+    /// Collapse every node whose eight children are leaves with equal log-odds and equal
+    /// stamps, level by level as OctoMap's `prune()`; the node takes child 0's stamp.
+    pub fn prune(&mut self) {
+        if self.tree.is_empty() {
+            return;
+        }
+        for depth in (1..TREE_DEPTH).rev() {
+            let pruned = self.prune_level(NodeRef::ROOT, node_id(Key::default(), 0), depth);
+            if pruned == 0 {
+                break;
+            }
+            self.tree.sub_size(8 * pruned);
+        }
+    }
+
+    fn prune_level(&mut self, n: NodeRef, id: NodeId, target: u8) -> usize {
+        if n.depth == target {
+            let t0 = self.stamp_of(child_id(id, 0));
+            if (1..8).any(|i| self.stamp_of(child_id(id, i)) != t0) {
+                return 0;
+            }
+            if self.tree.store.prune_node(n) {
+                for i in 0..8 {
+                    self.stamps.remove(&child_id(id, i));
+                }
+                self.put_stamp(id, t0);
+                return 1;
+            }
+            return 0;
+        }
+        let mut count = 0;
+        for i in 0..8 {
+            if let Some(c) = self.tree.store.child(n, i) {
+                count += self.prune_level(c, child_id(id, i), target);
+            }
+        }
+        count
+    }
+
+    /// Give every leaf above depth 16 eight children, recursively (OctoMap's `expand()`);
+    /// each child takes its parent's log-odds and stamp.
+    pub fn expand(&mut self) {
+        if !self.tree.is_empty() {
+            self.expand_recurs(NodeRef::ROOT, node_id(Key::default(), 0));
+        }
+    }
+
+    fn expand_recurs(&mut self, n: NodeRef, id: NodeId) {
+        if n.depth >= TREE_DEPTH {
+            return;
+        }
+        if !self.tree.store.has_children(n) {
+            self.tree.store.expand_node(n);
+            self.tree.add_size(8);
+            let t = self.stamp_of(id);
+            if t != 0 {
+                for i in 0..8 {
+                    self.stamps.insert(child_id(id, i), t);
+                }
+            }
+        }
+        for i in 0..8 {
+            if let Some(c) = self.tree.store.child(n, i) {
+                self.expand_recurs(c, child_id(id, i));
+            }
+        }
+    }
+
+    /// Set every node to the clamp its occupancy points to (OctoMap's `toMaxLikelihood()`);
+    /// stamps are untouched.
+    pub fn to_max_likelihood(&mut self) {
+        self.tree.to_max_likelihood();
+    }
+
+    /// [`StampedOcTree::update_inner_occupancy_at`] at the system clock's time.
+    pub fn update_inner_occupancy(&mut self) {
+        self.update_inner_occupancy_at(now_seconds());
+    }
+
+    /// Bring every inner node up to date (OctoMap's `updateInnerOccupancy`): log-odds to the
+    /// max of its children, stamp to `now`.
+    pub fn update_inner_occupancy_at(&mut self, now: u32) {
+        if self.tree.is_empty() {
+            return;
+        }
+        self.tree.update_inner_occupancy();
+        let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
+        while let Some((n, id)) = stack.pop() {
+            if !self.tree.store.has_children(n) {
+                continue;
+            }
+            self.put_stamp(id, now);
+            for i in 0..8 {
+                if let Some(c) = self.tree.store.child(n, i) {
+                    stack.push((c, child_id(id, i)));
+                }
+            }
+        }
+    }
+
+    /// [`StampedOcTree::delete_node_at`] at the system clock's time.
+    pub fn delete_node(&mut self, key: Key, depth: u8) -> bool {
+        self.delete_node_at(key, depth, now_seconds())
+    }
+
+    /// Delete the node at `depth` holding `key` with its subtree (OctoMap's `deleteNode`, see
+    /// [`OcTree::delete_node`]): stamps go with the deleted nodes, pruned nodes expanded on
+    /// the way hand theirs to their children, and the parent that keeps children is refreshed
+    /// at `now`. Returns whether anything was deleted.
+    pub fn delete_node_at(&mut self, key: Key, depth: u8, now: u32) -> bool {
+        let depth = if depth == 0 || depth > TREE_DEPTH {
+            TREE_DEPTH
+        } else {
+            depth
+        };
+        let Some(found) = self.tree.search(key, depth) else {
+            return false;
+        };
+        // OctoMap expands a pruned leaf on the way (never the root) down to the target depth
+        if found.depth < depth && !found.has_children && found.depth > 0 {
+            let t = self.stamp_of(node_id(key, found.depth));
+            if t != 0 {
+                for d in found.depth..depth {
+                    let id = node_id(key, d);
+                    for i in 0..8 {
+                        self.stamps.insert(child_id(id, i), t);
+                    }
+                }
+            }
+        }
+        if found.depth == depth {
+            self.forget_subtree(key, depth);
+        }
+        if !self.tree.delete_node(key, depth) {
+            return false;
+        }
+        // the target and the ancestors left without children are gone (never the root); the
+        // deepest one left, if it still has children, ran updateOccupancyChildren
+        for d in (0..=depth).rev() {
+            match self.tree.node_at_depth(key, d) {
+                Some(n) => {
+                    if n.has_children {
+                        self.put_stamp(node_id(key, d), now);
+                    }
+                    break;
+                }
+                None => {
+                    self.stamps.remove(&node_id(key, d));
+                }
+            }
+        }
+        true
+    }
+
+    /// Remove the stamps of the strict descendants of the node at `depth` holding `key`.
+    fn forget_subtree(&mut self, key: Key, depth: u8) {
+        let Some(start) = self.tree.search_ref(key, depth) else {
+            return;
+        };
+        let mut stack = vec![(start, node_id(key, depth))];
+        while let Some((n, id)) = stack.pop() {
+            for i in 0..8 {
+                if let Some(c) = self.tree.store.child(n, i) {
+                    let cid = child_id(id, i);
+                    self.stamps.remove(&cid);
+                    stack.push((c, cid));
+                }
+            }
+        }
+    }
+
+    /// Every node with its stamp, pre-order (children in OctoMap's order 0..8): depth,
+    /// smallest voxel key, log-odds, stamp. For comparing with OctoMap node by node.
+    pub fn nodes_with_stamps(&self) -> Vec<(u8, Key, f32, u32)> {
+        let mut out = Vec::with_capacity(self.size());
+        if self.tree.is_empty() {
+            return out;
+        }
+        let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
+        while let Some((n, id)) = stack.pop() {
+            out.push((id.0, id.1, self.tree.store.value(n), self.stamp_of(id)));
+            for i in (0..8).rev() {
+                if let Some(c) = self.tree.store.child(n, i) {
+                    stack.push((c, child_id(id, i)));
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+#[path = "stamped_tree_tests.rs"]
+mod tests;
