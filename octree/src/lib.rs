@@ -34,6 +34,7 @@ mod error;
 pub mod io;
 mod iter;
 mod key;
+mod merge;
 mod params;
 mod store;
 mod tree;
@@ -52,6 +53,7 @@ pub use compare::{
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
+pub use merge::MergeStats;
 pub use params::{logodds, probability, OccupancyParams};
 pub use store::MemoryUsage;
 pub use tree::{Counts, InnerNodes, NodeInfo, OcTree, Update};
