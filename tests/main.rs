@@ -11,6 +11,7 @@ mod formats;
 mod grid;
 mod map_diff;
 mod mcap;
+mod merge;
 mod octree_diff;
 mod output_failures;
 mod peers;

@@ -31,6 +31,7 @@ mod fresh_dir;
 mod grid;
 mod info;
 mod map;
+mod merge;
 mod progress;
 mod reduce;
 mod render;
@@ -74,6 +75,9 @@ enum Command {
     Reduce(reduce::Args),
     /// Project a height band of a map onto a 2D occupancy grid (ROS map_server / Nav2 YAML + PGM).
     Grid(grid::Args),
+    /// Fuse maps built separately: each later map's leaves applied to the first as log-odds
+    /// updates (OctoMap's updateNode, the first map's clamping).
+    Merge(merge::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
 }
@@ -93,6 +97,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Reduce(a)) => reduce::run(&a),
         Some(Command::Segment(a)) => segment::run(&a),
         Some(Command::Grid(a)) => grid::run(&a),
+        Some(Command::Merge(a)) => merge::run(&a),
         None => demo::run_default(),
     };
     match result {
