@@ -30,6 +30,7 @@ mod export;
 mod fresh_dir;
 mod grid;
 mod info;
+mod join;
 mod map;
 mod merge;
 mod progress;
@@ -78,6 +79,9 @@ enum Command {
     /// Fuse maps built separately: each later map's leaves applied to the first as log-odds
     /// updates (OctoMap's updateNode, the first map's clamping).
     Merge(merge::Args),
+    /// Assemble a tile directory (one .ot per tile plus tiles.index, from a tiled build's
+    /// spill directory) into one map.
+    Join(join::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
 }
@@ -98,6 +102,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Segment(a)) => segment::run(&a),
         Some(Command::Grid(a)) => grid::run(&a),
         Some(Command::Merge(a)) => merge::run(&a),
+        Some(Command::Join(a)) => join::run(&a),
         None => demo::run_default(),
     };
     match result {
