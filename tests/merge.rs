@@ -209,3 +209,38 @@ proptest! {
         prop_assert!(bt == rbt, ".bt {}", first_diff(&bt, &rbt));
     }
 }
+
+#[test]
+fn a_resolution_mismatch_names_the_file_and_writes_nothing() {
+    let dir = common::scratch("merge_mismatch");
+    let mut a = OcTree::new(0.1).unwrap();
+    a.update_node(Key::new(1, 2, 3), Update::Hit, InnerNodes::Refresh);
+    let mut c = OcTree::new(0.2).unwrap();
+    c.update_node(Key::new(1, 2, 3), Update::Hit, InnerNodes::Refresh);
+    write_files(&a, &dir, "a");
+    write_files(&c, &dir, "c");
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("merge")
+        .arg(dir.join("a.ot"))
+        .arg(dir.join("c.ot"))
+        .arg("-o")
+        .arg(dir.join("m.bt"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("c.ot") && err.contains("resolutions differ"),
+        "{err}"
+    );
+    assert!(!dir.join("m.bt").exists());
+    // one input is not a merge
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("merge")
+        .arg(dir.join("a.ot"))
+        .arg("-o")
+        .arg(dir.join("m.bt"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+}

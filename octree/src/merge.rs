@@ -83,8 +83,11 @@ impl Delta {
 impl OcTree {
     /// Fuse `other` into this tree: each leaf of `other` applied as a log-odds update of the
     /// voxels it covers, with this tree's clamping, exactly as a voxel-by-voxel sequence of
-    /// OctoMap `updateNode(voxel, leaf_log_odds)` calls (see the [module docs](self) for the
-    /// semantics and why pruned leaves need no enumeration of their voxels).
+    /// OctoMap `updateNode(voxel, leaf_log_odds)` calls: for each leaf of `other` in pre-order,
+    /// each voxel it covers in Morton order. Unknown voxels start from 0; a pruned leaf
+    /// of depth `d` is applied to its `8^(16-d)` voxels at once, in time bounded by this tree's
+    /// nodes in its region, with the same result (the `merge` module of the source explains
+    /// the cases; `docs/distributed.md` the semantics).
     ///
     /// Errors, before anything changes, when the resolutions differ, a leaf of `other` has a
     /// NaN or infinite value, or change detection is enabled on this tree.
