@@ -232,3 +232,17 @@ def test_spilled_tiles_join_to_octoquant_map(cli, clients, norlab, tmp_path, wor
     # a second build into the same directory is refused before any work
     with pytest.raises(ValueError, match="not empty"):
         od.build_map([norlab], resolution=0.2, client=clients[workers], spill_dir=spill)
+
+
+def test_command_line_output_rules(norlab, tmp_path, capsys):
+    # no -o is allowed only with --spill; --ot needs -o
+    for argv in (
+        [str(norlab)],
+        [str(norlab), "--spill", str(tmp_path / "t"), "--ot", str(tmp_path / "x.ot")],
+    ):
+        with pytest.raises(SystemExit) as e:
+            od.main(argv)
+        assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "-o is required" in err and "--ot needs -o" in err
+    assert not (tmp_path / "t").exists()
