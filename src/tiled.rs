@@ -8,7 +8,10 @@
 use crate::pipeline::{CasterError, FrameCaster, MapStats, MapperOptions};
 use crate::Frame;
 use octoquant_octree::OcTree;
-use octoquant_tiles::{apply_tile_updates, join_tiles, TileError, TileSplitter, TileUpdates};
+use octoquant_tiles::{
+    apply_tile_updates, join_tiles, write_index, write_tile, TileError, TileIndex, TileSplitter,
+    TileUpdates,
+};
 use std::collections::BTreeMap;
 
 /// Why a tiled build failed.
@@ -86,6 +89,49 @@ pub fn build_tiled(
     }
     let tree = join_tiles(options.resolution, options.params, tile_depth, &trees)?;
     Ok((tree, stats))
+}
+
+/// [`build_tiled`] out of core: each tile tree, once built, is written into the directory
+/// `dir` (which must exist) as one `.ot` file and dropped, then the index is written
+/// ([`octoquant_tiles::write_index`]); [`octoquant_tiles::join_dir`] (`octoquant join`)
+/// assembles the directory into the tree [`build_tiled`] returns. Returns the index and the
+/// statistics.
+pub fn build_tiled_to_dir(
+    options: &MapperOptions,
+    tile_depth: u8,
+    frames: &[Frame],
+    frames_per_batch: usize,
+    dir: &std::path::Path,
+) -> Result<(TileIndex, MapStats), TiledError> {
+    if options.lazy {
+        return Err(TiledError::Lazy);
+    }
+    let mut caster = FrameCaster::new(options.clone())?;
+    let mut per_tile: BTreeMap<_, Vec<TileUpdates>> = BTreeMap::new();
+    let mut stats = MapStats::default();
+    let batch = frames_per_batch.max(1);
+    for (b, chunk) in frames.chunks(batch).enumerate() {
+        let (lists, st) = cast_frames(&mut caster, tile_depth, (b * batch) as u64, chunk)?;
+        for l in lists {
+            per_tile.entry(l.tile).or_default().push(l);
+        }
+        stats.merge(&st);
+    }
+    let mut tiles = Vec::with_capacity(per_tile.len());
+    for (tile, lists) in per_tile {
+        let mut t =
+            OcTree::with_params(options.resolution, options.params).map_err(TileError::from)?;
+        apply_tile_updates(&mut t, tile, &lists)?;
+        tiles.extend(write_tile(dir, &t, tile_depth)?);
+    }
+    let index = TileIndex {
+        resolution: options.resolution,
+        params: options.params,
+        tile_depth,
+        tiles,
+    };
+    write_index(dir, &index)?;
+    Ok((index, stats))
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@ mod grid;
 mod import;
 mod map_diff;
 mod mcap;
+mod merge;
 mod octree_diff;
 mod output_failures;
 mod peers;

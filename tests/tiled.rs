@@ -124,3 +124,84 @@ fn tiled_builds_refuse_what_they_cannot_reproduce() {
     let e = build_tiled(&MapperOptions::default(), 17, &[], 1).unwrap_err();
     assert!(e.to_string().contains("tile depth 17"), "{e}");
 }
+
+/// Out of core: the tiles written to a directory (one .ot per tile plus the index), then
+/// assembled by `join_dir` and by `octoquant join`, give the sequential map's bytes.
+#[test]
+fn norlab_tiles_spilled_to_a_directory_join_to_the_mapper_map() {
+    let Some(src) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let frames: Vec<Frame> = read_frames(&src, &ReadOptions::default())
+        .unwrap()
+        .into_iter()
+        .take(4)
+        .map(|f| Frame {
+            points: f.points.into_iter().step_by(3).collect(),
+            ..f
+        })
+        .collect();
+    let options = MapperOptions {
+        resolution: 0.2,
+        max_range: Some(30.0),
+        ..MapperOptions::default()
+    };
+    let mut m = Mapper::new(options.clone()).unwrap();
+    m.insert_frames(&frames);
+    let (wot, wbt) = bytes(m.tree());
+    for depth in [4, default_tile_depth(0.2)] {
+        let dir = common::scratch(&format!("tiled_spill_{depth}"));
+        let tiles = dir.join("tiles");
+        std::fs::create_dir(&tiles).unwrap();
+        let (index, _) =
+            octoquant::tiled::build_tiled_to_dir(&options, depth, &frames, 2, &tiles).unwrap();
+        assert!(index.tiles.len() > 1, "several tiles at depth {depth}");
+        let files = std::fs::read_dir(&tiles).unwrap().count();
+        assert_eq!(
+            files,
+            index.tiles.len() + 1,
+            "one file per tile plus the index"
+        );
+        let back = octoquant::tiles::read_index(&tiles).unwrap();
+        assert_eq!(back, index);
+        let (ot, bt) = bytes(&octoquant::tiles::join_dir(&tiles).unwrap());
+        assert!(ot == wot, "depth {depth}: .ot {}", first_diff(&ot, &wot));
+        assert!(bt == wbt, "depth {depth}: .bt {}", first_diff(&bt, &wbt));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .arg("join")
+            .arg(&tiles)
+            .arg("-o")
+            .arg(dir.join("map.ot"))
+            .arg("-o")
+            .arg(dir.join("map.bt"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::read(dir.join("map.ot")).unwrap() == wot);
+        assert!(std::fs::read(dir.join("map.bt")).unwrap() == wbt);
+        // a tile file swapped for another tile's is named in the error
+        if let [(_, a), (_, b), ..] = &index.tiles[..] {
+            std::fs::copy(tiles.join(a), tiles.join(b)).unwrap();
+            let e = octoquant::tiles::join_dir(&tiles).unwrap_err().to_string();
+            assert!(
+                e.contains(b.as_str()) && e.contains("where the index names"),
+                "{e}"
+            );
+        }
+        std::fs::remove_file(tiles.join(octoquant::tiles::INDEX_FILE)).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .arg("join")
+            .arg(&tiles)
+            .arg("-o")
+            .arg(dir.join("again.bt"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("tiles.index"));
+        assert!(!dir.join("again.bt").exists());
+    }
+}

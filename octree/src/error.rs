@@ -42,6 +42,23 @@ pub enum OctreeError {
         /// The second map's resolution.
         second: f64,
     },
+    /// A node holds a NaN or infinite log-odds where a finite one is needed (a leaf of the
+    /// tree merged in by [`crate::OcTree::merge`]).
+    #[error("the node at key {key:?}, depth {depth} has the non-finite log-odds {value}")]
+    NonFiniteValue {
+        /// The node's key (iterator convention).
+        key: [u16; 3],
+        /// Its depth.
+        depth: u8,
+        /// The value.
+        value: f32,
+    },
+    /// An operation that this tree's configuration does not support.
+    #[error("unsupported: {what}")]
+    Unsupported {
+        /// What was asked.
+        what: &'static str,
+    },
     /// A depth outside 0..=16 was requested.
     #[error("depth {depth} is outside 0..=16")]
     InvalidDepth {

@@ -34,6 +34,7 @@ mod error;
 pub mod io;
 mod iter;
 mod key;
+mod merge;
 mod node_id;
 mod params;
 mod stamped_tree;
@@ -54,6 +55,7 @@ pub use compare::{
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
+pub use merge::MergeStats;
 pub use params::{logodds, probability, OccupancyParams};
 pub use stamped_tree::{now_seconds, StampedNodeInfo, StampedOcTree};
 pub use store::MemoryUsage;

@@ -14,10 +14,17 @@ Runs on a ``LocalCluster`` by default, or on any ``distributed.Client`` (dask-jo
 dask-kubernetes, cloud clusters). Command line::
 
     python -m octoquant.distributed INPUT... --res R [--max-range M] -o OUT.bt [--ot OUT.ot]
-        [--workers N | --scheduler ADDR] [--tile-depth D] [--frames-per-task K] [--json]
+        [--workers N | --scheduler ADDR] [--tile-depth D] [--frames-per-task K]
+        [--spill DIR] [--json]
+
+Out of core: with ``spill_dir`` (``--spill DIR``) each tile task writes its tile tree into
+that directory (one ``.ot`` per tile, on a file system the workers and the driver share)
+instead of returning it, and the driver writes the directory's index at the end; the map is
+then the directory, assembled by ``octoquant join DIR -o map.bt`` or :func:`join_tile_dir`,
+byte-identical to the in-memory build.
 
 Not yet: modes other than ``exact``, workers reading their own frames (the driver reads the
-inputs and ships the frames), tiles spilled to disk, map merge.
+inputs and ships the frames).
 """
 
 import argparse
@@ -29,10 +36,13 @@ import time
 
 from octoquant._octoquant import (
     apply_tile,
+    apply_tile_to_dir,
     cast_tiles,
     default_tile_depth,
+    join_tile_dir,
     join_tiles,
     read_frames,
+    write_tile_index,
 )
 
 __all__ = [
@@ -41,6 +51,7 @@ __all__ = [
     "build_map_with_summary",
     "cast_tiles",
     "default_tile_depth",
+    "join_tile_dir",
     "join_tiles",
     "main",
 ]
@@ -69,6 +80,22 @@ def _apply(tile_depth, tile, resolution, *buffers):
     return apply_tile(tile_depth, tile, list(buffers), resolution)
 
 
+def _apply_to_dir(tile_depth, tile, resolution, spill_dir, *buffers):
+    """Task: :func:`_apply` with the tile tree written into ``spill_dir``; its file name, size
+    and counts."""
+    return apply_tile_to_dir(tile_depth, tile, list(buffers), resolution, spill_dir)
+
+
+def _prepare_spill_dir(spill_dir):
+    """Create the spill directory, or check that an existing one is empty: tiles of two builds
+    must not mix."""
+    spill_dir = os.fspath(spill_dir)
+    os.makedirs(spill_dir, exist_ok=True)
+    if os.listdir(spill_dir):
+        raise ValueError(f"spill_dir {spill_dir} is not empty (it may hold another build's tiles)")
+    return spill_dir
+
+
 def _read_inputs(inputs, reader_options):
     frames = []
     for path in inputs:
@@ -85,11 +112,14 @@ def build_map_with_summary(
     n_workers=None,
     tile_depth=None,
     frames_per_task=None,
+    spill_dir=None,
     **reader_options,
 ):
     """:func:`build_map`, also returning a summary dict: frames, points, rays, tiles, workers,
     bytes moved (frames shipped, update lists, tile trees) and seconds per stage (read, cast,
-    apply, join)."""
+    apply, join). With ``spill_dir`` the tree is ``None`` (the map is the directory), tile
+    trees are not moved (``bytes_moved["tile_trees"]`` is 0), ``tile_file_bytes`` says how
+    much the tiles take on disk, and ``join`` is the time to write the index."""
     if mode not in MODES:
         raise ValueError(
             f"mode {mode!r} is not supported by the distributed build yet; expected one of {MODES}"
@@ -117,6 +147,9 @@ def build_map_with_summary(
         raise ImportError(
             "octoquant.distributed needs Dask distributed: pip install 'dask[distributed]'"
         ) from e
+
+    if spill_dir is not None:
+        spill_dir = _prepare_spill_dir(spill_dir)
 
     seconds = {}
     t0 = time.perf_counter()
@@ -166,12 +199,21 @@ def build_map_with_summary(
                 tiles.setdefault(tile, []).append(
                     client.submit(_pick, batch, tile, pure=False)
                 )
-        tile_futures = [
-            client.submit(_apply, tile_depth, tile, resolution, *parts, pure=False)
-            for tile, parts in sorted(tiles.items())
-        ]
+        if spill_dir is None:
+            tile_futures = [
+                client.submit(_apply, tile_depth, tile, resolution, *parts, pure=False)
+                for tile, parts in sorted(tiles.items())
+            ]
+        else:
+            tile_futures = [
+                client.submit(
+                    _apply_to_dir, tile_depth, tile, resolution, spill_dir, *parts, pure=False
+                )
+                for tile, parts in sorted(tiles.items())
+            ]
         results = client.gather(tile_futures)
         seconds["apply"] = time.perf_counter() - t
+        tiles_seen = sorted(tiles)
         del batches, tiles, tile_futures
     finally:
         if own_cluster is not None:
@@ -179,9 +221,18 @@ def build_map_with_summary(
             own_cluster.close()
 
     t = time.perf_counter()
-    trees = [ot for ot, _ in results]
-    tree_bytes = sum(len(ot) for ot in trees)
-    tree = join_tiles(tile_depth, trees, resolution)
+    file_bytes = None
+    if spill_dir is None:
+        trees = [ot for ot, _ in results]
+        tree_bytes = sum(len(ot) for ot in trees)
+        tree = join_tiles(tile_depth, trees, resolution)
+    else:
+        tree, tree_bytes = None, 0
+        written = [
+            (tile, name) for tile, (name, _, _) in zip(tiles_seen, results) if name
+        ]
+        file_bytes = sum(n for _, n, _ in results)
+        write_tile_index(spill_dir, resolution, tile_depth, written)
     seconds["join"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t0
 
@@ -206,6 +257,9 @@ def build_map_with_summary(
             "seconds": seconds,
         }
     )
+    if spill_dir is not None:
+        summary["spill_dir"] = spill_dir
+        summary["tile_file_bytes"] = file_bytes
     return tree, summary
 
 
@@ -218,6 +272,7 @@ def build_map(
     n_workers=None,
     tile_depth=None,
     frames_per_task=None,
+    spill_dir=None,
     **reader_options,
 ):
     """Build one map from sensor files on Dask: the ``OcTree`` ``octoquant map`` builds from
@@ -231,6 +286,11 @@ def build_map(
     ``LocalCluster`` of ``n_workers`` processes (default 2) is started and closed.
     ``tile_depth``: depth of the tiles in the key space (0..=16; default: tiles of about
     25.6 m); ``frames_per_task``: frames per ray task (default: two tasks per worker).
+    ``spill_dir``: out of core; each tile tree is written there (one ``.ot`` per tile, then
+    the index) by the worker that built it, nothing is joined in memory and ``None`` is
+    returned; ``octoquant join DIR -o map.bt`` or :func:`join_tile_dir` assembles the map
+    (same bytes). The directory is created, or must be empty, and must be on a file system
+    the workers share.
 
     A script that lets this start a ``LocalCluster`` must call it under
     ``if __name__ == "__main__":``, as for any Dask cluster of processes (the workers are
@@ -245,6 +305,7 @@ def build_map(
         n_workers=n_workers,
         tile_depth=tile_depth,
         frames_per_task=frames_per_task,
+        spill_dir=spill_dir,
         **reader_options,
     )
     return tree
@@ -261,8 +322,11 @@ def _text_summary(s, out, ot):
         f"tile trees {b['tile_trees']})",
         "seconds: "
         + ", ".join(f"{k} {sec[k]:.3f}" for k in ("read", "cast", "apply", "join", "total")),
-        f"wrote {out}" + (f" and {ot}" if ot else ""),
     ]
+    if s.get("spill_dir"):
+        lines.append(f"tiles in {s['spill_dir']} ({s['tile_file_bytes']} bytes)")
+    if out:
+        lines.append(f"wrote {out}" + (f" and {ot}" if ot else ""))
     return "\n".join(lines)
 
 
@@ -275,18 +339,31 @@ def main(argv=None):
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="sensor files or scan directories")
     p.add_argument("--res", type=float, default=0.1, help="leaf size in metres (default 0.1)")
     p.add_argument("--max-range", type=float, default=None, help="readings beyond only clear space")
-    p.add_argument("-o", "--output", required=True, help="the .bt to write")
+    p.add_argument(
+        "-o", "--output", default=None, help="the .bt to write (optional with --spill)"
+    )
     p.add_argument("--ot", default=None, help="also write the full tree as .ot")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, help="LocalCluster workers (default 2)")
     where.add_argument("--scheduler", default=None, help="a running scheduler, tcp://HOST:PORT")
     p.add_argument("--tile-depth", type=int, default=None, help="tile depth 0..16")
     p.add_argument("--frames-per-task", type=int, default=None, help="frames per ray task")
+    p.add_argument(
+        "--spill",
+        default=None,
+        metavar="DIR",
+        help="write the tiles into DIR (one .ot per tile plus tiles.index; "
+        "`octoquant join DIR -o map.bt` assembles them); -o then joins them too",
+    )
     p.add_argument("--format", default=None, help="input format (as `octoquant map --format`)")
     p.add_argument("--pixel-step", type=int, default=1, help="TUM depth images: every N-th pixel")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     a = p.parse_args(argv)
-    if not a.output.lower().endswith(".bt"):
+    if a.output is None and a.spill is None:
+        p.error("-o is required (unless --spill keeps the map as tiles)")
+    if a.ot is not None and a.output is None:
+        p.error("--ot needs -o")
+    if a.output is not None and not a.output.lower().endswith(".bt"):
         p.error(f"-o must name a .bt file, got {a.output}")
     if a.ot is not None and not a.ot.lower().endswith(".ot"):
         p.error(f"--ot must name a .ot file, got {a.ot}")
@@ -307,8 +384,11 @@ def main(argv=None):
             n_workers=a.workers,
             tile_depth=a.tile_depth,
             frames_per_task=a.frames_per_task,
+            spill_dir=a.spill,
             **reader,
         )
+        if tree is None and a.output is not None:
+            tree = join_tile_dir(a.spill)
     except (ValueError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
@@ -316,9 +396,10 @@ def main(argv=None):
         if client is not None:
             client.close()
     # the .ot first: the .bt's max-likelihood conversion changes the tree
-    if a.ot is not None:
-        tree.write(a.ot)
-    tree.writeBinary(a.output)
+    if tree is not None:
+        if a.ot is not None:
+            tree.write(a.ot)
+        tree.writeBinary(a.output)
     summary["output"] = a.output
     summary["ot"] = a.ot
     if a.json:

@@ -18,7 +18,9 @@ pub use octoquant::octree::{
 };
 pub use octoquant::pipeline::{FrameCaster, FrameStats, InsertMode, Mapper, MapperOptions};
 pub use octoquant::tiled::{cast_frames, default_tile_depth};
-pub use octoquant::tiles::{apply_tile_updates, Tile, TileError, TileUpdates};
+pub use octoquant::tiles::{
+    apply_tile_updates, join_dir, write_index, write_tile, Tile, TileError, TileIndex, TileUpdates,
+};
 pub use octoquant::Frame;
 
 pub use octoquant::formats::carmen::LaserScan;

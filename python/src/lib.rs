@@ -157,6 +157,9 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tiles::cast_tiles, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::apply_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::join_tiles, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::apply_tile_to_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::write_tile_index, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::join_tile_dir, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::default_tile_depth, m)?)?;
     Ok(())
 }

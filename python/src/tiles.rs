@@ -167,3 +167,83 @@ pub fn join_tiles(
         .map_err(PyValueError::new_err)?;
     Ok(PyOcTree::wrap(tree))
 }
+
+/// :func:`apply_tile`, out of core: the tile's tree is written into the directory
+/// ``spill_dir`` (which must exist; on a file system every worker and the driver see) as one
+/// ``.ot`` file instead of being returned. Returns ``(file_name, nbytes, stats)``
+/// (``file_name`` is ``None`` when the tree is empty). Releases the GIL.
+#[pyfunction]
+pub fn apply_tile_to_dir<'py>(
+    py: Python<'py>,
+    tile_depth: i64,
+    tile_index: u64,
+    buffers: Vec<Bound<'py, PyBytes>>,
+    resolution: f64,
+    spill_dir: &Bound<'py, PyAny>,
+) -> PyResult<(Option<String>, u64, Bound<'py, PyDict>)> {
+    let buffers: Vec<Vec<u8>> = buffers.iter().map(|b| b.as_bytes().to_vec()).collect();
+    let depth = depth_arg(tile_depth)?;
+    let tile = engine::Tile::new(depth, tile_index).map_err(tile_error)?;
+    let resolution = resolution_arg(resolution)?;
+    let dir = convert::path(spill_dir, "spill_dir")?;
+    let (name, nbytes, stats) = py
+        .detach(|| -> Result<_, String> {
+            let lists = buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| {
+                    engine::TileUpdates::from_bytes(b).map_err(|e| format!("buffer {i}: {e}"))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let mut tree = OcTree::new(resolution).map_err(|e| e.to_string())?;
+            let stats =
+                engine::apply_tile_updates(&mut tree, tile, &lists).map_err(|e| e.to_string())?;
+            let written = engine::write_tile(&dir, &tree, depth).map_err(|e| e.to_string())?;
+            let nbytes = match &written {
+                Some((_, n)) => std::fs::metadata(dir.join(n)).map_or(0, |m| m.len()),
+                None => 0,
+            };
+            Ok((written.map(|(_, n)| n), nbytes, stats))
+        })
+        .map_err(PyValueError::new_err)?;
+    let st = PyDict::new(py);
+    st.set_item("frames", stats.frames)?;
+    st.set_item("free", stats.free)?;
+    st.set_item("occupied", stats.occupied)?;
+    Ok((name, nbytes, st))
+}
+
+/// Write the index of the tile directory ``spill_dir`` once every tile file is in place:
+/// ``tiles`` is ``[(tile_index, file_name), ...]`` (from :func:`apply_tile_to_dir`), the
+/// sensor model OctoMap's default (as :func:`apply_tile` builds). After this, ``octoquant
+/// join`` or :func:`join_tile_dir` assembles the map.
+#[pyfunction]
+pub fn write_tile_index(
+    spill_dir: &Bound<'_, PyAny>,
+    resolution: f64,
+    tile_depth: i64,
+    tiles: Vec<(u64, String)>,
+) -> PyResult<()> {
+    let dir = convert::path(spill_dir, "spill_dir")?;
+    let depth = depth_arg(tile_depth)?;
+    let tiles = tiles
+        .into_iter()
+        .map(|(i, n)| Ok((engine::Tile::new(depth, i).map_err(tile_error)?, n)))
+        .collect::<PyResult<Vec<_>>>()?;
+    let index = engine::TileIndex {
+        resolution: resolution_arg(resolution)?,
+        params: engine::OccupancyParams::default(),
+        tile_depth: depth,
+        tiles,
+    };
+    engine::write_index(&dir, &index).map_err(tile_error)
+}
+
+/// Assemble the tile directory ``spill_dir`` (tile files and their index) into one
+/// ``OcTree``, as ``octoquant join`` does. Releases the GIL.
+#[pyfunction]
+pub fn join_tile_dir(py: Python<'_>, spill_dir: &Bound<'_, PyAny>) -> PyResult<PyOcTree> {
+    let dir = convert::path(spill_dir, "spill_dir")?;
+    let tree = py.detach(|| engine::join_dir(&dir)).map_err(tile_error)?;
+    Ok(PyOcTree::wrap(tree))
+}

@@ -500,6 +500,38 @@ impl PyOcTree {
         py.detach(|| tree.expand());
     }
 
+    /// Fuse ``other`` (a map built separately) into this tree: each leaf of ``other`` is applied
+    /// to the voxels it covers as a log-odds update, exactly as OctoMap's
+    /// ``updateNode(voxel, leaf_log_odds)`` voxel by voxel, with this tree's clamping; pruned
+    /// leaves are applied whole. ``ValueError`` (and this tree unchanged) when the resolutions
+    /// differ or a leaf of ``other`` is not finite. Returns ``{"leaves", "pruned_leaves",
+    /// "voxels"}``: what was applied.
+    fn merge<'py>(
+        slf: &Bound<'py, Self>,
+        other: &Bound<'py, PyOcTree>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let py = slf.py();
+        let copy;
+        let guard;
+        let b: &OcTree = if slf.is(other) {
+            copy = (*slf.borrow().tree).clone();
+            &copy
+        } else {
+            guard = other.borrow();
+            &guard.tree
+        };
+        let mut me = slf.borrow_mut();
+        let tree: &mut OcTree = &mut me.tree;
+        let stats = py
+            .detach(|| tree.merge(b))
+            .map_err(|e| convert::value_error("merge", &e))?;
+        let out = PyDict::new(py);
+        out.set_item("leaves", stats.leaves)?;
+        out.set_item("pruned_leaves", stats.pruned_leaves)?;
+        out.set_item("voxels", stats.voxels)?;
+        Ok(out)
+    }
+
     /// Remove every node (the resolution and sensor model stay).
     fn clear(&mut self) {
         self.tree.clear();

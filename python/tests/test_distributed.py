@@ -198,3 +198,51 @@ def test_bad_input_is_a_clear_error(tum):
     with pytest.raises(ValueError, match="tile_depth"):
         od.build_map(tum, tile_depth=17)
     assert od.default_tile_depth(0.1) == 8
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_spilled_tiles_join_to_octoquant_map(cli, clients, norlab, tmp_path, workers):
+    want_bt, want_ot = cli_map(cli, [norlab], tmp_path, "--res", "0.2", "--max-range", "10")
+    spill = tmp_path / "tiles"
+    tree, s = od.build_map_with_summary(
+        [norlab],
+        resolution=0.2,
+        max_range=10.0,
+        client=clients[workers],
+        tile_depth=6,
+        spill_dir=spill,
+    )
+    assert tree is None
+    files = sorted(p.name for p in spill.iterdir())
+    assert "tiles.index" in files and len(files) == s["tiles"] + 1
+    assert s["bytes_moved"]["tile_trees"] == 0
+    assert s["tile_file_bytes"] == sum(
+        p.stat().st_size for p in spill.iterdir() if p.name != "tiles.index"
+    )
+    res = subprocess.run(
+        [cli, "join", str(spill), "-o", str(tmp_path / "j.bt"), "-o", str(tmp_path / "j.ot")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "j.bt").read_bytes() == want_bt
+    assert (tmp_path / "j.ot").read_bytes() == want_ot
+    assert tree_bytes(od.join_tile_dir(spill)) == (want_bt, want_ot)
+    # a second build into the same directory is refused before any work
+    with pytest.raises(ValueError, match="not empty"):
+        od.build_map([norlab], resolution=0.2, client=clients[workers], spill_dir=spill)
+
+
+def test_command_line_output_rules(norlab, tmp_path, capsys):
+    # no -o is allowed only with --spill; --ot needs -o
+    for argv in (
+        [str(norlab)],
+        [str(norlab), "--spill", str(tmp_path / "t"), "--ot", str(tmp_path / "x.ot")],
+    ):
+        with pytest.raises(SystemExit) as e:
+            od.main(argv)
+        assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "-o is required" in err and "--ot needs -o" in err
+    assert not (tmp_path / "t").exists()

@@ -32,7 +32,9 @@ mod fresh_dir;
 mod grid;
 mod import;
 mod info;
+mod join;
 mod map;
+mod merge;
 mod progress;
 mod query;
 mod reduce;
@@ -77,6 +79,12 @@ enum Command {
     Reduce(reduce::Args),
     /// Project a height band of a map onto a 2D occupancy grid (ROS map_server / Nav2 YAML + PGM).
     Grid(grid::Args),
+    /// Fuse maps built separately: each later map's leaves applied to the first as log-odds
+    /// updates (OctoMap's updateNode, the first map's clamping).
+    Merge(merge::Args),
+    /// Assemble a tile directory (one .ot per tile plus tiles.index, from a tiled build's
+    /// spill directory) into one map.
+    Join(join::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
     /// How well a map predicts scans (OctoMap's eval_octree_accuracy): the share of the
@@ -107,6 +115,8 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Eval(a)) => eval::run(&a),
         Some(Command::Import(a)) => import::run(&a),
         Some(Command::Query(a)) => query::run(&a),
+        Some(Command::Merge(a)) => merge::run(&a),
+        Some(Command::Join(a)) => join::run(&a),
         None => demo::run_default(),
     };
     match result {

@@ -70,6 +70,33 @@ pub enum TileError {
     /// Tiles or trees that disagree on depth, resolution or sensor model.
     #[error("tiles disagree: {0}")]
     Mismatch(String),
+    /// Reading or writing a file of a tile directory failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A tile directory's index is malformed.
+    #[error("{}, line {line}: {message}", path.display())]
+    BadIndex {
+        /// The index file.
+        path: std::path::PathBuf,
+        /// The line (1-based; 0 for the file as a whole).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A tile file that is not the tile tree its index names.
+    #[error("{}: {message}", path.display())]
+    BadTileFile {
+        /// The tile file.
+        path: std::path::PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// The octree refused (a resolution, or the joined tree's stream).
     #[error(transparent)]
     Octree(#[from] octoquant_octree::OctreeError),

@@ -14,6 +14,8 @@
 //!    pruning, inner nodes refreshed), exactly as the sequential map applies them.
 //! 3. [`join_tiles`]: the tile trees joined into one tree, the levels above the tile depth
 //!    recomputed as OctoMap would have them.
+//! 4. Out of core ([`write_tile`], [`write_index`], [`join_dir`]): tile trees kept as one
+//!    `.ot` file per tile plus an index, assembled later.
 //!
 //! # Why the result is the sequential tree, node for node
 //!
@@ -76,11 +78,16 @@ mod apply;
 mod codec;
 mod error;
 mod join;
+mod spill;
 mod split;
 mod tile;
 
 pub use apply::{apply_tile_updates, ApplyStats};
 pub use error::TileError;
 pub use join::{join_tiles, tile_of_tree};
+pub use spill::{
+    join_dir, read_index, tile_file_name, tile_paths, write_index, write_tile, TileIndex,
+    INDEX_FILE,
+};
 pub use split::{split_update, TileFrame, TileSplitter, TileUpdates};
 pub use tile::Tile;

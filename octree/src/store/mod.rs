@@ -21,8 +21,8 @@ mod voxel_blocks;
 pub(crate) use arena::NO_BLOCK;
 pub use memory::MemoryUsage;
 pub(crate) use nodes::{NodeRef, NodeStore};
-pub(crate) use palette::Adder;
 #[cfg(test)]
 pub(crate) use palette::PALETTE_LIMIT;
+pub(crate) use palette::{clamp_sum, Adder};
 pub(crate) use slot::present;
 pub(crate) use voxel_blocks::Outcome;

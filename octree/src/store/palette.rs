@@ -27,7 +27,7 @@ const EMPTY_SLOT: u16 = 0;
 
 /// `old + delta` clamped to `[cmin, cmax]`, as `updateNodeLogOdds` computes it.
 #[inline(always)]
-fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
+pub(crate) fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
     let v = old + delta;
     if v < cmin {
         cmin
