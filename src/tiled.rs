@@ -9,8 +9,8 @@ use crate::pipeline::{CasterError, FrameCaster, MapStats, MapperOptions};
 use crate::Frame;
 use octoquant_octree::OcTree;
 use octoquant_tiles::{
-    apply_tile_updates, join_tiles, write_index, write_tile, TileError, TileIndex, TileSplitter,
-    TileUpdates,
+    apply_tile_updates, join_tiles, write_index, write_tile, Tile, TileError, TileIndex,
+    TileSplitter, TileUpdates,
 };
 use std::collections::BTreeMap;
 
@@ -66,25 +66,10 @@ pub fn build_tiled(
     frames: &[Frame],
     frames_per_batch: usize,
 ) -> Result<(OcTree, MapStats), TiledError> {
-    if options.lazy {
-        return Err(TiledError::Lazy);
-    }
-    let mut caster = FrameCaster::new(options.clone())?;
-    let mut per_tile: BTreeMap<_, Vec<TileUpdates>> = BTreeMap::new();
-    let mut stats = MapStats::default();
-    let batch = frames_per_batch.max(1);
-    for (b, chunk) in frames.chunks(batch).enumerate() {
-        let (lists, st) = cast_frames(&mut caster, tile_depth, (b * batch) as u64, chunk)?;
-        for l in lists {
-            per_tile.entry(l.tile).or_default().push(l);
-        }
-        stats.merge(&st);
-    }
+    let (per_tile, stats) = lists_by_tile(options, tile_depth, frames, frames_per_batch)?;
     let mut trees = Vec::with_capacity(per_tile.len());
     for (tile, lists) in per_tile {
-        let mut t =
-            OcTree::with_params(options.resolution, options.params).map_err(TileError::from)?;
-        apply_tile_updates(&mut t, tile, &lists)?;
+        let t = tile_tree(options, tile, &lists)?;
         trees.push(t);
     }
     let tree = join_tiles(options.resolution, options.params, tile_depth, &trees)?;
@@ -103,25 +88,10 @@ pub fn build_tiled_to_dir(
     frames_per_batch: usize,
     dir: &std::path::Path,
 ) -> Result<(TileIndex, MapStats), TiledError> {
-    if options.lazy {
-        return Err(TiledError::Lazy);
-    }
-    let mut caster = FrameCaster::new(options.clone())?;
-    let mut per_tile: BTreeMap<_, Vec<TileUpdates>> = BTreeMap::new();
-    let mut stats = MapStats::default();
-    let batch = frames_per_batch.max(1);
-    for (b, chunk) in frames.chunks(batch).enumerate() {
-        let (lists, st) = cast_frames(&mut caster, tile_depth, (b * batch) as u64, chunk)?;
-        for l in lists {
-            per_tile.entry(l.tile).or_default().push(l);
-        }
-        stats.merge(&st);
-    }
+    let (per_tile, stats) = lists_by_tile(options, tile_depth, frames, frames_per_batch)?;
     let mut tiles = Vec::with_capacity(per_tile.len());
     for (tile, lists) in per_tile {
-        let mut t =
-            OcTree::with_params(options.resolution, options.params).map_err(TileError::from)?;
-        apply_tile_updates(&mut t, tile, &lists)?;
+        let t = tile_tree(options, tile, &lists)?;
         tiles.extend(write_tile(dir, &t, tile_depth)?);
     }
     let index = TileIndex {
@@ -132,6 +102,43 @@ pub fn build_tiled_to_dir(
     };
     write_index(dir, &index)?;
     Ok((index, stats))
+}
+
+/// The update lists of `frames`, cast in batches of `frames_per_batch` and grouped by tile in
+/// tile order, each tile's lists in frame order; the statistics of the casting.
+fn lists_by_tile(
+    options: &MapperOptions,
+    tile_depth: u8,
+    frames: &[Frame],
+    frames_per_batch: usize,
+) -> Result<(BTreeMap<Tile, Vec<TileUpdates>>, MapStats), TiledError> {
+    if options.lazy {
+        return Err(TiledError::Lazy);
+    }
+    let mut caster = FrameCaster::new(options.clone())?;
+    let mut per_tile: BTreeMap<Tile, Vec<TileUpdates>> = BTreeMap::new();
+    let mut stats = MapStats::default();
+    let batch = frames_per_batch.max(1);
+    for (b, chunk) in frames.chunks(batch).enumerate() {
+        let (lists, st) = cast_frames(&mut caster, tile_depth, (b * batch) as u64, chunk)?;
+        for l in lists {
+            per_tile.entry(l.tile).or_default().push(l);
+        }
+        stats.merge(&st);
+    }
+    Ok((per_tile, stats))
+}
+
+/// The tree of one tile: its lists applied in frame order to an empty tree of the options'
+/// resolution and sensor model.
+fn tile_tree(
+    options: &MapperOptions,
+    tile: Tile,
+    lists: &[TileUpdates],
+) -> Result<OcTree, TiledError> {
+    let mut t = OcTree::with_params(options.resolution, options.params).map_err(TileError::from)?;
+    apply_tile_updates(&mut t, tile, lists)?;
+    Ok(t)
 }
 
 #[cfg(test)]
