@@ -1,6 +1,6 @@
 //! `.ot`: OctoMap's full-tree format (`AbstractOcTree::write` / `read`) for `OcTree`.
 
-use super::header::{read_header, write_header_id, Header};
+use super::header::{read_header, read_header_any, write_header_id, Header};
 use super::stream::Stream;
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
@@ -66,6 +66,31 @@ pub fn read_ot<R: Read>(reader: R) -> Result<OcTree, OctreeError> {
 pub(crate) fn read_ot_after_first_line<R: Read>(s: &mut Stream<R>) -> Result<OcTree, OctreeError> {
     let h = read_header(s, FMT)?;
     read_ot_body(s, &h)
+}
+
+/// The first line and header of an `.ot` stream whose tree type must be `id` (the readers of
+/// `ColorOcTree` and `OcTreeStamped`); another type is [`OctreeError::WrongTreeType`].
+pub(crate) fn read_typed_header<R: Read>(
+    s: &mut Stream<R>,
+    format: &'static str,
+    id: &'static str,
+) -> Result<Header, OctreeError> {
+    let first = s.line(format)?;
+    if !first.starts_with(OT_HEADER) {
+        return Err(s.format_err(
+            format,
+            0,
+            format!("first line does not start with {OT_HEADER:?}"),
+        ));
+    }
+    let (h, found) = read_header_any(s, format)?;
+    if found != id {
+        return Err(OctreeError::WrongTreeType {
+            id: found,
+            expected: id,
+        });
+    }
+    Ok(h)
 }
 
 /// The node records after an `.ot` header whose tree type stores only log-odds per node.

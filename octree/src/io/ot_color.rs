@@ -5,8 +5,8 @@
 //! record: per node, pre-order, the `f32` log-odds (little-endian), the colour as three bytes
 //! `r g b`, then the child bitmask.
 
-use super::header::{read_header_any, write_header_id};
-use super::ot::OT_HEADER;
+use super::header::write_header_id;
+use super::ot::{read_typed_header, OT_HEADER};
 use super::stream::Stream;
 use crate::color::Color;
 use crate::color_tree::{child_id, node_id, ColorOcTree, NodeId};
@@ -64,21 +64,7 @@ fn write_node(tree: &ColorOcTree, n: NodeRef, id: NodeId, out: &mut Vec<u8>) {
 /// are rejected with the byte offset.
 pub fn read_color_ot<R: Read>(reader: R) -> Result<ColorOcTree, OctreeError> {
     let mut s = Stream::new(reader);
-    let first = s.line(FMT)?;
-    if !first.starts_with(OT_HEADER) {
-        return Err(s.format_err(
-            FMT,
-            0,
-            format!("first line does not start with {OT_HEADER:?}"),
-        ));
-    }
-    let (h, id) = read_header_any(&mut s, FMT)?;
-    if id != COLOR_OCTREE_ID {
-        return Err(OctreeError::WrongTreeType {
-            id,
-            expected: COLOR_OCTREE_ID,
-        });
-    }
+    let h = read_typed_header(&mut s, FMT, COLOR_OCTREE_ID)?;
     let mut tree = ColorOcTree::from_occupancy(OcTree::new(h.res)?);
     if h.size > 0 {
         let data_start = s.offset;

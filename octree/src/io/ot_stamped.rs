@@ -5,8 +5,7 @@
 //! plain `.ot` ones (the `f32` log-odds and the child bitmask, pre-order) and the header says
 //! `id OcTreeStamped`: the time stamps are not saved, and a tree read back has every stamp 0.
 
-use super::header::read_header_any;
-use super::ot::{read_ot_body, write_ot_typed, OT_HEADER};
+use super::ot::{read_ot_body, read_typed_header, write_ot_typed};
 use super::stream::Stream;
 use crate::error::OctreeError;
 use crate::stamped_tree::StampedOcTree;
@@ -28,20 +27,6 @@ pub fn write_stamped_ot<W: Write>(tree: &StampedOcTree, w: W) -> std::io::Result
 /// reader's errors, with the byte offset.
 pub fn read_stamped_ot<R: Read>(reader: R) -> Result<StampedOcTree, OctreeError> {
     let mut s = Stream::new(reader);
-    let first = s.line(FMT)?;
-    if !first.starts_with(OT_HEADER) {
-        return Err(s.format_err(
-            FMT,
-            0,
-            format!("first line does not start with {OT_HEADER:?}"),
-        ));
-    }
-    let (h, id) = read_header_any(&mut s, FMT)?;
-    if id != STAMPED_OCTREE_ID {
-        return Err(OctreeError::WrongTreeType {
-            id,
-            expected: STAMPED_OCTREE_ID,
-        });
-    }
+    let h = read_typed_header(&mut s, FMT, STAMPED_OCTREE_ID)?;
     Ok(StampedOcTree::from_occupancy(read_ot_body(&mut s, &h)?))
 }
