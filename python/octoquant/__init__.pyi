@@ -393,6 +393,8 @@ def read_frames(
     depth_scale: Optional[float] = None,
     intrinsics: Optional[tuple[float, float, float, float]] = None,
     viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
+    first: int = 0,
+    count: Optional[int] = None,
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
     """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI
     reads, with the reader options of ``octoquant map`` as keywords: ``format`` (``--format``),
@@ -400,8 +402,28 @@ def read_frames(
     ``fixed_frame`` (MCAP), ``pixel_step`` (TUM depth); beyond the CLI ``trajectory`` (VTK
     sequence CSV), ``depth_scale`` (TUM raw units per metre, default 5000), ``intrinsics``
     ``(fx, fy, cx, cy)`` (TUM, default 525, 525, 319.5, 239.5) and ``viewpoint`` (PCD
-    ``VIEWPOINT``: ``"origin"`` as PCL, the default, ``"apply"`` or ``"ignore"``). Bad options
+    ``VIEWPOINT``: ``"origin"`` as PCL, the default, ``"apply"`` or ``"ignore"``). ``first`` and
+    ``count``: only frames ``first .. first + count`` (all from ``first`` without a count),
+    read no further than needed; an input with fewer frames raises ``ValueError``. Bad options
     and files raise ``ValueError`` naming the file; a missing path ``FileNotFoundError``."""
+
+def count_frames(
+    path: StrOrBytesPath,
+    format: Optional[
+        Literal["graph", "frames", "text", "vtk", "vtk-seq", "pcd", "tum-png", "tum", "mcap", "ply"]
+    ] = None,
+    *,
+    points_global: bool = False,
+    topic: Optional[str] = None,
+    fixed_frame: Optional[str] = None,
+    pixel_step: int = 1,
+    trajectory: Optional[StrOrBytesPath] = None,
+    depth_scale: Optional[float] = None,
+    intrinsics: Optional[tuple[float, float, float, float]] = None,
+    viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
+) -> Optional[int]:
+    """How many frames :func:`read_frames` gives for ``path``, known without reading points
+    (file headers, association rows, MCAP statistics); ``None`` when the input does not say."""
 
 CellSize = Union[float, Sequence[float], NDArray[np.floating[Any]]]
 Selection = Literal["centre", "center", "mean"]

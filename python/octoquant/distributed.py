@@ -13,9 +13,9 @@ orchestrates.
 Runs on a ``LocalCluster`` by default, or on any ``distributed.Client`` (dask-jobqueue,
 dask-kubernetes, cloud clusters). Command line::
 
-    python -m octoquant.distributed INPUT... --res R [--max-range M] -o OUT.bt [--ot OUT.ot]
-        [--workers N | --scheduler ADDR] [--tile-depth D] [--frames-per-task K]
-        [--spill DIR] [--json]
+    python -m octoquant.distributed INPUT... --res R [--max-range M] [--mode MODE]
+        -o OUT.bt [--ot OUT.ot] [--workers N | --scheduler ADDR] [--tile-depth D]
+        [--frames-per-task K] [--spill DIR] [--read-on auto|workers|driver] [--json]
 
 Out of core: with ``spill_dir`` (``--spill DIR``) each tile task writes its tile tree into
 that directory (one ``.ot`` per tile, on a file system the workers and the driver share)
@@ -23,8 +23,12 @@ instead of returning it, and the driver writes the directory's index at the end;
 then the directory, assembled by ``octoquant join DIR -o map.bt`` or :func:`join_tile_dir`,
 byte-identical to the in-memory build.
 
-Not yet: modes other than ``exact``, workers reading their own frames (the driver reads the
-inputs and ships the frames).
+Inputs: when every input announces its frame count (``.frames``, ``.graph``, TUM, VTK
+sequences, single scans, MCAP with statistics) each ray task reads its own slice of frames
+(the inputs must then be at the same path on the workers, as for ``spill_dir``); otherwise,
+or with ``read_on="driver"``, the driver reads the inputs and ships the frames inside the
+tasks. Either way every task can be rerun from what the scheduler holds, so a worker lost
+mid-build costs time, not bytes: Dask reruns its tasks and the map is the same.
 """
 
 import argparse
@@ -38,6 +42,7 @@ from octoquant._octoquant import (
     apply_tile,
     apply_tile_to_dir,
     cast_tiles,
+    count_frames,
     default_tile_depth,
     join_tile_dir,
     join_tiles,
@@ -56,12 +61,20 @@ __all__ = [
     "main",
 ]
 
-MODES = ("exact",)
+MODES = ("exact", "discretize", "quantized", "quantized+bresenham")
+READ_ON = ("auto", "workers", "driver")
 
 
 def _cast_batch(frames, first, resolution, tile_depth, max_range, mode):
     """Task: cast a batch of frames; per-tile update lists as bytes, and the batch's counts."""
     return cast_tiles(frames, first, resolution, tile_depth, max_range=max_range, mode=mode)
+
+
+def _cast_slice(path, start, count, first, reader_options, resolution, tile_depth, max_range, mode):
+    """Task: read frames ``start .. start + count`` of ``path`` (run indices from ``first``)
+    and cast them as :func:`_cast_batch` does."""
+    frames = read_frames(path, first=start, count=count, **reader_options)
+    return _cast_batch(frames, first, resolution, tile_depth, max_range, mode)
 
 
 def _batch_summary(result):
@@ -96,11 +109,23 @@ def _prepare_spill_dir(spill_dir):
     return spill_dir
 
 
-def _read_inputs(inputs, reader_options):
-    frames = []
+def _plan_inputs(inputs, reader_options, read_on):
+    """Per input: its frame count when the workers are to read it, else its frames (read
+    here). ``read_on="workers"`` with an input that does not announce its count is an error."""
+    plan = []
     for path in inputs:
-        frames.extend(read_frames(os.fspath(path), **reader_options))
-    return frames
+        path = os.fspath(path)
+        n = None if read_on == "driver" else count_frames(path, **reader_options)
+        if n is None and read_on == "workers":
+            raise ValueError(
+                f"{path}: the input does not announce its frame count, so workers cannot read "
+                'their own slices of it; use read_on="driver"'
+            )
+        if n is None:
+            plan.append((path, None, read_frames(path, **reader_options)))
+        else:
+            plan.append((path, n, None))
+    return plan
 
 
 def build_map_with_summary(
@@ -113,13 +138,16 @@ def build_map_with_summary(
     tile_depth=None,
     frames_per_task=None,
     spill_dir=None,
+    read_on="auto",
     **reader_options,
 ):
     """:func:`build_map`, also returning a summary dict: frames, points, rays, tiles, workers,
-    bytes moved (frames shipped, update lists, tile trees) and seconds per stage (read, cast,
-    apply, join). With ``spill_dir`` the tree is ``None`` (the map is the directory), tile
+    bytes moved (frames shipped by the driver, update lists, tile trees), which frames the
+    workers read themselves, and seconds per stage (read, cast, apply, join). With ``spill_dir`` the tree is ``None`` (the map is the directory), tile
     trees are not moved (``bytes_moved["tile_trees"]`` is 0), ``tile_file_bytes`` says how
     much the tiles take on disk, and ``join`` is the time to write the index."""
+    if read_on not in READ_ON:
+        raise ValueError(f"read_on must be one of {READ_ON}, got {read_on!r}")
     if mode not in MODES:
         raise ValueError(
             f"mode {mode!r} is not supported by the distributed build yet; expected one of {MODES}"
@@ -153,8 +181,9 @@ def build_map_with_summary(
 
     seconds = {}
     t0 = time.perf_counter()
-    frames = _read_inputs(inputs, reader_options)
+    plan = _plan_inputs(inputs, reader_options, read_on)
     seconds["read"] = time.perf_counter() - t0
+    total_frames = sum(n if frames is None else len(frames) for _, n, frames in plan)
 
     own_cluster = None
     if client is None:
@@ -166,27 +195,32 @@ def build_map_with_summary(
         client = distributed.Client(own_cluster)
     try:
         workers = len(client.scheduler_info()["workers"]) or 1
-        per_task = frames_per_task or max(1, math.ceil(len(frames) / (2 * workers)))
+        per_task = frames_per_task or max(1, math.ceil(total_frames / (2 * workers)))
 
         t = time.perf_counter()
         batches = []
         frame_bytes = 0
-        for first in range(0, len(frames), per_task):
-            chunk = frames[first : first + per_task]
-            frame_bytes += sum(p.nbytes + o.nbytes for p, o in chunk)
-            [data] = client.scatter([chunk])
-            batches.append(
-                client.submit(
-                    _cast_batch,
-                    data,
-                    first,
-                    resolution,
-                    tile_depth,
-                    max_range,
-                    mode,
-                    pure=False,
+        worker_read = 0
+        first = 0
+        # the frames travel inside the tasks (never scattered): a lost worker's tasks can be
+        # rerun from what the scheduler holds
+        for path, n, frames in plan:
+            size = n if frames is None else len(frames)
+            for start in range(0, size, per_task):
+                count = min(per_task, size - start)
+                if frames is None:
+                    worker_read += count
+                    task = (_cast_slice, path, start, count, first, reader_options)
+                else:
+                    chunk = frames[start : start + count]
+                    frame_bytes += sum(p.nbytes + o.nbytes for p, o in chunk)
+                    task = (_cast_batch, chunk, first)
+                batches.append(
+                    client.submit(
+                        *task, resolution, tile_depth, max_range, mode, pure=False
+                    )
                 )
-            )
+                first += count
         summaries = client.gather(client.map(_batch_summary, batches, pure=False))
         seconds["cast"] = time.perf_counter() - t
 
@@ -248,6 +282,8 @@ def build_map_with_summary(
             "workers": workers,
             "tasks": len(summaries),
             "frames_per_task": per_task,
+            "mode": mode,
+            "frames_read_by_workers": worker_read,
             "bytes_moved": {
                 "frames": frame_bytes,
                 "update_lists": list_bytes,
@@ -273,6 +309,7 @@ def build_map(
     tile_depth=None,
     frames_per_task=None,
     spill_dir=None,
+    read_on="auto",
     **reader_options,
 ):
     """Build one map from sensor files on Dask: the ``OcTree`` ``octoquant map`` builds from
@@ -281,8 +318,8 @@ def build_map(
 
     ``inputs``: a path or a list of paths (files or scan directories), read in order as
     ``octoquant map`` reads them; ``reader_options`` are :func:`octoquant.read_frames`'s
-    keywords. ``resolution``, ``max_range``, ``mode`` (only ``"exact"`` for now): as
-    ``octoquant map``. ``client``: a ``distributed.Client`` to run on; without one a
+    keywords. ``resolution``, ``max_range``, ``mode`` (``"exact"``, ``"discretize"``,
+    ``"quantized"``, ``"quantized+bresenham"``): as ``octoquant map``. ``client``: a ``distributed.Client`` to run on; without one a
     ``LocalCluster`` of ``n_workers`` processes (default 2) is started and closed.
     ``tile_depth``: depth of the tiles in the key space (0..=16; default: tiles of about
     25.6 m); ``frames_per_task``: frames per ray task (default: two tasks per worker).
@@ -290,7 +327,10 @@ def build_map(
     the index) by the worker that built it, nothing is joined in memory and ``None`` is
     returned; ``octoquant join DIR -o map.bt`` or :func:`join_tile_dir` assembles the map
     (same bytes). The directory is created, or must be empty, and must be on a file system
-    the workers share.
+    the workers share. ``read_on``: ``"auto"`` (default) lets each ray task read its own slice
+    of an input that announces its frame count and has the driver read the others;
+    ``"workers"`` insists on the former (ValueError for an input without a count), and
+    ``"driver"`` ships every frame from the driver (for workers that cannot see the inputs).
 
     A script that lets this start a ``LocalCluster`` must call it under
     ``if __name__ == "__main__":``, as for any Dask cluster of processes (the workers are
@@ -306,6 +346,7 @@ def build_map(
         tile_depth=tile_depth,
         frames_per_task=frames_per_task,
         spill_dir=spill_dir,
+        read_on=read_on,
         **reader_options,
     )
     return tree
@@ -317,7 +358,8 @@ def _text_summary(s, out, ot):
     lines = [
         f"frames {s['frames']}, points {s['points']}, rays {s['rays']}",
         f"tiles {s['tiles']} at depth {s['tile_depth']}, {s['tasks']} ray tasks of "
-        f"{s['frames_per_task']} frames on {s['workers']} workers",
+        f"{s['frames_per_task']} frames on {s['workers']} workers, mode {s['mode']}, "
+        f"{s['frames_read_by_workers']} frames read by the workers",
         f"bytes moved {b['total']} (frames {b['frames']}, update lists {b['update_lists']}, "
         f"tile trees {b['tile_trees']})",
         "seconds: "
@@ -339,6 +381,7 @@ def main(argv=None):
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="sensor files or scan directories")
     p.add_argument("--res", type=float, default=0.1, help="leaf size in metres (default 0.1)")
     p.add_argument("--max-range", type=float, default=None, help="readings beyond only clear space")
+    p.add_argument("--mode", choices=MODES, default="exact", help="insertion mode (as `octoquant map`)")
     p.add_argument(
         "-o", "--output", default=None, help="the .bt to write (optional with --spill)"
     )
@@ -354,6 +397,14 @@ def main(argv=None):
         metavar="DIR",
         help="write the tiles into DIR (one .ot per tile plus tiles.index; "
         "`octoquant join DIR -o map.bt` assembles them); -o then joins them too",
+    )
+    p.add_argument(
+        "--read-on",
+        choices=READ_ON,
+        default="auto",
+        help="who reads the inputs: each task its own slice (workers; the inputs must be at "
+        "the same path there), the driver, or auto (workers when the input announces its "
+        "frame count)",
     )
     p.add_argument("--format", default=None, help="input format (as `octoquant map --format`)")
     p.add_argument("--pixel-step", type=int, default=1, help="TUM depth images: every N-th pixel")
@@ -380,11 +431,13 @@ def main(argv=None):
             a.inputs,
             resolution=a.res,
             max_range=a.max_range,
+            mode=a.mode,
             client=client,
             n_workers=a.workers,
             tile_depth=a.tile_depth,
             frames_per_task=a.frames_per_task,
             spill_dir=a.spill,
+            read_on=a.read_on,
             **reader,
         )
         if tree is None and a.output is not None:

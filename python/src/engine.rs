@@ -57,6 +57,48 @@ pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, Str
     octoquant::formats::read_frames(path, options).map_err(|e| e.to_string())
 }
 
+/// Frames `first .. first + count` of a sensor file (all from `first` when `count` is `None`),
+/// read one at a time and only as far as needed (the slice a distributed task reads). The
+/// frames before `first` are read and dropped, their errors reported; an input that ends
+/// before `first`, or before `first + count` when a count is given, is an error naming the
+/// file and the frame counts.
+pub fn read_frame_range(
+    path: &Path,
+    options: &ReadOptions,
+    first: usize,
+    count: Option<usize>,
+) -> Result<Vec<Frame>, String> {
+    let mut stream = octoquant::formats::frame_stream(path, options).map_err(|e| e.to_string())?;
+    let short = |got: usize| {
+        format!(
+            "{}: frames {first}..{} asked, the input has only {got}",
+            path.display(),
+            count.map_or_else(|| "end".to_string(), |c| (first + c).to_string())
+        )
+    };
+    for seen in 0..first {
+        match stream.next() {
+            Some(f) => drop(f.map_err(|e| e.to_string())?),
+            None => return Err(short(seen)),
+        }
+    }
+    let mut frames = Vec::new();
+    while count.is_none_or(|c| frames.len() < c) {
+        match stream.next() {
+            Some(f) => frames.push(f.map_err(|e| e.to_string())?),
+            None if count.is_some() => return Err(short(first + frames.len())),
+            None => break,
+        }
+    }
+    Ok(frames)
+}
+
+/// How many frames a sensor file announces without reading its points (the formats crate's
+/// `count_frames`): `None` for text logs and MCAP files without statistics.
+pub fn count_frames(path: &Path, options: &ReadOptions) -> Option<usize> {
+    octoquant::formats::count_frames(path, options)
+}
+
 /// Every laser scan of a CARMEN log (`FLASER`/`ROBOTLASER1` lines; `.gz`/`.bz2` allowed), in
 /// file order. Errors name the file and line.
 pub fn read_laser_scans(path: &Path) -> Result<Vec<LaserScan>, String> {

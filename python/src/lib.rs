@@ -48,10 +48,14 @@ type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 /// and ``fixed_frame`` (MCAP), ``pixel_step`` (TUM depth images: every N-th pixel). Beyond
 /// the CLI: ``trajectory`` (the CSV of a VTK sequence), ``depth_scale`` and ``intrinsics``
 /// ``(fx, fy, cx, cy)`` (TUM depth), ``viewpoint`` (PCD ``VIEWPOINT``: ``"origin"`` as PCL,
-/// ``"apply"`` or ``"ignore"``). Releases the GIL while reading.
+/// ``"apply"`` or ``"ignore"``). ``first`` and ``count``: only frames ``first .. first +
+/// count`` (all from ``first`` without a count), read one at a time and no further than
+/// needed (what a distributed task reads); an input with fewer frames raises ValueError.
+/// Releases the GIL while reading.
 #[pyfunction]
 #[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
-    pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None))]
+    pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None,
+    first=0, count=None))]
 #[allow(clippy::too_many_arguments)]
 fn read_frames<'py>(
     py: Python<'py>,
@@ -65,8 +69,94 @@ fn read_frames<'py>(
     depth_scale: Option<f64>,
     intrinsics: Option<(f64, f64, f64, f64)>,
     viewpoint: Option<&str>,
+    first: i64,
+    count: Option<i64>,
 ) -> PyResult<Vec<FrameArrays<'py>>> {
     use pyo3::exceptions::PyValueError;
+    let p = existing_path(path)?;
+    let options = reader_options(
+        format,
+        points_global,
+        topic,
+        fixed_frame,
+        pixel_step,
+        trajectory,
+        depth_scale,
+        intrinsics,
+        viewpoint,
+    )?;
+    let first = usize::try_from(first)
+        .map_err(|_| PyValueError::new_err(format!("first must be >= 0, got {first}")))?;
+    let count = count
+        .map(|c| {
+            usize::try_from(c)
+                .map_err(|_| PyValueError::new_err(format!("count must be >= 0, got {c}")))
+        })
+        .transpose()?;
+    let frames = py
+        .detach(|| {
+            if first == 0 && count.is_none() {
+                engine::read_frames(&p, &options)
+            } else {
+                engine::read_frame_range(&p, &options, first, count)
+            }
+        })
+        .map_err(PyValueError::new_err)?;
+    Ok(frames
+        .into_iter()
+        .map(|f| {
+            let n = f.points.len();
+            let flat: Vec<f32> = f.points.iter().flat_map(|q| [q.x, q.y, q.z]).collect();
+            let pts =
+                Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+            (
+                PyArray2::from_owned_array(py, pts),
+                PyArray1::from_slice(py, &[f.origin.x, f.origin.y, f.origin.z]),
+            )
+        })
+        .collect())
+}
+
+/// How many frames :func:`read_frames` would return for ``path`` with these reader options,
+/// known without reading the points: the count in a ``.frames`` or ``.graph`` header, one for
+/// a single scan, the scans of a VTK sequence, the rows of a TUM association, the clouds in an
+/// MCAP summary. ``None`` when the input does not say (text logs, MCAP without statistics) or
+/// cannot be read (the read itself then says why). What a distributed build plans its slices
+/// by.
+#[pyfunction]
+#[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
+    pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None))]
+#[allow(clippy::too_many_arguments)]
+fn count_frames<'py>(
+    py: Python<'py>,
+    path: &Bound<'py, PyAny>,
+    format: Option<&str>,
+    points_global: bool,
+    topic: Option<String>,
+    fixed_frame: Option<String>,
+    pixel_step: i64,
+    trajectory: Option<&Bound<'py, PyAny>>,
+    depth_scale: Option<f64>,
+    intrinsics: Option<(f64, f64, f64, f64)>,
+    viewpoint: Option<&str>,
+) -> PyResult<Option<usize>> {
+    let p = existing_path(path)?;
+    let options = reader_options(
+        format,
+        points_global,
+        topic,
+        fixed_frame,
+        pixel_step,
+        trajectory,
+        depth_scale,
+        intrinsics,
+        viewpoint,
+    )?;
+    Ok(py.detach(|| engine::count_frames(&p, &options)))
+}
+
+/// The path argument of a reader, which must exist (FileNotFoundError otherwise).
+fn existing_path(path: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
     let p = convert::path(path, "path")?;
     if !p.exists() {
         return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
@@ -74,6 +164,24 @@ fn read_frames<'py>(
             p.display()
         )));
     }
+    Ok(p)
+}
+
+/// The reader options of ``octoquant map`` from the readers' keywords; bad values raise
+/// ValueError.
+#[allow(clippy::too_many_arguments)]
+fn reader_options(
+    format: Option<&str>,
+    points_global: bool,
+    topic: Option<String>,
+    fixed_frame: Option<String>,
+    pixel_step: i64,
+    trajectory: Option<&Bound<'_, PyAny>>,
+    depth_scale: Option<f64>,
+    intrinsics: Option<(f64, f64, f64, f64)>,
+    viewpoint: Option<&str>,
+) -> PyResult<engine::ReadOptions> {
+    use pyo3::exceptions::PyValueError;
     let mut options = engine::ReadOptions {
         format: format
             .map(engine::input_format)
@@ -111,22 +219,7 @@ fn read_frames<'py>(
             }
         };
     }
-    let frames = py
-        .detach(|| engine::read_frames(&p, &options))
-        .map_err(pyo3::exceptions::PyValueError::new_err)?;
-    Ok(frames
-        .into_iter()
-        .map(|f| {
-            let n = f.points.len();
-            let flat: Vec<f32> = f.points.iter().flat_map(|q| [q.x, q.y, q.z]).collect();
-            let pts =
-                Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
-            (
-                PyArray2::from_owned_array(py, pts),
-                PyArray1::from_slice(py, &[f.origin.x, f.origin.y, f.origin.z]),
-            )
-        })
-        .collect())
+    Ok(options)
 }
 
 /// octoquant: OctoMap-compatible occupancy octrees from NumPy, fast.
@@ -148,6 +241,7 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_function(wrap_pyfunction!(tree::_restore, m)?)?;
     m.add_function(wrap_pyfunction!(read_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(count_frames, m)?)?;
     m.add_class::<density::PyDensityReducer>()?;
     m.add_class::<density::PyOutputCycle>()?;
     m.add_function(wrap_pyfunction!(density::reduce, m)?)?;

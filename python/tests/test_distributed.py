@@ -8,6 +8,7 @@ target/debug); without them these tests skip, except under CI=true.
 
 import json
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -194,7 +195,9 @@ def test_bad_input_is_a_clear_error(tum):
     with pytest.raises(ValueError, match="tile tree 0"):
         octoquant.distributed.join_tiles(3, [b"not a tree"], 0.1)
     with pytest.raises(ValueError, match="not supported"):
-        od.build_map(tum, mode="quantized")
+        od.build_map(tum, mode="simple")
+    with pytest.raises(ValueError, match="read_on"):
+        od.build_map(tum, read_on="somewhere")
     with pytest.raises(ValueError, match="tile_depth"):
         od.build_map(tum, tile_depth=17)
     assert od.default_tile_depth(0.1) == 8
@@ -246,3 +249,117 @@ def test_command_line_output_rules(norlab, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "-o is required" in err and "--ot needs -o" in err
     assert not (tmp_path / "t").exists()
+
+
+@pytest.mark.parametrize("mode", ["discretize", "quantized", "quantized+bresenham"])
+def test_every_frame_set_mode_matches_octoquant_map(cli, clients, norlab, tmp_path, mode):
+    want_bt, want_ot = cli_map(
+        cli, [norlab], tmp_path, "--res", "0.2", "--max-range", "10", "--mode", mode
+    )
+    for workers, read_on in ((1, "driver"), (2, "workers")):
+        tree, s = od.build_map_with_summary(
+            [norlab],
+            resolution=0.2,
+            max_range=10.0,
+            mode=mode,
+            client=clients[workers],
+            tile_depth=5,
+            frames_per_task=4,
+            read_on=read_on,
+        )
+        assert tree_bytes(tree) == (want_bt, want_ot), (workers, read_on)
+        assert s["mode"] == mode and s["tasks"] == 4
+        # who read the frames: the driver ships them, or each task reads its own slice
+        if read_on == "driver":
+            assert s["frames_read_by_workers"] == 0 and s["bytes_moved"]["frames"] > 0
+        else:
+            assert s["frames_read_by_workers"] == 14 and s["bytes_moved"]["frames"] == 0
+
+
+def test_frame_slices_are_the_whole_read_in_pieces(tum, norlab):
+    for path, opts in ((tum, {"pixel_step": 16}), (norlab, {})):
+        whole = octoquant.read_frames(path, **opts)
+        assert octoquant.count_frames(path, **opts) == len(whole) > 3
+        pieces = []
+        for first in range(0, len(whole), 3):
+            pieces += octoquant.read_frames(path, first=first, count=3 if first + 3 <= len(whole)
+                                            else len(whole) - first, **opts)
+        assert len(pieces) == len(whole)
+        for (p, o), (q, r) in zip(pieces, whole):
+            assert np.array_equal(p, q) and np.array_equal(o, r)
+        tail = octoquant.read_frames(path, first=len(whole) - 1, **opts)
+        assert len(tail) == 1 and np.array_equal(tail[0][0], whole[-1][0])
+        assert octoquant.read_frames(path, first=2, count=0, **opts) == []
+        with pytest.raises(ValueError, match=f"has only {len(whole)}"):
+            octoquant.read_frames(path, first=len(whole) - 1, count=2, **opts)
+        with pytest.raises(ValueError, match=f"has only {len(whole)}"):
+            octoquant.read_frames(path, first=len(whole) + 1, **opts)
+        with pytest.raises(ValueError, match="first"):
+            octoquant.read_frames(path, first=-1, **opts)
+
+
+def test_text_input_without_a_count_is_read_by_the_driver(clients, tmp_path):
+    # a text scan log announces no frame count: auto has the driver read it, workers refuses
+    log = tmp_path / "scan.log"
+    log.write_text(
+        "NODE 0 0 0 0 0 0\n1 0 0\n1 1 0\n0 1 0.5\nNODE 0.1 0 0 0 0 0\n2 0 0\n0 2 0\n"
+    )
+    assert octoquant.count_frames(log) is None
+    m = octoquant.Mapper(resolution=0.1)
+    for pts, origin in octoquant.read_frames(log):
+        m.insert(pts, origin)
+    tree, s = od.build_map_with_summary(log, resolution=0.1, client=clients[1], tile_depth=12)
+    assert tree_bytes(tree) == tree_bytes(m.tree)
+    assert s["frames"] == 2 and s["frames_read_by_workers"] == 0
+    with pytest.raises(ValueError, match="frame count"):
+        od.build_map(log, resolution=0.1, client=clients[1], read_on="workers")
+
+
+@pytest.mark.parametrize("read_on", ["workers", "driver"])
+def test_a_worker_killed_mid_build_changes_nothing(cli, dask, norlab, tmp_path, read_on):
+    """A worker process is killed (SIGKILL, no goodbye) when it starts the first tile task of
+    the build, after the ray tasks ran: Dask loses the update lists it held and the tile task,
+    reruns what is lost on the surviving or restarted worker, and the map is the same."""
+    want_bt, want_ot = cli_map(cli, [norlab], tmp_path, "--res", "0.2", "--max-range", "10")
+    marker = tmp_path / "killed"
+
+    class KillOnce(dask.WorkerPlugin):
+        """Kills its worker the first time, cluster-wide, a tile task starts on it."""
+
+        def __init__(self, marker):
+            self.marker = str(marker)
+
+        def transition(self, key, start, finish, **kwargs):
+            if finish != "executing" or "_apply" not in str(key):
+                return
+            try:
+                fd = os.open(self.marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                return
+            os.write(fd, str(os.getpid()).encode())
+            os.close(fd)
+            os.kill(os.getpid(), signal.SIGKILL)
+
+    cluster = dask.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+    )
+    client = dask.Client(cluster)
+    try:
+        pids = set(client.run(os.getpid).values())
+        client.register_plugin(KillOnce(marker))
+        tree, s = od.build_map_with_summary(
+            [norlab],
+            resolution=0.2,
+            max_range=10.0,
+            client=client,
+            tile_depth=6,
+            frames_per_task=2,
+            read_on=read_on,
+        )
+    finally:
+        client.close()
+        cluster.close()
+    killed = int(marker.read_text())
+    assert killed in pids, "the plugin killed a worker of this cluster"
+    assert tree_bytes(tree) == (want_bt, want_ot)
+    assert s["frames"] == 14 and s["tasks"] == 7
