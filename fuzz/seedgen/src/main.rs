@@ -37,6 +37,7 @@ fn main() {
     octree_ops(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
+    tiles(&mut seeds);
     let checked = check_seeds(&seeds.out);
     println!(
         "wrote {} seeds under {}, {checked} of them read back by the library",
@@ -968,4 +969,69 @@ fn octree_ops(s: &mut Seeds) {
             .collect();
         s.put("octree_ops", &format!("random-{i}.bin"), &bytes);
     }
+}
+
+/// Tile update buffers (OQTU) at several tile depths, from deterministic pseudo-random
+/// sorted codes inside each tile, and tile directory indexes, written by the tiles crate's
+/// own encoder and index writer (each read back here).
+fn tiles(s: &mut Seeds) {
+    use octoquant_tiles::{
+        read_index, write_index, Tile, TileFrame, TileIndex, TileUpdates, INDEX_FILE,
+    };
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for (i, depth) in [0u8, 3, 8, 12, 16].into_iter().enumerate() {
+        let index = next() & ((1u64 << (3 * depth as u32)) - 1);
+        let tile = Tile::new(depth, index).unwrap();
+        let base = tile.min_key().morton();
+        let span = 1u64 << (48 - 3 * depth as u32);
+        let mut lists = TileUpdates::new(tile);
+        for f in 0..(1 + i as u64) {
+            let mut codes: Vec<u64> = (0..(3 * i + 2)).map(|_| base + next() % span).collect();
+            codes.sort_unstable();
+            codes.dedup();
+            let split = codes.len() / 2;
+            lists.frames.push(TileFrame {
+                frame: 2 * f + i as u64,
+                free: codes[..split].to_vec(),
+                occupied: codes[split..].to_vec(),
+            });
+        }
+        let bytes = lists.to_bytes().unwrap();
+        assert!(TileUpdates::from_bytes(&bytes).unwrap() == lists);
+        // the target's first byte: 0 reads the rest as it is, 1 fixes its checksum first
+        for pick in [0u8, 1] {
+            let mut seed = vec![pick];
+            seed.extend_from_slice(&bytes);
+            s.put("tile_lists", &format!("depth-{depth:02}-{pick}.oqtu"), &seed);
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("octoquant-seedgen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (i, depth) in [0u8, 6, 9].into_iter().enumerate() {
+        let tiles = (0..i as u64 * 2)
+            .map(|k| {
+                let t = Tile::new(depth, k * 5 % (1u64 << (3 * depth as u32))).unwrap();
+                (t, octoquant_tiles::tile_file_name(t))
+            })
+            .collect::<std::collections::BTreeMap<_, _>>()
+            .into_iter()
+            .collect();
+        let index = TileIndex {
+            resolution: [0.1, 0.05, 0.2][i],
+            params: octoquant_octree::OccupancyParams::default(),
+            tile_depth: depth,
+            tiles,
+        };
+        write_index(&dir, &index).unwrap();
+        assert!(read_index(&dir).unwrap() == index);
+        let bytes = std::fs::read(dir.join(INDEX_FILE)).unwrap();
+        s.put("tile_index", &format!("depth-{depth:02}.index"), &bytes);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }
