@@ -164,25 +164,31 @@ impl Accumulator {
     fn bin(&self, i: usize, p: [f64; 2]) -> i64 {
         let (c, s) = self.cos_sin[i];
         let rho = p[0] * c + p[1] * s;
+        let x = rho / self.step + 0.5;
+        // floor(x) without a call into libm (x is at most J + 1 in size, far below 2^53).
+        let t = x as i64;
+        let floor = t - i64::from((t as f64) > x);
         // |rho| <= R, so the bin is within [-J, J]; the clamp only guards rounding.
-        ((rho / self.step + 0.5).floor() as i64).clamp(-self.half, self.half)
+        floor.clamp(-self.half, self.half)
     }
 
-    fn vote(&mut self, p: [f64; 2]) {
+    /// Add (`add`) or withdraw the votes of the points `ids`, a row at a time (each row is a
+    /// small slice, so its counts stay in cache).
+    fn tally(&mut self, points: &[[f64; 2]], ids: &[u32], add: bool) {
         for i in 0..self.cos_sin.len() {
-            let col = (self.bin(i, p) + self.half) as usize;
-            self.votes[i * self.cols + col] += 1;
-            self.dirty[i] = true;
-        }
-    }
-
-    fn withdraw(&mut self, p: [f64; 2]) {
-        for i in 0..self.cos_sin.len() {
-            let col = (self.bin(i, p) + self.half) as usize;
-            let v = &mut self.votes[i * self.cols + col];
-            *v = v.saturating_sub(1);
-            // Lowering any other cell leaves the row's first maximum where it is.
-            if self.row_max[i].0 == col {
+            let mut touched_max = false;
+            for &k in ids {
+                let col = (self.bin(i, points[k as usize]) + self.half) as usize;
+                let v = &mut self.votes[i * self.cols + col];
+                if add {
+                    *v += 1;
+                } else {
+                    *v = v.saturating_sub(1);
+                    touched_max |= self.row_max[i].0 == col;
+                }
+            }
+            // Adding may raise any cell; lowering any but the row's first maximum leaves it.
+            if add || touched_max {
                 self.dirty[i] = true;
             }
         }
@@ -229,9 +235,8 @@ pub fn hough_peak(
     params.validate()?;
     Segmentation::new().start(points)?;
     let mut acc = Accumulator::new(points, params)?;
-    for &p in points {
-        acc.vote(p);
-    }
+    let all: Vec<u32> = (0..points.len() as u32).collect();
+    acc.tally(points, &all, true);
     Ok(acc.peak())
 }
 
@@ -253,9 +258,7 @@ pub fn hough_lines(
     let min_line = params.min_line_points.max(2);
     let tol = params.inlier_distance;
     let mut pool: Vec<u32> = (0..points.len() as u32).collect();
-    for &p in points {
-        acc.vote(p);
-    }
+    acc.tally(points, &pool, true);
     let mut supporters: Vec<u32> = Vec::new();
     let mut inliers: Vec<u32> = Vec::new();
     let mut refit: Vec<u32> = Vec::new();
@@ -303,9 +306,7 @@ pub fn hough_lines(
         inliers.extend_from_slice(&supporters);
         inliers.sort_unstable();
         inliers.dedup();
-        for &i in &inliers {
-            acc.withdraw(points[i as usize]);
-        }
+        acc.tally(points, &inliers, false);
         pool.retain(|i| inliers.binary_search(i).is_err());
     }
     Ok(())
