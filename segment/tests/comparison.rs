@@ -1,6 +1,6 @@
 //! The comparison the paper calls for (Nguyen et al. 2007), on simulated scans of rooms with
-//! known walls: the angular segmentation (`segment_scan`) against split-and-merge and RANSAC,
-//! by true positives, false positives, angular and distance error, and time per scan.
+//! known walls: the angular segmentation (`segment_scan`) against split-and-merge, incremental
+//! (line tracking), RANSAC and the Hough transform, by true positives, false positives, angular and distance error, and time per scan.
 //!
 //! Scenes: rectangular rooms 4 to 10 m a side at a random heading, each wall with a doorway
 //! (0.8 to 1.2 m) at random with probability one half, and up to three boxes (0.3 to 1.2 m a
@@ -21,8 +21,8 @@
 mod scan_sim;
 
 use octoquant_segment::{
-    ransac_lines, segment_scan, split_and_merge, Line, LineParams, RansacParams, Segmentation,
-    SplitMergeParams,
+    hough_lines, incremental_lines, ransac_lines, segment_scan, split_and_merge, HoughParams,
+    IncrementalParams, Line, LineParams, RansacParams, Segmentation, SplitMergeParams,
 };
 use scan_sim::{beams, scan, Rng, Scan, Wall};
 use std::f64::consts::PI;
@@ -254,8 +254,16 @@ fn methods() -> Vec<Method> {
             Box::new(|p, s| split_and_merge(p, &SplitMergeParams::default(), s).unwrap()),
         ),
         (
+            "incremental",
+            Box::new(|p, s| incremental_lines(p, &IncrementalParams::default(), s).unwrap()),
+        ),
+        (
             "RANSAC",
             Box::new(|p, s| ransac_lines(p, &RansacParams::default(), s).unwrap()),
+        ),
+        (
+            "Hough",
+            Box::new(|p, s| hough_lines(p, &HoughParams::default(), s).unwrap()),
         ),
     ]
 }
