@@ -135,7 +135,7 @@ impl Accumulator {
         let rows = (PI / params.angle_step - 1e-9).ceil().max(1.0);
         let half = (reach / params.distance_step).ceil();
         let cells = rows * (2.0 * half + 1.0);
-        if !(cells <= MAX_CELLS as f64) {
+        if cells.is_nan() || cells > MAX_CELLS as f64 {
             return Err(SegmentError::AccumulatorTooLarge {
                 cells,
                 reach,
