@@ -8,8 +8,8 @@
 use crate::common;
 use octoquant::formats::carmen::{read_carmen_file, CarmenReader, ScanKind};
 use octoquant_segment::{
-    ransac_lines, segment_scan, split_and_merge, LineParams, RansacParams, Segmentation,
-    SplitMergeParams, NOISE,
+    hough_lines, incremental_lines, ransac_lines, segment_scan, split_and_merge, HoughParams,
+    IncrementalParams, LineParams, RansacParams, Segmentation, SplitMergeParams, NOISE,
 };
 use std::path::Path;
 use std::process::Command;
@@ -105,8 +105,8 @@ impl Tally {
 }
 
 /// Segment every scan of `rel` with the default parameters, with the paper's fixed epsilon for
-/// the collinear lines separation, and without it; every tenth scan also with split-and-merge
-/// and RANSAC. Print the figures of all; return the default's.
+/// the collinear lines separation, and without it; every tenth scan also with split-and-merge,
+/// incremental (line tracking), RANSAC and the Hough transform. Print the figures of all; return the default's.
 fn segment_log(rel: &str, kind: ScanKind) -> Option<Summary> {
     let path = common::data_file(rel)?;
     let mut reader = CarmenReader::open(&path).expect("open log");
@@ -118,7 +118,7 @@ fn segment_log(rel: &str, kind: ScanKind) -> Option<Summary> {
     let whole = without_split();
     let mut seg = Segmentation::new();
     let mut points = Vec::new();
-    let mut tallies: [Tally; 5] = Default::default();
+    let mut tallies: [Tally; 7] = Default::default();
     let mut kinds_ok = true;
     let mut index = 0;
     while let Some(scan) = reader.next_scan().expect("read scan") {
@@ -135,12 +135,21 @@ fn segment_log(rel: &str, kind: ScanKind) -> Option<Summary> {
             tallies[4].run(&points, &mut seg, |p, s| {
                 ransac_lines(p, &RansacParams::default(), s).unwrap()
             });
+            tallies[5].run(&points, &mut seg, |p, s| {
+                incremental_lines(p, &IncrementalParams::default(), s)
+                    .unwrap_or_else(|e| panic!("{at}: {e}"))
+            });
+            tallies[6].run(&points, &mut seg, |p, s| {
+                hough_lines(p, &HoughParams::default(), s).unwrap_or_else(|e| panic!("{at}: {e}"))
+            });
         }
         index += 1;
     }
-    let [t_default, t_fixed, t_whole, t_sm, t_ransac] = tallies;
+    let [t_default, t_fixed, t_whole, t_sm, t_ransac, t_inc, t_hough] = tallies;
     t_sm.summary(rel, "split-and-merge, every 10th scan", kinds_ok);
+    t_inc.summary(rel, "incremental, every 10th scan", kinds_ok);
     t_ransac.summary(rel, "RANSAC, every 10th scan", kinds_ok);
+    t_hough.summary(rel, "Hough, every 10th scan", kinds_ok);
     let before = t_whole.summary(rel, "angular, without collinear separation", kinds_ok);
     let fixed = t_fixed.summary(rel, "angular, fixed 0.5 m separation", kinds_ok);
     let after = t_default.summary(rel, "angular, default", kinds_ok);

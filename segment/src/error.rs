@@ -50,4 +50,18 @@ pub enum SegmentError {
         /// The largest supported length.
         max: usize,
     },
+    /// The Hough accumulator for these points and steps would need more cells than supported
+    /// (points very far from the origin, or tiny steps).
+    #[error(
+        "the Hough accumulator would need about {cells:.3e} cells (points up to {reach} m from \
+         the origin), more than the supported {max}"
+    )]
+    AccumulatorTooLarge {
+        /// Cells the accumulator would need.
+        cells: f64,
+        /// Distance of the farthest point from the origin, metres.
+        reach: f64,
+        /// The largest supported number of cells.
+        max: usize,
+    },
 }

@@ -10,7 +10,9 @@
 //! paper's collinear lines separation (a wall broken by a doorway gives one line per piece),
 //! with an optional [`Resegment`] step for close parallel features. Two baselines from the
 //! comparison the paper calls for (Nguyen et al. 2007) fill the same [`Segmentation`]:
-//! [`split_and_merge`] and [`ransac_lines`]. Errors are one [`SegmentError`] enum.
+//! [`split_and_merge`], [`incremental_lines`] (line tracking), [`ransac_lines`] and
+//! [`hough_lines`] (with [`hough_peak`], the strongest accumulator cell). Errors are one
+//! [`SegmentError`] enum.
 //!
 //! ```
 //! use octoquant_segment::{dbscan1d, segment_scan, Clustering, Dbscan1dParams, LineParams,
@@ -36,6 +38,8 @@
 
 mod dbscan1d;
 mod error;
+mod hough_lines;
+mod incremental_lines;
 mod laser_lines;
 mod ransac_lines;
 mod split_and_merge;
@@ -44,6 +48,8 @@ pub use dbscan1d::{
     dbscan1d, dbscan1d_by, recluster_in_place, BorderPolicy, Clustering, Dbscan1dParams, NOISE,
 };
 pub use error::SegmentError;
+pub use hough_lines::{hough_lines, hough_peak, HoughParams, HoughPeak};
+pub use incremental_lines::{incremental_lines, IncrementalParams};
 pub use laser_lines::{segment_scan, Line, LineParams, Resegment, Segmentation};
 pub use ransac_lines::{ransac_lines, RansacParams};
 pub use split_and_merge::{split_and_merge, SplitMergeParams};
