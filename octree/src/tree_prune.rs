@@ -15,12 +15,24 @@ impl OcTree {
             return;
         }
         for depth in (1..TREE_DEPTH).rev() {
-            let pruned = self.prune_level(NodeRef::ROOT, depth);
-            if pruned == 0 {
+            if self.prune_depth(depth) == 0 {
                 break;
             }
-            self.sub_size(8 * pruned);
         }
+    }
+
+    /// One level of [`OcTree::prune`]'s loop: collapse every node at exactly `depth` whose
+    /// eight children are equal leaves; returns how many. For callers that run the loop
+    /// over pieces of a tree (a tile at a time) and must stop where the whole tree's loop
+    /// would. Depth 0 (the root, which `prune` never collapses) and depths from 16 on prune
+    /// nothing.
+    pub fn prune_depth(&mut self, depth: u8) -> usize {
+        if self.is_empty() || depth == 0 || depth >= TREE_DEPTH {
+            return 0;
+        }
+        let pruned = self.prune_level(NodeRef::ROOT, depth);
+        self.sub_size(8 * pruned);
+        pruned
     }
 
     fn prune_level(&mut self, n: NodeRef, target: u8) -> usize {

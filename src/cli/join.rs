@@ -2,14 +2,16 @@
 //! per tile plus its index, from a tiled build with a spill directory) into one map.
 //!
 //! The result is the map the in-memory tiled build gives, and so the map `octoquant map`
-//! builds from the same frames (see `octoquant_tiles`). The tiles are read one at a time;
-//! the joined map is held in memory while it is written.
+//! builds from the same frames (see `octoquant_tiles`). Each output is streamed
+//! (`StreamJoin`): the tiles are read one at a time, twice (a summary pass, then the
+//! writing pass), so memory is bounded by the largest tile, not by the map.
 
 use super::{json_path, print_json};
 use anyhow::Result;
-use octoquant::output::check_output;
-use octoquant::tiles::{join_dir, INDEX_FILE};
-use octoquant::treefile::{save_tree_file, TREE_EXTENSIONS};
+use octoquant::octree::io::TreeFormat;
+use octoquant::output::{check_output, write_atomic};
+use octoquant::tiles::{StreamJoin, INDEX_FILE};
+use octoquant::treefile::TREE_EXTENSIONS;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -30,19 +32,23 @@ pub fn run(a: &Args) -> Result<()> {
     for o in &a.output {
         check_output(o, &TREE_EXTENSIONS, std::slice::from_ref(&index))?;
     }
-    let tree = join_dir(&a.dir)?;
+    let mut nodes = Vec::with_capacity(a.output.len());
     for o in &a.output {
-        save_tree_file(&tree, o)?;
+        let format = TreeFormat::from_path(o)
+            .ok_or_else(|| anyhow::anyhow!("{}: not a .bt or .ot file", o.display()))?;
+        let plan = StreamJoin::plan(&a.dir, format)?;
+        write_atomic(o, |w| plan.write(w).map_err(std::io::Error::other))?;
+        nodes.push(plan.nodes());
     }
     if a.json {
         print_json(&serde_json::json!({
             "dir": json_path(&a.dir),
             "outputs": a.output.iter().map(|p| json_path(p)).collect::<Vec<_>>(),
-            "nodes": tree.size(),
+            "nodes": nodes,
         }))?;
     } else {
-        for o in &a.output {
-            errln!("wrote {} ({} nodes)", o.display(), tree.size());
+        for (o, n) in a.output.iter().zip(&nodes) {
+            errln!("wrote {} ({n} nodes)", o.display());
         }
     }
     Ok(())

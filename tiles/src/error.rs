@@ -97,6 +97,9 @@ pub enum TileError {
         /// What is wrong.
         message: String,
     },
+    /// Writing a joined map to its output failed.
+    #[error("writing the joined map: {0}")]
+    Write(#[source] std::io::Error),
     /// The octree refused (a resolution, or the joined tree's stream).
     #[error(transparent)]
     Octree(#[from] octoquant_octree::OctreeError),

@@ -14,17 +14,19 @@ use octoquant_octree::{io, OcTree, OccupancyParams};
 use std::io::Read;
 
 /// Bytes per `.ot` node record.
-const RECORD: usize = 5;
+pub(crate) const RECORD: usize = 5;
 
 /// A tile's subtree as `.ot` records.
-struct Part {
-    tile: Tile,
-    records: Vec<u8>,
+pub(crate) struct Part {
+    /// The tile.
+    pub(crate) tile: Tile,
+    /// Its subtree's records, the tile's node first.
+    pub(crate) records: Vec<u8>,
 }
 
 /// The tile at `depth` a tile tree's nodes lie in and its subtree's `.ot` records; `None`
 /// for an empty tree.
-fn subtree_records(tree: &OcTree, depth: u8) -> Result<Option<Part>, TileError> {
+pub(crate) fn subtree_records(tree: &OcTree, depth: u8) -> Result<Option<Part>, TileError> {
     check_depth(depth)?;
     if tree.is_empty() {
         return Ok(None);
@@ -72,7 +74,7 @@ pub fn tile_of_tree(tree: &OcTree, depth: u8) -> Result<Option<Tile>, TileError>
 }
 
 /// A record's value and whether it is a leaf.
-fn record_of(records: &[u8]) -> (f32, bool) {
+pub(crate) fn record_of(records: &[u8]) -> (f32, bool) {
     let v = f32::from_le_bytes(records[0..4].try_into().expect("4 bytes"));
     (v, records[4] == 0)
 }

@@ -78,6 +78,7 @@ mod apply;
 mod codec;
 mod error;
 mod join;
+mod join_stream;
 mod spill;
 mod split;
 mod tile;
@@ -85,6 +86,7 @@ mod tile;
 pub use apply::{apply_tile_updates, ApplyStats};
 pub use error::TileError;
 pub use join::{join_tiles, tile_of_tree};
+pub use join_stream::StreamJoin;
 pub use spill::{
     join_dir, read_index, tile_file_name, tile_paths, write_index, write_tile, TileIndex,
     INDEX_FILE,

@@ -243,27 +243,40 @@ pub fn join_dir(dir: &Path) -> Result<OcTree, TileError> {
     let index = read_index(dir)?;
     let mut trees = Vec::with_capacity(index.tiles.len());
     for ((tile, _), path) in index.tiles.iter().zip(tile_paths(dir, &index)) {
-        let f = std::fs::File::open(&path).map_err(|e| io_error(&path, e))?;
-        let tree = io::read_ot(std::io::BufReader::new(f)).map_err(|e| TileError::BadTileFile {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        let found = tile_of_tree(&tree, index.tile_depth).map_err(|e| TileError::BadTileFile {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        if found != Some(*tile) {
-            return Err(TileError::BadTileFile {
-                path,
-                message: format!(
-                    "holds {} where the index names {tile}",
-                    found.map_or("no tile".to_string(), |t| t.to_string())
-                ),
-            });
-        }
-        trees.push(tree);
+        trees.push(read_tile_file(&path, *tile, &index)?);
     }
     join_tiles(index.resolution, index.params, index.tile_depth, &trees)
+}
+
+/// The tree of one tile file, which must hold `tile` (of `index`'s depth) at `index`'s
+/// resolution; it gets the index's sensor model.
+pub(crate) fn read_tile_file(
+    path: &Path,
+    tile: Tile,
+    index: &TileIndex,
+) -> Result<OcTree, TileError> {
+    let bad = |message: String| TileError::BadTileFile {
+        path: path.to_path_buf(),
+        message,
+    };
+    let f = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    let mut tree = io::read_ot(std::io::BufReader::new(f)).map_err(|e| bad(e.to_string()))?;
+    let found = tile_of_tree(&tree, index.tile_depth).map_err(|e| bad(e.to_string()))?;
+    if found != Some(tile) {
+        return Err(bad(format!(
+            "holds {} where the index names {tile}",
+            found.map_or("no tile".to_string(), |t| t.to_string())
+        )));
+    }
+    if tree.resolution() != index.resolution {
+        return Err(bad(format!(
+            "has resolution {}, the index {}",
+            tree.resolution(),
+            index.resolution
+        )));
+    }
+    tree.set_params(index.params);
+    Ok(tree)
 }
 
 #[cfg(test)]

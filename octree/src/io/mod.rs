@@ -13,7 +13,7 @@ mod ot_stamped;
 mod stream;
 
 pub use bt::{read_bt, write_bt, write_bt_const};
-pub use header::format_resolution;
+pub use header::{format_resolution, write_tree_header};
 pub use ot::{read_ot, write_ot};
 pub use ot_color::{read_color_ot, write_color_ot, COLOR_OCTREE_ID};
 pub use ot_stamped::{read_stamped_ot, write_stamped_ot, STAMPED_OCTREE_ID};
