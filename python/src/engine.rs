@@ -27,6 +27,7 @@ pub use octoquant::formats::carmen::LaserScan;
 pub use octoquant::formats::pcd::ViewpointUse;
 pub use octoquant::formats::tum::CameraIntrinsics;
 pub use octoquant::formats::{InputFormat, ReadOptions};
+pub use octoquant_distance::{DistanceError, DistanceMap, DistanceOptions};
 pub use octoquant_density::{
     CentreDistance, CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
 };
