@@ -27,10 +27,10 @@ pub use octoquant::formats::carmen::LaserScan;
 pub use octoquant::formats::pcd::ViewpointUse;
 pub use octoquant::formats::tum::CameraIntrinsics;
 pub use octoquant::formats::{InputFormat, ReadOptions};
-pub use octoquant_distance::{DistanceError, DistanceMap, DistanceOptions};
 pub use octoquant_density::{
     CentreDistance, CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
 };
+pub use octoquant_distance::{DistanceError, DistanceMap, DistanceOptions};
 pub use octoquant_segment::{
     BorderPolicy, Clustering, Dbscan1dParams, Line, LineParams, SegmentError, Segmentation, NOISE,
 };
