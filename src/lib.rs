@@ -71,6 +71,8 @@ pub mod scene;
 pub mod tiled;
 pub mod treefile;
 
+/// Distance maps with the numbers of OctoMap's dynamicEDT3D (the `octoquant-distance` crate).
+pub use octoquant_distance as distance;
 pub use octoquant_formats as formats;
 pub use octoquant_formats::{frame, output, Frame};
 pub use octoquant_octree as octree;

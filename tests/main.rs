@@ -6,6 +6,7 @@ mod color_tree_diff;
 mod common;
 mod compare;
 mod crop;
+mod distance;
 mod eval;
 mod filters;
 mod formats;

@@ -180,6 +180,30 @@ class OcTree:
         """(occupied, empty) voxel centres, (N, 3) float64 each."""
     def getLabels(self, points: Points) -> NDArray[np.int32]:
         """1 occupied, 0 free, -1 unknown per point."""
+    def dynamicEDT_generate(
+        self,
+        maxdist: float,
+        bbx_min: Vec3,
+        bbx_max: Vec3,
+        treatUnknownAsOccupied: bool = False,
+    ) -> None:
+        """A distance map over the box (dynamicEDT3D); distances appear with dynamicEDT_update.
+        ValueError for a bad maxdist, a corner outside the map, an empty or too large box."""
+    def dynamicEDT_update(self, updateRealDist: bool) -> None:
+        """Take in the tree's changes since the last update and recompute the distances."""
+    def dynamicEDT_getMaxDist(self) -> float:
+        """The distance clamp in metres (at least the maxdist asked for)."""
+    def dynamicEDT_checkConsistency(self) -> bool:
+        """Whether the map's obstacles are the tree's occupied voxels in the box."""
+    def dynamicEDT_getDistance(self, p: Union[OcTreeKey, Vec3]) -> float:
+        """Distance to the nearest obstacle in metres; -1.0 outside the box."""
+    def dynamicEDT_getDistanceAndClosestObstacle(
+        self, p: Vec3
+    ) -> tuple[float, Optional[NDArray[np.float64]]]:
+        """(distance, obstacle voxel centre); the obstacle is None outside the box or when no
+        obstacle lies within the maximum distance."""
+    def distances(self, points: Points) -> NDArray[np.float32]:
+        """dynamicEDT_getDistance of every row of an (N, 3) array."""
     def probability_at(self, point: Vec3) -> Optional[float]:
         """Occupancy probability at one point; None in unknown space or outside the map."""
     def occupancy(self, points: Points) -> NDArray[np.float64]:

@@ -30,6 +30,7 @@ pub use octoquant::formats::{InputFormat, ReadOptions};
 pub use octoquant_density::{
     CentreDistance, CycleCounts, DensityError, DensityGrid, GridSpec, OutputCycle, Selection,
 };
+pub use octoquant_distance::{DistanceError, DistanceMap, DistanceOptions};
 pub use octoquant_segment::{
     BorderPolicy, Clustering, Dbscan1dParams, Line, LineParams, SegmentError, Segmentation, NOISE,
 };

@@ -14,6 +14,7 @@ mod cloud;
 mod color_tree;
 mod convert;
 mod density;
+mod distance;
 mod engine;
 mod iter;
 mod mapper;

@@ -28,6 +28,8 @@ pub struct PyOcTree {
     /// allocator guarantees for the object that holds it.
     pub tree: Box<OcTree>,
     pub bbx: Bbx,
+    /// The distance map of `dynamicEDT_generate`, if any.
+    pub edt: Option<Box<engine::DistanceMap>>,
 }
 
 /// `cast_rays`' result: hit flags and end points.
@@ -111,6 +113,7 @@ impl PyOcTree {
         PyOcTree {
             tree: Box::new(tree),
             bbx: Bbx::default(),
+            edt: None,
         }
     }
 
@@ -583,6 +586,70 @@ impl PyOcTree {
         let tree = &self.tree;
         let labels = py.detach(|| cloud::labels(tree, &pts));
         Ok(PyArray1::from_vec(py, labels))
+    }
+
+    /// octomap-python's ``dynamicEDT_generate``: a distance map over the box between two
+    /// points (metres), distances clamped at ``maxdist``, unknown space occupied or free.
+    /// Distances are computed by ``dynamicEDT_update``. ValueError for a NaN, negative or
+    /// huge ``maxdist``, a corner outside the map, an empty or too large box.
+    #[pyo3(name = "dynamicEDT_generate", signature = (maxdist, bbx_min, bbx_max, treatUnknownAsOccupied=false))]
+    #[allow(non_snake_case)]
+    fn dynamic_edt_generate(
+        &mut self,
+        py: Python<'_>,
+        maxdist: f64,
+        bbx_min: &Bound<'_, PyAny>,
+        bbx_max: &Bound<'_, PyAny>,
+        treatUnknownAsOccupied: bool,
+    ) -> PyResult<()> {
+        crate::distance::generate(self, py, maxdist, bbx_min, bbx_max, treatUnknownAsOccupied)
+    }
+
+    /// ``dynamicEDT_update``: take in the voxels changed since the last update and recompute
+    /// the distances they affect (squared distances only when ``updateRealDist`` is false).
+    #[pyo3(name = "dynamicEDT_update")]
+    #[allow(non_snake_case)]
+    fn dynamic_edt_update(&mut self, py: Python<'_>, updateRealDist: bool) -> PyResult<()> {
+        crate::distance::update(self, py, updateRealDist)
+    }
+
+    /// ``dynamicEDT_getMaxDist``: the distance clamp in metres.
+    #[pyo3(name = "dynamicEDT_getMaxDist")]
+    fn dynamic_edt_max_dist(&self) -> PyResult<f32> {
+        crate::distance::max_dist(self)
+    }
+
+    /// ``dynamicEDT_checkConsistency``: whether the map's obstacles are the tree's.
+    #[pyo3(name = "dynamicEDT_checkConsistency")]
+    fn dynamic_edt_check_consistency(&self) -> PyResult<bool> {
+        crate::distance::check_consistency(self)
+    }
+
+    /// ``dynamicEDT_getDistance``: distance (metres) from a point or an ``OcTreeKey`` to the
+    /// nearest obstacle; -1.0 outside the box.
+    #[pyo3(name = "dynamicEDT_getDistance")]
+    fn dynamic_edt_get_distance(&self, p: &Bound<'_, PyAny>) -> PyResult<f32> {
+        crate::distance::distance(self, p)
+    }
+
+    /// ``dynamicEDT_getDistanceAndClosestObstacle``: ``(distance, obstacle)``, the obstacle
+    /// voxel's centre as a (3,) array, ``None`` outside the box or beyond the maximum.
+    #[pyo3(name = "dynamicEDT_getDistanceAndClosestObstacle")]
+    fn dynamic_edt_get_distance_and_closest_obstacle<'py>(
+        &self,
+        py: Python<'py>,
+        p: &Bound<'py, PyAny>,
+    ) -> PyResult<(f32, crate::distance::Obstacle<'py>)> {
+        crate::distance::distance_and_closest_obstacle(self, py, p)
+    }
+
+    /// ``dynamicEDT_getDistance`` of every row of an (N, 3) array, as float32.
+    fn distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        crate::distance::distances(self, py, points)
     }
 
     /// The occupancy probability at one point (metres), that of the node holding it (the
@@ -1274,6 +1341,7 @@ impl PyOcTree {
         PyOcTree {
             tree: self.tree.clone(),
             bbx: self.bbx,
+            edt: self.edt.clone(),
         }
     }
 

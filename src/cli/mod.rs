@@ -26,6 +26,7 @@ mod compare;
 mod convert;
 mod crop;
 mod demo;
+mod distance;
 mod eval;
 mod export;
 mod fresh_dir;
@@ -95,6 +96,9 @@ enum Command {
     /// Look up points (class, probability, depth of the node found) and cast rays (castRay)
     /// in a map.
     Query(query::Args),
+    /// Distances to the nearest obstacle (OctoMap's dynamicEDT3D) at points, or a picture of
+    /// a horizontal slice.
+    Distance(distance::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -115,6 +119,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Eval(a)) => eval::run(&a),
         Some(Command::Import(a)) => import::run(&a),
         Some(Command::Query(a)) => query::run(&a),
+        Some(Command::Distance(a)) => distance::run(&a),
         Some(Command::Merge(a)) => merge::run(&a),
         Some(Command::Join(a)) => join::run(&a),
         None => demo::run_default(),

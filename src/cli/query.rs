@@ -41,7 +41,7 @@ pub struct Args {
 }
 
 /// The numbers of a text file, `width` per line, with the line numbers in errors.
-fn read_rows(path: &Path, width: usize) -> Result<Vec<Vec<f64>>> {
+pub(super) fn read_rows(path: &Path, width: usize) -> Result<Vec<Vec<f64>>> {
     let text = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let text = String::from_utf8_lossy(&text);
     let mut rows = Vec::new();
