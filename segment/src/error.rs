@@ -65,3 +65,18 @@ pub enum SegmentError {
         max: usize,
     },
 }
+
+/// `Ok` when every named value is finite and `>= 0` (distances, gaps, tolerances); else the
+/// first that is not, as [`SegmentError::InvalidParameter`].
+pub(crate) fn check_non_negative(values: &[(&'static str, f64)]) -> Result<(), SegmentError> {
+    for &(name, value) in values {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(SegmentError::InvalidParameter {
+                name,
+                value,
+                reason: "must be finite and >= 0",
+            });
+        }
+    }
+    Ok(())
+}

@@ -21,7 +21,7 @@
 //! supporters withdraw their votes and leave the pool, and the next peak is sought. Each
 //! round removes at least the winning cell's votes, so the search ends.
 
-use crate::error::SegmentError;
+use crate::error::{check_non_negative, SegmentError};
 use crate::laser_lines::{fit_line, Found, Line, Segmentation};
 use std::f64::consts::PI;
 
@@ -79,18 +79,10 @@ impl HoughParams {
                 reason: "must be finite and > 0",
             });
         }
-        for (name, value) in [
+        check_non_negative(&[
             ("inlier_distance", self.inlier_distance),
             ("max_gap", self.max_gap),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SegmentError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "must be finite and >= 0",
-                });
-            }
-        }
+        ])?;
         Ok(())
     }
 }

@@ -18,7 +18,7 @@
 //! and the members are visited only when the bound does not. The result is the same as the
 //! check on every member, and a long straight wall costs O(L), not O(L^2).
 
-use crate::error::SegmentError;
+use crate::error::{check_non_negative, SegmentError};
 use crate::laser_lines::Segmentation;
 use std::f64::consts::PI;
 
@@ -48,18 +48,10 @@ impl Default for IncrementalParams {
 
 impl IncrementalParams {
     fn validate(&self) -> Result<(), SegmentError> {
-        for (name, value) in [
+        check_non_negative(&[
             ("max_distance", self.max_distance),
             ("max_gap", self.max_gap),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SegmentError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "must be finite and >= 0",
-                });
-            }
-        }
+        ])?;
         Ok(())
     }
 }

@@ -12,7 +12,7 @@
 //! [`RansacParams::min_line_points`] inliers. The draws come from a seeded generator, so the
 //! result is deterministic.
 
-use crate::error::SegmentError;
+use crate::error::{check_non_negative, SegmentError};
 use crate::laser_lines::{fit_line, Segmentation};
 
 /// Knobs of [`ransac_lines`].
@@ -79,18 +79,10 @@ pub fn ransac_lines(
     params: &RansacParams,
     out: &mut Segmentation,
 ) -> Result<(), SegmentError> {
-    for (name, value) in [
+    check_non_negative(&[
         ("inlier_distance", params.inlier_distance),
         ("max_gap", params.max_gap),
-    ] {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(SegmentError::InvalidParameter {
-                name,
-                value,
-                reason: "must be finite and >= 0",
-            });
-        }
-    }
+    ])?;
     let found = out.start(points)?;
     let min_line = params.min_line_points.max(2);
     let tol = params.inlier_distance;

@@ -11,7 +11,7 @@
 //! with enough points becomes a [`Line`](crate::Line) fitted by TLS, as in
 //! [`segment_scan`](crate::segment_scan).
 
-use crate::error::SegmentError;
+use crate::error::{check_non_negative, SegmentError};
 use crate::laser_lines::{fit_line, Segmentation};
 
 /// Knobs of [`split_and_merge`].
@@ -43,18 +43,10 @@ impl Default for SplitMergeParams {
 
 impl SplitMergeParams {
     fn validate(&self) -> Result<(), SegmentError> {
-        for (name, value) in [
+        check_non_negative(&[
             ("split_distance", self.split_distance),
             ("max_gap", self.max_gap),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SegmentError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "must be finite and >= 0",
-                });
-            }
-        }
+        ])?;
         Ok(())
     }
 }
