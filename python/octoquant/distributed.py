@@ -96,6 +96,15 @@ def _prepare_spill_dir(spill_dir):
     return spill_dir
 
 
+def _peak_rss():
+    """Peak resident memory of this (worker) process so far, in bytes (``ru_maxrss`` counts
+    KiB on Linux, bytes on macOS)."""
+    import resource
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak if sys.platform == "darwin" else peak * 1024
+
+
 def _read_inputs(inputs, reader_options):
     frames = []
     for path in inputs:
@@ -119,7 +128,10 @@ def build_map_with_summary(
     bytes moved (frames shipped, update lists, tile trees) and seconds per stage (read, cast,
     apply, join). With ``spill_dir`` the tree is ``None`` (the map is the directory), tile
     trees are not moved (``bytes_moved["tile_trees"]`` is 0), ``tile_file_bytes`` says how
-    much the tiles take on disk, and ``join`` is the time to write the index."""
+    much the tiles take on disk, and ``join`` is the time to write the index.
+    ``peak_rss_bytes_per_worker`` maps each worker's address to the peak resident memory of
+    its process, read after the apply stage (since the process started: a long-lived
+    worker's earlier work counts; threaded workers share one process)."""
     if mode not in MODES:
         raise ValueError(
             f"mode {mode!r} is not supported by the distributed build yet; expected one of {MODES}"
@@ -213,6 +225,7 @@ def build_map_with_summary(
             ]
         results = client.gather(tile_futures)
         seconds["apply"] = time.perf_counter() - t
+        peak_rss = client.run(_peak_rss)
         tiles_seen = sorted(tiles)
         del batches, tiles, tile_futures
     finally:
@@ -255,6 +268,7 @@ def build_map_with_summary(
                 "total": frame_bytes + list_bytes + tree_bytes,
             },
             "seconds": seconds,
+            "peak_rss_bytes_per_worker": peak_rss,
         }
     )
     if spill_dir is not None:
@@ -322,6 +336,8 @@ def _text_summary(s, out, ot):
         f"tile trees {b['tile_trees']})",
         "seconds: "
         + ", ".join(f"{k} {sec[k]:.3f}" for k in ("read", "cast", "apply", "join", "total")),
+        "peak memory per worker (MB): "
+        + ", ".join(f"{v / 1e6:.0f}" for _, v in sorted(s["peak_rss_bytes_per_worker"].items())),
     ]
     if s.get("spill_dir"):
         lines.append(f"tiles in {s['spill_dir']} ({s['tile_file_bytes']} bytes)")
