@@ -281,7 +281,7 @@ impl City {
         for wy in ys.windows(2) {
             for wx in xs.windows(2) {
                 // one lot in eight is left open (a yard or a square)
-                if g.next_u64() % 8 == 0 {
+                if g.next_u64().is_multiple_of(8) {
                     continue;
                 }
                 // set back 0 to 3 m from the lot's sides, keeping at least 6 m of footprint
@@ -294,7 +294,7 @@ impl City {
                 let (bx0, bx1) = set(wx[0], wx[1]);
                 let (by0, by1) = set(wy[0], wy[1]);
                 // mostly 6 to 30 m, one building in ten a tower of up to 60 m
-                let h = if g.next_u64() % 10 == 0 {
+                let h = if g.next_u64().is_multiple_of(10) {
                     uniform(g, 30.0, 60.0)
                 } else {
                     uniform(g, 6.0, 30.0)
@@ -346,7 +346,7 @@ impl City {
     fn add_trees(&mut self, g: &mut SplitMix64, side: &Side) {
         let mut t = side.t0 + uniform(g, 3.0, 8.0);
         while t < side.t1 - 3.0 {
-            if g.next_u64() % 4 != 0 {
+            if !g.next_u64().is_multiple_of(4) {
                 let top = tidy(KERB_HEIGHT + uniform(g, 2.2, 3.5));
                 let r = tidy(uniform(g, 1.2, 2.2));
                 let trunk = side.rect((t - 0.15, t + 0.15), (1.35, 1.65), (KERB_HEIGHT, top));
@@ -431,8 +431,16 @@ impl City {
         let (nx, ny) = (self.streets_x.len(), self.streets_y.len());
         let at = |(i, j): (usize, usize)| [self.streets_x[i], self.streets_y[j]];
         let mut node = (
-            if g.next_u64() % 2 == 0 { 0 } else { nx - 1 },
-            if g.next_u64() % 2 == 0 { 0 } else { ny - 1 },
+            if g.next_u64().is_multiple_of(2) {
+                0
+            } else {
+                nx - 1
+            },
+            if g.next_u64().is_multiple_of(2) {
+                0
+            } else {
+                ny - 1
+            },
         );
         let mut prev: Option<(usize, usize)> = None;
         let mut path = vec![at(node)];
