@@ -8,8 +8,8 @@ use crate::common::scratch;
 use nalgebra::{Point3, Vector3};
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant::scene::{
-    scan_lidar, City, CityBox, CityOptions, MissPolicy, ScanOptions, SpinningLidar, MOUNT_HEIGHT,
-    STREET_WIDTH,
+    scan_lidar, City, CityBox, CityOptions, MissPolicy, ScanOptions, SpinningLidar,
+    MAX_CITY_FRAMES, MAX_ROUTE_LENGTH, MOUNT_HEIGHT, STREET_WIDTH,
 };
 use octoquant::Frame;
 
@@ -217,6 +217,20 @@ fn frame_count_is_the_one_asked_for() {
         assert_eq!(frames.len(), n);
     }
     assert!(city.lidar(0).is_err());
+    assert!(city.lidar(MAX_CITY_FRAMES + 1).is_err());
+    // routes are as long as asked, within bounds
+    let length = |p: &[[f64; 2]]| -> f64 {
+        p.windows(2)
+            .map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt())
+            .sum()
+    };
+    for l in [0.5, 37.0, 1234.5] {
+        assert!((length(&city.route(l)) - l).abs() < 1e-6, "{l}");
+    }
+    for l in [0.0, -3.0, f64::NAN, f64::INFINITY] {
+        assert_eq!(city.route(l).len(), 1, "{l}");
+    }
+    assert!((length(&city.route(1e300)) - MAX_ROUTE_LENGTH).abs() < 1e-2);
     for (bx, by) in [(0, 2), (2, 0), (65, 1)] {
         let o = CityOptions {
             seed: 0,

@@ -42,6 +42,12 @@ pub const MOUNT_HEIGHT: f64 = 1.8;
 /// Largest number of blocks along either axis (a guard against absurd sizes).
 pub const MAX_BLOCKS: u32 = 64;
 
+/// Largest number of frames [`City::lidar`] plans (100 km of route; a guard against absurd
+/// sizes, as the frames of a scan are held in memory).
+pub const MAX_CITY_FRAMES: usize = 100_000;
+/// Longest route [`City::route`] plans, metres (longer requests are cut to it).
+pub const MAX_ROUTE_LENGTH: f64 = 1.0e7;
+
 /// Distance between frames along the route (metres): one revolution per metre.
 const FRAME_SPACING: f64 = 1.0;
 /// Stream tags so that layout and route draw from independent generators.
@@ -425,7 +431,8 @@ impl City {
     /// grid, at each crossing a seeded choice among the streets ahead, left and right (a
     /// U-turn only at a dead end, which a grid has none of). Waypoints (x, y) for
     /// [`SpinningLidar::path`]; the last segment is cut so the polyline is `length` long
-    /// (a non-positive or non-finite length gives the start alone).
+    /// (a non-positive or non-finite length gives the start alone; lengths above
+    /// [`MAX_ROUTE_LENGTH`] are cut to it).
     pub fn route(&self, length: f64) -> Vec<[f64; 2]> {
         let mut g = SplitMix64::for_frame(self.options.seed, ROUTE_STREAM);
         let (nx, ny) = (self.streets_x.len(), self.streets_y.len());
@@ -447,7 +454,7 @@ impl City {
         if !(length.is_finite() && length > 0.0) {
             return path;
         }
-        let mut left = length;
+        let mut left = length.min(MAX_ROUTE_LENGTH);
         loop {
             let (i, j) = node;
             let mut next = Vec::with_capacity(4);
@@ -485,10 +492,13 @@ impl City {
     /// metre: 16 rings from −15° to 15° (Velodyne VLP-16 style), 1024 columns, 0.5–80 m,
     /// 10 Hz, [`MOUNT_HEIGHT`] above the road. Change its fields for another sensor (a
     /// different `frame_spacing` changes the frame count). Errors for 0 frames or more
-    /// than a million.
+    /// than [`MAX_CITY_FRAMES`].
     pub fn lidar(&self, frames: usize) -> Result<SpinningLidar, SceneError> {
-        if !(1..=1_000_000).contains(&frames) {
-            return Err(invalid("frames", format!("{frames} is not in 1..=1000000")));
+        if !(1..=MAX_CITY_FRAMES).contains(&frames) {
+            return Err(invalid(
+                "frames",
+                format!("{frames} is not in 1..={MAX_CITY_FRAMES}"),
+            ));
         }
         // half a spacing past the last frame, so the frame count does not hang on rounding
         let length = (frames - 1) as f64 * FRAME_SPACING + FRAME_SPACING / 2.0;

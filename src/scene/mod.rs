@@ -41,8 +41,8 @@ mod scanner;
 mod shapes;
 
 pub use city::{
-    Car, City, CityBox, CityOptions, Tree, KERB_HEIGHT, MAX_BLOCKS, MOUNT_HEIGHT, SIDEWALK_WIDTH,
-    STREET_WIDTH,
+    Car, City, CityBox, CityOptions, Tree, KERB_HEIGHT, MAX_BLOCKS, MAX_CITY_FRAMES,
+    MAX_ROUTE_LENGTH, MOUNT_HEIGHT, SIDEWALK_WIDTH, STREET_WIDTH,
 };
 pub use depth_camera::{looking_along_x, scan_depth, DepthCamera};
 pub use scanner::{
