@@ -98,9 +98,11 @@ def _prepare_spill_dir(spill_dir):
 
 def _peak_rss():
     """Peak resident memory of this (worker) process so far, in bytes (``ru_maxrss`` counts
-    KiB on Linux, bytes on macOS)."""
-    import resource
-
+    KiB on Linux, bytes on macOS); ``None`` where there is no ``resource`` module (Windows)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - depends on the platform
+        return None
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak if sys.platform == "darwin" else peak * 1024
 
@@ -337,7 +339,10 @@ def _text_summary(s, out, ot):
         "seconds: "
         + ", ".join(f"{k} {sec[k]:.3f}" for k in ("read", "cast", "apply", "join", "total")),
         "peak memory per worker (MB): "
-        + ", ".join(f"{v / 1e6:.0f}" for _, v in sorted(s["peak_rss_bytes_per_worker"].items())),
+        + ", ".join(
+            "?" if v is None else f"{v / 1e6:.0f}"
+            for _, v in sorted(s["peak_rss_bytes_per_worker"].items())
+        ),
     ]
     if s.get("spill_dir"):
         lines.append(f"tiles in {s['spill_dir']} ({s['tile_file_bytes']} bytes)")
