@@ -1,6 +1,7 @@
 //! Integration tests: one binary (see Cargo.toml `autotests = false`).
 
 mod checkpoint;
+mod city;
 mod cli;
 mod color_tree_diff;
 mod common;

@@ -109,6 +109,17 @@ def _prepare_spill_dir(spill_dir):
     return spill_dir
 
 
+def _peak_rss():
+    """Peak resident memory of this (worker) process so far, in bytes (``ru_maxrss`` counts
+    KiB on Linux, bytes on macOS); ``None`` where there is no ``resource`` module (Windows)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - depends on the platform
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak if sys.platform == "darwin" else peak * 1024
+
+
 def _plan_inputs(inputs, reader_options, read_on):
     """Per input: its frame count when the workers are to read it, else its frames (read
     here). ``read_on="workers"`` with an input that does not announce its count is an error."""
@@ -143,9 +154,12 @@ def build_map_with_summary(
 ):
     """:func:`build_map`, also returning a summary dict: frames, points, rays, tiles, workers,
     bytes moved (frames shipped by the driver, update lists, tile trees), which frames the
-    workers read themselves, and seconds per stage (read, cast, apply, join). With ``spill_dir`` the tree is ``None`` (the map is the directory), tile
-    trees are not moved (``bytes_moved["tile_trees"]`` is 0), ``tile_file_bytes`` says how
-    much the tiles take on disk, and ``join`` is the time to write the index."""
+    workers read themselves, and seconds per stage (read, cast, apply, join). With
+    ``spill_dir`` the tree is ``None`` (the map is the directory), tile trees are not moved (``bytes_moved["tile_trees"]`` is 0), ``tile_file_bytes`` says how
+    much the tiles take on disk, and ``join`` is the time to write the index.
+    ``peak_rss_bytes_per_worker`` maps each worker's address to the peak resident memory of
+    its process, read after the apply stage (since the process started: a long-lived
+    worker's earlier work counts; threaded workers share one process)."""
     if read_on not in READ_ON:
         raise ValueError(f"read_on must be one of {READ_ON}, got {read_on!r}")
     if mode not in MODES:
@@ -247,6 +261,7 @@ def build_map_with_summary(
             ]
         results = client.gather(tile_futures)
         seconds["apply"] = time.perf_counter() - t
+        peak_rss = client.run(_peak_rss)
         tiles_seen = sorted(tiles)
         del batches, tiles, tile_futures
     finally:
@@ -291,6 +306,7 @@ def build_map_with_summary(
                 "total": frame_bytes + list_bytes + tree_bytes,
             },
             "seconds": seconds,
+            "peak_rss_bytes_per_worker": peak_rss,
         }
     )
     if spill_dir is not None:
@@ -364,6 +380,11 @@ def _text_summary(s, out, ot):
         f"tile trees {b['tile_trees']})",
         "seconds: "
         + ", ".join(f"{k} {sec[k]:.3f}" for k in ("read", "cast", "apply", "join", "total")),
+        "peak memory per worker (MB): "
+        + ", ".join(
+            "?" if v is None else f"{v / 1e6:.0f}"
+            for _, v in sorted(s["peak_rss_bytes_per_worker"].items())
+        ),
     ]
     if s.get("spill_dir"):
         lines.append(f"tiles in {s['spill_dir']} ({s['tile_file_bytes']} bytes)")

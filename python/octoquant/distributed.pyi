@@ -48,7 +48,8 @@ def build_map_with_summary(
     **reader_options: Any,
 ) -> tuple[Optional[OcTree], dict[str, Any]]:
     """:func:`build_map` and its summary: frames, points, rays, tiles, workers, tasks, mode,
-    frames read by the workers, bytes moved and seconds per stage."""
+    frames read by the workers, bytes moved, seconds per stage and each worker's peak
+    resident memory (``peak_rss_bytes_per_worker``)."""
 
 def cast_tiles(
     frames: Frames,

@@ -112,6 +112,8 @@ def test_tum_matches_octoquant_map(cli, clients, tum, tmp_path, workers, tile_de
     assert summary["frames"] == 10 and summary["tasks"] == 4
     assert summary["workers"] == workers and summary["tile_depth"] == tile_depth
     assert summary["tiles"] >= 1 and summary["bytes_moved"]["update_lists"] > 0
+    assert len(summary["peak_rss_bytes_per_worker"]) == workers
+    assert all(v > 0 for v in summary["peak_rss_bytes_per_worker"].values())
 
 
 @pytest.mark.parametrize("workers", [1, 2])
@@ -151,6 +153,10 @@ def test_command_line_on_a_process_cluster(cli, dask, norlab, tmp_path):
     b = s["bytes_moved"]
     assert b["total"] == b["frames"] + b["update_lists"] + b["tile_trees"] > 0
     assert set(s["seconds"]) == {"read", "cast", "apply", "join", "total"}
+    # one figure per worker process, in bytes: a Python process with Dask and NumPy loaded
+    # holds tens of megabytes (a figure left in KiB would be a thousand times smaller)
+    peak = s["peak_rss_bytes_per_worker"]
+    assert len(peak) == 2 and all(v > 20e6 for v in peak.values()), peak
     bad = subprocess.run(
         [sys.executable, "-m", "octoquant.distributed", str(norlab), "-o", str(tmp_path / "x.txt")],
         capture_output=True,

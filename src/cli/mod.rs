@@ -41,6 +41,7 @@ mod query;
 mod reduce;
 mod render;
 mod segment;
+mod simulate;
 mod vocab;
 
 use clap::{Parser, Subcommand};
@@ -86,6 +87,9 @@ enum Command {
     /// Assemble a tile directory (one .ot per tile plus tiles.index, from a tiled build's
     /// spill directory) into one map.
     Join(join::Args),
+    /// Scan a built-in scene (the small building or a seeded city driven by a car-mounted
+    /// LiDAR) with its simulated sensors and write the frames as .frames.
+    Simulate(simulate::Args),
     /// Segment 2D laser scans of a CARMEN log into lines (one scan, or --all with timing).
     Segment(segment::Args),
     /// How well a map predicts scans (OctoMap's eval_octree_accuracy): the share of the
@@ -122,6 +126,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Distance(a)) => distance::run(&a),
         Some(Command::Merge(a)) => merge::run(&a),
         Some(Command::Join(a)) => join::run(&a),
+        Some(Command::Simulate(a)) => simulate::run(&a),
         None => demo::run_default(),
     };
     match result {

@@ -138,6 +138,15 @@ impl From<ViewpointArg> for ViewpointUse {
     }
 }
 
+/// `--scene`: which built-in scene `simulate` scans.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneArg {
+    /// The small building of `demo` (`Scene::builtin`) with its scanners.
+    Builtin,
+    /// A seeded city (`City`) driven by a car-mounted LiDAR.
+    City,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

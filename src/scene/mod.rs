@@ -7,6 +7,8 @@
 //!   elevation from a few stations, so point density falls with range as on real scanners.
 //! - [`SpinningLidar`]: a multi-beam spinning LiDAR (rings × columns per revolution) carried
 //!   along a path at a fixed height above the ground, one frame per revolution.
+//! - [`City`]: a seeded synthetic city (blocks of buildings, streets, trees, parked cars) and
+//!   a route for a car-mounted [`SpinningLidar`] through its streets, for city-scale runs.
 //! - [`scan_terrestrial`] / [`scan_lidar`] turn either into [`Frame`](crate::Frame)s in world
 //!   coordinates under [`ScanOptions`] (seed, range noise, what to do with misses).
 //!
@@ -33,10 +35,15 @@
 //! assert!(frames.iter().all(|f| f.points.len() <= 16 * 64));
 //! ```
 
+mod city;
 mod depth_camera;
 mod scanner;
 mod shapes;
 
+pub use city::{
+    Car, City, CityBox, CityOptions, Tree, KERB_HEIGHT, MAX_BLOCKS, MAX_CITY_FRAMES,
+    MAX_ROUTE_LENGTH, MOUNT_HEIGHT, SIDEWALK_WIDTH, STREET_WIDTH,
+};
 pub use depth_camera::{looking_along_x, scan_depth, DepthCamera};
 pub use scanner::{
     scan_lidar, scan_terrestrial, MissPolicy, ScanOptions, ScanStats, SpinningLidar,

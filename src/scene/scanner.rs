@@ -291,17 +291,17 @@ pub(super) fn check_options(o: &ScanOptions) -> Result<(), SceneError> {
 }
 
 /// SplitMix64 (Steele, Lea, Flood 2014): tiny, fast, and plenty for sensor noise.
-struct SplitMix64(u64);
+pub(super) struct SplitMix64(u64);
 
 impl SplitMix64 {
     /// A generator for frame `frame` of a scan seeded with `seed`.
-    fn for_frame(seed: u64, frame: u64) -> Self {
+    pub(super) fn for_frame(seed: u64, frame: u64) -> Self {
         let mut g = SplitMix64(seed ^ frame.wrapping_mul(0xD1B5_4A32_D192_ED03));
         g.next_u64();
         g
     }
 
-    fn next_u64(&mut self) -> u64 {
+    pub(super) fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -310,7 +310,7 @@ impl SplitMix64 {
     }
 
     /// Uniform in (0, 1].
-    fn unit(&mut self) -> f64 {
+    pub(super) fn unit(&mut self) -> f64 {
         ((self.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64
     }
 
