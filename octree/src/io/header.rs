@@ -34,22 +34,6 @@ pub fn format_resolution(v: f64) -> String {
     }
 }
 
-/// Write the whole header of an `OcTree` file in `format` (first line to `data`, as
-/// OctoMap's writers do) announcing `size` nodes of `resolution`: for writers that stream a
-/// tree's nodes from pieces instead of a tree in memory.
-pub fn write_tree_header<W: Write + ?Sized>(
-    w: &mut W,
-    format: super::TreeFormat,
-    size: usize,
-    resolution: f64,
-) -> std::io::Result<()> {
-    let first = match format {
-        super::TreeFormat::Bt => super::bt::BT_HEADER,
-        super::TreeFormat::Ot => super::ot::OT_HEADER,
-    };
-    write_header(w, first, size, resolution)
-}
-
 /// Write the header lines after the format's first line, for an `OcTree`.
 pub(crate) fn write_header<W: Write + ?Sized>(
     w: &mut W,

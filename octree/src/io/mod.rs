@@ -13,7 +13,7 @@ mod ot_stamped;
 mod stream;
 
 pub use bt::{read_bt, write_bt, write_bt_const};
-pub use header::{format_resolution, write_tree_header};
+pub use header::format_resolution;
 pub use ot::{read_ot, write_ot};
 pub use ot_color::{read_color_ot, write_color_ot, COLOR_OCTREE_ID};
 pub use ot_stamped::{read_stamped_ot, write_stamped_ot, STAMPED_OCTREE_ID};
@@ -54,4 +54,20 @@ pub fn read_tree<R: std::io::Read>(reader: R) -> Result<crate::OcTree, crate::Oc
             "first line is neither an OctoMap .bt nor .ot header".into(),
         ))
     }
+}
+
+/// Write the whole header of an `OcTree` file in `format` (first line to `data`, as
+/// OctoMap's writers do) announcing `size` nodes of `resolution`: for writers that stream a
+/// tree's nodes from pieces instead of a tree in memory.
+pub fn write_tree_header<W: std::io::Write + ?Sized>(
+    w: &mut W,
+    format: TreeFormat,
+    size: usize,
+    resolution: f64,
+) -> std::io::Result<()> {
+    let first = match format {
+        TreeFormat::Bt => bt::BT_HEADER,
+        TreeFormat::Ot => ot::OT_HEADER,
+    };
+    header::write_header(w, first, size, resolution)
 }
