@@ -375,6 +375,7 @@ def plot(result, out):
     import matplotlib.pyplot as plt
 
     styles = [("octoquant", "DBSCAN1D (octoquant, sort included)", "o-"),
+              ("octoquant_presorted", "DBSCAN1D on presorted values", "o-"),
               ("sklearn", "scikit-learn DBSCAN", "s--"), ("R", "R dbscan::dbscan", "^:")]
     for key, rows, fname, xlabel in (
         ("n", result["by_n"], "time-vs-n.png", "N (values)"),
@@ -386,7 +387,8 @@ def plot(result, out):
         for name, label, style in styles:
             pts = [(r[key], r[name]["median"]) for r in rows if "median" in r.get(name, {})]
             if pts:
-                ax.plot(*zip(*pts), style, label=label)
+                faint = {"color": "C0", "alpha": 0.4, "markersize": 3} if "presorted" in name else {}
+                ax.plot(*zip(*pts), style, label=label, **faint)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
@@ -394,7 +396,8 @@ def plot(result, out):
         if key == "n":
             ax.set_title("Time against N (mean |N_eps| = ln N)")
         else:
-            ax.set_title(f"Time against eps, N = {rows[0]['n']:,}".replace(",", " "))
+            n = f"{rows[0]['n']:,}".replace(",", " ")
+            ax.set_title(f"Time against eps, N = {n}, min_points {rows[0]['min_points']}")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
         fig.tight_layout()
