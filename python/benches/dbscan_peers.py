@@ -329,9 +329,9 @@ def fmt_s(v):
 def describe(row, name):
     e = row.get(name)
     if e is None:
-        return "not run", "", ""
+        return "not run", "", "not run"
     if "skipped" in e:
-        return f"skipped ({e['skipped']})", "", ""
+        return f"skipped ({e['skipped']})", "", f"skipped ({e['skipped']})"
     ratio = e["median"] / row["octoquant"]["median"]
     lab = e["labels"]
     ok = lab["core_same_clusters"] and lab["noise_diff"] == 0 and lab["mismatch"] == 0
