@@ -95,14 +95,17 @@ pub fn dbscan1d<'py>(
     let (labels, second) = py
         .detach(|| {
             let sorted = values.windows(2).all(|w| w[0] <= w[1]);
-            let order: Vec<usize> = if sorted {
-                (0..values.len()).collect()
+            // (value, index) pairs sorted together: the comparisons read contiguous memory
+            // (an index sort reading values[a] at random was 15x the clustering at 10^7);
+            // ties by index keep the stable order
+            let (order, xs): (Vec<usize>, Vec<f64>) = if sorted {
+                ((0..values.len()).collect(), values.clone())
             } else {
-                let mut o: Vec<usize> = (0..values.len()).collect();
-                o.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
-                o
+                let mut pairs: Vec<(f64, usize)> =
+                    values.iter().enumerate().map(|(i, &v)| (v, i)).collect();
+                pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                pairs.into_iter().map(|(v, i)| (i, v)).unzip()
             };
-            let xs: Vec<f64> = order.iter().map(|&i| values[i]).collect();
             let mut c = Clustering::new();
             engine::dbscan1d(&xs, &params, &mut c)?;
             let mut labels = vec![-1i64; values.len()];
