@@ -8,7 +8,9 @@ use octoquant_tiles::{apply_tile_updates, join_tiles, Tile, TileSplitter, TileUp
 use proptest::prelude::*;
 use std::collections::BTreeMap;
 
-type Frame = (Point3<f32>, Vec<Point3<f32>>);
+mod common;
+
+use common::{frames_strategy, sphere, Frame};
 
 /// The sequential exact pipeline: each frame's sets, applied in order (what `Mapper` does in
 /// exact mode without filters).
@@ -95,19 +97,6 @@ fn assert_same(a: &OcTree, b: &OcTree, what: &str) {
     assert!(abt == bbt, "{what}: .bt differs");
 }
 
-/// Points on a sphere of radius `r` around `c`, about `n` of them (a Fibonacci lattice).
-fn sphere(c: Point3<f32>, r: f32, n: usize) -> Vec<Point3<f32>> {
-    let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-            let s = (1.0 - z * z).sqrt();
-            let a = g * i as f32;
-            Point3::new(c.x + r * s * a.cos(), c.y + r * s * a.sin(), c.z + r * z)
-        })
-        .collect()
-}
-
 /// Dense, repeated frames clamp whole regions free, so that nodes above the tile depth are
 /// pruned; a later frame from elsewhere expands them again. The tiled build still gives the
 /// sequential bytes, and the test checks the case it is about did happen.
@@ -179,34 +168,6 @@ fn join_refuses_what_is_not_a_tile_set() {
     // the joined tree carries the given sensor model
     let q = OccupancyParams::from_probabilities(0.8, 0.3, 0.1, 0.95, 0.5).unwrap();
     assert_eq!(*join_tiles(0.1, q, 5, [&t]).unwrap().params(), q);
-}
-
-fn frames_strategy() -> impl Strategy<Value = Vec<Frame>> {
-    // a few distinct frames, repeated in random order so that voxels reach the clamps
-    let frame = (
-        (-1.0f32..1.0, -1.0f32..1.0, -0.5f32..0.5),
-        proptest::collection::vec((-3.0f32..3.0, -3.0f32..3.0, -1.5f32..1.5), 1..300),
-        0usize..600,
-    )
-        .prop_map(|((x, y, z), pts, dense)| {
-            let o = Point3::new(x, y, z);
-            let mut p: Vec<Point3<f32>> = pts
-                .into_iter()
-                .map(|(a, b, c)| Point3::new(a, b, c))
-                .collect();
-            p.extend(sphere(o, 1.2, dense));
-            (o, p)
-        });
-    (
-        proptest::collection::vec(frame, 1..4),
-        proptest::collection::vec(0usize..4, 1..10),
-    )
-        .prop_map(|(pool, picks)| {
-            picks
-                .into_iter()
-                .map(|i| pool[i % pool.len()].clone())
-                .collect()
-        })
 }
 
 proptest! {
