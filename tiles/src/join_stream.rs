@@ -121,11 +121,11 @@ impl StreamJoin {
                 tree.to_max_likelihood();
                 for d in (depth.max(1)..TREE_DEPTH).rev() {
                     if d == depth {
-                        s.ml_before = tile_node(&tree, depth)?.0;
+                        s.ml_before = tile_state(&tree, *tile, depth)?;
                     }
                     s.pruned[d as usize] = tree.prune_depth(d);
                 }
-                s.ml_after = tile_node(&tree, depth)?.0;
+                s.ml_after = tile_state(&tree, *tile, depth)?;
                 if depth == 0 {
                     s.ml_before = s.ml_after;
                 }
@@ -180,12 +180,12 @@ impl StreamJoin {
         };
         match self.format {
             TreeFormat::Ot => {
-                let (node, nodes) = tile_node(&tree, depth)?;
-                if node.0.to_bits() != s.node.0.to_bits() || node.1 != s.node.1 || nodes != s.nodes
-                {
+                let part = subtree_records(&tree, depth)?.ok_or_else(changed)?;
+                let (value, leaf) = record_of(&part.records);
+                let nodes = part.records.len() / RECORD;
+                if value.to_bits() != s.node.0.to_bits() || leaf != s.node.1 || nodes != s.nodes {
                     return Err(changed());
                 }
-                let part = subtree_records(&tree, depth)?.ok_or_else(changed)?;
                 Ok(part.records)
             }
             TreeFormat::Bt => {
@@ -444,6 +444,21 @@ fn tile_node(tree: &OcTree, depth: u8) -> Result<(NodeState, usize), TileError> 
     let part = subtree_records(tree, depth)?
         .ok_or_else(|| TileError::Mismatch("an empty tile tree in a tile directory".into()))?;
     Ok((record_of(&part.records), part.records.len() / RECORD))
+}
+
+/// The tile's node (value, leaf) in a tile tree, found by a search rather than by writing the
+/// tree's records (the root, at tile depth 0, has no search of its own: OctoMap's depth 0
+/// means the voxel level).
+fn tile_state(tree: &OcTree, tile: Tile, depth: u8) -> Result<NodeState, TileError> {
+    if depth == 0 {
+        return Ok(tile_node(tree, depth)?.0);
+    }
+    match tree.search(tile.min_key(), depth) {
+        Some(n) if n.depth == depth => Ok((n.value, !n.has_children)),
+        _ => Err(TileError::Mismatch(format!(
+            "{tile}: its tile tree has no node there"
+        ))),
+    }
 }
 
 /// The `.bt` bytes of the tile's subtree in `bt` (a whole `.bt` file of a tile tree): the
