@@ -8,7 +8,7 @@
 //! `round(255 · distance / max)`, `max` being the map's distance clamp, so obstacles are black
 //! and voxels at the clamp white.
 
-use super::query::read_rows;
+use super::query::query_points;
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
@@ -110,17 +110,7 @@ pub fn run(a: &Args) -> Result<()> {
             (lo.map(|v| v + res / 2.0), hi.map(|v| v - res / 2.0))
         }
     };
-    let mut points: Vec<Point3<f64>> =
-        a.at.chunks_exact(3)
-            .map(|c| Point3::new(c[0], c[1], c[2]))
-            .collect();
-    if let Some(f) = &a.points {
-        points.extend(
-            read_rows(f, 3)?
-                .into_iter()
-                .map(|r| Point3::new(r[0], r[1], r[2])),
-        );
-    }
+    let points = query_points(&a.at, a.points.as_deref())?;
     let options = DistanceOptions {
         max_dist: a.max_dist as f32,
         bbx_min,

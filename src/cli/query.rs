@@ -40,6 +40,23 @@ pub struct Args {
     json: bool,
 }
 
+/// The points of `--at X Y Z ...` (triples) followed by those of a `--points` file: what
+/// `query` and `distance` look up.
+pub(super) fn query_points(at: &[f64], file: Option<&Path>) -> Result<Vec<Point3<f64>>> {
+    let mut points: Vec<Point3<f64>> = at
+        .chunks_exact(3)
+        .map(|c| Point3::new(c[0], c[1], c[2]))
+        .collect();
+    if let Some(f) = file {
+        points.extend(
+            read_rows(f, 3)?
+                .into_iter()
+                .map(|r| Point3::new(r[0], r[1], r[2])),
+        );
+    }
+    Ok(points)
+}
+
 /// The numbers of a text file, `width` per line, with the line numbers in errors.
 pub(super) fn read_rows(path: &Path, width: usize) -> Result<Vec<Vec<f64>>> {
     let text = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -110,17 +127,7 @@ pub fn run(a: &Args) -> Result<()> {
         bail!("--max-range is NaN");
     }
     let tree = read_tree_file(&a.map)?;
-    let mut points: Vec<Point3<f64>> =
-        a.at.chunks_exact(3)
-            .map(|c| Point3::new(c[0], c[1], c[2]))
-            .collect();
-    if let Some(f) = &a.points {
-        points.extend(
-            read_rows(f, 3)?
-                .into_iter()
-                .map(|r| Point3::new(r[0], r[1], r[2])),
-        );
-    }
+    let points = query_points(&a.at, a.points.as_deref())?;
     let rays: Vec<(Point3<f64>, Vector3<f64>)> = match &a.rays {
         Some(f) => read_rows(f, 6)?
             .into_iter()
