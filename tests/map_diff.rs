@@ -567,6 +567,95 @@ fn cli_bench_matches_octomap_and_measures_agreement() {
     }
 }
 
+/// Kwon and Yoon's sensor model (`--sensor-model kwon-yoon-2015`) on real depth frames: the
+/// map equals OctoMap's given the paper's numbers through its setters (log-odds 0.2 / -0.1 as
+/// probabilities, clamps 0.1 / 0.9, written here from the paper, not from the preset), differs
+/// from the default model's map, and `bench` gives OctoMap the same model (its exact and
+/// quantized maps stay identical to OctoMap's).
+#[test]
+fn cli_kwon_yoon_sensor_model_matches_octomap() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let opts = ReadOptions {
+        tum: TumOptions {
+            pixel_step: 8,
+            ..TumOptions::default()
+        },
+        ..ReadOptions::default()
+    };
+    let frames = subsample(read_frames(&assoc, &opts).unwrap(), 3, 1);
+    let dir = common::scratch("map_diff_kwon_yoon");
+    let ff = dir.join("tum.frames");
+    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    let logistic = |l: f64| 1.0 / (1.0 + (-l).exp());
+    let (hit, miss) = (logistic(0.2), logistic(-0.1));
+    let (rot, rbt) = (dir.join("ref.ot"), dir.join("ref.bt"));
+    let script = format!(
+        "tree {:.17e}\nparams {hit:.17e} {miss:.17e} {:.17e} {:.17e} {:.17e}\ninsert {}\nwrite_ot {}\nwrite_bt {}\n",
+        0.05,
+        0.1,
+        0.9,
+        0.5,
+        ff.display(),
+        rot.display(),
+        rbt.display()
+    );
+    let sp = dir.join("script.txt");
+    std::fs::write(&sp, script).unwrap();
+    let out = Command::new(&refprog)
+        .arg("script")
+        .arg(&sp)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // (.ot, .bt) of `octoquant map` with a sensor model
+    let map = |model: &str| {
+        let (ot, bt) = (
+            dir.join(format!("{model}.ot")),
+            dir.join(format!("{model}.bt")),
+        );
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .arg("map")
+            .arg(&ff)
+            .args(["--res", "0.05", "--quiet", "--sensor-model", model, "--ot"])
+            .arg(&ot)
+            .arg("-o")
+            .arg(&bt)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (std::fs::read(ot).unwrap(), std::fs::read(bt).unwrap())
+    };
+    let (theirs_ot, theirs_bt) = (std::fs::read(&rot).unwrap(), std::fs::read(&rbt).unwrap());
+    let (ot, bt) = map("kwon-yoon-2015");
+    assert!(ot == theirs_ot, ".ot {}", first_diff(&ot, &theirs_ot));
+    assert!(bt == theirs_bt, ".bt {}", first_diff(&bt, &theirs_bt));
+    let (default_ot, _) = map("octomap");
+    assert!(default_ot != ot, "the sensor model changed nothing");
+
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("bench")
+        .arg(&ff)
+        .args(["--res", "0.05", "--sensor-model", "kwon-yoon-2015"])
+        .args(["--threads", "1", "--repeat", "1", "--json", "--reference"])
+        .arg(&refprog)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json = String::from_utf8(o.stdout).unwrap();
+    let identical = json.matches("\"bt_identical_to_octomap\":true").count();
+    assert_eq!(identical, 2, "exact and quantized: {json}");
+}
+
 /// Negative numbers are values: `--res -0.1` is refused for its value (before any input is
 /// read), and `--max-range` of 0 or less means no range limit, as OctoMap's -1.
 #[test]

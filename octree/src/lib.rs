@@ -56,7 +56,7 @@ pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
 pub use merge::MergeStats;
-pub use params::{logodds, probability, OccupancyParams};
+pub use params::{logodds, probability, OccupancyParams, SensorPreset, SensorProbabilities};
 pub use stamped_tree::{now_seconds, StampedNodeInfo, StampedOcTree};
 pub use store::MemoryUsage;
 pub use tree::{Counts, InnerNodes, NodeInfo, OcTree, Update};

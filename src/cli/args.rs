@@ -2,10 +2,11 @@
 //! `#[command(flatten)]`), so that an option is spelled, defaulted and explained once, and
 //! their resolution into the library's settings (`ReadOptions`, the tree's size and range).
 
-use super::vocab::{FormatArg, ViewpointArg};
-use anyhow::{bail, Result};
+use super::vocab::{FormatArg, SensorModelArg, ViewpointArg};
+use anyhow::{bail, Context, Result};
 use octoquant::formats::{read_frames, CameraIntrinsics, DecompressionLimit, ReadOptions};
-use octoquant::Frame;
+use octoquant::octree::{SensorPreset, SensorProbabilities};
+use octoquant::{Frame, OccupancyParams};
 use std::path::PathBuf;
 
 /// How sensor files are read: the options of every command that reads them (`map`, `bench`,
@@ -217,6 +218,45 @@ impl InputArgs {
             frames.extend(read_frames(p, &read)?);
         }
         Ok(frames)
+    }
+}
+
+/// The sensor model: a named preset, optionally with its clamping or hit/miss probabilities
+/// replaced (`map` and `bench`).
+#[derive(clap::Args)]
+pub struct SensorArgs {
+    /// A named sensor model: `octomap` (OctoMap's defaults) or `kwon-yoon-2015` (the values
+    /// printed by Kwon and Yoon's quantization paper: log-odds updates 0.2 / -0.1, clamping
+    /// probabilities 0.1 / 0.9; see the docs of `SensorPreset`). --clamping and --sensor
+    /// replace its parts.
+    #[arg(long, value_enum, default_value = "octomap")]
+    pub sensor_model: SensorModelArg,
+    /// Clamping probabilities (OctoMap defaults 0.1192 0.971).
+    #[arg(long, num_args = 2, value_names = ["PMIN", "PMAX"])]
+    pub clamping: Option<Vec<f64>>,
+    /// Sensor model, miss first as in graph2tree (defaults 0.4 0.7).
+    #[arg(long, num_args = 2, value_names = ["PMISS", "PHIT"])]
+    pub sensor: Option<Vec<f64>>,
+}
+
+impl SensorArgs {
+    /// The model's setter probabilities, checked (an error names the options).
+    pub fn probabilities(&self) -> Result<SensorProbabilities> {
+        let mut p = SensorPreset::from(self.sensor_model).probabilities();
+        if let Some(v) = &self.clamping {
+            (p.clamp_min, p.clamp_max) = (v[0], v[1]);
+        }
+        if let Some(v) = &self.sensor {
+            (p.miss, p.hit) = (v[0], v[1]);
+        }
+        p.params()
+            .context("invalid --sensor-model/--clamping/--sensor")?;
+        Ok(p)
+    }
+
+    /// The log-odds model, checked.
+    pub fn params(&self) -> Result<OccupancyParams> {
+        Ok(self.probabilities()?.params()?)
     }
 }
 

@@ -1,10 +1,11 @@
 //! `octoquant bench INPUT... --res R`: the insertion modes side by side on the same frames,
 //! optionally against the C++ OctoMap reference program, as ratios.
 
-use super::args::{InputArgs, TreeArgs};
+use super::args::{InputArgs, SensorArgs, TreeArgs};
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use octoquant::octree::io::write_bt;
+use octoquant::octree::{SensorPreset, SensorProbabilities};
 use octoquant::pipeline::{InsertMode, Mapper, MapperOptions};
 use octoquant::Frame;
 use std::path::{Path, PathBuf};
@@ -14,6 +15,8 @@ use std::process::Command;
 pub struct Args {
     #[command(flatten)]
     tree: TreeArgs,
+    #[command(flatten)]
+    sensor: SensorArgs,
     /// Threads for the multi-threaded runs (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -194,11 +197,14 @@ impl Run {
 
 /// Time OctoMap's insertPointCloud per frame with the reference program, at the resolution
 /// and maximum range of `opts`, with `discretize` when its mode is
-/// [`InsertMode::Discretize`]; returns the frame times in ms and the .bt it wrote.
+/// [`InsertMode::Discretize`], and the sensor model `sensor` (given to OctoMap's setters as
+/// the same probabilities, unless it is OctoMap's default); returns the frame times in ms and
+/// the .bt it wrote.
 fn run_reference(
     prog: &Path,
     frames_file: &Path,
     opts: &MapperOptions,
+    sensor: &SensorProbabilities,
     dir: &Path,
 ) -> Result<(Vec<f64>, Vec<u8>)> {
     let discretize = opts.mode == InsertMode::Discretize;
@@ -210,8 +216,17 @@ fn run_reference(
     if discretize {
         ins.push_str(" discretize");
     }
+    let params = if *sensor == SensorPreset::OctoMap.probabilities() {
+        String::new()
+    } else {
+        let p = sensor;
+        format!(
+            "params {:.17e} {:.17e} {:.17e} {:.17e} {:.17e}\n",
+            p.hit, p.miss, p.clamp_min, p.clamp_max, p.threshold
+        )
+    };
     let script = format!(
-        "tree {:.17e}\n{ins}\nwrite_bt {}\n",
+        "tree {:.17e}\n{params}{ins}\nwrite_bt {}\n",
         opts.resolution,
         bt.display()
     );
@@ -289,9 +304,11 @@ pub fn run(a: &Args) -> Result<()> {
     for (name, prog) in &a.peer {
         check_program(&format!("peer {name}:"), prog)?;
     }
+    let sensor = a.sensor.probabilities()?;
     let base = MapperOptions {
         resolution: a.tree.resolution()?,
         max_range: a.tree.max_range()?,
+        params: sensor.params()?,
         ..MapperOptions::default()
     };
     let mut frames = a.input.read_frames()?;
@@ -338,12 +355,12 @@ pub fn run(a: &Args) -> Result<()> {
             }
         }
         if let Some(prog) = &a.reference {
-            let exact = run_reference(prog, &ff, &base, dir)?;
+            let exact = run_reference(prog, &ff, &base, &sensor, dir)?;
             let discretize = MapperOptions {
                 mode: InsertMode::Discretize,
                 ..base.clone()
             };
-            let disc = run_reference(prog, &ff, &discretize, dir)?;
+            let disc = run_reference(prog, &ff, &discretize, &sensor, dir)?;
             match &mut reference {
                 None => reference = Some((exact, disc)),
                 Some(((e, _), (d, _))) => {

@@ -1,6 +1,6 @@
 //! `octoquant map INPUT... --res R ... -o OUT.bt`: build a map from sensor files.
 
-use super::args::{InputArgs, ReadArgs, TreeArgs};
+use super::args::{InputArgs, ReadArgs, SensorArgs, TreeArgs};
 use super::fresh_dir::{create_fresh_dir, DEMO_DIR};
 use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
@@ -14,7 +14,7 @@ use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
 use octoquant::treefile::{write_tree_file, TREE_EXTENSIONS};
-use octoquant::{Frame, OccupancyParams};
+use octoquant::Frame;
 use octoquant_raycast::RayModel;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -40,12 +40,8 @@ pub struct Args {
     /// Lazy insertion: inner nodes are updated once at the end.
     #[arg(long)]
     lazy: bool,
-    /// Clamping probabilities (OctoMap defaults 0.1192 0.971).
-    #[arg(long, num_args = 2, value_names = ["PMIN", "PMAX"])]
-    clamping: Option<Vec<f64>>,
-    /// Sensor model, miss first as in graph2tree (defaults 0.4 0.7).
-    #[arg(long, num_args = 2, value_names = ["PMISS", "PHIT"])]
-    sensor: Option<Vec<f64>>,
+    #[command(flatten)]
+    sensor: SensorArgs,
     /// Thin each frame with the online density reducer first (cell size, metres).
     #[arg(long)]
     reduce: Option<f64>,
@@ -86,7 +82,7 @@ pub struct Args {
             "checkpoint", "every", "inputs", "format", "global", "topic", "fixed_frame",
             "pixel_step", "max_expansion", "intrinsics", "depth_scale", "trajectory",
             "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray",
-            "lazy", "clamping", "sensor", "reduce", "output", "ot", "drop_zero", "min_range",
+            "lazy", "sensor_model", "clamping", "sensor", "reduce", "output", "ot", "drop_zero", "min_range",
             "crop_sensor", "crop_world", "zmin", "zmax", "ground", "ground_angle",
             "ground_iterations", "ground_seed",
         ]
@@ -227,16 +223,7 @@ fn insert_mode(a: &Args) -> Result<InsertMode> {
 /// The mapper settings the arguments ask for, checked.
 fn mapper_options(a: &Args) -> Result<MapperOptions> {
     let mode = insert_mode(a)?;
-    let (pmin, pmax) = match &a.clamping {
-        Some(v) => (v[0], v[1]),
-        None => (0.1192, 0.971),
-    };
-    let (pmiss, phit) = match &a.sensor {
-        Some(v) => (v[0], v[1]),
-        None => (0.4, 0.7),
-    };
-    let params = OccupancyParams::from_probabilities(phit, pmiss, pmin, pmax, 0.5)
-        .context("invalid --clamping/--sensor")?;
+    let params = a.sensor.params()?;
     if let Some(c) = a.reduce {
         if !(c.is_finite() && c > 0.0) {
             bail!("--reduce needs a positive cell size, got {c}");

@@ -8,6 +8,7 @@
 
 use octoquant::formats::{InputFormat, ViewpointUse};
 use octoquant::grid::UnknownCells;
+use octoquant::octree::SensorPreset;
 use octoquant::pipeline::InsertMode;
 use octoquant::render::View;
 use octoquant_raycast::RayModel;
@@ -31,6 +32,23 @@ impl From<ModeArg> for InsertMode {
             ModeArg::Quantized => InsertMode::Quantized,
             ModeArg::QuantizedBresenham => InsertMode::QuantizedBresenham,
             ModeArg::Simple => InsertMode::Simple,
+        }
+    }
+}
+
+/// `--sensor-model`: a named sensor model (see [`SensorPreset`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SensorModelArg {
+    Octomap,
+    #[value(name = "kwon-yoon-2015")]
+    KwonYoon2015,
+}
+
+impl From<SensorModelArg> for SensorPreset {
+    fn from(m: SensorModelArg) -> SensorPreset {
+        match m {
+            SensorModelArg::Octomap => SensorPreset::OctoMap,
+            SensorModelArg::KwonYoon2015 => SensorPreset::KwonYoon2015,
         }
     }
 }
@@ -194,5 +212,17 @@ mod tests {
             .map(|&v| v.into())
             .collect();
         assert_eq!(views, [View::Top, View::Front, View::Side]);
+    }
+
+    #[test]
+    fn sensor_model_names_are_the_library_names() {
+        let presets: Vec<SensorPreset> = SensorModelArg::value_variants()
+            .iter()
+            .map(|&m| m.into())
+            .collect();
+        assert_eq!(presets, SensorPreset::ALL);
+        for (arg, preset) in SensorModelArg::value_variants().iter().zip(presets) {
+            assert_eq!(value_name(arg), preset.name());
+        }
     }
 }
