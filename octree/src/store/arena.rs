@@ -3,6 +3,12 @@
 //! Both kinds of node blocks (inner blocks and depth-16 voxel blocks) live in arenas: a node
 //! refers to its children by the index of their block, and a freed block is reset to empty and
 //! handed out again before the pool grows.
+//!
+//! The blocks sit in a [`PageVec`]: a large arena grows by remapping pages instead of copying
+//! into a buffer twice its size, so growing never holds the arena twice (which would set the
+//! peak memory of a whole mapping run).
+
+use octoquant_pages::PageVec;
 
 /// An index no arena hands out: as a child-block index, "this node has no children".
 pub(crate) const NO_BLOCK: u32 = u32::MAX;
@@ -10,7 +16,7 @@ pub(crate) const NO_BLOCK: u32 = u32::MAX;
 /// A growable pool of blocks with a free list; freed blocks are reset to empty.
 #[derive(Clone)]
 pub(crate) struct Arena<B: Copy> {
-    pub blocks: Vec<B>,
+    pub blocks: PageVec<B>,
     free: Vec<u32>,
     empty: B,
 }
@@ -19,7 +25,7 @@ impl<B: Copy> Arena<B> {
     /// An empty arena whose blocks start (and are reset to) `empty`.
     pub fn new(empty: B) -> Self {
         Arena {
-            blocks: Vec::new(),
+            blocks: PageVec::new(),
             free: Vec::new(),
             empty,
         }
