@@ -540,12 +540,12 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     let mut tree = mapper.into_tree();
-    // blocks freed by pruning are kept for reuse while mapping; measure (and write) the tree
-    // as it stands, as `bench` and `info` do
-    tree.shrink_to_fit();
+    // blocks freed by pruning are kept for reuse while mapping: the bytes in use leave them
+    // out, as `bench` and `info` do by shrinking first; not shrinking here keeps the copy
+    // that shrinking makes (the tree twice, briefly) out of the run's peak memory
     let full_nodes = tree.size();
     let bytes_per_node = if full_nodes > 0 {
-        tree.memory_usage() as f64 / full_nodes as f64
+        tree.memory_breakdown().in_use() as f64 / full_nodes as f64
     } else {
         0.0
     };

@@ -28,4 +28,11 @@ impl MemoryUsage {
     pub fn total(&self) -> usize {
         self.block_bytes + self.free_bytes + self.palette_bytes + self.fixed_bytes
     }
+
+    /// All bytes but the freed blocks awaiting reuse: what [`crate::OcTree::shrink_to_fit`]
+    /// would leave (up to palette values no voxel holds any more), measured without the copy
+    /// that shrinking makes (which briefly holds the tree twice).
+    pub fn in_use(&self) -> usize {
+        self.block_bytes + self.palette_bytes + self.fixed_bytes
+    }
 }
