@@ -539,6 +539,10 @@ impl Mapper {
             } = self;
             let (tree_s, next) = match &next_frame {
                 Some(f) => {
+                    // the tree needs only the sets of `update`: its working buffers (hash
+                    // tables, the threads' sets) go to the next frame's computation, so that
+                    // one set of them exists, not two
+                    next_update.pass_buffers(update);
                     let (t, n) = rayon::join(
                         || apply(tree, update, lazy),
                         || {

@@ -163,6 +163,37 @@ impl BrickSet {
         self.last = 0;
     }
 
+    /// Bytes of the table's allocation.
+    pub fn heap_bytes(&self) -> usize {
+        self.slots.capacity() * std::mem::size_of::<Brick>()
+    }
+
+    /// Sort the non-empty bricks by code into the front of the table itself and return how
+    /// many there are ([`BrickSet::sorted_front`] lists them): the copy [`BrickSet::sorted`]
+    /// makes is spared. The set is then a sorted list, not a hash table: nothing may be
+    /// inserted or looked up before [`BrickSet::clear`], which empties the whole table.
+    pub fn sort_in_place(&mut self) -> usize {
+        let mut n = 0;
+        for i in 0..self.slots.len() {
+            let b = self.slots[i];
+            if b.code != EMPTY {
+                self.slots[i] = VACANT;
+                self.slots[n] = b;
+                n += 1;
+            }
+        }
+        self.slots[..n].sort_unstable_by_key(|b| b.code);
+        // `len` stays as it was, so that `clear` resets the whole table
+        self.last = 0;
+        n
+    }
+
+    /// The first `n` slots: after [`BrickSet::sort_in_place`] returned `n`, the bricks in code
+    /// order.
+    pub fn sorted_front(&self, n: usize) -> &[Brick] {
+        &self.slots[..n]
+    }
+
     /// The non-empty bricks, sorted by code (that is, in Morton order).
     pub fn sorted(&self, out: &mut Vec<Brick>) {
         out.clear();
@@ -292,6 +323,21 @@ mod tests {
             }
             let want: Vec<Key> = naive.iter().map(|c| Key::from_morton(*c)).collect();
             assert_eq!(keys, want);
+            // sorted in the table itself: the same bricks; and a cleared set is empty again
+            let copy = {
+                let mut v = Vec::new();
+                set.sorted(&mut v);
+                v
+            };
+            let n = set.sort_in_place();
+            assert!(set.sorted_front(n) == &copy[..]);
+            set.clear();
+            let mut after = Vec::new();
+            set.sorted(&mut after);
+            assert!(after.is_empty());
+            for b in &copy {
+                set.insert_brick(*b);
+            }
         }
         assert_eq!(set.get(u64::MAX >> 6), 0);
     }

@@ -34,16 +34,24 @@ pub struct ScanUpdate {
     free: OnceLock<Vec<Key>>,
     /// The occupied voxels as keys, listed from `occ_bricks` on first request.
     occupied: OnceLock<Vec<Key>>,
+    /// The free voxels: sorted bricks, occupied voxels masked out, no empty mask.
+    bricks: Vec<Brick>,
+    /// The occupied voxels: sorted bricks.
+    occ_bricks: Vec<Brick>,
+    /// Working buffers of the computation, not needed once the sets are listed (see
+    /// [`ScanUpdate::pass_buffers`]).
+    work: Buffers,
+}
+
+/// The working buffers of a [`ScanUpdate`]'s computation: hash tables, the threads' sets and
+/// the rays' scratch, kept for reuse from scan to scan.
+#[derive(Debug, Clone, Default)]
+struct Buffers {
     free_set: BrickSet,
     occ_set: BrickSet,
     ray: RayScratch,
     /// Per-thread sets for frames split across rayon threads.
     workers: Vec<Worker>,
-    /// The free voxels: sorted bricks, occupied voxels masked out, no empty mask.
-    bricks: Vec<Brick>,
-    /// The occupied voxels: sorted bricks.
-    occ_bricks: Vec<Brick>,
-    merge_tmp: Vec<Brick>,
     /// What the rays of a depth-image frame may skip.
     plan: SkipPlan,
     centres: Vec<Point3<f32>>,
@@ -86,12 +94,45 @@ impl ScanUpdate {
     /// The narrowing buffer of the `f64` doors, taken out to be filled (give it back with
     /// [`ScanUpdate::keep_narrowed`]).
     pub(crate) fn take_narrowed(&mut self) -> Vec<Point3<f32>> {
-        std::mem::take(&mut self.narrowed)
+        std::mem::take(&mut self.work.narrowed)
     }
 
     /// Keep the narrowing buffer for the next scan.
     pub(crate) fn keep_narrowed(&mut self, narrowed: Vec<Point3<f32>>) {
-        self.narrowed = narrowed;
+        self.work.narrowed = narrowed;
+    }
+
+    /// Bytes of the buffers this update holds (its results and its working buffers: hash
+    /// tables, sorted lists, the threads' own sets), for memory accounting.
+    pub fn heap_bytes(&self) -> usize {
+        fn vec<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let w = &self.work;
+        let workers: usize = w
+            .workers
+            .iter()
+            .map(|w| w.free_set.heap_bytes() + w.occ_set.heap_bytes())
+            .sum();
+        vec(&self.bricks)
+            + vec(&self.occ_bricks)
+            + self.free.get().map_or(0, vec)
+            + self.occupied.get().map_or(0, vec)
+            + w.free_set.heap_bytes()
+            + w.occ_set.heap_bytes()
+            + workers
+            + vec(&w.centres)
+            + vec(&w.order)
+            + vec(&w.narrowed)
+    }
+
+    /// Swap the working buffers (hash tables, the threads' sets, the rays' scratch) with
+    /// `other`'s, each keeping its own results. A pipeline that computes the next scan into one
+    /// update while the tree takes the sets of another passes the buffers on before each
+    /// computation instead of holding two sets of them: only the results are needed while a
+    /// scan is applied.
+    pub fn pass_buffers(&mut self, other: &mut ScanUpdate) {
+        std::mem::swap(&mut self.work, &mut other.work);
     }
 
     /// Empty both voxel sets, keeping the allocations of the sets.
@@ -100,8 +141,8 @@ impl ScanUpdate {
         self.occupied = OnceLock::new();
         self.bricks.clear();
         self.occ_bricks.clear();
-        self.free_set.clear();
-        self.occ_set.clear();
+        self.work.free_set.clear();
+        self.work.occ_set.clear();
     }
 }
 
@@ -123,9 +164,9 @@ struct Worker {
     occ_set: BrickSet,
     ray: RayScratch,
     stats: ScanStats,
-    /// The worker's sets as sorted brick lists, for the merge.
-    free_sorted: Vec<Brick>,
-    occ_sorted: Vec<Brick>,
+    /// How many bricks each set holds once sorted in place (its table's front), for the merge.
+    free_sorted: usize,
+    occ_sorted: usize,
 }
 
 /// Per-thread buffers of one ray, reused from ray to ray.
@@ -308,8 +349,8 @@ fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
 
 /// List both sets in Morton order, masking occupied voxels out of the free ones.
 fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
-    out.free_set.sorted(&mut out.bricks);
-    out.occ_set.sorted(&mut out.occ_bricks);
+    out.work.free_set.sorted(&mut out.bricks);
+    out.work.occ_set.sorted(&mut out.occ_bricks);
     emit(out, stats);
 }
 
@@ -342,32 +383,53 @@ fn brick_keys(bricks: &[Brick]) -> Vec<Key> {
     keys
 }
 
-/// `acc := acc ∪ other` for brick lists sorted by brick (each brick once), OR-ing the bits of
-/// bricks in both; `tmp` is scratch.
-fn merge_into(acc: &mut Vec<Brick>, other: &[Brick], tmp: &mut Vec<Brick>) {
-    tmp.clear();
-    tmp.reserve(acc.len() + other.len());
-    let (mut i, mut j) = (0, 0);
-    while i < acc.len() && j < other.len() {
-        let (a, b) = (acc[i], other[j]);
-        if a.code < b.code {
-            tmp.push(a);
-            i += 1;
-        } else if b.code < a.code {
-            tmp.push(b);
-            j += 1;
-        } else {
-            tmp.push(Brick {
-                code: a.code,
-                voxels: a.voxels | b.voxels,
-            });
-            i += 1;
-            j += 1;
+/// `out := ⋃ lists` for brick lists each sorted by brick code (each brick once per list),
+/// OR-ing the bits of a brick found in several; one pass over all lists, so no list is copied
+/// before the merge and no second output buffer is needed. The lists are the threads' shares
+/// (as many as threads), so the smallest head is found by a scan.
+fn merge_sorted<'a>(lists: impl Iterator<Item = &'a [Brick]>, out: &mut Vec<Brick>) {
+    let mut lists: Vec<&[Brick]> = lists.filter(|l| !l.is_empty()).collect();
+    out.clear();
+    out.reserve(lists.iter().map(|l| l.len()).max().unwrap_or(0));
+    if let [a, b] = lists[..] {
+        // two threads, the common case: the plain two-way merge
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() && j < b.len() {
+            let (x, y) = (a[i], b[j]);
+            if x.code < y.code {
+                out.push(x);
+                i += 1;
+            } else if y.code < x.code {
+                out.push(y);
+                j += 1;
+            } else {
+                out.push(Brick {
+                    code: x.code,
+                    voxels: x.voxels | y.voxels,
+                });
+                i += 1;
+                j += 1;
+            }
         }
+        out.extend_from_slice(&a[i..]);
+        out.extend_from_slice(&b[j..]);
+        return;
     }
-    tmp.extend_from_slice(&acc[i..]);
-    tmp.extend_from_slice(&other[j..]);
-    std::mem::swap(acc, tmp);
+    while lists.len() > 1 {
+        let code = lists.iter().map(|l| l[0].code).min().unwrap_or(0);
+        let mut voxels = 0;
+        for l in lists.iter_mut() {
+            if l[0].code == code {
+                voxels |= l[0].voxels;
+                *l = &l[1..];
+            }
+        }
+        out.push(Brick { code, voxels });
+        lists.retain(|l| !l.is_empty());
+    }
+    if let Some(rest) = lists.first() {
+        out.extend_from_slice(rest);
+    }
 }
 
 /// The pixel of each point and what its ray may skip, for depth-image frames.
@@ -634,7 +696,7 @@ fn compute(
     };
     let m = max_range.unwrap_or(-1.0);
     let origin_key = key_of(conv, origin).map(coded);
-    let mut plan = std::mem::take(&mut out.plan);
+    let mut plan = std::mem::take(&mut out.work.plan);
     let threads = rayon::current_num_threads();
     let parallel = threads > 1 && points.len() >= PARALLEL_MIN_POINTS;
     let skips: Skips<'_> = match grid {
@@ -653,7 +715,7 @@ fn compute(
     if parallel {
         // each thread casts a contiguous share of the rays into its own sets; the union is
         // the same set whatever the split, so the output does not depend on the thread count
-        out.workers.resize_with(threads, Worker::default);
+        out.work.workers.resize_with(threads, Worker::default);
         // the workers take the blocks of points in turn, each the next one not yet taken:
         // a worker that starts late or meets long rays takes fewer, so none waits for
         // another at the end (which worker took a block does not change the union)
@@ -667,7 +729,7 @@ fn compute(
                 .map(|rest| (at, &rest[..rest.len().min(PARALLEL_BLOCK)]))
         };
         use rayon::prelude::*;
-        out.workers.par_iter_mut().for_each(|w| {
+        out.work.workers.par_iter_mut().for_each(|w| {
             w.free_set.clear();
             w.occ_set.clear();
             w.stats = ScanStats::default();
@@ -687,17 +749,24 @@ fn compute(
                     model,
                 );
             }
-            w.free_set.sorted(&mut w.free_sorted);
-            w.occ_set.sorted(&mut w.occ_sorted);
+            // sorted in their own tables: no copy of the sets
+            w.free_sorted = w.free_set.sort_in_place();
+            w.occ_sorted = w.occ_set.sort_in_place();
         });
-        let used = threads;
         // each worker's sets were sorted on its own thread; merging sorted lists replaces a
         // serial hash union and a sort of the whole frame
-        out.bricks.clear();
-        out.occ_bricks.clear();
-        for w in &out.workers[..used] {
-            merge_into(&mut out.bricks, &w.free_sorted, &mut out.merge_tmp);
-            merge_into(&mut out.occ_bricks, &w.occ_sorted, &mut out.merge_tmp);
+        let workers = &out.work.workers[..threads];
+        merge_sorted(
+            workers
+                .iter()
+                .map(|w| w.free_set.sorted_front(w.free_sorted)),
+            &mut out.bricks,
+        );
+        merge_sorted(
+            workers.iter().map(|w| w.occ_set.sorted_front(w.occ_sorted)),
+            &mut out.occ_bricks,
+        );
+        for w in workers {
             stats.non_finite += w.stats.non_finite;
             stats.outside_map += w.stats.outside_map;
             stats.rays += w.stats.rays;
@@ -705,7 +774,7 @@ fn compute(
             stats.max_range_rays += w.stats.max_range_rays;
             stats.heads_skipped += w.stats.heads_skipped;
         }
-        out.plan = plan;
+        out.work.plan = plan;
         emit(out, &mut stats);
         return stats;
     }
@@ -716,13 +785,13 @@ fn compute(
         origin,
         origin_key,
         m,
-        &mut out.free_set,
-        &mut out.occ_set,
-        &mut out.ray,
+        &mut out.work.free_set,
+        &mut out.work.occ_set,
+        &mut out.work.ray,
         &mut stats,
         model,
     );
-    out.plan = plan;
+    out.work.plan = plan;
     finish(out, &mut stats);
     stats
 }
@@ -740,12 +809,12 @@ pub fn compute_discrete_update_f32(
     max_range: Option<f64>,
     out: &mut ScanUpdate,
 ) -> ScanStats {
-    let mut centres = std::mem::take(&mut out.centres);
-    let mut order = std::mem::take(&mut out.order);
+    let mut centres = std::mem::take(&mut out.work.centres);
+    let mut order = std::mem::take(&mut out.work.order);
     let mut stats = discretize_into(conv, points, &mut centres, &mut order);
     let inner = compute_update_f32(conv, &centres, origin, max_range, out);
-    out.centres = centres;
-    out.order = order;
+    out.work.centres = centres;
+    out.work.order = order;
     stats.rays = inner.rays;
     stats.failed_rays = inner.failed_rays;
     stats.max_range_rays = inner.max_range_rays;

@@ -384,3 +384,30 @@ fn bresenham_scans_take_the_widest_lanes() {
         assert_eq!(paths[want as usize], 8);
     }
 }
+
+proptest! {
+    /// Merging the threads' sorted brick lists gives the union of their voxels, brick by
+    /// brick, sorted: checked against a BTreeMap built from every list (0 to 5 lists, so the
+    /// two-list path and the general one both run).
+    #[test]
+    fn merge_sorted_is_the_union(
+        lists in prop::collection::vec(
+            prop::collection::btree_map(0u64..200, 1u64..u64::MAX, 0..60), 0..6)
+    ) {
+        let sorted: Vec<Vec<Brick>> = lists
+            .iter()
+            .map(|m| m.iter().map(|(&code, &voxels)| Brick { code, voxels }).collect())
+            .collect();
+        let mut naive = std::collections::BTreeMap::new();
+        for m in &lists {
+            for (&code, &voxels) in m {
+                *naive.entry(code).or_insert(0u64) |= voxels;
+            }
+        }
+        let mut out = vec![Brick { code: 7, voxels: 7 }];
+        merge_sorted(sorted.iter().map(|l| &l[..]), &mut out);
+        let got: Vec<(u64, u64)> = out.iter().map(|b| (b.code, b.voxels)).collect();
+        let want: Vec<(u64, u64)> = naive.into_iter().collect();
+        prop_assert_eq!(got, want);
+    }
+}
