@@ -257,6 +257,26 @@ fn issue_27_reduce_stream_delete() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--chunk"));
     assert!(!refused.exists());
+    // A cycle directory that holds an earlier run's cycle files is refused before any output.
+    let used = dir.join("used");
+    std::fs::create_dir_all(&used).unwrap();
+    std::fs::write(used.join("cycle-000001.ply"), b"old").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .arg("reduce")
+        .arg(&path)
+        .args(["--cell", "0.1", "--stream", "-o"])
+        .arg(&refused)
+        .arg("--every-cycle")
+        .arg(&used)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("already holds cycle files"));
+    assert!(!refused.exists());
+    assert_eq!(
+        std::fs::read(used.join("cycle-000001.ply")).unwrap(),
+        b"old"
+    );
     // A delete file that cannot be read fails before any output.
     let o = reduce_cmd(
         &path,

@@ -51,7 +51,8 @@ pub struct Args {
     #[arg(long, default_value_t = 65_536, requires = "stream")]
     chunk: usize,
     /// With `--stream`: also write every read cycle's points, as they were when it ran, to
-    /// DIR/cycle-000001.ply, ... (each written atomically; the last is the final output).
+    /// DIR/cycle-000001.ply, ... (each written atomically; the last is the final output; a
+    /// DIR that already holds cycle files is refused).
     #[arg(long, value_name = "DIR", requires = "stream")]
     every_cycle: Option<PathBuf>,
     /// With `--stream`: delete these points (a point file in any readable format; equal bit

@@ -4,7 +4,8 @@
 //! This thread reads the input frame by frame ([`frame_stream`]) and inserts each frame in
 //! pieces of `--chunk` points; after each piece it tells the output thread, which then runs a
 //! read cycle over whatever has arrived (pieces that arrive during a cycle wait for the next
-//! one) and, with `--every-cycle DIR`, writes that cycle's points to `DIR/cycle-NNNNNN.ply`.
+//! one) and, with `--every-cycle DIR`, writes that cycle's points to `DIR/cycle-NNNNNN.ply`
+//! (a directory that already holds such files is refused).
 //! When the input ends, the points of `--delete FILE` are deleted, and a last read cycle over
 //! the complete store gives the output (also written to `DIR` as the last cycle). That last
 //! cycle does not depend on the pieces or the threads' timing: it equals the batch reduction
@@ -90,6 +91,19 @@ pub fn run_stream(job: &StreamJob<'_>) -> Result<StreamResult> {
     if let Some(dir) = job.every_cycle {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the cycle directory {}", dir.display()))?;
+        // An earlier run's numbered files would mix with this run's.
+        let entries = std::fs::read_dir(dir)
+            .with_context(|| format!("cannot read the cycle directory {}", dir.display()))?;
+        for e in entries {
+            let name = e?.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with("cycle-") && name.ends_with(".ply") {
+                bail!(
+                    "{} already holds cycle files ({name}); give an empty or new directory",
+                    dir.display()
+                );
+            }
+        }
     }
     // The points to delete are read first: a bad file fails before any work.
     let delete = match job.delete {
