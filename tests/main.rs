@@ -22,6 +22,7 @@ mod peers;
 mod query;
 mod raycast_diff;
 mod reduce;
+mod reduce_stream;
 mod render;
 mod scene;
 mod segment;

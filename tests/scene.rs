@@ -314,3 +314,34 @@ fn depth_camera_frames_carry_their_pixels() {
     bad.poses[0].1 = f64::NAN;
     assert!(scan_depth(&scene, &bad, &ScanOptions::default()).is_err());
 }
+
+/// The density reducer paper's scanner settings (issue 27): 0.075° steps over a full turn and
+/// elevations −40°..40° (50°–130° from the zenith), 2–2000 m. Over a flat ground reaching past
+/// 2000 m, 1.5 m below the scanner, a beam returns when 2 ≤ 1.5 / sin(−elevation) ≤ 2000 m:
+/// the 533 rows from −40° to −0.1° (at −0.025° the ground is 3438 m away).
+#[test]
+fn issue_27_riegl_preset_beam_pattern() {
+    let scene = Scene::from_shapes(vec![(
+        Isometry3::translation(0.0, 0.0, -0.5),
+        SharedShape::cuboid(3000.0, 3000.0, 0.5),
+    )])
+    .unwrap();
+    let tls = TerrestrialScanner::riegl_lms_z620(vec![Point3::new(0.0, 0.0, 1.5)]);
+    let opts = ScanOptions {
+        range_noise: 0.0,
+        misses: MissPolicy::Drop,
+        ..ScanOptions::default()
+    };
+    let (frames, stats) = scan_terrestrial(&scene, &tls, &opts).unwrap();
+    assert_eq!(stats[0].rays, 4800 * 1067);
+    assert_eq!(stats[0].hits, 4800 * 533);
+    let p = &frames[0].points;
+    assert_eq!(p.len(), 4800 * 533);
+    // The first two returns: neighbouring azimuths on the −40° row, 1.5 / tan 40° = 1.788 m
+    // out, a chord of 2 · 1.788 · sin(0.0375°) = 2.34 mm apart.
+    let rho = 1.5 / 40f64.to_radians().tan();
+    let want = 2.0 * rho * (0.0375f64).to_radians().sin();
+    let got = (p[1] - p[0]).norm() as f64;
+    assert!((got - want).abs() < 1e-3 * want, "{got} {want}");
+    assert!((p[0].z as f64).abs() < 1e-6);
+}

@@ -31,6 +31,10 @@ pub enum DensityError {
         /// The grid's current cycle.
         current: u64,
     },
+    /// [`Storage::OneNode`](crate::Storage::OneNode) with a selection rule that needs every
+    /// member of a cell ([`Selection::MeanClosest`](crate::Selection::MeanClosest)).
+    #[error("the one-node storage keeps one point per cell; the mean rule needs all members")]
+    SelectionNeedsMembers,
     /// A store invariant does not hold (found by `DensityGrid::validate`; a bug).
     #[error("density grid invariant violated: {what}")]
     Invariant {

@@ -6,7 +6,12 @@
 //!   distances to a cell's centre are Euclidean in the input's units, the paper's Eq. 3
 //!   ([`CentreDistance::Euclidean`]), or optionally in cell units per axis
 //!   ([`CentreDistance::CellUnits`]; the same order when all sizes are equal).
-//! * [`DensityGrid`]: the store. [`DensityGrid::insert`] and [`DensityGrid::remove`] are the
+//! * [`DensityGrid`]: the store, in one of two [`Storage`]s: the paper's one node per non-empty
+//!   cell holding only its best point ([`Storage::OneNode`], [`DensityGrid::streaming`]: memory
+//!   grows with the cells, not the points; only a kept point can be deleted, and that removes
+//!   its cell), or all members of every cell ([`Storage::AllMembers`], [`DensityGrid::new`]:
+//!   any point can be deleted and the next best takes over). Both keep the same points on an
+//!   insert-only stream. [`DensityGrid::insert`] and [`DensityGrid::remove`] are the
 //!   input stage, [`DensityGrid::extend`] (or [`DensityGrid::extend_rewalk`]) its batch form;
 //!   [`Selection`] picks each cell's point (closest to the centre, closest to the mean, or a
 //!   caller's score).
@@ -38,6 +43,7 @@
 //! neighbours need checking.
 //!
 //! Files: `spec.rs` the grid geometry ([`GridSpec`]), `selection.rs` the selection rules,
+//! `storage.rs` what a cell stores ([`Storage`]),
 //! `grid/` the store and its input stage (one file per concern, see its `mod.rs`), `output.rs`
 //! the read cycles, `shared.rs` the two-thread wrapper, `reduce.rs` the one-call helpers and
 //! `error.rs` the crate's error type.
@@ -67,6 +73,7 @@ mod reduce;
 mod selection;
 mod shared;
 mod spec;
+mod storage;
 
 pub use error::DensityError;
 pub use grid::{CellState, CellView, DensityGrid, GridCounts, GridState, InsertOutcome};
@@ -75,6 +82,7 @@ pub use reduce::{reduce, reduce_points, reduce_points_counted, ReduceCounts};
 pub use selection::{ScoreFn, Selection};
 pub use shared::SharedDensityGrid;
 pub use spec::{CellIndex, CentreDistance, GridSpec, MAX_CELL_INDEX};
+pub use storage::Storage;
 
 #[cfg(test)]
 mod tests;

@@ -10,6 +10,10 @@ use crate::output::{CycleCounts, OutputCycle};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// A [`DensityGrid`] shared between an input and an output thread (clone the handle).
+///
+/// For a long stream share [`DensityGrid::streaming`] (the paper's one node per cell, memory
+/// growing with the cells); share a [`DensityGrid::new`] when any point may have to be
+/// deleted again.
 #[derive(Debug, Clone)]
 pub struct SharedDensityGrid<const D: usize> {
     inner: Arc<Mutex<DensityGrid<D>>>,

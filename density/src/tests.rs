@@ -2,7 +2,9 @@
 //! deletion and read cycles.
 
 use crate::output::for_each_lean_neighbour;
-use crate::{CentreDistance, DensityError, DensityGrid, GridSpec, InsertOutcome, Selection};
+use crate::{
+    CentreDistance, DensityError, DensityGrid, GridSpec, InsertOutcome, Selection, Storage,
+};
 
 fn grid_8_17() -> GridSpec<2> {
     GridSpec::with_sizes([8.0, 17.0]).unwrap()
@@ -824,4 +826,100 @@ mod packed_records {
             prop_assert_eq!(packed.output_cycle(), plain.output_cycle());
         }
     }
+}
+
+/// The paper's storage on its worked example: one node per cell. Both orders of c and d keep
+/// d; deleting c afterwards is a no-op (c was dropped), deleting d removes cell (13, 71) as the
+/// paper's deletion rule says (nothing of c is left to take over).
+#[test]
+fn one_node_storage_on_the_paper_example() {
+    let spec = GridSpec::with_sizes([17.0, 8.0]).unwrap();
+    let c = PAPER_POINTS[2].1;
+    let d = PAPER_POINTS[3].1;
+    for order in [[c, d], [d, c]] {
+        let mut g = DensityGrid::streaming(spec.clone());
+        assert_eq!(g.storage(), Storage::OneNode);
+        assert_eq!(g.insert(order[0]), InsertOutcome::NewCell);
+        let second = g.insert(order[1]);
+        assert_eq!(
+            second,
+            if order[1] == d {
+                InsertOutcome::Selected
+            } else {
+                InsertOutcome::Member
+            }
+        );
+        let cell = g.get(&[13, 71]).unwrap();
+        assert_eq!((cell.point(), cell.len()), (d, 1));
+        assert_eq!(cell.members().collect::<Vec<_>>(), vec![d]);
+        assert_eq!(g.counts().discarded, 1);
+        assert_eq!(g.point_count(), 1);
+        assert!(!g.remove(&c));
+        assert_eq!(g.get(&[13, 71]).unwrap().point(), d);
+        assert!(g.remove(&d));
+        assert!(g.is_empty());
+        assert!(!g.remove(&d));
+        g.validate().unwrap();
+        assert_eq!(g.counts().removed, 1);
+    }
+    // All members: deleting d lets c take over.
+    let mut all = DensityGrid::new(spec);
+    all.insert(c);
+    all.insert(d);
+    assert!(all.remove(&d));
+    assert_eq!(all.get(&[13, 71]).unwrap().point(), c);
+}
+
+/// The one-node store's arena holds one point per cell however many points arrive, in both
+/// arena forms (`f32`-exact batches into an empty grid, and `f64` ones), also after points
+/// arrive one at a time and in batches into a non-empty grid.
+#[test]
+fn one_node_arena_grows_with_cells_not_points() {
+    let spec = GridSpec::<3>::cubic(1.0).unwrap();
+    let mut x = 7u64;
+    for exact_f32 in [true, false] {
+        let mut g = DensityGrid::streaming(spec.clone());
+        for round in 0..4 {
+            let pts: Vec<[f64; 3]> = (0..5000)
+                .map(|_| {
+                    std::array::from_fn(|_| {
+                        let v = (lcg(&mut x) % 1000) as f64 / 97.0;
+                        if exact_f32 {
+                            f64::from(v as f32)
+                        } else {
+                            v + 1e-12
+                        }
+                    })
+                })
+                .collect();
+            if round == 2 {
+                for p in &pts {
+                    g.insert(*p);
+                }
+            } else {
+                g.extend(pts.iter().copied());
+            }
+            g.validate().unwrap();
+            assert_eq!(g.arena().len(), g.len(), "round {round}, f32 {exact_f32}");
+            assert_eq!(g.point_count(), g.len() as u64);
+            assert_eq!(g.counts().discarded, g.counts().inserted - g.len() as u64);
+        }
+        assert!(g.counts().inserted >= 20 * g.len() as u64 / 2);
+    }
+}
+
+/// The mean rule needs every member: the one-node storage refuses it; other rules are fine.
+#[test]
+fn one_node_storage_refuses_the_mean_rule() {
+    let spec = GridSpec::<2>::cubic(1.0).unwrap();
+    assert!(matches!(
+        DensityGrid::with_storage(spec.clone(), Selection::MeanClosest, Storage::OneNode),
+        Err(DensityError::SelectionNeedsMembers)
+    ));
+    for storage in [Storage::OneNode, Storage::AllMembers] {
+        let g =
+            DensityGrid::with_storage(spec.clone(), Selection::score(|p| p[0]), storage).unwrap();
+        assert_eq!(g.storage(), storage);
+    }
+    assert!(DensityGrid::with_storage(spec, Selection::MeanClosest, Storage::AllMembers).is_ok());
 }

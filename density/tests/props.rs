@@ -1,6 +1,6 @@
 //! Property tests of the density reducer against naive definitions.
 
-use octoquant_density::{CentreDistance, DensityGrid, GridSpec, Selection};
+use octoquant_density::{CentreDistance, DensityGrid, GridSpec, Selection, Storage};
 use proptest::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
@@ -358,5 +358,125 @@ proptest! {
             }
         }
         g.validate().unwrap();
+    }
+}
+
+/// The cells of a grid as `(index, point, distance bits)`, in index order, and the cell indexes
+/// in output order: what the read cycles depend on, without the stored members.
+type Kept<const D: usize> = (Vec<([i64; D], [f64; D], u64)>, Vec<[i64; D]>);
+
+fn kept<const D: usize>(g: &DensityGrid<D>) -> Kept<D> {
+    (
+        g.cells()
+            .map(|c| (c.index(), c.point(), c.distance().to_bits()))
+            .collect(),
+        g.cells_by_distance().map(|c| c.index()).collect(),
+    )
+}
+
+/// Feeds `pts` to `g` in the pieces `cuts` describes: alternately one point at a time and a
+/// batch (a batch first when `batch_first`), the piece lengths taken from `cuts` in turn.
+fn feed<const D: usize>(
+    g: &mut DensityGrid<D>,
+    pts: &[[f64; D]],
+    cuts: &[usize],
+    batch_first: bool,
+) {
+    let mut at = 0;
+    let mut k = 0;
+    while at < pts.len() {
+        let n = cuts
+            .get(k % cuts.len().max(1))
+            .copied()
+            .unwrap_or(pts.len())
+            .max(1);
+        let piece = &pts[at..(at + n).min(pts.len())];
+        if (k + usize::from(batch_first)) % 2 == 0 {
+            for p in piece {
+                g.insert(*p);
+            }
+        } else {
+            g.extend(piece.iter().copied());
+        }
+        at += piece.len();
+        k += 1;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// On an insert-only stream, fed in pieces (one by one and in batches, the first batch
+    /// possibly into an empty grid), the one-node storage keeps exactly the points of the
+    /// all-members storage, and both equal the naive grid and output stages; the one-node
+    /// grid stores one point per cell and counts the rest as discarded.
+    #[test]
+    fn one_node_and_all_members_keep_the_same_points(
+        pts in pts3(150),
+        (s, o) in spec3(),
+        cuts in prop::collection::vec(1usize..40, 1..6),
+        batch_first in any::<bool>(),
+        score in any::<bool>(),
+    ) {
+        let make = |storage| {
+            let sel = if score {
+                Selection::score(|p: &[f64; 3]| p[2] - 0.5 * p[0])
+            } else {
+                Selection::CentreClosest
+            };
+            DensityGrid::with_storage(GridSpec::new(s, o).unwrap(), sel, storage).unwrap()
+        };
+        let (mut one, mut all) = (make(Storage::OneNode), make(Storage::AllMembers));
+        feed(&mut one, &pts, &cuts, batch_first);
+        feed(&mut all, &pts, &cuts, batch_first);
+        one.validate().unwrap();
+        all.validate().unwrap();
+        prop_assert_eq!(kept(&one), kept(&all));
+        prop_assert_eq!(one.point_count(), one.len() as u64);
+        prop_assert_eq!(all.point_count(), pts.len() as u64);
+        let c = one.counts();
+        prop_assert_eq!(c.inserted, pts.len() as u64);
+        prop_assert_eq!(c.discarded, pts.len() as u64 - one.len() as u64);
+        prop_assert_eq!(all.counts().discarded, 0);
+        prop_assert!(one.cells().all(|c| c.len() == 1 && c.members().next() == Some(c.point())));
+        let out = one.output_cycle();
+        prop_assert_eq!(&out, &all.output_cycle());
+        if !score {
+            prop_assert_eq!(out.0, naive_output(&naive_grid(&pts, &s, &o, true), &s));
+        }
+    }
+
+    /// One-node deletion: deleting a cell's kept point removes the cell; deleting any other
+    /// point changes nothing and returns `false` (the naive model: a map of kept points).
+    #[test]
+    fn one_node_deletes_only_kept_points(
+        pts in pts2(100),
+        (s, o) in spec2(),
+        picks in prop::collection::vec(0usize..1000, 0..60),
+        cuts in prop::collection::vec(1usize..40, 1..4),
+        batch_first in any::<bool>(),
+    ) {
+        let mut g = DensityGrid::streaming(GridSpec::new(s, o).unwrap());
+        feed(&mut g, &pts, &cuts, batch_first);
+        let mut model = naive_grid(&pts, &s, &o, true);
+        for k in picks {
+            let Some(p) = pts.get(k % pts.len().max(1)) else { break };
+            let i = naive_index(p, &s, &o);
+            let is_kept = model.get(&i).is_some_and(|(q, _)| lex(p, q).is_eq());
+            let before = kept(&g);
+            let removed = g.remove(p);
+            prop_assert_eq!(removed, is_kept, "{:?}", p);
+            if is_kept {
+                model.remove(&i);
+                prop_assert!(g.get(&i).is_none());
+            } else {
+                prop_assert_eq!(kept(&g), before);
+            }
+            g.validate().unwrap();
+        }
+        let cells: Vec<_> = g.cells().map(|c| (c.index(), c.point())).collect();
+        let want: Vec<_> = model.iter().map(|(i, (p, _))| (*i, *p)).collect();
+        prop_assert_eq!(cells, want);
+        prop_assert_eq!(g.output_cycle().0, naive_output(&model, &s));
     }
 }

@@ -39,6 +39,7 @@ mod merge;
 mod progress;
 mod query;
 mod reduce;
+mod reduce_stream;
 mod render;
 mod segment;
 mod simulate;

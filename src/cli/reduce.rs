@@ -1,7 +1,9 @@
 //! `octoquant reduce INPUT --cell SIZE[,SIZE...] -o OUTPUT [--json]`: the online grid density
-//! reducer over a whole cloud, written as PLY.
+//! reducer over a whole cloud, written as PLY; with `--stream`, input and output stages on two
+//! threads (`reduce_stream.rs`).
 
 use super::args::ReadArgs;
+use super::reduce_stream::{run_stream, StreamJob};
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
@@ -9,7 +11,7 @@ use octoquant::formats::ply::{read_ply_f32, write_ply_file, PlyEncoding};
 use octoquant::formats::source::logical_extension;
 use octoquant::formats::{read_frames, ReadOptions};
 use octoquant::output::check_output;
-use octoquant_density::{CentreDistance, DensityGrid, GridSpec};
+use octoquant_density::{CentreDistance, DensityGrid, GridSpec, Storage};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -40,6 +42,36 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Stream the input: read it frame by frame, in pieces of `--chunk` points, while the
+    /// output stage runs read cycles on its own thread (the paper's two threads); the output
+    /// is the last cycle, over everything read (the same points as without `--stream`).
+    #[arg(long)]
+    stream: bool,
+    /// With `--stream`: points per input piece.
+    #[arg(long, default_value_t = 65_536, requires = "stream")]
+    chunk: usize,
+    /// With `--stream`: also write every read cycle's points, as they were when it ran, to
+    /// DIR/cycle-000001.ply, ... (each written atomically; the last is the final output; a
+    /// DIR that already holds cycle files is refused).
+    #[arg(long, value_name = "DIR", requires = "stream")]
+    every_cycle: Option<PathBuf>,
+    /// With `--stream`: delete these points (a point file in any readable format; equal bit
+    /// for bit to input points) after the input, before the last cycle. Needs the
+    /// all-members storage, which it selects.
+    #[arg(long, value_name = "FILE", requires = "stream")]
+    delete: Option<PathBuf>,
+    /// With `--stream`: what a cell stores: `one-node` (the paper's: only its best point;
+    /// memory grows with cells, not points; the default) or `all-members` (every point, so
+    /// that any can be deleted; the default with `--delete`).
+    #[arg(long, value_enum, requires = "stream")]
+    storage: Option<StorageArg>,
+}
+
+/// `--storage`: what a cell of the streamed store keeps.
+#[derive(clap::ValueEnum, Clone, Copy)]
+pub(super) enum StorageArg {
+    OneNode,
+    AllMembers,
 }
 
 /// `--distance`: the grid's centre distance.
@@ -58,7 +90,8 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
     }
 }
 
-fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
+/// All points of `path`, the frames merged in world coordinates.
+pub(super) fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
     if read.format.is_none() && logical_extension(path).as_deref() == Some("ply") {
         return Ok(read_ply_f32(path)?);
     }
@@ -80,6 +113,9 @@ pub fn run(a: &Args) -> Result<()> {
             DistanceArg::CellUnits => CentreDistance::CellUnits,
         });
     check_output(&a.output, &["ply"], std::slice::from_ref(&a.input))?;
+    if a.stream {
+        return run_streamed(a, spec, cell);
+    }
 
     let t0 = Instant::now();
     let points = read_points(&a.input, &a.read.options())?;
@@ -142,6 +178,74 @@ pub fn run(a: &Args) -> Result<()> {
             out.len(),
             cycle.eliminated,
             t_output * 1e3
+        )?;
+        outln!("output:      {}", a.output.display())?;
+    }
+    Ok(())
+}
+
+/// `--stream`: the two-thread reduction, then the same report as a batch run plus the
+/// stream's own figures.
+fn run_streamed(a: &Args, spec: GridSpec<3>, cell: [f64; 3]) -> Result<()> {
+    let encoding = if a.ascii {
+        PlyEncoding::Ascii
+    } else {
+        PlyEncoding::BinaryLittleEndian
+    };
+    let job = StreamJob {
+        input: &a.input,
+        read: a.read.options(),
+        spec,
+        chunk: a.chunk,
+        every_cycle: a.every_cycle.as_deref(),
+        delete: a.delete.as_deref(),
+        storage: a.storage,
+        encoding,
+    };
+    let r = run_stream(&job)?;
+    write_ply_file(&a.output, &r.output, encoding)?;
+    let storage = match r.storage {
+        Storage::OneNode => "one-node",
+        _ => "all-members",
+    };
+    let points = r.counts.inserted + r.counts.rejected;
+    if a.json {
+        print_json(&serde_json::json!({
+            "input": json_path(&a.input),
+            "output": json_path(&a.output),
+            "cell": cell,
+            "stream": true,
+            "storage": storage,
+            "points": points,
+            "rejected": r.counts.rejected,
+            "stored": r.counts.inserted - r.counts.removed - r.counts.discarded,
+            "deleted": r.deleted,
+            "not_deleted": r.not_deleted,
+            "grid": r.cells,
+            "eliminated": r.last_cycle.eliminated,
+            "reduced": r.output.len(),
+            "cycles": r.cycles,
+            "seconds": {"input": r.input_seconds, "output": r.output_seconds},
+        }))?;
+    } else {
+        outln!(
+            "input:       {points} points from {} (streamed, {storage} storage)",
+            a.input.display()
+        )?;
+        outln!(
+            "rejected:    {} (NaN/inf or out of range)",
+            r.counts.rejected
+        )?;
+        if a.delete.is_some() {
+            outln!("deleted:     {} ({} not stored)", r.deleted, r.not_deleted)?;
+        }
+        outln!("grid stage:  {} points ({} cells)", r.cells, r.cells)?;
+        outln!(
+            "elimination: {} points ({} eliminated), last of {} read cycles, {:.1} ms",
+            r.output.len(),
+            r.last_cycle.eliminated,
+            r.cycles,
+            r.output_seconds * 1e3
         )?;
         outln!("output:      {}", a.output.display())?;
     }

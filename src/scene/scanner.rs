@@ -98,6 +98,20 @@ impl TerrestrialScanner {
         }
     }
 
+    /// The scanner settings of the online grid density reducer paper's experiment (a Riegl
+    /// LMS-Z620): 0.075° steps in azimuth and elevation, a full turn in azimuth, vertical
+    /// 50°–130° from the zenith (elevation −40°..40°), ranges 2–2000 m, at `stations`.
+    pub fn riegl_lms_z620(stations: Vec<Point3<f64>>) -> TerrestrialScanner {
+        TerrestrialScanner {
+            stations,
+            angular_step_deg: 0.075,
+            min_elevation_deg: -40.0,
+            max_elevation_deg: 40.0,
+            min_range: 2.0,
+            max_range: 2000.0,
+        }
+    }
+
     fn validate(&self) -> Result<(), SceneError> {
         check_angles(
             self.min_elevation_deg,

@@ -157,5 +157,57 @@ impl<const D: usize> DensityGrid<D> {
         // The ordered index is the slot order: both orders stay in this compact form until a
         // change needs the B-trees.
         self.built = Some(distance);
+        if self.storage.one_node() {
+            self.keep_representatives_only();
+        }
+    }
+
+    /// [`Storage::OneNode`](crate::Storage::OneNode) after a build: the arena shrinks to the
+    /// cells' kept points, one per slot in slot order, and the other members are discarded.
+    fn keep_representatives_only(&mut self) {
+        let cells = self.hot.len();
+        self.counts.discarded += self.arena().len() as u64 - cells as u64;
+        match &mut self.narrow {
+            Some(narrow) => {
+                let kept: Vec<[f32; D]> = (0..cells)
+                    .map(|s| narrow[representative_at(&self.packed, &self.slots, s)])
+                    .collect();
+                *narrow = kept;
+            }
+            None => {
+                let kept: Vec<[f64; D]> = (0..cells)
+                    .map(|s| self.points[representative_at(&self.packed, &self.slots, s)])
+                    .collect();
+                self.points = kept;
+            }
+        }
+        match &mut self.packed {
+            Some(packed) => {
+                for (s, c) in packed.iter_mut().enumerate() {
+                    c.end = to_u32(s + 1);
+                    c.selected = 0;
+                }
+            }
+            None => {
+                for (s, c) in self.slots.iter_mut().enumerate() {
+                    c.start = s;
+                    c.len = 1;
+                    c.cap = 1;
+                    c.selected = 0;
+                }
+            }
+        }
+        self.reserved = cells;
+    }
+}
+
+/// Arena position of slot `s`'s representative, from whichever record form is in use.
+fn representative_at(packed: &Option<Vec<PackedCell>>, slots: &[Cell], s: usize) -> usize {
+    match packed {
+        Some(packed) => {
+            let start = s.checked_sub(1).map_or(0, |p| packed[p].end as usize);
+            start + packed[s].selected as usize
+        }
+        None => slots[s].point_at(),
     }
 }

@@ -11,9 +11,11 @@ use std::cmp::Ordering;
 pub enum InsertOutcome {
     /// The point opened a new cell and represents it.
     NewCell,
-    /// The point joined a cell and now represents it.
+    /// The point joined a cell and now represents it (under
+    /// [`Storage::OneNode`](crate::Storage::OneNode): it replaced the cell's point).
     Selected,
-    /// The point joined a cell whose representative did not change.
+    /// The point joined a cell whose representative did not change (under
+    /// [`Storage::OneNode`](crate::Storage::OneNode): it was dropped).
     Member,
     /// NaN or infinite coordinate, or outside the index range: skipped and counted.
     Rejected,
@@ -44,6 +46,14 @@ impl<const D: usize> DensityGrid<D> {
                 let slot = self.open_cell(index, &[p], 0, rank);
                 self.last = Some((index, slot));
                 InsertOutcome::NewCell
+            }
+            Some(slot) if self.storage.one_node() => {
+                let s = slot as usize;
+                if self.keep_if_better(s, &index, &p) {
+                    InsertOutcome::Selected
+                } else {
+                    InsertOutcome::Member
+                }
             }
             Some(slot) => {
                 let s = slot as usize;
@@ -76,7 +86,17 @@ impl<const D: usize> DensityGrid<D> {
         match self.find_slot(&index) {
             None => {
                 let (sel, rank) = self.best_in(&index, run);
-                self.open_cell(index, run, sel, rank);
+                if self.storage.one_node() {
+                    self.counts.discarded += run.len() as u64 - 1;
+                    self.open_cell(index, &run[sel..=sel], 0, rank);
+                } else {
+                    self.open_cell(index, run, sel, rank);
+                }
+            }
+            Some(slot) if self.storage.one_node() => {
+                let (k, _) = self.best_in(&index, run);
+                self.counts.discarded += run.len() as u64 - 1;
+                self.keep_if_better(slot as usize, &index, &run[k]);
             }
             Some(slot) => {
                 let s = slot as usize;
@@ -94,6 +114,22 @@ impl<const D: usize> DensityGrid<D> {
                 }
             }
         }
+    }
+
+    /// [`Storage::OneNode`](crate::Storage::OneNode): `p`, which lies in the cell `index` of
+    /// slot `s`, overwrites the cell's one point when it ranks better, and is dropped
+    /// otherwise; either way one point is discarded. Returns `true` when `p` is kept.
+    fn keep_if_better(&mut self, s: usize, index: &CellIndex<D>, p: &[f64; D]) -> bool {
+        self.counts.discarded += 1;
+        let rank = self.rank_of(p, index, None);
+        if rank.cmp_with(p, &self.cell(s).rank, &self.hot[s].point) != Ordering::Less {
+            return false;
+        }
+        self.widen();
+        let at = self.slots[s].start;
+        self.points[at] = *p;
+        self.set_selected(s, 0, rank);
+        true
     }
 
     /// Open cell `index` with members `run` (copied to the end of the arena), representative

@@ -10,8 +10,13 @@ impl<const D: usize> DensityGrid<D> {
     ///
     /// When the deleted point represented the cell, the best remaining member takes over; when
     /// it was the last member, the cell is removed. Returns `false` when no such point is
-    /// stored. Inserting points and deleting them again restores the earlier
-    /// [`GridState`](crate::GridState).
+    /// stored. Under [`Storage::AllMembers`](crate::Storage::AllMembers) inserting points and
+    /// deleting them again restores the earlier [`GridState`](crate::GridState).
+    ///
+    /// Under [`Storage::OneNode`](crate::Storage::OneNode) a cell stores only its kept point,
+    /// so only that point can be deleted, and deleting it removes the cell (the points it beat
+    /// were dropped and cannot take over, the paper's rule); deleting any other point changes
+    /// nothing and returns `false`.
     pub fn remove(&mut self, p: &[f64; D]) -> bool {
         let Some(index) = self.spec.cell_index(p) else {
             return false;

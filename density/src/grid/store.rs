@@ -2,8 +2,10 @@
 //! counts and the look-up of a cell's slot.
 
 use super::lookup::{hash_index, SlotTable};
+use crate::error::DensityError;
 use crate::selection::{Rank, Selection};
 use crate::spec::{CellIndex, GridSpec};
+use crate::storage::Storage;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Running counts of the input stage.
@@ -15,6 +17,10 @@ pub struct GridCounts {
     pub rejected: u64,
     /// Points deleted again.
     pub removed: u64,
+    /// Points no longer stored because a better point holds their cell: under
+    /// [`Storage::OneNode`] every accepted point except the cells' kept ones; always 0 under
+    /// [`Storage::AllMembers`].
+    pub discarded: u64,
 }
 
 /// The part of a cell that the read cycle touches (one cache line for D = 3): its index for the
@@ -106,6 +112,8 @@ pub(crate) fn to_u32(n: usize) -> u32 {
 pub struct DensityGrid<const D: usize> {
     pub(crate) spec: GridSpec<D>,
     pub(crate) selection: Selection<D>,
+    /// What a cell stores: its kept point only, or all its members.
+    pub(crate) storage: Storage,
     /// Ordered index: cell index -> slot.
     pub(crate) index: BTreeMap<CellIndex<D>, u32>,
     /// Hash index: cell index -> slot.
@@ -136,16 +144,29 @@ pub struct DensityGrid<const D: usize> {
 }
 
 impl<const D: usize> DensityGrid<D> {
-    /// An empty grid that keeps the point closest to each cell centre.
+    /// An empty grid that keeps the point closest to each cell centre and stores every member
+    /// ([`Storage::AllMembers`]: any point can be deleted again).
     pub fn new(spec: GridSpec<D>) -> Self {
         Self::with_selection(spec, Selection::CentreClosest)
     }
 
-    /// An empty grid with the given selection rule.
+    /// The paper's streaming store: the point closest to each cell centre, one node per
+    /// non-empty cell ([`Storage::OneNode`]): memory grows with the cells, not the points;
+    /// only kept points can be deleted.
+    pub fn streaming(spec: GridSpec<D>) -> Self {
+        DensityGrid {
+            storage: Storage::OneNode,
+            ..Self::new(spec)
+        }
+    }
+
+    /// An empty grid with the given selection rule, storing every member
+    /// ([`Storage::AllMembers`]).
     pub fn with_selection(spec: GridSpec<D>, selection: Selection<D>) -> Self {
         DensityGrid {
             spec,
             selection,
+            storage: Storage::AllMembers,
             index: BTreeMap::new(),
             lookup: SlotTable::default(),
             hot: Vec::new(),
@@ -170,6 +191,24 @@ impl<const D: usize> DensityGrid<D> {
     /// ([`InsertOutcome::Full`](crate::InsertOutcome::Full)) instead of overflowing.
     pub const MAX_POINTS: u64 = (1 << 31) - 1;
 
+    /// An empty grid with the given selection rule and storage.
+    ///
+    /// Errors with [`DensityError::SelectionNeedsMembers`] for [`Storage::OneNode`] with
+    /// [`Selection::MeanClosest`] (the mean of a cell needs all its members).
+    pub fn with_storage(
+        spec: GridSpec<D>,
+        selection: Selection<D>,
+        storage: Storage,
+    ) -> Result<Self, DensityError> {
+        if storage.one_node() && selection.needs_members() {
+            return Err(DensityError::SelectionNeedsMembers);
+        }
+        Ok(DensityGrid {
+            storage,
+            ..Self::with_selection(spec, selection)
+        })
+    }
+
     /// A grid that holds at most `max` points, to test the refusal without 2^31 of them.
     #[cfg(test)]
     pub(crate) fn with_max_points(spec: GridSpec<D>, max: u64) -> Self {
@@ -189,6 +228,11 @@ impl<const D: usize> DensityGrid<D> {
         &self.selection
     }
 
+    /// What each cell stores.
+    pub fn storage(&self) -> Storage {
+        self.storage
+    }
+
     /// Number of non-empty cells (the size of the grid stage's output).
     pub fn len(&self) -> usize {
         self.cell_count()
@@ -204,9 +248,10 @@ impl<const D: usize> DensityGrid<D> {
         self.counts
     }
 
-    /// Points currently stored (inserted minus removed).
+    /// Points currently stored: inserted minus removed minus discarded (under
+    /// [`Storage::OneNode`] the number of cells).
     pub fn point_count(&self) -> u64 {
-        self.counts.inserted - self.counts.removed
+        self.counts.inserted - self.counts.removed - self.counts.discarded
     }
 
     /// The record of slot `s`, from `slots` or derived from the packed form.

@@ -28,7 +28,7 @@ impl<'a, const D: usize> CellView<'a, D> {
     pub fn distance(&self) -> f64 {
         self.cell.rank.centre
     }
-    /// Number of points in the cell.
+    /// Number of points the cell stores (1 under [`crate::Storage::OneNode`]).
     pub fn len(&self) -> usize {
         self.cell.len as usize
     }
@@ -36,11 +36,12 @@ impl<'a, const D: usize> CellView<'a, D> {
     pub fn is_empty(&self) -> bool {
         self.cell.len == 0
     }
-    /// All points in the cell, in no particular order.
+    /// All points the cell stores, in no particular order (only the kept point under
+    /// [`crate::Storage::OneNode`]).
     pub fn members(&self) -> impl ExactSizeIterator<Item = [f64; D]> + Clone + 'a {
         self.arena.members(self.cell.span())
     }
-    /// The mean of the cell's members (not an input point in general).
+    /// The mean of the cell's stored members (not an input point in general).
     pub fn mean(&self) -> [f64; D] {
         mean(self.members())
     }
