@@ -213,28 +213,39 @@ fn norlab_lidar_sequence_matches_octomap() {
     });
 }
 
-#[test]
-fn tum_rgbd_frames_match_octomap() {
-    let Some(refprog) = common::reference_program() else {
-        return;
-    };
-    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
-    else {
-        return;
-    };
+/// The first `keep` of the 10 TUM depth frames read every `pixel_step`-th pixel, written as a
+/// .frames file in a new scratch directory `scratch`: (frames, directory, file); `None`
+/// without the shared data.
+fn tum_frames_file(
+    pixel_step: u32,
+    keep: usize,
+    scratch: &str,
+) -> Option<(Vec<Frame>, std::path::PathBuf, std::path::PathBuf)> {
+    let assoc = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")?;
     let opts = ReadOptions {
         tum: TumOptions {
-            pixel_step: 6,
+            pixel_step,
             ..TumOptions::default()
         },
         ..ReadOptions::default()
     };
     let frames = read_frames(&assoc, &opts).unwrap();
     assert_eq!(frames.len(), 10);
-    let frames = subsample(frames, 4, 1);
-    let dir = common::scratch("map_diff_tum");
+    let frames = subsample(frames, keep, 1);
+    let dir = common::scratch(scratch);
     let ff = dir.join("tum.frames");
     octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    Some((frames, dir, ff))
+}
+
+#[test]
+fn tum_rgbd_frames_match_octomap() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let Some((frames, dir, ff)) = tum_frames_file(6, 4, "map_diff_tum") else {
+        return;
+    };
     check_matrix("tum", &frames, 4.0, |res, mr, disc| {
         reference(&refprog, &ff, res, mr, disc, &dir)
     });
@@ -577,21 +588,9 @@ fn cli_kwon_yoon_sensor_model_matches_octomap() {
     let Some(refprog) = common::reference_program() else {
         return;
     };
-    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
-    else {
+    let Some((_, dir, ff)) = tum_frames_file(8, 3, "map_diff_kwon_yoon") else {
         return;
     };
-    let opts = ReadOptions {
-        tum: TumOptions {
-            pixel_step: 8,
-            ..TumOptions::default()
-        },
-        ..ReadOptions::default()
-    };
-    let frames = subsample(read_frames(&assoc, &opts).unwrap(), 3, 1);
-    let dir = common::scratch("map_diff_kwon_yoon");
-    let ff = dir.join("tum.frames");
-    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
     let logistic = |l: f64| 1.0 / (1.0 + (-l).exp());
     let (hit, miss) = (logistic(0.2), logistic(-0.1));
     let (rot, rbt) = (dir.join("ref.ot"), dir.join("ref.bt"));
