@@ -85,7 +85,7 @@ impl StampedMapper {
     pub fn frame_time(frame: &Frame, index: usize) -> Result<u32, StampedMapError> {
         match frame.stamp {
             None => Ok(now_seconds()),
-            Some(s) if s >= 0.0 && s < 4_294_967_296.0 => Ok(s.floor() as u32),
+            Some(s) if (0.0..4_294_967_296.0).contains(&s) => Ok(s.floor() as u32),
             Some(stamp) => Err(StampedMapError::BadStamp {
                 frame: index,
                 stamp,

@@ -16,6 +16,9 @@ use octoquant_octree::Color;
 use std::io::Write;
 use std::path::Path;
 
+/// Vertex positions and, when read, one colour per vertex ([`parse_ply_colored`]).
+pub type ColoredPoints = (Vec<Point3<f32>>, Option<Vec<Color>>);
+
 /// PLY body encodings this module writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PlyEncoding {
@@ -132,7 +135,7 @@ pub fn parse_ply_colored(
     path: &Path,
     data: &[u8],
     colors: bool,
-) -> Result<(Vec<Point3<f32>>, Option<Vec<Color>>), FormatError> {
+) -> Result<ColoredPoints, FormatError> {
     let (format, elements, body) = parse_header(path, data)?;
     match format {
         Format::Ascii => read_ascii(path, data, body, &elements, colors),
@@ -342,7 +345,7 @@ fn read_binary(
     mut pos: usize,
     elements: &[Element],
     want_colors: bool,
-) -> Result<(Vec<Point3<f32>>, Option<Vec<Color>>), FormatError> {
+) -> Result<ColoredPoints, FormatError> {
     let truncated = |offset: usize, what: &str| FormatError::Truncated {
         path: path.to_path_buf(),
         offset: offset as u64,
@@ -449,7 +452,7 @@ fn read_ascii(
     body: usize,
     elements: &[Element],
     want_colors: bool,
-) -> Result<(Vec<Point3<f32>>, Option<Vec<Color>>), FormatError> {
+) -> Result<ColoredPoints, FormatError> {
     let text = std::str::from_utf8(&data[body..])
         .map_err(|_| FormatError::syntax(path, Location::Byte(body as u64), "body is not text"))?;
     let header_lines = data[..body].iter().filter(|&&b| b == b'\n').count() as u64;

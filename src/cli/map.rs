@@ -627,14 +627,12 @@ fn run_color(a: &Args) -> Result<()> {
     for frame in inputs {
         let frame = frame?;
         let st = mapper.insert(&frame).with_context(|| {
-            format!(
-                "{}",
-                plan.inputs
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
+            let names: Vec<String> = plan
+                .inputs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect();
+            format!("mapping {} in colour", names.join(", "))
         })?;
         stats.add(&st);
         progress.update(&stats, stats.total.points, 0);
