@@ -526,17 +526,24 @@ impl From<ColorMergeArg> for ColorMerge {
 /// The plan of a `--color` or `--stamped` run (`flag`, writing OctoMap tree type `kind`):
 /// inputs needed, an .ot output.
 fn typed_plan(a: &Args, flag: &str, kind: &str) -> Result<Plan> {
-    let plan = Plan::from_args(a)?;
     if a.input.inputs.is_empty() && flag == "--color" {
         bail!("--color needs inputs that carry colour (the built-in scene has none)");
     }
-    if TreeFormat::from_path(&plan.output) != Some(TreeFormat::Ot) {
+    // checked before the plan, which may make a directory for a default output
+    let ot = a
+        .output
+        .as_deref()
+        .is_some_and(|o| TreeFormat::from_path(o) == Some(TreeFormat::Ot));
+    if !ot {
+        let named = a.output.as_deref().map_or_else(
+            || "no output was named".to_string(),
+            |o| format!("not {}", o.display()),
+        );
         bail!(
-            "{flag} writes a {kind}, which only the .ot format holds (a .bt keeps occupancy only); name an .ot output instead of {}",
-            plan.output.display()
+            "{flag} writes a {kind}, which only the .ot format holds (a .bt keeps occupancy only): name an .ot output with -o ({named})"
         );
     }
-    Ok(plan)
+    Plan::from_args(a)
 }
 
 /// The frames of `plan`'s inputs (colours read when `colors`), the built-in scene without
