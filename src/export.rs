@@ -5,11 +5,13 @@
 //! little-endian by default, ASCII on request. Vertices carry `x y z` (`float`) and `red green
 //! blue` (`uchar`): occupied leaves coloured by height (the scale of [`crate::render`]), free
 //! leaves pale blue. A pruned leaf (a block of many voxels) is one point at its centre, or
-//! one cube of its size.
+//! one cube of its size. A coloured map ([`write_colored_ply`]) gives each occupied leaf its
+//! own colour when it has one (not white, OctoMap's "unset"), and [`write_colored_pcd`] adds
+//! PCL's packed `rgb` field to the PCD export.
 
 use crate::output::{write_atomic, OutputError};
 use crate::render::height_colour;
-use octoquant_octree::OcTree;
+use octoquant_octree::{ColorOcTree, OcTree};
 use std::io::Write;
 use std::path::Path;
 
@@ -75,6 +77,38 @@ const FACES: [[u32; 4]; 6] = [
 /// walked once to count, once to write).
 pub fn write_ply(
     tree: &OcTree,
+    w: &mut dyn Write,
+    options: &ExportOptions,
+) -> std::io::Result<ExportStats> {
+    write_ply_with(tree, None, w, options)
+}
+
+/// [`write_ply`] of a coloured map: occupied leaves that have a colour carry it, the others
+/// the height colour.
+pub fn write_colored_ply(
+    tree: &ColorOcTree,
+    w: &mut dyn Write,
+    options: &ExportOptions,
+) -> std::io::Result<ExportStats> {
+    write_ply_with(tree.occupancy(), Some(tree), w, options)
+}
+
+/// The set colour of the leaf at `key`/`depth` of `colors`, if any.
+fn leaf_color(
+    colors: Option<&ColorOcTree>,
+    key: octoquant_octree::Key,
+    depth: u8,
+) -> Option<[u8; 3]> {
+    colors
+        .and_then(|t| t.search(key, depth))
+        .map(|n| n.color)
+        .filter(|c| c.is_set())
+        .map(|c| c.to_array())
+}
+
+fn write_ply_with(
+    tree: &OcTree,
+    colors: Option<&ColorOcTree>,
     w: &mut dyn Write,
     options: &ExportOptions,
 ) -> std::io::Result<ExportStats> {
@@ -152,7 +186,8 @@ pub fn write_ply(
         }
         let c = conv.key_to_point_at_depth(&leaf.key, leaf.depth);
         let colour = if occupied {
-            height_colour((c.z - zlo) / span)
+            leaf_color(colors, leaf.key, leaf.depth)
+                .unwrap_or_else(|| height_colour((c.z - zlo) / span))
         } else {
             FREE_PLY_COLOUR
         };
@@ -198,6 +233,20 @@ pub fn export_ply_file(
     Ok(stats)
 }
 
+/// [`write_colored_ply`] as a file at `path` (atomically).
+pub fn export_colored_ply_file(
+    tree: &ColorOcTree,
+    path: &Path,
+    options: &ExportOptions,
+) -> Result<ExportStats, ExportError> {
+    let mut stats = ExportStats::default();
+    write_atomic(path, |w| {
+        stats = write_colored_ply(tree, w, options)?;
+        Ok(())
+    })?;
+    Ok(stats)
+}
+
 /// The most points [`write_pcd`] writes (2^32 - 1, the most a PCD `WIDTH` holds in practice):
 /// a map whose occupied leaves hold more voxels (a pruned block of 2^48 voxels, say) is refused.
 pub const MAX_PCD_POINTS: u64 = u32::MAX as u64;
@@ -214,6 +263,21 @@ pub const MAX_PCD_POINTS: u64 = u32::MAX as u64;
 /// Returns the number of points; an `InvalidInput` error, before anything is written, when
 /// that would exceed [`MAX_PCD_POINTS`].
 pub fn write_pcd(tree: &OcTree, w: &mut dyn Write) -> std::io::Result<u64> {
+    write_pcd_with(tree, None, w)
+}
+
+/// [`write_pcd`] of a coloured map, with a fourth field `rgb` (`U 4`, PCL's packed
+/// `0x00RRGGBB`, written as the integer as PCL's ASCII writer does): each voxel takes the
+/// colour of its leaf, white where none was set (OctoMap's default colour).
+pub fn write_colored_pcd(tree: &ColorOcTree, w: &mut dyn Write) -> std::io::Result<u64> {
+    write_pcd_with(tree.occupancy(), Some(tree), w)
+}
+
+fn write_pcd_with(
+    tree: &OcTree,
+    colors: Option<&ColorOcTree>,
+    w: &mut dyn Write,
+) -> std::io::Result<u64> {
     let params = tree.params();
     let conv = tree.converter();
     let count: u64 = tree
@@ -231,12 +295,21 @@ pub fn write_pcd(tree: &OcTree, w: &mut dyn Write) -> std::io::Result<u64> {
             ),
         ));
     }
+    let (fields, sizes, types, counts) = if colors.is_some() {
+        ("x y z rgb", "4 4 4 4", "F F F U", "1 1 1 1")
+    } else {
+        ("x y z", "4 4 4", "F F F", "1 1 1")
+    };
     write!(
         w,
-        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n\
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS {fields}\nSIZE {sizes}\nTYPE {types}\nCOUNT {counts}\n\
          WIDTH {count}\nHEIGHT 1\nVIEWPOINT 0 0 0 0 0 0 1\nPOINTS {count}\nDATA ascii\n"
     )?;
     for leaf in tree.leaves().filter(|l| params.is_occupied(l.value)) {
+        let rgb = colors.map(|t| {
+            let [r, g, b] = leaf_color(Some(t), leaf.key, leaf.depth).unwrap_or([255; 3]);
+            u32::from_be_bytes([0, r, g, b])
+        });
         let min = leaf.min_key();
         let levels = octoquant_octree::TREE_DEPTH - leaf.depth;
         // the voxels of the block in child order: the Morton order of their offsets
@@ -249,7 +322,10 @@ pub fn write_pcd(tree: &OcTree, w: &mut dyn Write) -> std::io::Result<u64> {
             }
             let key = octoquant_octree::Key([0, 1, 2].map(|a| min[a] + off[a]));
             let c = conv.key_to_point_f32(&key);
-            writeln!(w, "{} {} {}", c.x, c.y, c.z)?;
+            match rgb {
+                Some(rgb) => writeln!(w, "{} {} {} {rgb}", c.x, c.y, c.z)?,
+                None => writeln!(w, "{} {} {}", c.x, c.y, c.z)?,
+            }
         }
     }
     Ok(count)
@@ -260,6 +336,16 @@ pub fn export_pcd_file(tree: &OcTree, path: &Path) -> Result<u64, ExportError> {
     let mut n = 0;
     write_atomic(path, |w| {
         n = write_pcd(tree, w)?;
+        Ok(())
+    })?;
+    Ok(n)
+}
+
+/// [`write_colored_pcd`] as a file at `path` (atomically).
+pub fn export_colored_pcd_file(tree: &ColorOcTree, path: &Path) -> Result<u64, ExportError> {
+    let mut n = 0;
+    write_atomic(path, |w| {
+        n = write_colored_pcd(tree, w)?;
         Ok(())
     })?;
     Ok(n)

@@ -58,16 +58,19 @@
 #![deny(missing_docs)]
 
 pub mod checkpoint;
+pub mod color_map;
 pub mod compare_image;
 pub mod eval;
 pub mod export;
 pub mod filters;
 pub mod grid;
 pub mod import;
+pub mod keyset_order;
 pub mod pipeline;
 pub mod query;
 pub mod render;
 pub mod scene;
+pub mod stamped_map;
 pub mod tiled;
 pub mod treefile;
 

@@ -21,7 +21,7 @@
 //! ```
 
 use crate::output::{write_atomic, OutputError};
-use octoquant_octree::OcTree;
+use octoquant_octree::{ColorOcTree, OcTree};
 use std::io::Write;
 use std::path::Path;
 
@@ -187,12 +187,29 @@ struct Cell {
     /// Depth value of the best occupied voxel (max z for top, min for front/side), NaN if none.
     depth: f64,
     free: bool,
+    /// The voxel colour of that voxel, when the map has one for it.
+    color: Option<[u8; 3]>,
 }
 
 /// Draw the map as described by `options`.
 ///
 /// Errors when the map has no occupied voxel or an option is out of range.
 pub fn render(tree: &OcTree, options: &RenderOptions) -> Result<Image, RenderError> {
+    render_with(tree, None, options)
+}
+
+/// [`render`] of a coloured map: each visible occupied voxel is drawn in its own colour (with
+/// the top view's relief shading), those without a colour (white, OctoMap's "unset") by the
+/// depth scale as in [`render`].
+pub fn render_colored(tree: &ColorOcTree, options: &RenderOptions) -> Result<Image, RenderError> {
+    render_with(tree.occupancy(), Some(tree), options)
+}
+
+fn render_with(
+    tree: &OcTree,
+    colors: Option<&ColorOcTree>,
+    options: &RenderOptions,
+) -> Result<Image, RenderError> {
     if !(200..=4000).contains(&options.map_pixels) {
         return Err(RenderError::InvalidOption(format!(
             "map size {} px is outside 200..4000",
@@ -242,7 +259,8 @@ pub fn render(tree: &OcTree, options: &RenderOptions) -> Result<Image, RenderErr
     let mut grid = vec![
         Cell {
             depth: f64::NAN,
-            free: false
+            free: false,
+            color: None,
         };
         nu * nv
     ];
@@ -273,12 +291,22 @@ pub fn render(tree: &OcTree, options: &RenderOptions) -> Result<Image, RenderErr
             continue;
         };
         let d = if top { c[da] + h } else { c[da] - h };
+        let voxel_color = if occupied {
+            colors
+                .and_then(|t| t.search(leaf.key, leaf.depth))
+                .map(|n| n.color)
+                .filter(|c| c.is_set())
+                .map(|c| c.to_array())
+        } else {
+            None
+        };
         for iv in iv0..iv1 {
             for iu in iu0..iu1 {
                 let g = &mut grid[iv * nu + iu];
                 if occupied {
                     if better(d, g.depth) {
                         g.depth = d;
+                        g.color = voxel_color;
                     }
                 } else {
                     g.free = true;
@@ -334,7 +362,7 @@ pub fn render(tree: &OcTree, options: &RenderOptions) -> Result<Image, RenderErr
         for iu in 0..nu {
             let g = grid[iv * nu + iu];
             let col = if !g.depth.is_nan() {
-                let mut c = colour_of(g.depth);
+                let mut c = g.color.unwrap_or_else(|| colour_of(g.depth));
                 // Relief: darken where the neighbour towards the light (up-left) is higher.
                 if top && options.slice.is_none() {
                     let up = if iv + 1 < nv {
@@ -382,6 +410,11 @@ pub fn render(tree: &OcTree, options: &RenderOptions) -> Result<Image, RenderErr
             conv.resolution()
         ),
         None => format!("{}   RES {} M", options.view.name(), conv.resolution()),
+    };
+    let title = if colors.is_some() {
+        format!("{title}   VOXEL COLOURS")
+    } else {
+        title
     };
     draw_text(&mut img, pad, pad, &title, text_scale, TEXT);
 
@@ -488,6 +521,17 @@ pub fn render_png_file(
     options: &RenderOptions,
 ) -> Result<Image, RenderError> {
     let image = render(tree, options)?;
+    write_atomic(path, |w| write_png(&image, w))?;
+    Ok(image)
+}
+
+/// [`render_colored`] written to `path` as PNG (atomically).
+pub fn render_colored_png_file(
+    tree: &ColorOcTree,
+    path: &Path,
+    options: &RenderOptions,
+) -> Result<Image, RenderError> {
+    let image = render_colored(tree, options)?;
     write_atomic(path, |w| write_png(&image, w))?;
     Ok(image)
 }

@@ -10,7 +10,7 @@ use octoquant::octree::{
 };
 use proptest::prelude::*;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// Which colour operation.
@@ -485,4 +485,331 @@ fn color_ot_rejects_plain_trees_and_damage() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("ColorOcTree"), "{err}");
+}
+
+/// Write `frames` for the reference program: the `.frames` file and the colour side file
+/// (`u32` frame count, per frame `u32` n and n × `r g b`).
+fn write_colored_frames(dir: &Path, frames: &[octoquant::Frame]) -> (PathBuf, PathBuf) {
+    let fp = dir.join("scans.frames");
+    octoquant::formats::frames::write_frames_file(&fp, frames).unwrap();
+    let mut c = Vec::new();
+    c.extend_from_slice(&(frames.len() as u32).to_le_bytes());
+    for f in frames {
+        let colors = f.colors.as_ref().expect("coloured frames");
+        c.extend_from_slice(&(colors.len() as u32).to_le_bytes());
+        for col in colors {
+            c.extend_from_slice(&col.to_array());
+        }
+    }
+    let cp = dir.join("scans.colors");
+    std::fs::write(&cp, c).unwrap();
+    (fp, cp)
+}
+
+/// Coloured scans inserted as octomap_server's colour server does (colours merged before each
+/// scan's updates, then the scan, then prune), by `ColorMapper` and by liboctomap's
+/// `ColorOcTree` in the reference program: the `.ot` bytes are equal, for both merge rules.
+fn check_colored_scans(name: &str, frames: &[octoquant::Frame], res: f64) {
+    use octoquant::color_map::{ColorMapper, ColorMerge};
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let dir = common::scratch(name);
+    let (fp, cp) = write_colored_frames(&dir, frames);
+    for merge in [ColorMerge::Average, ColorMerge::Integrate] {
+        let options = octoquant::MapperOptions {
+            resolution: res,
+            ..octoquant::MapperOptions::default()
+        };
+        let mut mapper = ColorMapper::new(options, merge).unwrap();
+        for f in frames {
+            mapper.insert(f).unwrap();
+        }
+        let tree = mapper.into_tree();
+        assert!(
+            tree.num_colored_nodes() > 1000,
+            "{name} {merge:?}: {} coloured nodes",
+            tree.num_colored_nodes()
+        );
+        let ours = color_ot(&tree);
+        let script = format!(
+            "tree {res:.17e}\ncolorscan {} {} {}\n",
+            fp.display(),
+            cp.display(),
+            merge.name()
+        );
+        let theirs = try_reference(&refprog, &script, &dir).expect("no delete here");
+        assert!(
+            ours == theirs,
+            "{name} {merge:?}: .ot differs from octomap_server's: {}",
+            first_diff(&ours, &theirs)
+        );
+    }
+}
+
+/// Four TUM RGB-D frames (every second pixel) with the colours of their registered RGB images.
+#[test]
+fn tum_rgbd_colored_scans_match_octomap_server() {
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let mut options = octoquant::formats::ReadOptions {
+        colors: true,
+        ..octoquant::formats::ReadOptions::default()
+    };
+    options.tum.pixel_step = 2;
+    let frames: Vec<octoquant::Frame> = octoquant::formats::frame_stream(&assoc, &options)
+        .unwrap()
+        .take(4)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    check_colored_scans("color_scans_tum", &frames, 0.05);
+}
+
+/// PCL's textured table scene seen three times from three nearby origins (the first sighting
+/// gives no colour in octomap_server; the later ones merge into existing voxels).
+#[test]
+fn table_scene_colored_scans_match_octomap_server() {
+    let Some(pcd) = common::data_file(
+        "pcd/pcl_table_scene_mug_stereo_textured/table_scene_mug_stereo_textured.pcd",
+    ) else {
+        return;
+    };
+    let options = octoquant::formats::ReadOptions {
+        colors: true,
+        ..octoquant::formats::ReadOptions::default()
+    };
+    let base = octoquant::formats::read_frames(&pcd, &options)
+        .unwrap()
+        .remove(0);
+    let frames: Vec<octoquant::Frame> = [0.0f32, 0.013, -0.021]
+        .iter()
+        .map(|&dx| octoquant::Frame {
+            origin: nalgebra::Point3::new(dx, -dx, 0.0),
+            ..base.clone()
+        })
+        .collect();
+    check_colored_scans("color_scans_table", &frames, 0.02);
+}
+
+/// Run the reference program's `mode` on `script` (no trailing write); fails on error.
+fn run_reference(refprog: &Path, mode: &str, script: &str, dir: &Path) {
+    let sp = dir.join("cli_ops.txt");
+    std::fs::write(&sp, script).unwrap();
+    let out = Command::new(refprog).arg(mode).arg(&sp).output().unwrap();
+    assert!(
+        out.status.success(),
+        "reference program failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn octoquant_cli(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// `map --color` writes the tree `ColorMapper` builds from the same frames; `.bt` and
+/// colourless inputs are refused with a clear error; `info`, `convert`, `export` and `render`
+/// take the coloured map: the `.bt` conversion equals liboctomap's `writeBinary` of the same
+/// ColorOcTree, the exports carry each leaf's colour.
+#[test]
+fn map_color_and_the_tools_on_a_colored_map() {
+    use octoquant::color_map::{ColorMapper, ColorMerge};
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let dir = common::scratch("color_cli");
+    let a = assoc.to_str().unwrap();
+    let run = |args: &[&str]| octoquant_cli(&dir, args);
+    let o = run(&[
+        "map",
+        a,
+        "--pixel-step",
+        "4",
+        "--res",
+        "0.1",
+        "--color",
+        "--color-merge",
+        "integrate",
+        "-q",
+        "-o",
+        "m.ot",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cli = std::fs::read(dir.join("m.ot")).unwrap();
+    let mut options = octoquant::formats::ReadOptions {
+        colors: true,
+        ..octoquant::formats::ReadOptions::default()
+    };
+    options.tum.pixel_step = 4;
+    let mut mapper = ColorMapper::new(
+        octoquant::MapperOptions {
+            resolution: 0.1,
+            ..octoquant::MapperOptions::default()
+        },
+        ColorMerge::Integrate,
+    )
+    .unwrap();
+    for f in octoquant::formats::frame_stream(&assoc, &options).unwrap() {
+        mapper.insert(&f.unwrap()).unwrap();
+    }
+    let tree = mapper.into_tree();
+    assert!(tree.num_colored_nodes() > 1000);
+    assert!(
+        cli == color_ot(&tree),
+        "{}",
+        first_diff(&cli, &color_ot(&tree))
+    );
+
+    // refusals: a .bt output, an input without colour
+    let o = run(&["map", a, "--color", "-o", "m.bt"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains(".ot"), "{e}");
+    assert!(!dir.join("m.bt").exists());
+    let ply = dir.join("plain.ply");
+    octoquant::formats::ply::write_ply_file(
+        &ply,
+        &[nalgebra::Point3::new(1.0f32, 0.0, 0.0)],
+        octoquant::formats::ply::PlyEncoding::Ascii,
+    )
+    .unwrap();
+    let o = run(&["map", "plain.ply", "--color", "-o", "p.ot"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("no colours"), "{e}");
+
+    // info names the type
+    let o = run(&["info", "m.ot", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["type"], "ColorOcTree");
+    assert_eq!(j["colored_nodes"], tree.num_colored_nodes());
+
+    // convert: .ot keeps the colours, .bt is OctoMap's writeBinary of the ColorOcTree
+    let o = run(&["convert", "m.ot", "again.ot"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(dir.join("again.ot")).unwrap() == cli);
+    let o = run(&["convert", "m.ot", "m_conv.bt"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    if let Some(refprog) = common::reference_program() {
+        run_reference(
+            &refprog,
+            "color-script",
+            &format!(
+                "read_ot {}\nwrite_bt {}\n",
+                dir.join("m.ot").display(),
+                dir.join("ref.bt").display()
+            ),
+            &dir,
+        );
+        let ours = std::fs::read(dir.join("m_conv.bt")).unwrap();
+        let theirs = std::fs::read(dir.join("ref.bt")).unwrap();
+        assert!(ours == theirs, "{}", first_diff(&ours, &theirs));
+    }
+    // that .bt (id ColorOcTree) reads back as occupancy, as OctoMap's readBinary reads it
+    let o = run(&["info", "m_conv.bt", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    // export: each occupied leaf's vertex carries its colour (height colour when unset)
+    let o = run(&["export", "m.ot", "-o", "m.ply"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(dir.join("m.ply")).unwrap();
+    let (pts, cols) =
+        octoquant::formats::ply::parse_ply_colored(Path::new("m.ply"), &bytes, true).unwrap();
+    let cols = cols.expect("coloured vertices");
+    let conv = tree.converter();
+    let mut matched = 0;
+    for (p, c) in pts.iter().zip(&cols) {
+        let key = conv.point_to_key(&p.cast::<f64>()).unwrap();
+        let node = tree.node_color(key).unwrap();
+        if node.is_set() {
+            assert_eq!(*c, node, "vertex {p:?}");
+            matched += 1;
+        }
+    }
+    assert!(matched > 500, "{matched} coloured vertices");
+    let o = run(&["export", "m.ot", "-o", "m.pcd"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let back = octoquant::formats::read_frames(
+        &dir.join("m.pcd"),
+        &octoquant::formats::ReadOptions {
+            colors: true,
+            ..octoquant::formats::ReadOptions::default()
+        },
+    )
+    .unwrap();
+    let pcols = back[0].colors.as_ref().expect("rgb field");
+    for (p, c) in back[0].points.iter().zip(pcols) {
+        let key = conv.point_to_key(&p.cast::<f64>()).unwrap();
+        assert_eq!(*c, tree.node_color(key).unwrap(), "voxel {p:?}");
+    }
+
+    // render draws voxel colours: another picture than the occupancy's
+    let o = run(&["render", "m.ot", "-o", "c.png", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["render", "m_conv.bt", "-o", "h.png"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(dir.join("c.png")).unwrap() != std::fs::read(dir.join("h.png")).unwrap());
+}
+
+/// `info` and `convert` take an OcTreeStamped `.ot`: the `.bt` conversion equals liboctomap's
+/// `writeBinary` of the tree it reads.
+#[test]
+fn info_and_convert_take_a_stamped_tree() {
+    use octoquant::octree::io::write_stamped_ot;
+    use octoquant::octree::StampedOcTree;
+    let dir = common::scratch("stamped_cli");
+    let mut t = StampedOcTree::new(0.1).unwrap();
+    let mut seed = 7u64;
+    for i in 0..4000u32 {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let r = (seed >> 33) as u16;
+        let k = Key::new(
+            32768 + (r & 15),
+            32768 + ((r >> 4) & 15),
+            32768 + ((r >> 8) & 7),
+        );
+        let u = if r >> 15 == 0 {
+            Update::Hit
+        } else {
+            Update::Miss
+        };
+        t.update_node_at(k, u, InnerNodes::Refresh, 100 + i / 500);
+    }
+    let mut bytes = Vec::new();
+    write_stamped_ot(&t, &mut bytes).unwrap();
+    std::fs::write(dir.join("s.ot"), &bytes).unwrap();
+    let o = octoquant_cli(&dir, &["info", "s.ot", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["type"], "OcTreeStamped");
+    assert_eq!(j["nodes"], t.size());
+    let o = octoquant_cli(&dir, &["convert", "s.ot", "s2.ot"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(dir.join("s2.ot")).unwrap() == bytes);
+    let o = octoquant_cli(&dir, &["convert", "s.ot", "s.bt"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    run_reference(
+        &refprog,
+        "stamped-script",
+        &format!(
+            "read_ot {}\nwrite_bt {}\n",
+            dir.join("s.ot").display(),
+            dir.join("ref.bt").display()
+        ),
+        &dir,
+    );
+    let ours = std::fs::read(dir.join("s.bt")).unwrap();
+    let theirs = std::fs::read(dir.join("ref.bt")).unwrap();
+    assert!(ours == theirs, "{}", first_diff(&ours, &theirs));
 }

@@ -790,3 +790,117 @@ fn crc32(bytes: &[u8]) -> u32 {
     }
     !c
 }
+
+/// The mug scene's `rgba` field (PCL's packed `0xAARRGGBB`, field-major in the compressed
+/// data) gives one colour per point; the same points and colours written as ASCII and binary
+/// PCD (`rgba` as `U 4` integers, `rgb` as PCL's `F 4`) read back with the same colours.
+#[test]
+fn pcd_colours_of_the_table_scene_survive_every_encoding() {
+    let Some(p) = common::data_file(PCD) else {
+        return;
+    };
+    let with = ReadOptions {
+        colors: true,
+        ..ReadOptions::default()
+    };
+    let frames = read_frames(&p, &with).unwrap_or_else(|e| panic!("{e}"));
+    let colors = frames[0].colors.clone().expect("the table scene has rgba");
+    assert_eq!(colors.len(), 307_200);
+    // a textured scene: many distinct colours, not one fill value
+    let distinct: std::collections::HashSet<_> = colors.iter().collect();
+    assert!(distinct.len() > 200, "{} distinct colours", distinct.len());
+    // without the option nothing is decoded
+    assert!(read(&p)[0].colors.is_none());
+    let cloud = pcd::read_pcd_cloud(&p).unwrap_or_else(|e| panic!("{e}"));
+    let dir = common::scratch("formats_pcd_colours");
+    for (enc, field, kind) in [
+        ("ascii", "rgba", "U"),
+        ("binary", "rgb", "F"),
+        ("ascii", "rgb", "F"),
+    ] {
+        let q = dir.join(format!("table_{enc}_{field}.pcd"));
+        let mut out = format!(
+            "VERSION 0.7\nFIELDS x y z {field}\nSIZE 4 4 4 4\nTYPE F F F {kind}\nCOUNT 1 1 1 1\n\
+             WIDTH 640\nHEIGHT 480\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 307200\nDATA {enc}\n"
+        )
+        .into_bytes();
+        for (pt, c) in cloud.points.iter().zip(&colors) {
+            let bits = u32::from_be_bytes([0xff, c.r, c.g, c.b]);
+            let [x, y, z] = [pt.x as f32, pt.y as f32, pt.z as f32];
+            if enc == "ascii" {
+                out.extend_from_slice(format!("{x:?} {y:?} {z:?} {bits}\n").as_bytes());
+            } else {
+                for v in [x, y, z] {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
+                out.extend_from_slice(&bits.to_le_bytes());
+            }
+        }
+        std::fs::write(&q, out).unwrap_or_else(|e| panic!("{e}"));
+        let back = read_frames(&q, &with).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back[0].colors.as_ref(), Some(&colors), "{enc} {field}");
+    }
+}
+
+/// A TUM frame's colours are the RGB image's pixels at the depth pixels (registered data):
+/// checked against the image decoded here with the png crate, pixel by pixel.
+#[test]
+fn tum_colours_come_from_the_registered_rgb_pixels() {
+    let Some(assoc) = common::data_file(&format!("{TUM}/my_association.txt")) else {
+        return;
+    };
+    let with = ReadOptions {
+        colors: true,
+        ..ReadOptions::default()
+    };
+    let mut stream =
+        octoquant::formats::frame_stream(&assoc, &with).unwrap_or_else(|e| panic!("{e}"));
+    let f = stream
+        .next()
+        .expect("a frame")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let colors = f.colors.as_ref().expect("colours asked for");
+    assert_eq!(colors.len(), f.points.len());
+    let pixels = &f.camera.as_ref().expect("a depth frame").pixels;
+    let rgb_path = assoc.parent().unwrap().join("rgb/1311877813.991666.png");
+    let decoder = png::Decoder::new(std::fs::File::open(&rgb_path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.color_type, info.width), (png::ColorType::Rgb, 640));
+    for (i, (&px, c)) in pixels.iter().zip(colors).enumerate() {
+        let o = 3 * px as usize;
+        assert_eq!(
+            [c.r, c.g, c.b],
+            [buf[o], buf[o + 1], buf[o + 2]],
+            "point {i}"
+        );
+    }
+    // a missing RGB image is an error naming it, not a colourless frame
+    let dir = common::scratch("formats_tum_no_rgb");
+    let depth = dir.join("depth");
+    std::fs::create_dir_all(&depth).unwrap();
+    std::fs::copy(
+        assoc.parent().unwrap().join("depth/1311877813.991479.png"),
+        depth.join("1.png"),
+    )
+    .unwrap();
+    let a = dir.join("assoc.txt");
+    std::fs::write(&a, "rgb/1.png depth/1.png 0 0 0 0 0 0 1\n").unwrap();
+    let e = read_frames(&a, &with).unwrap_err().to_string();
+    assert!(e.contains("rgb/1.png"), "{e}");
+    // a colour image of another size is refused
+    std::fs::create_dir_all(dir.join("rgb")).unwrap();
+    let small = std::fs::File::create(dir.join("rgb/1.png")).unwrap();
+    let mut enc = png::Encoder::new(small, 2, 2);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()
+        .unwrap()
+        .write_image_data(&[0; 12])
+        .unwrap();
+    let e = read_frames(&a, &with).unwrap_err().to_string();
+    assert!(e.contains("2 x 2") && e.contains("640 x 480"), "{e}");
+    // without colours the same file reads
+    assert!(read_frames(&a, &ReadOptions::default()).is_ok());
+}

@@ -59,6 +59,7 @@ fn ouster_in_its_own_frame_and_topic_listing() {
         topic: Some(OUSTER_TOPIC.into()),
         fixed_frame: Some("os1_lidar".into()),
         sensor_pose: None,
+        colors: false,
     };
     let (lidar, _) = read_mcap(&path, &own).unwrap();
     let (sensor, _) = read_mcap(&path, &McapOptions::default()).unwrap();
@@ -176,6 +177,7 @@ fn cloud_message(be: bool, data_be: bool, points: &[[f64; 3]; 6], fields: &[&str
         ("x", 4, datatype::FLOAT64),
         ("y", 12, datatype::FLOAT64),
         ("z", 24, datatype::FLOAT64),
+        ("rgb", 32, datatype::FLOAT32),
     ];
     let layout: Vec<_> = layout
         .into_iter()
@@ -204,6 +206,14 @@ fn cloud_message(be: bool, data_be: bool, points: &[[f64; 3]; 6], fields: &[&str
             };
             data[base + off..base + off + 8].copy_from_slice(&b);
         }
+        // the packed colour 0x00RRGGBB of point i: (10 i, 20 i, 30 i)
+        let bits = u32::from_be_bytes([0, 10 * i as u8, 20 * i as u8, 30 * i as u8]);
+        let b = if data_be {
+            bits.to_be_bytes()
+        } else {
+            bits.to_le_bytes()
+        };
+        data[base + 32..base + 36].copy_from_slice(&b);
     }
     c.u32(data.len() as u32);
     c.buf.extend_from_slice(&data);
@@ -363,6 +373,61 @@ fn ros2_cdr_round_trip_little_endian() {
 #[test]
 fn ros2_cdr_round_trip_big_endian_message_and_data() {
     check_ros2_round_trip(&ros2_file("mcap_cdr_be", true, true));
+}
+
+/// PointCloud2 `rgb` in either byte order: one colour per kept point (NaN and zero points
+/// dropped with theirs), none without the option or without the field; the real Ouster
+/// recording has no colour field, so it gives none.
+#[test]
+fn pointcloud2_rgb_follows_the_kept_points() {
+    let nan = f64::NAN;
+    let pts = [
+        [1.0, 2.0, 3.0],
+        [nan, 0.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [-4.5, 0.25, 1e-3],
+        [10.0, -20.0, 0.5],
+        [0.0, 0.0, 2.0],
+    ];
+    let kept = [0u8, 3, 4, 5];
+    let colored = McapOptions {
+        colors: true,
+        ..McapOptions::default()
+    };
+    for (be, data_be) in [(false, false), (true, true), (false, true)] {
+        let dir = common::scratch(&format!("mcap_rgb_{be}_{data_be}"));
+        for fields in [&["x", "y", "z", "rgb"][..], &["x", "y", "z"][..]] {
+            let path = dir.join(format!("{}.mcap", fields.len()));
+            write_mcap(
+                &path,
+                &[Msg {
+                    topic: "/cloud",
+                    schema: "sensor_msgs/msg/PointCloud2",
+                    encoding: "cdr",
+                    data: cloud_message(be, data_be, &pts, fields),
+                }],
+            );
+            let (frames, _) = read_mcap(&path, &colored).unwrap();
+            assert_eq!(frames[0].points.len(), 4);
+            let want: Vec<octoquant::octree::Color> = kept
+                .iter()
+                .map(|&i| octoquant::octree::Color::new(10 * i, 20 * i, 30 * i))
+                .collect();
+            let got = frames[0].colors.clone();
+            if fields.contains(&"rgb") {
+                assert_eq!(got, Some(want), "{be} {data_be}");
+                let (plain, _) = read_mcap(&path, &McapOptions::default()).unwrap();
+                assert_eq!(plain[0].colors, None);
+            } else {
+                assert_eq!(got, None);
+            }
+        }
+    }
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let (frames, _) = read_mcap(&path, &colored).unwrap();
+    assert!(frames.iter().all(|f| f.colors.is_none()));
 }
 
 #[test]

@@ -460,3 +460,102 @@ fn real_depth_images_match_octomap() {
     let frames: Vec<Frame> = frames.into_iter().take(4).collect();
     check_real_frames("tum", &frames, 0.05, None);
 }
+
+/// `map --stamped --degrade-older-than 1` on the TUM RGB-D frames (stamped with their own
+/// times, 1-2 s apart, degraded after each): `StampedMapper` and the CLI give the nodes,
+/// stamps and `.ot` bytes of liboctomap's `OcTreeStamped` with its clock set to each frame's
+/// second, inserting and degrading frame by frame.
+#[test]
+fn stamped_cli_map_with_frame_times_matches_octomap() {
+    use octoquant::stamped_map::StampedMapper;
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let dir = common::scratch("stamped_cli_tum");
+    let mut options = ReadOptions::default();
+    options.tum.pixel_step = 4;
+    let frames = read_frames(&assoc, &options).unwrap();
+    let mut mapper = StampedMapper::new(
+        octoquant::MapperOptions {
+            resolution: 0.1,
+            ..octoquant::MapperOptions::default()
+        },
+        Some(1),
+    )
+    .unwrap();
+    let mut script = format!("tree {:.17e}\n", 0.1);
+    for (i, f) in frames.iter().enumerate() {
+        mapper.insert(f).unwrap();
+        let ff = dir.join(format!("f{i}.frames"));
+        octoquant::formats::frames::write_frames_file(&ff, std::slice::from_ref(f)).unwrap();
+        let t = f.stamp.unwrap().floor() as u32;
+        writeln!(script, "clock {t}\ninsert {}\ndegrade 1", ff.display()).unwrap();
+    }
+    let tree = mapper.into_tree();
+    let ours = stamped_ot(&tree);
+    let (rdump, rot) = reference(&refprog, &script, &dir).expect("no delete here");
+    assert!(
+        dump(&tree) == rdump,
+        "nodes differ: {}",
+        first_line_diff(&dump(&tree), &rdump)
+    );
+    assert!(ours == rot, ".ot differs: {}", first_diff(&ours, &rot));
+    assert_eq!(tree.last_update_time(), 1_311_877_824);
+
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(&dir)
+        .args([
+            "map",
+            assoc.to_str().unwrap(),
+            "--pixel-step",
+            "4",
+            "--res",
+            "0.1",
+            "--stamped",
+            "--degrade-older-than",
+            "1",
+            "-q",
+            "-o",
+            "cli.ot",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cli = std::fs::read(dir.join("cli.ot")).unwrap();
+    assert!(cli == ours, "{}", first_diff(&cli, &ours));
+    // the stamps matter: without degrading the map differs
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(&dir)
+        .args([
+            "map",
+            assoc.to_str().unwrap(),
+            "--pixel-step",
+            "4",
+            "--res",
+            "0.1",
+        ])
+        .args(["--stamped", "-q", "-o", "plain.ot"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(std::fs::read(dir.join("plain.ot")).unwrap() != cli);
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(&dir)
+        .args(["map", assoc.to_str().unwrap(), "--stamped", "-o", "s.bt"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("OcTreeStamped"), "{e}");
+}

@@ -1,6 +1,7 @@
 //! A frame: one scan's sensor origin and end points, in world coordinates.
 
 use nalgebra::Point3;
+use octoquant_octree::Color;
 use octoquant_raycast::{PinholeCamera, PixelGrid};
 
 /// One scan ready for insertion: every ray starts at `origin` and ends at one of `points`.
@@ -22,6 +23,11 @@ pub struct Frame {
     /// The depth camera's pixel of each point, when the frame comes from a depth image: exact
     /// insertion then skips the ray stretches that neighbouring rays cover (same map, faster).
     pub camera: Option<CameraPixels>,
+    /// The colour of each point, in point order, when the source carries colour and it was
+    /// asked for ([`crate::ReadOptions::colors`]): PCD `rgb`/`rgba`, PLY `red green blue`,
+    /// TUM RGB images registered to the depth images, PointCloud2 `rgb`/`rgba`. `None`
+    /// otherwise, so colourless reads pay nothing; `Some` always has one colour per point.
+    pub colors: Option<Vec<Color>>,
 }
 
 /// Where a depth image frame's points were measured: a pinhole camera and each point's pixel
@@ -63,6 +69,7 @@ impl Frame {
             points,
             stamp: None,
             camera: None,
+            colors: None,
         }
     }
 }
@@ -107,6 +114,6 @@ mod tests {
         }
         assert_eq!(f.origin.y, f32::INFINITY);
         assert_eq!(f.points[2].x, 0.1f32);
-        assert_eq!((f.stamp, f.camera), (None, None));
+        assert_eq!((f.stamp, f.camera, f.colors), (None, None, None));
     }
 }

@@ -160,6 +160,10 @@ pub struct ReadOptions {
     /// How far compressed data (`.gz`/`.bz2`, LZF, MCAP chunks, PNG) may expand before the
     /// read fails as a decompression bomb; see [`source::DecompressionLimit`].
     pub decompression: source::DecompressionLimit,
+    /// Read the points' colours where the input carries them (PCD `rgb`/`rgba`, PLY
+    /// `red green blue`, a TUM association's RGB images, PointCloud2 `rgb`/`rgba`) into
+    /// [`Frame::colors`]. Off by default: a colourless read never decodes a colour.
+    pub colors: bool,
 }
 
 /// Read `path` as frames in world coordinates, in the format given or detected, under
@@ -297,7 +301,7 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
             };
             Ok(Box::new(vtk::vtk_sequence_frames(&scans, &csv)?))
         }
-        InputFormat::Pcd => all(pcd::read_pcd(path, &options.pcd)),
+        InputFormat::Pcd => all(pcd::read_pcd_with(path, &options.pcd, options.colors)),
         InputFormat::TumDepth => all(tum::read_tum_depth(path, &options.tum)),
         InputFormat::TumAssociation => {
             let assoc = if path.is_dir() {
@@ -313,12 +317,22 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
             } else {
                 path.to_path_buf()
             };
-            Ok(Box::new(tum::tum_sequence_frames(&assoc, &options.tum)?))
+            Ok(Box::new(tum::tum_sequence_frames_with(
+                &assoc,
+                &options.tum,
+                options.colors,
+            )?))
         }
-        InputFormat::Mcap => Ok(Box::new(
-            mcap::mcap_frames(path, &options.mcap)?.map(|r| r.map(|(f, _)| f)),
-        )),
-        InputFormat::Ply => all(ply::read_ply_frames(path)),
+        InputFormat::Mcap => {
+            let mcap = mcap::McapOptions {
+                colors: options.mcap.colors || options.colors,
+                ..options.mcap.clone()
+            };
+            Ok(Box::new(
+                mcap::mcap_frames(path, &mcap)?.map(|r| r.map(|(f, _)| f)),
+            ))
+        }
+        InputFormat::Ply => all(ply::read_ply_frames_with(path, options.colors)),
     }
 }
 

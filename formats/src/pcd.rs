@@ -19,9 +19,11 @@
 
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
+use crate::packed_color::{parse_packed_token, unpack_rgb};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{decompression_limit, excerpt, read_all, ByteReader};
 use nalgebra::{Point3, Quaternion, Vector3};
+use octoquant_octree::Color;
 use std::path::Path;
 
 /// What to do with the PCD `VIEWPOINT` (see the module documentation).
@@ -84,6 +86,9 @@ pub struct PcdCloud {
     pub viewpoint_translation: Vector3<f64>,
     /// `VIEWPOINT` rotation `Quaternion::new(qw, qx, qy, qz)`, as stored.
     pub viewpoint_rotation: Quaternion<f64>,
+    /// The colour of every point from the `rgb` or `rgba` field (PCL's packed `0xAARRGGBB`,
+    /// see [`crate::packed_color`]), when it was asked for and the file has one.
+    pub colors: Option<Vec<Color>>,
 }
 
 struct Header {
@@ -323,6 +328,43 @@ fn xyz_slots(path: &Path, h: &Header) -> Result<([Slot; 3], usize, usize), Forma
     }
 }
 
+/// Where the packed colour field (`rgb`, else `rgba`) is, with its `TYPE`; `None` when the
+/// file has neither. The field must be 4 bytes wide (PCL's layout).
+fn color_slot(path: &Path, h: &Header) -> Result<Option<(Slot, char)>, FormatError> {
+    let at = Location::Line(h.data_line);
+    for name in ["rgb", "rgba"] {
+        let (mut token, mut offset) = (0usize, 0usize);
+        for f in &h.fields {
+            if f.name == name {
+                if f.size != 4 {
+                    return Err(FormatError::unsupported(
+                        path,
+                        at,
+                        format!(
+                            "colour field {name} is {} {} (only 4-byte packed colours)",
+                            f.kind, f.size
+                        ),
+                    ));
+                }
+                let slot = Slot {
+                    token,
+                    offset,
+                    stride: f.size * f.count,
+                    size: 4,
+                };
+                return Ok(Some((slot, f.kind)));
+            }
+            token += f.count;
+            offset += f.size * f.count;
+        }
+    }
+    Ok(None)
+}
+
+fn read_packed(bytes: &[u8]) -> Color {
+    unpack_rgb(u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]))
+}
+
 fn read_float(bytes: &[u8], size: usize) -> f64 {
     if size == 4 {
         f64::from(f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]))
@@ -388,12 +430,18 @@ pub fn lzf_decompress(input: &[u8], out_len: usize) -> Result<Vec<u8>, (usize, S
     Ok(out)
 }
 
-fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
+fn parse_pcd(path: &Path, data: &[u8], want_colors: bool) -> Result<PcdCloud, FormatError> {
     let h = parse_header(path, data)?;
     let (slots, tokens_per_point, point_step) = xyz_slots(path, &h)?;
+    let color = if want_colors {
+        color_slot(path, &h)?
+    } else {
+        None
+    };
     let body = &data[h.data_start..];
     let n = h.points;
     let mut points = Vec::new();
+    let mut colors = Vec::new();
     match h.encoding {
         PcdEncoding::Ascii => {
             let text = std::str::from_utf8(body).map_err(|e| {
@@ -448,6 +496,16 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
                     })?;
                 }
                 points.push(Point3::new(c[0], c[1], c[2]));
+                if let Some((slot, kind)) = color {
+                    let tok = toks[slot.token];
+                    colors.push(parse_packed_token(tok, kind).ok_or_else(|| {
+                        FormatError::syntax(
+                            path,
+                            at,
+                            format!("cannot parse {:?} as a packed colour", excerpt(tok)),
+                        )
+                    })?);
+                }
             }
             if points.len() as u64 != n {
                 return Err(FormatError::syntax(
@@ -468,6 +526,12 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
             for rec in bytes.chunks_exact(point_step.max(1)) {
                 let c = slots.map(|s| read_float(&rec[s.offset..], s.size));
                 points.push(Point3::new(c[0], c[1], c[2]));
+            }
+            if let Some((slot, _)) = color {
+                colors.reserve(n as usize);
+                for rec in bytes.chunks_exact(point_step.max(1)) {
+                    colors.push(read_packed(&rec[slot.offset..]));
+                }
             }
         }
         PcdEncoding::BinaryCompressed => {
@@ -505,6 +569,12 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
                 let c = slots.map(|s| read_float(&raw[n * s.offset + i * s.stride..], s.size));
                 points.push(Point3::new(c[0], c[1], c[2]));
             }
+            if let Some((slot, _)) = color {
+                colors.reserve(n);
+                for i in 0..n {
+                    colors.push(read_packed(&raw[n * slot.offset + i * slot.stride..]));
+                }
+            }
         }
     }
     let v = h.viewpoint;
@@ -516,17 +586,36 @@ fn parse_pcd(path: &Path, data: &[u8]) -> Result<PcdCloud, FormatError> {
         encoding: h.encoding,
         viewpoint_translation: Vector3::new(v[0], v[1], v[2]),
         viewpoint_rotation: Quaternion::new(v[3], v[4], v[5], v[6]),
+        colors: color.map(|_| colors),
     })
 }
 
-/// Read a PCD file as stored (points in the file's frame, viewpoint in the header fields).
+/// Read a PCD file as stored (points in the file's frame, viewpoint in the header fields),
+/// without colours.
 pub fn read_pcd_cloud(path: &Path) -> Result<PcdCloud, FormatError> {
-    parse_pcd(path, &read_all(path)?)
+    read_pcd_cloud_with(path, false)
+}
+
+/// [`read_pcd_cloud`], with the points' colours when `colors` is set and the file has an `rgb`
+/// or `rgba` field ([`PcdCloud::colors`]).
+pub fn read_pcd_cloud_with(path: &Path, colors: bool) -> Result<PcdCloud, FormatError> {
+    parse_pcd(path, &read_all(path)?, colors)
 }
 
 /// Read a PCD file as one frame, using the viewpoint as [`PcdOptions::viewpoint`] says.
 pub fn read_pcd(path: &Path, options: &PcdOptions) -> Result<Vec<Frame>, FormatError> {
-    let cloud = read_pcd_cloud(path)?;
+    read_pcd_with(path, options, false)
+}
+
+/// [`read_pcd`], with [`Frame::colors`] from the `rgb`/`rgba` field when `colors` is set and
+/// the file has one.
+pub fn read_pcd_with(
+    path: &Path,
+    options: &PcdOptions,
+    colors: bool,
+) -> Result<Vec<Frame>, FormatError> {
+    let mut cloud = read_pcd_cloud_with(path, colors)?;
+    let colors = cloud.colors.take();
     let t = cloud.viewpoint_translation;
     let bad_pose = |what: &str| FormatError::missing_pose(path, Location::File, what);
     let frame = match options.viewpoint {
@@ -552,7 +641,7 @@ pub fn read_pcd(path: &Path, options: &PcdOptions) -> Result<Vec<Frame>, FormatE
             )
         }
     };
-    Ok(vec![frame])
+    Ok(vec![Frame { colors, ..frame }])
 }
 
 #[cfg(test)]
@@ -572,7 +661,7 @@ mod tests {
     #[test]
     fn ascii_with_counts_and_nan() {
         let txt = b"VERSION 0.7\nFIELDS n x y z\nSIZE 4 4 4 8\nTYPE F F F F\nCOUNT 2 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 1 2 3 1 0 0 0\nPOINTS 2\nDATA ascii\n9 9 1 2 3\n9 9 nan nan nan\n";
-        let c = parse_pcd(Path::new("t.pcd"), txt);
+        let c = parse_pcd(Path::new("t.pcd"), txt, false);
         let c = c
             .as_ref()
             .map(|c| (c.points.len(), c.points[0], c.viewpoint_translation));
@@ -580,5 +669,39 @@ mod tests {
             matches!(c, Ok((2, p, t)) if p == Point3::new(1.0, 2.0, 3.0) && t.x == 1.0),
             "{c:?}"
         );
+    }
+
+    #[test]
+    fn packed_colours_in_every_encoding() {
+        let head = |data: &str| {
+            format!("VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA {data}\n")
+        };
+        let want = vec![Color::new(255, 128, 1), Color::new(1, 2, 3)];
+        let ascii = head("ascii") + "1 2 3 16744449\n4 5 6 66051\n";
+        let p = Path::new("t.pcd");
+        let c = parse_pcd(p, ascii.as_bytes(), true).map(|c| c.colors);
+        assert_eq!(c.ok(), Some(Some(want.clone())));
+        // not asked for: not decoded
+        let c = parse_pcd(p, ascii.as_bytes(), false).map(|c| c.colors);
+        assert_eq!(c.ok(), Some(None));
+        let mut bin = head("binary").into_bytes();
+        for (i, bits) in [0x00ff_8001u32, 0x0001_0203].iter().enumerate() {
+            for v in [i as f32, 1.0, 2.0] {
+                bin.extend_from_slice(&v.to_le_bytes());
+            }
+            bin.extend_from_slice(&bits.to_le_bytes());
+        }
+        let c = parse_pcd(p, &bin, true).map(|c| c.colors);
+        assert_eq!(c.ok(), Some(Some(want)));
+        // a colour token that is no number names the line
+        let bad = head("ascii") + "1 2 3 16744449\n4 5 6 blue\n";
+        let e = parse_pcd(p, bad.as_bytes(), true).unwrap_err().to_string();
+        assert!(e.contains("line 11") && e.contains("packed colour"), "{e}");
+        // a short colour field is refused, not misread
+        let short = head("ascii").replace("SIZE 4 4 4 4", "SIZE 4 4 4 2") + "1 2 3 4\n4 5 6 7\n";
+        let e = parse_pcd(p, short.as_bytes(), true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("colour field rgb"), "{e}");
     }
 }

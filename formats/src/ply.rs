@@ -1,4 +1,5 @@
-//! PLY point clouds: read `x y z` of the `vertex` element, write `x y z` float vertices.
+//! PLY point clouds: read `x y z` (and on request `red green blue`) of the `vertex` element,
+//! write `x y z` float vertices (and, for coloured maps, `uchar red green blue`).
 //!
 //! Reads `ascii` and `binary_little_endian` 1.0 with any scalar properties besides
 //! `x`, `y`, `z` (which must be `float` or `double`), and other elements before or after
@@ -11,8 +12,12 @@ use crate::frame::Frame;
 use crate::output::{write_atomic, OutputError};
 use crate::source;
 use nalgebra::Point3;
+use octoquant_octree::Color;
 use std::io::Write;
 use std::path::Path;
+
+/// Vertex positions and, when read, one colour per vertex ([`parse_ply_colored`]).
+pub type ColoredPoints = (Vec<Point3<f32>>, Option<Vec<Color>>);
 
 /// PLY body encodings this module writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -103,18 +108,86 @@ pub fn read_ply_f32(path: &Path) -> Result<Vec<Point3<f32>>, FormatError> {
 
 /// Read a PLY file as one frame with origin (0, 0, 0) and no stamp.
 pub fn read_ply_frames(path: &Path) -> Result<Vec<Frame>, FormatError> {
-    Ok(vec![Frame::new_f32(Point3::origin(), read_ply_f32(path)?)])
+    read_ply_frames_with(path, false)
+}
+
+/// [`read_ply_frames`], with [`Frame::colors`] from the vertex's `red green blue` when
+/// `colors` is set and the file has them.
+pub fn read_ply_frames_with(path: &Path, colors: bool) -> Result<Vec<Frame>, FormatError> {
+    let data = source::read_all(path)?;
+    let (points, colors) = parse_ply_colored(path, &data, colors)?;
+    Ok(vec![Frame {
+        colors,
+        ..Frame::new_f32(Point3::origin(), points)
+    }])
 }
 
 /// Parse PLY bytes into `f32` vertex positions (see [`read_ply_f32`]); `path` only names the
 /// input in errors.
 pub fn parse_ply_f32(path: &Path, data: &[u8]) -> Result<Vec<Point3<f32>>, FormatError> {
+    parse_ply_colored(path, data, false).map(|(p, _)| p)
+}
+
+/// [`parse_ply_f32`] with the vertex colours when `colors` is set: the `red`, `green` and
+/// `blue` properties (`uchar`), `None` when the vertex has none of them. A vertex with only
+/// some of them, or of another type, is an error.
+pub fn parse_ply_colored(
+    path: &Path,
+    data: &[u8],
+    colors: bool,
+) -> Result<ColoredPoints, FormatError> {
     let (format, elements, body) = parse_header(path, data)?;
     match format {
-        Format::Ascii => read_ascii(path, data, body, &elements),
-        Format::BinaryLe => read_binary(path, data, body, &elements),
+        Format::Ascii => read_ascii(path, data, body, &elements, colors),
+        Format::BinaryLe => read_binary(path, data, body, &elements, colors),
     }
 }
+
+/// What each vertex property is: 0..3 `x y z`, 3..6 `red green blue` (when asked for), or
+/// nothing; and whether the colour is there.
+fn vertex_roles(path: &Path, el: &Element, colors: bool) -> Result<(Vec<u8>, bool), FormatError> {
+    let xyz = xyz_props(path, el)?;
+    let mut roles = vec![NO_ROLE; el.props.len()];
+    for (a, &k) in xyz.iter().enumerate() {
+        roles[k] = a as u8;
+    }
+    if !colors {
+        return Ok((roles, false));
+    }
+    let mut rgb = [None; 3];
+    for (k, p) in el.props.iter().enumerate() {
+        if let Property::Scalar(t, name) = p {
+            let Some(c) = ["red", "green", "blue"].iter().position(|n| n == name) else {
+                continue;
+            };
+            if *t != Scalar::U8 {
+                return Err(FormatError::unsupported(
+                    path,
+                    Location::File,
+                    format!("vertex property {name} is not uchar (colours are 0..255 bytes)"),
+                ));
+            }
+            rgb[c] = Some(k);
+        }
+    }
+    match rgb {
+        [None, None, None] => Ok((roles, false)),
+        [Some(r), Some(g), Some(b)] => {
+            for (c, k) in [r, g, b].into_iter().enumerate() {
+                roles[k] = 3 + c as u8;
+            }
+            Ok((roles, true))
+        }
+        _ => Err(FormatError::syntax(
+            path,
+            Location::File,
+            "vertex has some of red, green, blue but not all three",
+        )),
+    }
+}
+
+/// The role of a vertex property that is neither a coordinate nor a colour channel.
+const NO_ROLE: u8 = u8::MAX;
 
 /// Returns the format, the elements and the byte offset of the body.
 fn parse_header(path: &Path, data: &[u8]) -> Result<(Format, Vec<Element>, usize), FormatError> {
@@ -271,7 +344,8 @@ fn read_binary(
     data: &[u8],
     mut pos: usize,
     elements: &[Element],
-) -> Result<Vec<Point3<f32>>, FormatError> {
+    want_colors: bool,
+) -> Result<ColoredPoints, FormatError> {
     let truncated = |offset: usize, what: &str| FormatError::Truncated {
         path: path.to_path_buf(),
         offset: offset as u64,
@@ -279,10 +353,10 @@ fn read_binary(
     };
     for el in elements {
         let is_vertex = el.name == "vertex";
-        let xyz = if is_vertex {
-            Some(xyz_props(path, el)?)
+        let (roles, has_colors) = if is_vertex {
+            vertex_roles(path, el, want_colors)?
         } else {
-            None
+            (Vec::new(), false)
         };
         // The fewest bytes a record takes (its scalars and the count of each list): the count
         // must fit in the remaining data before anything is reserved or looped over.
@@ -309,11 +383,16 @@ fn read_binary(
             continue;
         }
         let mut points = Vec::new();
+        let mut colors = Vec::new();
         if is_vertex {
             points.reserve(el.count as usize);
+            if has_colors {
+                colors.reserve(el.count as usize);
+            }
         }
         for _ in 0..el.count {
             let mut xyz_v = [0f64; 3];
+            let mut rgb = [0u8; 3];
             for (k, p) in el.props.iter().enumerate() {
                 match p {
                     Property::Scalar(t, _) => {
@@ -321,10 +400,10 @@ fn read_binary(
                         if end > data.len() {
                             return Err(truncated(pos, &format!("a {} property", el.name)));
                         }
-                        if let Some(xyz) = &xyz {
-                            if let Some(a) = xyz.iter().position(|&i| i == k) {
-                                xyz_v[a] = t.read_le(&data[pos..end]);
-                            }
+                        match roles.get(k).copied() {
+                            Some(a @ 0..=2) => xyz_v[a as usize] = t.read_le(&data[pos..end]),
+                            Some(c @ 3..=5) => rgb[c as usize - 3] = data[pos],
+                            _ => {}
                         }
                         pos = end;
                     }
@@ -355,13 +434,16 @@ fn read_binary(
                     xyz_v[1] as f32,
                     xyz_v[2] as f32,
                 ));
+                if has_colors {
+                    colors.push(Color::new(rgb[0], rgb[1], rgb[2]));
+                }
             }
         }
         if is_vertex {
-            return Ok(points);
+            return Ok((points, has_colors.then_some(colors)));
         }
     }
-    Ok(Vec::new())
+    Ok((Vec::new(), None))
 }
 
 fn read_ascii(
@@ -369,7 +451,8 @@ fn read_ascii(
     data: &[u8],
     body: usize,
     elements: &[Element],
-) -> Result<Vec<Point3<f32>>, FormatError> {
+    want_colors: bool,
+) -> Result<ColoredPoints, FormatError> {
     let text = std::str::from_utf8(&data[body..])
         .map_err(|_| FormatError::syntax(path, Location::Byte(body as u64), "body is not text"))?;
     let header_lines = data[..body].iter().filter(|&&b| b == b'\n').count() as u64;
@@ -380,15 +463,22 @@ fn read_ascii(
         .filter(|(_, l)| !l.trim().is_empty());
     for el in elements {
         let is_vertex = el.name == "vertex";
-        let xyz = if is_vertex {
-            Some(xyz_props(path, el)?)
+        let (xyz, rgb) = if is_vertex {
+            let (roles, has_colors) = vertex_roles(path, el, want_colors)?;
+            let find = |r: u8| roles.iter().position(|&x| x == r).unwrap_or(0);
+            let rgb = has_colors.then(|| [find(3), find(4), find(5)]);
+            (Some(xyz_props(path, el)?), rgb)
         } else {
-            None
+            (None, None)
         };
         let mut points = Vec::new();
+        let mut colors = Vec::new();
         if is_vertex {
             // Never reserve more than the text could hold (at least 6 bytes per vertex).
             points.reserve((el.count as usize).min(text.len() / 6));
+            if rgb.is_some() {
+                colors.reserve((el.count as usize).min(text.len() / 12));
+            }
         }
         for _ in 0..el.count {
             let Some((no, line)) = lines.next() else {
@@ -415,13 +505,29 @@ fn read_ascii(
                     v[a] = x as f32;
                 }
                 points.push(Point3::new(v[0], v[1], v[2]));
+                if let Some(rgb) = &rgb {
+                    let mut c = [0u8; 3];
+                    for (ch, &k) in c.iter_mut().zip(rgb) {
+                        let w = words.get(k).ok_or_else(|| {
+                            FormatError::syntax(path, Location::Line(no), "too few values")
+                        })?;
+                        *ch = w.parse().map_err(|_| {
+                            FormatError::syntax(
+                                path,
+                                Location::Line(no),
+                                format!("bad colour `{}` (0..255)", source::excerpt(w)),
+                            )
+                        })?;
+                    }
+                    colors.push(Color::new(c[0], c[1], c[2]));
+                }
             }
         }
         if is_vertex {
-            return Ok(points);
+            return Ok((points, rgb.map(|_| colors)));
         }
     }
-    Ok(Vec::new())
+    Ok((Vec::new(), None))
 }
 
 /// Write `points` as a PLY with one `vertex` element of `float x, y, z`.
@@ -430,30 +536,61 @@ pub fn write_ply<W: Write + ?Sized>(
     points: &[Point3<f32>],
     encoding: PlyEncoding,
 ) -> std::io::Result<()> {
+    write_ply_colored(w, points, None, encoding)
+}
+
+/// [`write_ply`] with, when `colors` is given, `uchar red, green, blue` after the coordinates
+/// of each vertex (the layout [`parse_ply_colored`] and common viewers read). `colors` must
+/// hold one colour per point; a length mismatch is an `InvalidInput` error, nothing written.
+pub fn write_ply_colored<W: Write + ?Sized>(
+    w: &mut W,
+    points: &[Point3<f32>],
+    colors: Option<&[Color]>,
+    encoding: PlyEncoding,
+) -> std::io::Result<()> {
+    if colors.is_some_and(|c| c.len() != points.len()) {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "one colour per point is needed",
+        ));
+    }
     let format = match encoding {
         PlyEncoding::Ascii => "ascii",
         PlyEncoding::BinaryLittleEndian => "binary_little_endian",
     };
+    let color_props = if colors.is_some() {
+        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    } else {
+        ""
+    };
     write!(
         w,
         "ply\nformat {format} 1.0\ncomment written by octoquant\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\nend_header\n",
+         property float x\nproperty float y\nproperty float z\n{color_props}end_header\n",
         points.len()
     )?;
+    let color_at = |i: usize| colors.map(|c| c[i]);
     match encoding {
         PlyEncoding::Ascii => {
-            for p in points {
-                writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
+            for (i, p) in points.iter().enumerate() {
+                match color_at(i) {
+                    Some(c) => writeln!(w, "{} {} {} {} {} {}", p.x, p.y, p.z, c.r, c.g, c.b)?,
+                    None => writeln!(w, "{} {} {}", p.x, p.y, p.z)?,
+                }
             }
         }
         PlyEncoding::BinaryLittleEndian => {
-            let mut buf = Vec::with_capacity(12 * points.len().min(1 << 16));
-            for chunk in points.chunks(1 << 16) {
+            const CHUNK: usize = 1 << 16;
+            let mut buf = Vec::with_capacity(15 * points.len().min(CHUNK));
+            for (k, chunk) in points.chunks(CHUNK).enumerate() {
                 buf.clear();
-                for p in chunk {
+                for (j, p) in chunk.iter().enumerate() {
                     buf.extend_from_slice(&p.x.to_le_bytes());
                     buf.extend_from_slice(&p.y.to_le_bytes());
                     buf.extend_from_slice(&p.z.to_le_bytes());
+                    if let Some(c) = color_at(k * CHUNK + j) {
+                        buf.extend_from_slice(&c.to_array());
+                    }
                 }
                 w.write_all(&buf)?;
             }
@@ -487,6 +624,48 @@ mod tests {
         p.iter()
             .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
             .collect()
+    }
+
+    #[test]
+    fn colours_round_trip_and_hostile_colour_properties() {
+        let colors = [
+            Color::new(1, 2, 3),
+            Color::new(255, 0, 128),
+            Color::new(9, 9, 9),
+        ];
+        let p = Path::new("t.ply");
+        for enc in [PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian] {
+            let mut buf = Vec::new();
+            write_ply_colored(&mut buf, &pts(), Some(&colors), enc).unwrap();
+            let (back, c) = parse_ply_colored(p, &buf, true).unwrap();
+            assert_eq!(bits(&back), bits(&pts()), "{enc:?}");
+            assert_eq!(c.as_deref(), Some(&colors[..]), "{enc:?}");
+            // not asked for: positions only
+            assert_eq!(parse_ply_colored(p, &buf, false).unwrap().1, None);
+        }
+        // colourless files give no colours when asked
+        let mut buf = Vec::new();
+        write_ply(&mut buf, &pts(), PlyEncoding::Ascii).unwrap();
+        assert_eq!(parse_ply_colored(p, &buf, true).unwrap().1, None);
+        let head = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n";
+        let partial = format!("{head}property uchar red\nend_header\n1 2 3 4\n");
+        let e = parse_ply_colored(p, partial.as_bytes(), true).unwrap_err();
+        assert!(e.to_string().contains("not all three"), "{e}");
+        let wide = format!("{head}property float red\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5 6\n");
+        let e = parse_ply_colored(p, wide.as_bytes(), true).unwrap_err();
+        assert!(e.to_string().contains("not uchar"), "{e}");
+        let big = format!("{head}property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5 256\n");
+        let e = parse_ply_colored(p, big.as_bytes(), true).unwrap_err();
+        assert!(e.to_string().contains("bad colour `256`"), "{e}");
+        let short = format!("{head}property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5\n");
+        assert!(parse_ply_colored(p, short.as_bytes(), true).is_err());
+        let mismatch = write_ply_colored(
+            &mut Vec::new(),
+            &pts(),
+            Some(&colors[..1]),
+            PlyEncoding::Ascii,
+        );
+        assert!(mismatch.is_err());
     }
 
     #[test]

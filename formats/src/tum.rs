@@ -9,12 +9,20 @@
 //! relative to the file); the pose is T_world←camera, so the world point is R(q)·p + t in
 //! `f64`, stored as `f32`, and the origin is t. Rows whose depth file does not exist are
 //! skipped (a subset of a sequence is the normal case).
+//!
+//! # Colour
+//! TUM's depth images are registered to the colour camera, so with colours asked for
+//! ([`tum_sequence_frames_with`]) the point of depth pixel (u, v) takes the colour of pixel
+//! (u, v) of the row's RGB image, as TUM's own tools (`generate_pointcloud.py`) do. The RGB
+//! image must exist and have the depth image's size; 8- and 16-bit grey, grey-alpha, RGB, RGBA
+//! and palette PNGs are read (16-bit channels keep their high byte, alpha is ignored).
 
 use crate::error::{FormatError, Location};
 use crate::frame::{CameraPixels, Frame};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{decompression_limit, excerpt, open, LineReader};
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
+use octoquant_octree::Color;
 use octoquant_raycast::PinholeCamera;
 use std::path::{Path, PathBuf};
 
@@ -162,23 +170,101 @@ pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
     })
 }
 
+/// An 8-bit colour image, row-major.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ColorImage {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// `width × height` pixels.
+    pub data: Vec<Color>,
+}
+
+/// Decode a colour PNG (the RGB image of a TUM frame) into 8-bit RGB: grey, grey-alpha, RGB,
+/// RGBA or palette, 8 or 16 bits (16-bit channels keep their high byte; alpha is ignored).
+pub fn read_color_png(path: &Path) -> Result<ColorImage, FormatError> {
+    let png_err = |e: png::DecodingError| FormatError::syntax(path, Location::File, e.to_string());
+    let mut decoder = png::Decoder::new(open(path)?);
+    decoder.set_transformations(png::Transformations::normalize_to_color8());
+    let mut reader = decoder.read_info().map_err(png_err)?;
+    let (w, h) = (reader.info().width, reader.info().height);
+    if w as u64 * h as u64 > MAX_DEPTH_PIXELS {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            format!(
+                "colour image header declares {w} x {h} pixels, more than the \
+                 {MAX_DEPTH_PIXELS} this reader accepts"
+            ),
+        ));
+    }
+    let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    if let Some(msg) = decompression_limit().check(file_len, w as u64 * h as u64 * 4) {
+        return Err(FormatError::syntax(
+            path,
+            Location::File,
+            format!("colour image header declares {w} x {h} pixels: {msg}"),
+        ));
+    }
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).map_err(png_err)?;
+    reader.finish().map_err(png_err)?;
+    let channels = match info.color_type {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        other => {
+            return Err(FormatError::unsupported(
+                path,
+                Location::File,
+                format!("colour PNG decodes to {other:?}"),
+            ))
+        }
+    };
+    let n = info.width as usize * info.height as usize;
+    let bytes = buf.get(..n * channels).ok_or_else(|| {
+        FormatError::syntax(
+            path,
+            Location::File,
+            "decoded image is smaller than its size",
+        )
+    })?;
+    let data = bytes
+        .chunks_exact(channels)
+        .map(|c| match channels {
+            1 | 2 => Color::new(c[0], c[0], c[0]),
+            _ => Color::new(c[0], c[1], c[2]),
+        })
+        .collect();
+    Ok(ColorImage {
+        width: info.width,
+        height: info.height,
+        data,
+    })
+}
+
 /// Back-project the valid pixels of `image` into the camera frame (`f64`), row by row.
 pub fn depth_to_points(image: &DepthImage, options: &TumOptions) -> Vec<Point3<f64>> {
-    depth_to_camera(image, options, Rotation3::identity()).0
+    depth_to_camera(image, options, Rotation3::identity(), None).0
 }
 
 /// [`depth_to_points`] with each point's pixel on the used grid (every `pixel_step`-th pixel),
-/// and that grid as a pinhole camera turned by `rotation`.
+/// and that grid as a pinhole camera turned by `rotation`; with `rgb` (of the depth image's
+/// size), the colour of each point's pixel too.
 fn depth_to_camera(
     image: &DepthImage,
     options: &TumOptions,
     rotation: Rotation3<f64>,
-) -> (Vec<Point3<f64>>, CameraPixels) {
+    rgb: Option<&ColorImage>,
+) -> (Vec<Point3<f64>>, CameraPixels, Option<Vec<Color>>) {
     let i = &options.intrinsics;
     let step = options.pixel_step.max(1) as usize;
     let w = image.width as usize;
     let mut points = Vec::new();
     let mut pixels = Vec::new();
+    let mut colors = Vec::new();
     let cols = w.div_ceil(step);
     for (gv, (v, row)) in image
         .data
@@ -196,6 +282,9 @@ fn depth_to_camera(
             let y = (v as f64 - i.cy) * z / i.fy;
             points.push(Point3::new(x, y, z));
             pixels.push((gv * cols + gu) as u32);
+            if let Some(rgb) = rgb {
+                colors.push(rgb.data.get(v * w + u).copied().unwrap_or(Color::WHITE));
+            }
         }
     }
     let k = step as f64;
@@ -211,14 +300,14 @@ fn depth_to_camera(
         },
         pixels,
     };
-    (points, camera)
+    (points, camera, rgb.map(|_| colors))
 }
 
 /// One depth PNG as a frame in the camera frame: origin (0, 0, 0), no pose.
 pub fn read_tum_depth(path: &Path, options: &TumOptions) -> Result<Vec<Frame>, FormatError> {
     options.check(path)?;
     let img = read_depth_png(path)?;
-    let (points, camera) = depth_to_camera(&img, options, Rotation3::identity());
+    let (points, camera, _) = depth_to_camera(&img, options, Rotation3::identity(), None);
     let mut f = Frame::new(Point3::origin(), &points);
     f.stamp = stamp_of(path);
     f.camera = Some(camera);
@@ -230,6 +319,9 @@ pub fn read_tum_depth(path: &Path, options: &TumOptions) -> Result<Vec<Frame>, F
 pub struct AssociationRow {
     /// 1-based line of the row.
     pub line: u64,
+    /// The colour image, resolved against the association file's directory (it may not
+    /// exist; only colour reads need it).
+    pub rgb: PathBuf,
     /// The depth image, resolved against the association file's directory.
     pub depth: PathBuf,
     /// Camera position in the world (the sensor origin).
@@ -280,6 +372,7 @@ pub fn read_association(path: &Path) -> Result<Vec<AssociationRow>, FormatError>
         if depth.is_file() {
             rows.push(AssociationRow {
                 line: at_line(at),
+                rgb: dir.join(toks[0]),
                 depth,
                 translation,
                 rotation,
@@ -316,6 +409,17 @@ pub fn tum_sequence_frames(
     association: &Path,
     options: &TumOptions,
 ) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
+    tum_sequence_frames_with(association, options, false)
+}
+
+/// [`tum_sequence_frames`], with [`Frame::colors`] from each row's RGB image when `colors` is
+/// set (see the module docs); a missing or differently sized RGB image is then an error
+/// naming it.
+pub fn tum_sequence_frames_with(
+    association: &Path,
+    options: &TumOptions,
+    colors: bool,
+) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
     options.check(association)?;
     let rows = read_association(association)?;
     if rows.is_empty() {
@@ -328,7 +432,32 @@ pub fn tum_sequence_frames(
     let options = *options;
     Ok(rows.into_iter().map(move |row| {
         let img = read_depth_png(&row.depth)?;
-        let (points, camera) = depth_to_camera(&img, &options, row.rotation.to_rotation_matrix());
+        let rgb = if colors {
+            let rgb = read_color_png(&row.rgb)?;
+            if (rgb.width, rgb.height) != (img.width, img.height) {
+                return Err(FormatError::syntax(
+                    &row.rgb,
+                    Location::File,
+                    format!(
+                        "colour image is {} x {}, its depth image {} is {} x {}",
+                        rgb.width,
+                        rgb.height,
+                        row.depth.display(),
+                        img.width,
+                        img.height
+                    ),
+                ));
+            }
+            Some(rgb)
+        } else {
+            None
+        };
+        let (points, camera, colors) = depth_to_camera(
+            &img,
+            &options,
+            row.rotation.to_rotation_matrix(),
+            rgb.as_ref(),
+        );
         let points = points
             .iter()
             .map(|p| rigid_transform(&row.rotation, &row.translation, p))
@@ -336,6 +465,7 @@ pub fn tum_sequence_frames(
         let mut f = Frame::new_f32(row.translation.cast::<f32>().into(), points);
         f.stamp = stamp_of(&row.depth);
         f.camera = Some(camera);
+        f.colors = colors;
         Ok(f)
     }))
 }

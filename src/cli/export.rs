@@ -3,14 +3,18 @@
 
 use super::{json_path, print_json};
 use anyhow::{bail, Result};
-use octoquant::export::{export_pcd_file, export_ply_file, ExportOptions};
+use octoquant::export::{
+    export_colored_pcd_file, export_colored_ply_file, export_pcd_file, export_ply_file,
+    ExportOptions,
+};
 use octoquant::output::check_output;
-use octoquant::treefile::read_tree_file;
+use octoquant::treefile::read_any_tree_file;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The .bt or .ot map.
+    /// The .bt or .ot map (a ColorOcTree's voxels keep their colours: PLY red/green/blue,
+    /// PCD rgb).
     map: PathBuf,
     /// Output .ply, or .pcd for the occupied voxel centres (every voxel of a pruned block).
     #[arg(short, long)]
@@ -41,14 +45,19 @@ pub fn run(a: &Args) -> Result<()> {
             a.output.display()
         );
     }
-    let tree = read_tree_file(&a.map)?;
+    let any = read_any_tree_file(&a.map)?;
+    let colored = any.colors().is_some();
     if pcd {
-        let n = export_pcd_file(&tree, &a.output)?;
+        let n = match any.colors() {
+            Some(t) => export_colored_pcd_file(t, &a.output)?,
+            None => export_pcd_file(any.occupancy(), &a.output)?,
+        };
         if a.json {
             print_json(&serde_json::json!({
                 "map": json_path(&a.map),
                 "output": json_path(&a.output),
                 "points": n,
+                "voxel_colors": colored,
             }))?;
         } else {
             errln!("wrote {}: {n} occupied voxel centres", a.output.display());
@@ -60,7 +69,10 @@ pub fn run(a: &Args) -> Result<()> {
         cubes: a.cubes,
         ascii: a.ascii,
     };
-    let s = export_ply_file(&tree, &a.output, &options)?;
+    let s = match any.colors() {
+        Some(t) => export_colored_ply_file(t, &a.output, &options)?,
+        None => export_ply_file(any.occupancy(), &a.output, &options)?,
+    };
     if a.json {
         print_json(&serde_json::json!({
             "map": json_path(&a.map),
@@ -69,6 +81,7 @@ pub fn run(a: &Args) -> Result<()> {
             "free": s.free,
             "vertices": s.vertices,
             "faces": s.faces,
+            "voxel_colors": colored,
         }))?;
     } else {
         errln!(

@@ -2,12 +2,12 @@
 
 use super::{json_path, print_json};
 use anyhow::Result;
-use octoquant::treefile::read_tree_file;
+use octoquant::treefile::{read_any_tree_file, AnyTree};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The .bt or .ot file.
+    /// The .bt or .ot file (an OctoMap OcTree, ColorOcTree or OcTreeStamped).
     file: PathBuf,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -15,7 +15,14 @@ pub struct Args {
 }
 
 pub fn run(a: &Args) -> Result<()> {
-    let mut tree = read_tree_file(&a.file)?;
+    let any = read_any_tree_file(&a.file)?;
+    let kind = any.type_name();
+    let colored = any.colors().map(|t| t.num_colored_nodes());
+    let stamps = match &any {
+        AnyTree::Stamped(t) => Some(t.last_update_time()),
+        _ => None,
+    };
+    let mut tree = any.into_occupancy();
     tree.shrink_to_fit();
     let c = tree.counts();
     let bounds = tree.metric_bounds();
@@ -40,6 +47,8 @@ pub fn run(a: &Args) -> Result<()> {
         });
         print_json(&serde_json::json!({
             "file": json_path(&a.file),
+            "type": kind,
+            "colored_nodes": colored,
             "resolution": tree.resolution(),
             "nodes": c.nodes,
             "inner": c.inner,
@@ -54,6 +63,13 @@ pub fn run(a: &Args) -> Result<()> {
         }))?;
     } else {
         outln!("file:            {}", a.file.display())?;
+        outln!("type:            {kind}")?;
+        if let Some(n) = colored {
+            outln!("colours:         {n} nodes with a colour")?;
+        }
+        if let Some(t) = stamps {
+            outln!("last update:     {t} (OctoMap's .ot keeps no time stamps)")?;
+        }
         outln!("resolution:      {:?} m", tree.resolution())?;
         outln!("nodes:           {} ({} inner)", c.nodes, c.inner)?;
         outln!(

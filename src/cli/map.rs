@@ -6,14 +6,17 @@ use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
+use octoquant::color_map::{ColorMapper, ColorMerge};
 use octoquant::filters::{CropBox, GroundFilter, PointFilters};
 use octoquant::formats::{count_frames, frame_stream, FormatError, FrameStream, ReadOptions};
+use octoquant::octree::io::TreeFormat;
 use octoquant::output::{check_output, check_writable, remove_stale_temporaries, same_file};
-use octoquant::pipeline::{CheckpointOptions, InsertMode, Mapper, MapperOptions};
+use octoquant::pipeline::{CheckpointOptions, InsertMode, MapStats, Mapper, MapperOptions};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
-use octoquant::treefile::{write_tree_file, TREE_EXTENSIONS};
+use octoquant::stamped_map::StampedMapper;
+use octoquant::treefile::{save_color_tree_file, write_tree_file, TREE_EXTENSIONS};
 use octoquant::Frame;
 use octoquant_raycast::RayModel;
 use std::path::PathBuf;
@@ -55,6 +58,30 @@ pub struct Args {
     /// Also write the full tree as .ot (before the .bt's max-likelihood conversion).
     #[arg(long)]
     ot: Option<PathBuf>,
+    /// Build a coloured map (OctoMap's ColorOcTree, written as .ot) from inputs that carry
+    /// colour (PCD rgb/rgba, PLY red/green/blue, a TUM association with its RGB images,
+    /// PointCloud2 rgb/rgba), as octomap_server's colour server inserts scans: each end
+    /// point's colour merges into its voxel before the scan's updates (so a voxel takes colour
+    /// from its second sighting on), then the scan, then prune. Exact mode only, without
+    /// --max-range, filters, --reduce, --lazy or checkpoints.
+    #[arg(long, conflicts_with_all = ["checkpoint", "ot", "discretize", "mode", "lazy", "reduce"])]
+    color: bool,
+    /// How an end point's colour merges into its voxel: `average` (octomap_server's
+    /// averageNodeColor) or `integrate` (OctoMap's occupancy-weighted integrateNodeColor).
+    #[arg(long, value_enum, default_value = "average", requires = "color")]
+    color_merge: ColorMergeArg,
+    /// Build a time-stamped map (OctoMap's OcTreeStamped, written as .ot): every voxel and
+    /// inner node a frame updates is stamped with the frame's time in whole seconds (the
+    /// system clock for inputs without time stamps). OctoMap's .ot keeps no stamps, so they
+    /// matter through pruning (equal leaves of different stamps stay apart) and
+    /// --degrade-older-than.
+    #[arg(long, conflicts_with_all = ["color", "checkpoint", "ot", "lazy"])]
+    stamped: bool,
+    /// With --stamped: after each frame, give every occupied voxel last updated more than S
+    /// seconds before the frame one miss (OctoMap's degradeOutdatedNodes), so obstacles that
+    /// are no longer seen fade away.
+    #[arg(long, value_name = "S", requires = "stamped")]
+    degrade_older_than: Option<u32>,
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
@@ -84,7 +111,8 @@ pub struct Args {
             "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray",
             "lazy", "sensor_model", "clamping", "sensor", "reduce", "output", "ot", "drop_zero", "min_range",
             "crop_sensor", "crop_world", "zmin", "zmax", "ground", "ground_angle",
-            "ground_iterations", "ground_seed",
+            "ground_iterations", "ground_seed", "color", "color_merge", "stamped",
+            "degrade_older_than",
         ]
     )]
     resume: Option<PathBuf>,
@@ -464,7 +492,195 @@ impl Iterator for InputFrames {
     }
 }
 
+/// `--color-merge` values.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ColorMergeArg {
+    /// octomap_server's averageNodeColor.
+    Average,
+    /// OctoMap's integrateNodeColor.
+    Integrate,
+}
+
+impl From<ColorMergeArg> for ColorMerge {
+    fn from(m: ColorMergeArg) -> Self {
+        match m {
+            ColorMergeArg::Average => ColorMerge::Average,
+            ColorMergeArg::Integrate => ColorMerge::Integrate,
+        }
+    }
+}
+
+/// The plan of a `--color` or `--stamped` run (`flag`, writing OctoMap tree type `kind`):
+/// inputs needed, an .ot output.
+fn typed_plan(a: &Args, flag: &str, kind: &str) -> Result<Plan> {
+    if a.input.inputs.is_empty() && flag == "--color" {
+        bail!("--color needs inputs that carry colour (the built-in scene has none)");
+    }
+    // checked before the plan, which may make a directory for a default output
+    let ot = a
+        .output
+        .as_deref()
+        .is_some_and(|o| TreeFormat::from_path(o) == Some(TreeFormat::Ot));
+    if !ot {
+        let named = a.output.as_deref().map_or_else(
+            || "no output was named".to_string(),
+            |o| format!("not {}", o.display()),
+        );
+        bail!(
+            "{flag} writes a {kind}, which only the .ot format holds (a .bt keeps occupancy only): name an .ot output with -o ({named})"
+        );
+    }
+    Plan::from_args(a)
+}
+
+/// The frames of `plan`'s inputs (colours read when `colors`), the built-in scene without
+/// inputs.
+fn typed_frames(plan: &Plan, colors: bool, load: Arc<AtomicU64>) -> Result<Frames> {
+    if plan.inputs.is_empty() {
+        return plan.frame_source(load).map(|(f, _)| f);
+    }
+    let mut read = plan.read.options();
+    read.colors = colors;
+    let mut inputs = InputFrames {
+        paths: plan.inputs.clone().into(),
+        read,
+        current: None,
+        load,
+    };
+    inputs.open_next()?;
+    Ok(Box::new(inputs))
+}
+
+/// `map --stamped`: an OcTreeStamped, written as .ot.
+fn run_stamped(a: &Args) -> Result<()> {
+    let plan = typed_plan(a, "--stamped", "OcTreeStamped")?;
+    let mut mapper = StampedMapper::new(plan.options.clone(), a.degrade_older_than)?;
+    plan.preflight()?;
+    let load_ns = Arc::new(AtomicU64::new(0));
+    let frames = typed_frames(&plan, false, load_ns.clone())?;
+    let mut progress = Progress::new(a.quiet, a.progress_every, None);
+    let mut stats = MapStats::default();
+    for frame in frames {
+        let st = mapper.insert(&frame?)?;
+        stats.add(&st);
+        progress.update(&stats, stats.total.points, 0);
+    }
+    progress.finish();
+    let tree = mapper.into_tree();
+    octoquant::output::write_atomic(&plan.output, |w| {
+        octoquant::octree::io::write_stamped_ot(&tree, w)
+    })?;
+    let t = &stats.total;
+    let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
+    if a.json {
+        let json = serde_json::json!({
+            "frames": stats.frames,
+            "points": t.points,
+            "non_finite": t.non_finite,
+            "outside_map": t.outside_map,
+            "free_updates": t.free,
+            "occupied_updates": t.occupied,
+            "load_seconds": load_s,
+            "insert_seconds": t.seconds,
+            "resolution": tree.resolution(),
+            "nodes": tree.size(),
+            "last_update": tree.last_update_time(),
+            "degrade_older_than": a.degrade_older_than,
+            "output": plan.output.to_string_lossy(),
+        });
+        outln!("{json}")?;
+    } else {
+        outln!("frames:          {}", stats.frames)?;
+        outln!(
+            "points:          {} ({} non-finite and {} outside the map skipped)",
+            t.points,
+            t.non_finite,
+            t.outside_map
+        )?;
+        outln!("loading:         {load_s:.3} s")?;
+        outln!("insertion:       {:.3} s", t.seconds)?;
+        outln!(
+            "tree:            {} nodes, last update at {} s",
+            tree.size(),
+            tree.last_update_time()
+        )?;
+        outln!("wrote:           {}", plan.output.display())?;
+    }
+    Ok(())
+}
+
+/// `map --color`: a ColorOcTree from coloured inputs, written as .ot.
+fn run_color(a: &Args) -> Result<()> {
+    let plan = typed_plan(a, "--color", "ColorOcTree")?;
+    let mut mapper = ColorMapper::new(plan.options.clone(), a.color_merge.into())?;
+    plan.preflight()?;
+    let load_ns = Arc::new(AtomicU64::new(0));
+    let inputs = typed_frames(&plan, true, load_ns.clone())?;
+    let mut progress = Progress::new(a.quiet, a.progress_every, None);
+    let mut stats = MapStats::default();
+    for frame in inputs {
+        let frame = frame?;
+        let st = mapper.insert(&frame).with_context(|| {
+            let names: Vec<String> = plan
+                .inputs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect();
+            format!("mapping {} in colour", names.join(", "))
+        })?;
+        stats.add(&st);
+        progress.update(&stats, stats.total.points, 0);
+    }
+    progress.finish();
+    let tree = mapper.into_tree();
+    save_color_tree_file(&tree, &plan.output)?;
+    let t = &stats.total;
+    let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
+    if a.json {
+        let json = serde_json::json!({
+            "frames": stats.frames,
+            "points": t.points,
+            "non_finite": t.non_finite,
+            "outside_map": t.outside_map,
+            "free_updates": t.free,
+            "occupied_updates": t.occupied,
+            "load_seconds": load_s,
+            "insert_seconds": t.seconds,
+            "resolution": tree.resolution(),
+            "nodes": tree.size(),
+            "colored_nodes": tree.num_colored_nodes(),
+            "color_merge": ColorMerge::from(a.color_merge).name(),
+            "output": plan.output.to_string_lossy(),
+        });
+        outln!("{json}")?;
+    } else {
+        outln!("frames:          {}", stats.frames)?;
+        outln!(
+            "points:          {} ({} non-finite and {} outside the map skipped)",
+            t.points,
+            t.non_finite,
+            t.outside_map
+        )?;
+        outln!("loading:         {load_s:.3} s")?;
+        outln!("insertion:       {:.3} s", t.seconds)?;
+        outln!(
+            "tree:            {} nodes, {} with a colour ({} merge)",
+            tree.size(),
+            tree.num_colored_nodes(),
+            ColorMerge::from(a.color_merge).name()
+        )?;
+        outln!("wrote:           {}", plan.output.display())?;
+    }
+    Ok(())
+}
+
 pub fn run(a: &Args) -> Result<()> {
+    if a.color {
+        return run_color(a);
+    }
+    if a.stamped {
+        return run_stamped(a);
+    }
     let resumed = match &a.resume {
         Some(dir) => Some(Checkpoint::load(dir)?),
         None => None,

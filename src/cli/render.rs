@@ -4,13 +4,13 @@ use super::vocab::ViewArg;
 use super::{json_path, print_json};
 use anyhow::Result;
 use octoquant::output::check_output;
-use octoquant::render::{render_png_file, RenderOptions};
-use octoquant::treefile::read_tree_file;
+use octoquant::render::{render_colored_png_file, render_png_file, RenderOptions};
+use octoquant::treefile::read_any_tree_file;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The .bt or .ot map.
+    /// The .bt or .ot map (a ColorOcTree is drawn in its voxel colours).
     map: PathBuf,
     /// Output PNG.
     #[arg(short, long)]
@@ -34,20 +34,24 @@ pub struct Args {
 
 pub fn run(a: &Args) -> Result<()> {
     check_output(&a.output, &["png"], std::slice::from_ref(&a.map))?;
-    let tree = read_tree_file(&a.map)?;
+    let any = read_any_tree_file(&a.map)?;
     let options = RenderOptions {
         view: a.view.into(),
         slice: a.slice,
         map_pixels: a.size,
         show_free: !a.no_free,
     };
-    let image = render_png_file(&tree, &a.output, &options)?;
+    let image = match any.colors() {
+        Some(t) => render_colored_png_file(t, &a.output, &options)?,
+        None => render_png_file(any.occupancy(), &a.output, &options)?,
+    };
     if a.json {
         print_json(&serde_json::json!({
             "map": json_path(&a.map),
             "output": json_path(&a.output),
             "width": image.width,
             "height": image.height,
+            "voxel_colors": any.colors().is_some(),
         }))?;
     } else {
         errln!(

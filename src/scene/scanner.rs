@@ -439,6 +439,7 @@ pub fn scan_terrestrial(
             points,
             stamp: Some(60.0 * i as f64),
             camera: None,
+            colors: None,
         });
         all_stats.push(stats);
     }
@@ -492,6 +493,7 @@ pub fn scan_lidar(
             points,
             stamp: Some(i as f64 / lidar.rate_hz),
             camera: None,
+            colors: None,
         });
         all_stats.push(stats);
     }

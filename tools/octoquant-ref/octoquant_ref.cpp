@@ -37,6 +37,13 @@
 //                                     setNodeColor / averageNodeColor / integrateNodeColor
 //   points FILE LAZY                  per point: updateNode(point, true, lazy), then
 //                                     integrateNodeColor(x, y, z, r, g, b)
+//   colorscan FRAMES COLORS average|integrate
+//                                     per frame, octomap_server's colour insertScan (no ground
+//                                     filter, no max range): per point in order, its ray's keys
+//                                     into a free KeySet, its key into an occupied KeySet and
+//                                     averageNodeColor (or integrateNodeColor) at the point;
+//                                     then updateNode(false) on each free key not occupied,
+//                                     updateNode(true) on each occupied key; then prune()
 //
 // Clock commands (stamped-script only; the program defines time() itself, so OctoMap's
 // time(NULL) calls, made inside liboctomap, read this clock instead of the system's):
@@ -49,7 +56,7 @@
 //
 // Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
 // f32 origin[3], u32 n, n x f32[3]. Coloured points (points): u32 n, n x (f32[3], u8 r g b,
-// u8 padding).
+// u8 padding). Frame colours (colorscan): u32 frame count, per frame u32 n, n x u8 r g b.
 
 #include <octomap/octomap.h>
 #include <octomap/OcTree.h>
@@ -61,6 +68,7 @@
 #include <type_traits>
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -195,6 +203,45 @@ static void insert_colored_points(ColorOcTree& tree, const std::string& path, bo
     for (uint8_t& v : c) v = get<uint8_t>(in, "colour");
     tree.updateNode(point3d(p[0], p[1], p[2]), true, lazy);
     tree.integrateNodeColor(p[0], p[1], p[2], c[0], c[1], c[2]);
+  }
+}
+
+// octomap_server's insertScan as its colour server builds it (COLOR_OCTOMAP_SERVER), without
+// ground filtering or a maximum range: the colours merge while the key sets are collected,
+// before the scan's occupancy updates; the map is pruned after each scan (compress_map).
+static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_path,
+                                 const std::string& colors_path, bool integrate) {
+  std::vector<Frame> frames = read_frames(frames_path);
+  std::ifstream in(colors_path, std::ios::binary);
+  if (!in) die("cannot open " + colors_path);
+  uint32_t count = get<uint32_t>(in, "colour frame count");
+  if (count != frames.size()) die(colors_path + ": frame count differs from the frames file");
+  KeyRay ray;
+  for (const Frame& fr : frames) {
+    uint32_t n = get<uint32_t>(in, "colour count");
+    if (n != fr.cloud.size()) die(colors_path + ": colour count differs from the point count");
+    KeySet free_cells, occupied_cells;
+    for (uint32_t i = 0; i < n; ++i) {
+      uint8_t c[3];
+      for (uint8_t& v : c) v = get<uint8_t>(in, "colour");
+      const point3d& p = fr.cloud[i];
+      // PCL's filters hand octomap_server no NaN point
+      if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) continue;
+      if (tree.computeRayKeys(fr.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
+      OcTreeKey key;
+      if (tree.coordToKeyChecked(p, key)) {
+        occupied_cells.insert(key);
+        if (integrate)
+          tree.integrateNodeColor(p.x(), p.y(), p.z(), c[0], c[1], c[2]);
+        else
+          tree.averageNodeColor(p.x(), p.y(), p.z(), c[0], c[1], c[2]);
+      }
+    }
+    for (KeySet::iterator it = free_cells.begin(); it != free_cells.end(); ++it)
+      if (occupied_cells.find(*it) == occupied_cells.end()) tree.updateNode(*it, false);
+    for (KeySet::iterator it = occupied_cells.begin(); it != occupied_cells.end(); ++it)
+      tree.updateNode(*it, true);
+    tree.prune();
   }
 }
 
@@ -338,6 +385,13 @@ static int run_script(std::istream& in) {
         std::string p;
         ls >> p;
         insert_colored_points(*tree, p, lazy_from(ls));
+      }
+    } else if (color && cmd == "colorscan") {
+      if constexpr (color) {
+        std::string frames, colors, merge;
+        if (!(ls >> frames >> colors >> merge) || (merge != "average" && merge != "integrate"))
+          die("colorscan needs FRAMES COLORS average|integrate");
+        insert_colored_scans(*tree, frames, colors, merge == "integrate");
       }
     } else if (stamped && cmd == "clock") {
       if (!(ls >> g_clock) || g_clock < 0) die("clock needs a time >= 0");

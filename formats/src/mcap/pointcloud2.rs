@@ -1,13 +1,19 @@
 //! `sensor_msgs/PointCloud2`: decoding a message ([`decode_point_cloud2`]) and extracting the
 //! valid `x y z` of any field layout ([`PointCloud2::points_f32`]).
 //!
+//! On request the colours come along ([`PointCloud2::points_colors_f32`]): the `rgb` or `rgba`
+//! field, 4 bytes (`FLOAT32`, `UINT32` or `INT32`) packed as `0xAARRGGBB` (see
+//! [`crate::packed_color`]), one colour per kept point.
+//!
 //! The point bytes follow the message's own `is_bigendian`, `point_step`, `row_step` and field
 //! offsets; `x`, `y`, `z` may be `FLOAT32` or `FLOAT64`. Drivers store missing returns as NaN
 //! or as exactly (0, 0, 0) (the Ouster driver does, even with `is_dense` set); both are skipped
 //! and counted ([`CloudStats`]).
 
 use super::cdr::{DecodeError, Encoding, Reader};
+use crate::packed_color::unpack_rgb;
 use nalgebra::Point3;
+use octoquant_octree::Color;
 
 /// The schema names of PointCloud2 channels (ROS 1, ROS 2).
 pub(super) const CLOUD_SCHEMAS: [&str; 2] =
@@ -180,9 +186,47 @@ impl PointCloud2 {
         Ok(out)
     }
 
+    /// The byte offset of the packed colour field (`rgb`, else `rgba`), `None` when the cloud
+    /// has neither; errors when it is not 4 bytes or not inside `point_step`.
+    fn color_offset(&self) -> Result<Option<usize>, String> {
+        let Some(f) = ["rgb", "rgba"]
+            .iter()
+            .find_map(|n| self.fields.iter().find(|f| f.name == *n))
+        else {
+            return Ok(None);
+        };
+        if !matches!(
+            f.datatype,
+            datatype::FLOAT32 | datatype::UINT32 | datatype::INT32
+        ) {
+            return Err(format!(
+                "colour field {:?} has datatype {}; only 4-byte packed colours (FLOAT32, UINT32, INT32) are supported",
+                f.name, f.datatype
+            ));
+        }
+        if f.offset as u64 + 4 > self.point_step as u64 {
+            return Err(format!(
+                "colour field {:?} at offset {} does not fit in point_step {}",
+                f.name, f.offset, self.point_step
+            ));
+        }
+        Ok(Some(f.offset as usize))
+    }
+
     /// The valid points (row by row, as `f32` storage) and the counts of skipped ones.
     pub fn points_f32(&self) -> Result<(Vec<Point3<f32>>, CloudStats), String> {
+        self.points_colors_f32(false).map(|(p, _, st)| (p, st))
+    }
+
+    /// [`PointCloud2::points_f32`] with, when `colors` is set and the cloud has an `rgb` or
+    /// `rgba` field, the colour of each kept point.
+    #[allow(clippy::type_complexity)]
+    pub fn points_colors_f32(
+        &self,
+        colors: bool,
+    ) -> Result<(Vec<Point3<f32>>, Option<Vec<Color>>, CloudStats), String> {
         let layout = self.layout()?;
+        let color = if colors { self.color_offset()? } else { None };
         let total = self.height as usize * self.width as usize;
         let mut stats = CloudStats {
             points: total,
@@ -190,9 +234,10 @@ impl PointCloud2 {
         };
         if total == 0 {
             // a zero width (or height) must not cost a loop over 2^32 empty rows
-            return Ok((Vec::new(), stats));
+            return Ok((Vec::new(), color.map(|_| Vec::new()), stats));
         }
         let mut pts = Vec::with_capacity(total);
+        let mut cols = Vec::with_capacity(if color.is_some() { total } else { 0 });
         let be = self.is_bigendian;
         let read = |at: usize, f64_: bool| -> f64 {
             if f64_ {
@@ -222,11 +267,22 @@ impl PointCloud2 {
                     stats.zero += 1;
                 } else {
                     pts.push(Point3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+                    if let Some(off) = color {
+                        let b: [u8; 4] = self.data[base + off..base + off + 4]
+                            .try_into()
+                            .unwrap_or([0; 4]);
+                        let bits = if be {
+                            u32::from_be_bytes(b)
+                        } else {
+                            u32::from_le_bytes(b)
+                        };
+                        cols.push(unpack_rgb(bits));
+                    }
                 }
             }
         }
         stats.kept = pts.len();
-        Ok((pts, stats))
+        Ok((pts, color.map(|_| cols), stats))
     }
 }
 
@@ -264,6 +320,60 @@ mod tests {
         };
         let e = cloud.points_f32().unwrap_err();
         assert!(e.contains("data holds 64 bytes"), "{e}");
+    }
+
+    #[test]
+    fn colours_follow_the_kept_points_in_either_byte_order() {
+        let field = |name: &str, offset, datatype| PointField {
+            name: name.into(),
+            offset,
+            datatype,
+            count: 1,
+        };
+        let mut data = Vec::new();
+        // (1, 2, 3) red, (0, 0, 0) skipped, (4, 5, 6) blue; big-endian
+        for (p, c) in [
+            ([1f32, 2., 3.], 0x00ff_0000u32),
+            ([0., 0., 0.], 0x00ff_ffff),
+            ([4., 5., 6.], 0x0000_00ff),
+        ] {
+            for v in p {
+                data.extend_from_slice(&v.to_be_bytes());
+            }
+            data.extend_from_slice(&c.to_be_bytes());
+        }
+        let cloud = PointCloud2 {
+            frame_id: "f".into(),
+            stamp: 0.0,
+            height: 1,
+            width: 3,
+            fields: vec![
+                field("x", 0, datatype::FLOAT32),
+                field("y", 4, datatype::FLOAT32),
+                field("z", 8, datatype::FLOAT32),
+                field("rgb", 12, datatype::FLOAT32),
+            ],
+            is_bigendian: true,
+            point_step: 16,
+            row_step: 48,
+            data,
+            is_dense: false,
+        };
+        let (p, c, st) = cloud.points_colors_f32(true).unwrap();
+        assert_eq!((p.len(), st.zero), (2, 1));
+        assert_eq!(c, Some(vec![Color::new(255, 0, 0), Color::new(0, 0, 255)]));
+        assert_eq!(cloud.points_colors_f32(false).unwrap().1, None);
+        let mut bad = cloud.clone();
+        bad.fields[3].offset = 13;
+        assert!(bad
+            .points_colors_f32(true)
+            .unwrap_err()
+            .contains("does not fit"));
+        bad.fields[3] = field("rgba", 12, datatype::UINT8);
+        assert!(bad
+            .points_colors_f32(true)
+            .unwrap_err()
+            .contains("4-byte packed"));
     }
 
     #[test]

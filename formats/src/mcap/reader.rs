@@ -31,6 +31,9 @@ pub struct McapOptions {
     pub fixed_frame: Option<String>,
     /// Pose of the fixed frame in the world, applied last (identity by default).
     pub sensor_pose: Option<Isometry3<f64>>,
+    /// Read each point's colour from the cloud's `rgb`/`rgba` field into [`Frame::colors`]
+    /// (set from [`crate::ReadOptions::colors`] by [`crate::read_frames`]).
+    pub colors: bool,
 }
 
 /// A topic of an MCAP file.
@@ -637,6 +640,7 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         path: path.to_path_buf(),
         topic,
         fixed_frame: options.fixed_frame.clone(),
+        colors: options.colors,
         world: options.sensor_pose.unwrap_or_else(Isometry3::identity),
         tf,
         messages: Messages::new(path, open_file(path)?)?,
@@ -672,6 +676,7 @@ pub struct McapFrames {
     path: PathBuf,
     topic: String,
     fixed_frame: Option<String>,
+    colors: bool,
     world: Isometry3<f64>,
     tf: TfTree,
     messages: Messages<BufReader<File>>,
@@ -740,7 +745,7 @@ impl McapFrames {
             }
         };
         let pose = self.world * to_fixed;
-        let (pts, st) = cloud.points_f32().map_err(|message| {
+        let (pts, colors, st) = cloud.points_colors_f32(self.colors).map_err(|message| {
             FormatError::syntax(
                 path,
                 Location::File,
@@ -758,6 +763,7 @@ impl McapFrames {
                 points,
                 stamp: Some(cloud.stamp),
                 camera: None,
+                colors,
             },
             st,
         )))

@@ -1,6 +1,6 @@
 //! `.bt`: OctoMap's binary max-likelihood format (`writeBinary` / `readBinary`).
 
-use super::header::{read_header, write_header};
+use super::header::{read_header_any, write_header, write_header_id};
 use super::stream::Stream;
 use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
@@ -18,6 +18,24 @@ pub fn write_bt<W: Write>(tree: &mut OcTree, w: W) -> std::io::Result<()> {
     tree.to_max_likelihood();
     tree.prune();
     write_bt_const(tree, w)
+}
+
+/// [`write_bt`] with the header naming another OctoMap tree type (`id ColorOcTree`,
+/// `id OcTreeStamped`), as OctoMap's `writeBinary` names the type of the tree it is called on.
+/// The node bits are the max-likelihood, pruned occupancy of `tree`: what OctoMap writes for a
+/// `ColorOcTree` (colours never stop a collapse) and for an `OcTreeStamped` whose stamps are
+/// all equal (as after reading an `.ot`, which keeps none).
+pub fn write_bt_typed<W: Write>(tree: &mut OcTree, id: &str, w: W) -> std::io::Result<()> {
+    tree.to_max_likelihood();
+    tree.prune();
+    let mut w = std::io::BufWriter::with_capacity(1 << 16, w);
+    write_header_id(&mut w, BT_HEADER, id, tree.size(), tree.resolution())?;
+    if !tree.is_empty() {
+        let mut out = Vec::with_capacity(2 * tree.size() / 4 + 2);
+        write_node(tree, NodeRef::ROOT, &mut out);
+        w.write_all(&out)?;
+    }
+    w.flush()
 }
 
 /// Write `tree` as it is (OctoMap's `writeBinaryConst`): occupancy by the threshold, no
@@ -78,8 +96,16 @@ pub fn read_bt<R: Read>(reader: R) -> Result<OcTree, OctreeError> {
     read_bt_after_first_line(&mut s)
 }
 
+/// The tree types whose `.bt` files this reader takes: a `.bt` holds occupancy only, whatever
+/// type wrote it (OctoMap's `readBinary` reads any), so `ColorOcTree` and `OcTreeStamped`
+/// files read as their occupancy.
+const BT_TREE_TYPES: [&str; 4] = ["OcTree", "1", "ColorOcTree", "OcTreeStamped"];
+
 pub(crate) fn read_bt_after_first_line<R: Read>(s: &mut Stream<R>) -> Result<OcTree, OctreeError> {
-    let h = read_header(s, FMT)?;
+    let (h, id) = read_header_any(s, FMT)?;
+    if !BT_TREE_TYPES.contains(&id.as_str()) {
+        return Err(OctreeError::UnsupportedTreeType { id });
+    }
     read_body(s, h.res, h.size)
 }
 

@@ -1,0 +1,293 @@
+//! Coloured maps: scans with per-point colours into a [`ColorOcTree`], as octomap_server's
+//! colour server (`octomap_color_server`, `OctomapServer::insertScan` built with
+//! `COLOR_OCTOMAP_SERVER`) builds them.
+//!
+//! For each scan, in this order (octomap_server's, read from its source):
+//!
+//! 1. every end point, in scan order, merges its colour into the node that holds its voxel
+//!    *now*, before this scan's occupancy updates (octomap_server calls `averageNodeColor`
+//!    inside its loop over the points, which only collects the key sets). A node that does not
+//!    exist yet (unknown space) takes no colour: an end point is coloured from its second
+//!    observation on. [`ColorMerge::Average`] is octomap_server's `averageNodeColor`;
+//!    [`ColorMerge::Integrate`] uses OctoMap's occupancy-weighted `integrateNodeColor` instead.
+//!    Points with a NaN or infinite coordinate are skipped (PCL's filters drop them before
+//!    octomap_server sees the cloud), as are points outside the map;
+//! 2. one miss per free voxel (the rays' voxels that are not end-point voxels), then one hit
+//!    per end-point voxel, eager (`updateNode(key, occupied)`, pruning on the way), with the
+//!    colour bookkeeping of every expansion and pruning ([`ColorOcTree::update_node`]);
+//! 3. `prune()` (octomap_server's default `compress_map`).
+//!
+//! The free and occupied voxel sets are those of OctoMap's `computeUpdate`, built as
+//! octomap_server builds them (each ray's keys with OctoMap's DDA, point by point) and walked
+//! in the order of octomap_server's `KeySet`s ([`crate::keyset_order`]): occupancy does not
+//! depend on that order, but colours do (a node pruned by one update and expanded by a later
+//! one of the same scan hands the children's average colour to all of them).
+//!
+//! Only octomap_server's default insertion is reproduced: no maximum range (octomap_server
+//! also clears the clipped ray's end voxel, which OctoMap's `insertPointCloud` does not), no
+//! point filters, reduction, quantization or lazy updates; [`ColorMapper::new`] refuses them.
+
+use crate::keyset_order::KeySetOrder;
+use crate::pipeline::{FrameStats, InsertMode, MapperOptions};
+use octoquant_formats::Frame;
+use octoquant_octree::{ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
+use octoquant_raycast::{compute_ray_keys_f32, KeyRay};
+use std::time::Instant;
+
+/// How an end point's colour merges into its node's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ColorMerge {
+    /// OctoMap's `averageNodeColor`: the integer mean of the old and new colour
+    /// (octomap_server's rule).
+    #[default]
+    Average,
+    /// OctoMap's `integrateNodeColor`: the old colour weighted by the node's occupancy
+    /// probability `p`, the new one by `0.99 − p`.
+    Integrate,
+}
+
+impl ColorMerge {
+    /// The name used on the command line (`average`, `integrate`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ColorMerge::Average => "average",
+            ColorMerge::Integrate => "integrate",
+        }
+    }
+}
+
+/// Why a coloured map cannot be built as asked.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ColorMapError {
+    /// An option octomap_server's colour insertion does not have.
+    #[error("coloured mapping follows octomap_server's insertion, which has no {0}")]
+    Unsupported(&'static str),
+    /// A frame without colours.
+    #[error(
+        "frame {frame} has no colours (coloured inputs: PCD rgb/rgba, PLY red/green/blue, a TUM association with its RGB images, PointCloud2 rgb/rgba)"
+    )]
+    NoColors {
+        /// The frame's index among those inserted.
+        frame: usize,
+    },
+    /// A frame whose colour count differs from its point count.
+    #[error("frame {frame} has {colors} colours for {points} points")]
+    ColorCount {
+        /// The frame's index among those inserted.
+        frame: usize,
+        /// Its colours.
+        colors: usize,
+        /// Its points.
+        points: usize,
+    },
+    /// The tree cannot be made (an invalid resolution or sensor model).
+    #[error(transparent)]
+    Octree(#[from] OctreeError),
+}
+
+/// Builds a [`ColorOcTree`] from coloured frames, scan by scan as octomap_server's colour
+/// server does (see the module docs).
+pub struct ColorMapper {
+    tree: ColorOcTree,
+    conv: KeyConverter,
+    ray: KeyRay,
+    merge: ColorMerge,
+    frames: usize,
+}
+
+impl std::fmt::Debug for ColorMapper {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ColorMapper")
+            .field("merge", &self.merge)
+            .field("frames", &self.frames)
+            .field("tree", &self.tree)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ColorMapper {
+    /// A mapper into a new tree of `options.resolution` and `options.params`. Only exact mode
+    /// without a maximum range, filters, reduction or lazy updates is octomap_server's
+    /// insertion; anything else is [`ColorMapError::Unsupported`].
+    pub fn new(options: MapperOptions, merge: ColorMerge) -> Result<Self, ColorMapError> {
+        let unsupported = if options.mode != InsertMode::Exact {
+            Some("insertion mode but exact")
+        } else if options.max_range.is_some() {
+            Some("maximum range like OctoMap's insertPointCloud")
+        } else if options.lazy {
+            Some("lazy insertion")
+        } else if options.reduce.is_some() {
+            Some("density reduction")
+        } else if options.filters.is_active() {
+            Some("octoquant point filters")
+        } else {
+            None
+        };
+        if let Some(what) = unsupported {
+            return Err(ColorMapError::Unsupported(what));
+        }
+        let tree = ColorOcTree::with_params(options.resolution, options.params)?;
+        Ok(ColorMapper {
+            conv: KeyConverter::new(options.resolution)?,
+            ray: KeyRay::new(),
+            tree,
+            merge,
+            frames: 0,
+        })
+    }
+
+    /// Insert one coloured frame (world coordinates); errors, changing nothing, when the frame
+    /// has no colours or not one per point.
+    pub fn insert(&mut self, frame: &Frame) -> Result<FrameStats, ColorMapError> {
+        let index = self.frames;
+        let colors = frame
+            .colors
+            .as_deref()
+            .ok_or(ColorMapError::NoColors { frame: index })?;
+        if colors.len() != frame.points.len() {
+            return Err(ColorMapError::ColorCount {
+                frame: index,
+                colors: colors.len(),
+                points: frame.points.len(),
+            });
+        }
+        let start = Instant::now();
+        let mut st = FrameStats {
+            points: frame.points.len(),
+            reduced: frame.points.len(),
+            ..FrameStats::default()
+        };
+        // octomap_server's loop over the points: key sets, and each end point's colour into
+        // its node as the tree is now
+        let (mut free, mut occupied) = (KeySetOrder::new(), KeySetOrder::new());
+        let origin = frame.origin;
+        for (p, &c) in frame.points.iter().zip(colors) {
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                st.non_finite += 1;
+                continue;
+            }
+            if *p == origin {
+                st.zero += 1;
+            }
+            st.rays += 1;
+            if compute_ray_keys_f32(&self.conv, &origin, p, &mut self.ray) {
+                free.insert_range(self.ray.keys());
+            }
+            let Some(key) = self.conv.point_to_key(&p.cast::<f64>()) else {
+                st.outside_map += 1;
+                continue;
+            };
+            occupied.insert(key);
+            match self.merge {
+                ColorMerge::Average => self.tree.average_node_color(key, c),
+                ColorMerge::Integrate => self.tree.integrate_node_color(key, c),
+            };
+        }
+        st.ray_seconds = start.elapsed().as_secs_f64();
+        let tree_start = Instant::now();
+        for k in free.iter() {
+            if !occupied.contains(&k) {
+                self.tree.update_node(k, Update::Miss, InnerNodes::Refresh);
+                st.free += 1;
+            }
+        }
+        for k in occupied.iter() {
+            self.tree.update_node(k, Update::Hit, InnerNodes::Refresh);
+            st.occupied += 1;
+        }
+        self.tree.prune();
+        st.tree_seconds = tree_start.elapsed().as_secs_f64();
+        st.seconds = start.elapsed().as_secs_f64();
+        self.frames += 1;
+        Ok(st)
+    }
+
+    /// Frames inserted so far.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// The tree built so far.
+    pub fn tree(&self) -> &ColorOcTree {
+        &self.tree
+    }
+
+    /// The tree, consuming the mapper.
+    pub fn into_tree(self) -> ColorOcTree {
+        self.tree
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+    use octoquant_octree::Color;
+
+    fn frame(points: &[[f32; 3]], colors: Option<Vec<Color>>) -> Frame {
+        Frame {
+            colors,
+            ..Frame::new_f32(
+                Point3::origin(),
+                points.iter().map(|p| Point3::from(*p)).collect(),
+            )
+        }
+    }
+
+    /// The first sighting of a voxel gives it no colour (its node does not exist yet when the
+    /// colours merge); the second averages into it; the occupancy is the plain mapper's.
+    #[test]
+    fn colour_merges_before_the_scan_updates() {
+        let mut m = ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+        let p = [[1.05f32, 0.05, 0.05]];
+        m.insert(&frame(&p, Some(vec![Color::new(100, 0, 0)])))
+            .unwrap();
+        let key = m.conv.point_to_key(&Point3::new(1.05, 0.05, 0.05)).unwrap();
+        assert_eq!(m.tree().node_color(key), Some(Color::WHITE));
+        m.insert(&frame(&p, Some(vec![Color::new(100, 0, 0)])))
+            .unwrap();
+        assert_eq!(m.tree().node_color(key), Some(Color::new(100, 0, 0)));
+        m.insert(&frame(&p, Some(vec![Color::new(0, 50, 0)])))
+            .unwrap();
+        assert_eq!(m.tree().node_color(key), Some(Color::new(50, 25, 0)));
+        let mut plain = crate::Mapper::new(MapperOptions::default()).unwrap();
+        for _ in 0..3 {
+            plain.insert(&frame(&p, None));
+        }
+        let mut a = Vec::new();
+        let mut b = Vec::new();
+        octoquant_octree::io::write_ot(m.tree().occupancy(), &mut a).unwrap();
+        octoquant_octree::io::write_ot(plain.tree(), &mut b).unwrap();
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn frames_without_colours_and_unsupported_options_are_refused() {
+        let mut m = ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+        let e = m.insert(&frame(&[[1.0, 0.0, 0.0]], None)).unwrap_err();
+        assert!(matches!(e, ColorMapError::NoColors { frame: 0 }), "{e}");
+        let e = m
+            .insert(&frame(&[[1.0, 0.0, 0.0]], Some(Vec::new())))
+            .unwrap_err();
+        assert!(matches!(e, ColorMapError::ColorCount { .. }), "{e}");
+        assert!(m.tree().is_empty());
+        for options in [
+            MapperOptions {
+                max_range: Some(5.0),
+                ..MapperOptions::default()
+            },
+            MapperOptions {
+                lazy: true,
+                ..MapperOptions::default()
+            },
+            MapperOptions {
+                mode: InsertMode::Discretize,
+                ..MapperOptions::default()
+            },
+        ] {
+            let e = ColorMapper::new(options, ColorMerge::Average).unwrap_err();
+            assert!(matches!(e, ColorMapError::Unsupported(_)), "{e}");
+        }
+    }
+}
