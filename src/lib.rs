@@ -67,6 +67,7 @@ pub mod import;
 pub mod pipeline;
 pub mod query;
 pub mod render;
+pub mod rows;
 pub mod scene;
 pub mod tiled;
 pub mod treefile;
