@@ -719,7 +719,7 @@ fn change_detection_order_matches_octomap_at_scale() {
                 32700 + (x >> 8) as u16 % 90,
                 32760 + (x >> 20) as u16 % 12,
             );
-            let hit = (x >> 40) % 3 != 0 || i % 5 == round;
+            let hit = !(x >> 40).is_multiple_of(3) || i % 5 == round;
             tree.update_node(
                 key,
                 if hit { Update::Hit } else { Update::Miss },

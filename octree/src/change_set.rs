@@ -187,7 +187,7 @@ impl ChangeSet {
     fn need_rehash(&mut self) -> Option<u64> {
         let n_bkt = self.heads.len() as u64;
         let n_elt = self.len() as u64;
-        if n_elt + 1 <= self.next_resize {
+        if n_elt < self.next_resize {
             return None;
         }
         let min_bkts = 1.0f32 + n_elt as f32;
