@@ -69,6 +69,7 @@ pub mod keyset_order;
 pub mod pipeline;
 pub mod query;
 pub mod render;
+pub mod rows;
 pub mod scene;
 pub mod stamped_map;
 pub mod tiled;

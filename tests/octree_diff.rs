@@ -592,3 +592,155 @@ fn change_detection_matches_octomap() {
         })
         .unwrap();
 }
+
+/// The script lines of a case's operations (no writes), with change detection switched on
+/// after `tree`/`params`.
+fn change_script(case: &Case, dir: &Path) -> String {
+    let full = script_for(case, dir);
+    let ops: Vec<&str> = full.lines().filter(|l| !l.starts_with("write_")).collect();
+    let (head, tail): (Vec<&str>, Vec<&str>) = ops
+        .iter()
+        .partition(|l| l.starts_with("tree ") || l.starts_with("params "));
+    format!("{}\nchanges_on\n{}\n", head.join("\n"), tail.join("\n"))
+}
+
+/// `print_changes_ordered` lines of a tree's changes in OctoMap's iteration order.
+fn ordered_changes(tree: &OcTree) -> String {
+    tree.changed_keys_octomap_order()
+        .map(|(k, new)| format!("change {} {} {} {}\n", k.x(), k.y(), k.z(), new as u8))
+        .collect()
+}
+
+/// Run a script; `None` when OctoMap hit its known delete abort.
+fn reference_stdout(refprog: &Path, script: &str, path: &Path) -> Option<String> {
+    std::fs::write(path, script).unwrap();
+    let out = Command::new(refprog)
+        .arg("script")
+        .arg(path)
+        .output()
+        .unwrap();
+    if !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(OCTOMAP_DELETE_ABORT)
+    {
+        return None;
+    }
+    assert!(
+        out.status.success(),
+        "reference program failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(String::from_utf8(out.stdout).unwrap())
+}
+
+/// The changed keys come out in OctoMap's own iteration order (its hash map's), through
+/// growth of the map, erasures of keys that flipped back, and a reset between two rounds of
+/// updates (which keeps the map's buckets).
+#[test]
+fn change_detection_order_matches_octomap() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let dir = common::scratch("octree_diff_change_order");
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 60,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
+    let nonempty = std::cell::Cell::new(0usize);
+    runner
+        .run(&case_strategy(), |case| {
+            let mut tree = apply_case(&Case {
+                ops: Vec::new(),
+                ..case.clone()
+            });
+            tree.enable_change_detection(true);
+            apply_ops(&mut tree, &case.ops);
+            let first = ordered_changes(&tree);
+            tree.reset_change_detection();
+            apply_ops(&mut tree, &case.ops);
+            apply_ops(&mut tree, &case.ops[..case.ops.len() / 2]);
+            let second = ordered_changes(&tree);
+            let ops_only = change_script(&case, &dir);
+            let again: String = ops_only
+                .lines()
+                .filter(|l| !l.starts_with("tree ") && !l.starts_with("params "))
+                .filter(|l| *l != "changes_on")
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let half: Case = Case {
+                ops: case.ops[..case.ops.len() / 2].to_vec(),
+                ..case.clone()
+            };
+            let half_ops: String = change_script(&half, &dir)
+                .lines()
+                .filter(|l| !l.starts_with("tree ") && !l.starts_with("params "))
+                .filter(|l| *l != "changes_on")
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let script = format!(
+                "{ops_only}print_changes_ordered\nprint_size\nchanges_reset\n{again}{half_ops}print_changes_ordered\n"
+            );
+            let Some(theirs) = reference_stdout(&refprog, &script, &dir.join("order.txt")) else {
+                return Ok(());
+            };
+            let mine = format!("{first}size {}\n{second}", tree_size_after_first(&case));
+            nonempty.set(nonempty.get() + usize::from(!first.is_empty()));
+            prop_assert_eq!(mine, theirs);
+            Ok(())
+        })
+        .unwrap();
+    assert!(nonempty.get() > 30);
+}
+
+/// The tree's size after one pass of the case's operations.
+fn tree_size_after_first(case: &Case) -> usize {
+    apply_case(case).size()
+}
+
+/// Thousands of changed voxels (the map grows past 7517 buckets), flips back and forth that
+/// erase and re-add keys, and resets: the same iteration order as OctoMap's.
+#[test]
+fn change_detection_order_matches_octomap_at_scale() {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let dir = common::scratch("octree_diff_change_order_scale");
+    let mut tree = OcTree::new(0.1).unwrap();
+    tree.enable_change_detection(true);
+    let mut script = String::from("tree 0.1\nchanges_on\n");
+    let mut mine = String::new();
+    let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+    for round in 0..3 {
+        for i in 0..6000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let key = Key::new(
+                32768 + (x % 64) as u16,
+                32700 + (x >> 8) as u16 % 90,
+                32760 + (x >> 20) as u16 % 12,
+            );
+            let hit = !(x >> 40).is_multiple_of(3) || i % 5 == round;
+            tree.update_node(
+                key,
+                if hit { Update::Hit } else { Update::Miss },
+                InnerNodes::Refresh,
+            );
+            let c = if hit { "hit" } else { "miss" };
+            writeln!(script, "{c} {} {} {} 0", key.x(), key.y(), key.z()).unwrap();
+        }
+        mine.push_str(&ordered_changes(&tree));
+        script.push_str("print_changes_ordered\n");
+        if round == 1 {
+            tree.reset_change_detection();
+            script.push_str("changes_reset\n");
+        }
+    }
+    assert!(tree.num_changes_detected() > 3000);
+    let theirs = reference_stdout(&refprog, &script, &dir.join("scale.txt")).unwrap();
+    assert_eq!(mine.lines().count(), theirs.lines().count());
+    assert!(
+        mine == theirs,
+        "first difference at line {:?}",
+        mine.lines().zip(theirs.lines()).position(|(a, b)| a != b)
+    );
+}

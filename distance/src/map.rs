@@ -208,11 +208,13 @@ impl DistanceMap {
     /// Changes outside the box are ignored. With `real_dist` false only squared distances
     /// are refreshed.
     ///
-    /// The changes are applied in key order; OctoMap applies them in its hash map's order,
-    /// so where two obstacles are equally near a voxel, the one reported may differ from
-    /// OctoMap's after an update (never the distance's exactness bound, see the crate docs).
-    /// Change detection must be on (see [`OcTree::enable_change_detection`]) for any change
-    /// to be seen.
+    /// The changes are applied in the order OctoMap's changed-keys map walks them
+    /// ([`OcTree::changed_keys_octomap_order`]), so where two obstacles are equally near a
+    /// voxel, the one reported is OctoMap's too when the tree saw the same single-voxel
+    /// updates (`update_node`, `set_node_value`) in the same order. Batch insertions update
+    /// voxels in another order than OctoMap's `insertPointCloud`; the distances are the same,
+    /// the reported obstacle of a tie may differ. Change detection must be on (see
+    /// [`OcTree::enable_change_detection`]) for any change to be seen.
     pub fn update(&mut self, tree: &mut OcTree, real_dist: bool) -> Result<(), DistanceError> {
         if tree.resolution() != self.conv.resolution() {
             return Err(DistanceError::ResolutionMismatch {
@@ -220,7 +222,7 @@ impl DistanceMap {
                 map: self.conv.resolution(),
             });
         }
-        let changed: Vec<Key> = tree.changed_keys().map(|(k, _)| k).collect();
+        let changed: Vec<Key> = tree.changed_keys_octomap_order().map(|(k, _)| k).collect();
         for key in changed {
             if (0..3).any(|a| key[a] < self.min_key[a] || key[a] > self.max_key[a]) {
                 continue;

@@ -171,6 +171,40 @@ impl ColorOcTree {
         self.search(key, TREE_DEPTH).map(|n| n.color)
     }
 
+    /// The colour of the node at exactly `depth` holding `key` (inner, leaf or pruned leaf);
+    /// `None` when no node exists there. What iterators and `ColorOcTreeNode::getColor` read.
+    pub fn color_at(&self, key: Key, depth: u8) -> Option<Color> {
+        self.tree.node_at_depth(key, depth)?;
+        Some(self.color_of(node_id(key, depth)))
+    }
+
+    /// Set the colour of the node at exactly `depth` holding `key` (OctoMap's
+    /// `ColorOcTreeNode::setColor` on a node in hand, inner nodes included); `false` and no
+    /// change when no node exists there.
+    pub fn set_color_at(&mut self, key: Key, depth: u8, color: Color) -> bool {
+        if self.tree.node_at_depth(key, depth).is_none() {
+            return false;
+        }
+        self.put_color(node_id(key, depth), color);
+        true
+    }
+
+    /// OctoMap's `getAverageChildColor` of the node at exactly `depth` holding `key`: the mean
+    /// colour of its existing children that have one, white when none has (or it has no
+    /// children); `None` when no node exists there.
+    pub fn average_child_color(&self, key: Key, depth: u8) -> Option<Color> {
+        self.tree.node_at_depth(key, depth)?;
+        if depth >= TREE_DEPTH {
+            return Some(Color::WHITE);
+        }
+        let id = node_id(key, depth);
+        let kids = (0..8).filter_map(|i| {
+            let (d, k) = child_id(id, i);
+            self.tree.node_at_depth(k, d).map(|_| self.color_of((d, k)))
+        });
+        Some(Color::average_of(kids))
+    }
+
     /// Integrate one occupancy observation of voxel `key` (OctoMap's `updateNode`), with the
     /// colour bookkeeping of the expansions and prunings it causes. Returns the voxel's new
     /// log-odds.

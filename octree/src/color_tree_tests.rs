@@ -92,3 +92,31 @@ fn delete_forgets_colours() {
     assert_eq!(t.node_color(v), Some(Color::new(7, 7, 7)));
     assert_eq!(t.node_color(k(40000, 10, 10)), Some(Color::new(7, 7, 7)));
 }
+
+#[test]
+fn colours_at_a_depth_and_average_of_children() {
+    let base = k(1000, 2000, 3000);
+    let vox = siblings(base);
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    // three of the eight children exist, two coloured
+    for v in &vox[..3] {
+        t.set_node_value(*v, 1.0, InnerNodes::Defer).unwrap();
+    }
+    t.set_node_color(vox[1], Color::new(10, 20, 31));
+    t.set_node_color(vox[2], Color::new(0, 1, 2));
+    assert_eq!(t.color_at(base, 16), Some(Color::WHITE));
+    assert_eq!(t.color_at(vox[1], 16), Some(Color::new(10, 20, 31)));
+    assert_eq!(t.average_child_color(base, 15), Some(Color::new(5, 10, 16)));
+    assert_eq!(t.average_child_color(vox[1], 16), Some(Color::WHITE));
+    // the inner node's own colour is separate from its children's
+    assert_eq!(t.color_at(base, 15), Some(Color::WHITE));
+    assert!(t.set_color_at(base, 15, Color::new(7, 7, 7)));
+    assert_eq!(t.color_at(base, 15), Some(Color::new(7, 7, 7)));
+    assert_eq!(t.node_color(vox[0]), Some(Color::WHITE));
+    // no node there: nothing changes
+    let far = k(9, 9, 9);
+    assert_eq!(t.color_at(far, 16), None);
+    assert_eq!(t.average_child_color(far, 10), None);
+    assert!(!t.set_color_at(far, 16, Color::new(1, 1, 1)));
+    assert_eq!(t.num_colored_nodes(), 3);
+}

@@ -26,6 +26,7 @@
 #![forbid(unsafe_code)]
 
 mod brick;
+mod change_set;
 mod color;
 mod color_tree;
 mod compare;

@@ -1,5 +1,6 @@
 //! The occupancy octree: node updates with OctoMap's exact semantics, search and summaries.
 
+use crate::change_set::ChangeSet;
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
 use crate::params::OccupancyParams;
@@ -97,8 +98,11 @@ pub struct OcTree {
     pub(crate) params: OccupancyParams,
     pub(crate) store: NodeStore,
     size: usize,
-    /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new".
-    changes: Option<std::collections::BTreeMap<Key, bool>>,
+    /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new", in OctoMap's
+    /// iteration order; made on the first enabling and kept (OctoMap never drops it).
+    changes: Option<Box<ChangeSet>>,
+    /// Whether updates are recorded (OctoMap's `use_change_detection`).
+    detect_changes: bool,
 }
 
 impl std::fmt::Debug for OcTree {
@@ -125,6 +129,7 @@ impl OcTree {
             store: NodeStore::new(),
             size: 0,
             changes: None,
+            detect_changes: false,
         })
     }
 
@@ -358,15 +363,14 @@ impl OcTree {
     /// record until [`OcTree::reset_change_detection`].
     pub fn enable_change_detection(&mut self, enable: bool) {
         if enable && self.changes.is_none() {
-            self.changes = Some(Default::default());
-        } else if !enable {
-            self.changes = None;
+            self.changes = Some(Box::default());
         }
+        self.detect_changes = enable;
     }
 
     /// Whether change detection is on.
     pub fn is_change_detection_enabled(&self) -> bool {
-        self.changes.is_some()
+        self.detect_changes
     }
 
     /// Forget the changes recorded so far (OctoMap's `resetChangeDetection`).
@@ -380,9 +384,18 @@ impl OcTree {
     /// not exist before, `(key, false)` for one whose occupancy flipped. A voxel that flipped
     /// back is dropped again, as in OctoMap.
     pub fn changed_keys(&self) -> impl Iterator<Item = (Key, bool)> + '_ {
-        self.changes
-            .iter()
-            .flat_map(|c| c.iter().map(|(k, v)| (*k, *v)))
+        let mut all: Vec<(Key, bool)> = self.changed_keys_octomap_order().collect();
+        all.sort_unstable_by_key(|e| e.0);
+        all.into_iter()
+    }
+
+    /// The changed voxels as [`OcTree::changed_keys`] gives them, but in the order OctoMap's
+    /// `changedKeysBegin()..changedKeysEnd()` walks them (its `unordered_map` as GCC's
+    /// libstdc++ lays it out) when the same single-voxel updates (`update_node`,
+    /// `set_node_value`) were made in the same order. What dynamicEDT3D's incremental update
+    /// walks.
+    pub fn changed_keys_octomap_order(&self) -> impl Iterator<Item = (Key, bool)> + '_ {
+        self.changes.iter().flat_map(|c| c.iter())
     }
 
     /// Number of recorded changes (OctoMap's `numChangesDetected`).
@@ -393,6 +406,9 @@ impl OcTree {
     /// Record a voxel update for change detection, as `updateNodeRecurs` does at the leaf.
     #[inline]
     pub(crate) fn record_change(&mut self, key: Key, old: f32, new: f32, created: bool) {
+        if !self.detect_changes {
+            return;
+        }
         let Some(changes) = self.changes.as_mut() else {
             return;
         };
@@ -401,12 +417,8 @@ impl OcTree {
             changes.insert(key, true);
         } else if p.is_occupied(old) != p.is_occupied(new) {
             match changes.get(&key) {
-                None => {
-                    changes.insert(key, false);
-                }
-                Some(false) => {
-                    changes.remove(&key);
-                }
+                None => changes.insert(key, false),
+                Some(false) => changes.remove(&key),
                 Some(true) => {}
             }
         }

@@ -62,6 +62,8 @@ class iterator_base:
     def getLogOdds(self) -> float: ...
     def isLeaf(self) -> bool:
         """No children, or at the iterator's depth limit."""
+    def getColor(self) -> tuple[int, int, int]:
+        """The node's colour (a ColorOcTree's iterators; TypeError on an OcTree's)."""
     def __len__(self) -> int:
         """Nodes left, the current one included."""
 
@@ -306,6 +308,10 @@ class ColorOcTreeNode:
         """The colour ``(r, g, b)``; white when none was set."""
     def isColorSet(self) -> bool:
         """Whether a colour was set (anything but white)."""
+    def getAverageChildColor(self) -> tuple[int, int, int]:
+        """Mean colour of the children that have one; white when none has."""
+    def setColor(self, r: int, g: int, b: int) -> None:
+        """Set the node's colour in its tree (ValueError when the node is gone from it)."""
 
 class ColorOcTree:
     """OctoMap's ColorOcTree: occupancy plus an RGB colour per node, built by octoquant.
@@ -349,6 +355,31 @@ class ColorOcTree:
     def prune(self) -> None: ...
     def expand(self) -> None: ...
     def deleteNode(self, value: Union[OcTreeKey, NDArray[Any]], depth: int = ...) -> bool: ...
+    def getRoot(self) -> Optional[ColorOcTreeNode]: ...
+    def castRay(
+        self,
+        origin: Vec3,
+        direction: Vec3,
+        end: NDArray[np.floating[Any]],
+        ignoreUnknownCells: bool = False,
+        maxRange: float = -1.0,
+    ) -> bool:
+        """True when an occupied voxel is hit; ``end`` receives where the ray stopped."""
+    def cast_rays(
+        self,
+        origins: Union[Vec3, Points],
+        directions: Points,
+        ignore_unknown: bool = False,
+        max_range: Optional[float] = None,
+    ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+        """Many casts: (hit (N,), ends (N, 3), NaN where no cast was possible)."""
+    def begin_tree(self, maxDepth: int = 0) -> tree_iterator:
+        """Every node, inner ones too; ``getColor()`` gives each one's colour."""
+    def begin_leafs(self, maxDepth: int = 0) -> leaf_iterator: ...
+    def begin_leafs_bbx(self, bbx_min: Vec3, bbx_max: Vec3, maxDepth: int = 0) -> leaf_bbx_iterator: ...
+    def end_tree(self) -> tree_iterator: ...
+    def end_leafs(self) -> leaf_iterator: ...
+    def end_leafs_bbx(self) -> leaf_bbx_iterator: ...
 
 class Mapper:
     """Builds a map from frames with octoquant's pipeline (see the module README)."""

@@ -2,37 +2,52 @@
 //! signatures and `.ot` bytes) over the Rust library's colour tree.
 
 use crate::convert::{self, source};
-use crate::engine::{self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, TREE_DEPTH};
+use crate::engine::{
+    self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, TREE_DEPTH,
+};
+use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
 use crate::node::{node_value, PyKey};
-use crate::tree::{bytes_or_true, target, update_arg, Target};
-use pyo3::exceptions::PyOSError;
+use crate::tree::{
+    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
+    CastArrays, Target,
+};
+use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-/// A node of a ColorOcTree as it was when it was looked up: occupancy and colour
-/// (octomap-python's `ColorOcTreeNode` points into the live tree instead).
-#[pyclass(module = "octoquant", name = "ColorOcTreeNode", frozen)]
-#[derive(Clone, Copy)]
+/// A node of a ColorOcTree as it was when it was looked up: occupancy, colour and the
+/// average colour of its children (octomap-python's `ColorOcTreeNode` points into the live
+/// tree instead). `setColor` writes through to the tree the node came from.
+#[pyclass(module = "octoquant", name = "ColorOcTreeNode")]
 pub struct PyColorNode {
     value: f32,
     has_children: bool,
     depth: u8,
     key: Key,
     color: Color,
+    child_color: Color,
+    tree: Py<PyColorOcTree>,
 }
 
 impl PyColorNode {
-    fn found(info: NodeInfo, key: Key, color: Color) -> Self {
+    /// The node `info` found with `key` in `tree`, with its colours read from `t` (the same
+    /// tree, borrowed).
+    fn found(tree: Py<PyColorOcTree>, t: &ColorOcTree, info: NodeInfo, key: Key) -> Self {
+        let key = if info.depth < TREE_DEPTH {
+            key.at_depth(info.depth)
+        } else {
+            key
+        };
         PyColorNode {
             value: info.value,
             has_children: info.has_children,
             depth: info.depth,
-            key: if info.depth < TREE_DEPTH {
-                key.at_depth(info.depth)
-            } else {
-                key
-            },
-            color,
+            key,
+            color: t.color_at(key, info.depth).unwrap_or(Color::WHITE),
+            child_color: t
+                .average_child_color(key, info.depth)
+                .unwrap_or(Color::WHITE),
+            tree,
         }
     }
 }
@@ -87,6 +102,29 @@ impl PyColorNode {
         self.color.is_set()
     }
 
+    /// The mean colour of the node's children that have one, white when none has or the
+    /// node has no children (OctoMap's ``getAverageChildColor``), as at lookup.
+    #[pyo3(name = "getAverageChildColor")]
+    fn get_average_child_color(&self) -> (u8, u8, u8) {
+        (self.child_color.r, self.child_color.g, self.child_color.b)
+    }
+
+    /// Set the node's colour in its tree (inner nodes too). ValueError when the node is no
+    /// longer in the tree (deleted, pruned away, or the tree cleared).
+    #[pyo3(name = "setColor")]
+    fn set_color(&mut self, py: Python<'_>, r: u8, g: u8, b: u8) -> PyResult<()> {
+        let c = Color::new(r, g, b);
+        let mut tree = self.tree.try_borrow_mut(py)?;
+        if !tree.tree.set_color_at(self.key, self.depth, c) {
+            return Err(PyValueError::new_err(format!(
+                "the node (depth {}, key ({}, {}, {})) is no longer in its tree",
+                self.depth, self.key[0], self.key[1], self.key[2]
+            )));
+        }
+        self.color = c;
+        Ok(())
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "ColorOcTreeNode(log_odds={}, depth={}, color=({}, {}, {}))",
@@ -128,23 +166,50 @@ impl PyColorOcTree {
         })
     }
 
-    fn node_at(&self, key: Key, depth: u8) -> Option<PyColorNode> {
-        self.tree
-            .search(key, depth)
-            .map(|n| PyColorNode::found(n.node, key, n.color))
+    /// The node `search` finds at `key` down to `depth`, as a Python node of `slf`.
+    fn node_at(slf: &Bound<'_, Self>, key: Key, depth: u8) -> Option<PyColorNode> {
+        let this = slf.borrow();
+        let info = this.tree.occupancy().search(key, depth)?;
+        Some(PyColorNode::found(
+            slf.clone().unbind(),
+            &this.tree,
+            info,
+            key,
+        ))
     }
 
     fn color_op(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         color: Color,
         op: fn(&mut ColorOcTree, Key, Color) -> Option<Color>,
     ) -> PyResult<Option<PyColorNode>> {
-        let Some(key) = self.key_of(value)? else {
+        let Some(key) = slf.borrow().key_of(value)? else {
             return Ok(None);
         };
-        op(&mut self.tree, key, color);
-        Ok(self.node_at(key, TREE_DEPTH))
+        op(&mut slf.borrow_mut().tree, key, color);
+        Ok(Self::node_at(slf, key, TREE_DEPTH))
+    }
+
+    /// An iterator over `items` of this tree with their colours.
+    fn colored(&self, py: Python<'_>, items: Vec<NodeItem>, d: u8) -> IteratorBase {
+        let tree = &self.tree;
+        let colors = py.detach(|| {
+            items
+                .iter()
+                .map(|n| tree.color_at(n.key, n.depth).unwrap_or(Color::WHITE))
+                .collect()
+        });
+        IteratorBase::with_colors(items, colors, tree.converter().clone(), d)
+    }
+
+    fn empty_iterator(&self) -> IteratorBase {
+        IteratorBase::with_colors(
+            Vec::new(),
+            Vec::new(),
+            self.tree.converter().clone(),
+            TREE_DEPTH,
+        )
     }
 }
 
@@ -222,52 +287,77 @@ impl PyColorOcTree {
     /// for a point outside the map.
     #[pyo3(name = "updateNode", signature = (value, update, lazy_eval=false))]
     fn update_node(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         update: &Bound<'_, PyAny>,
         lazy_eval: bool,
     ) -> PyResult<Option<PyColorNode>> {
         let u = update_arg(update)?;
-        let Some(key) = self.key_of(value)? else {
+        let Some(key) = slf.borrow().key_of(value)? else {
             return Ok(None);
         };
-        self.tree
+        slf.borrow_mut()
+            .tree
             .update_node(key, u, InnerNodes::from_lazy(lazy_eval));
-        Ok(self.node_at(key, TREE_DEPTH))
+        Ok(Self::node_at(slf, key, TREE_DEPTH))
     }
 
     /// The node holding ``value`` (an OcTreeKey or a point), descending at most to ``depth``
     /// (0 = 16): the node, the pruned leaf covering it, or None in unknown space.
     #[pyo3(signature = (value, depth=0))]
-    fn search(&self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<Option<PyColorNode>> {
+    fn search(
+        slf: &Bound<'_, Self>,
+        value: &Bound<'_, PyAny>,
+        depth: i64,
+    ) -> PyResult<Option<PyColorNode>> {
         let d = convert::depth(depth, "depth")?;
-        Ok(self.key_of(value)?.and_then(|k| self.node_at(k, d)))
+        let key = slf.borrow().key_of(value)?;
+        Ok(key.and_then(|k| Self::node_at(slf, k, d)))
+    }
+
+    /// The root node, or None for an empty tree.
+    #[pyo3(name = "getRoot")]
+    fn get_root(slf: &Bound<'_, Self>) -> Option<PyColorNode> {
+        let this = slf.borrow();
+        let key = Key::new(32768, 32768, 32768);
+        let info = this.tree.occupancy().node_at_depth(key, 0)?;
+        Some(PyColorNode::found(
+            slf.clone().unbind(),
+            &this.tree,
+            info,
+            key,
+        ))
     }
 
     /// Set the colour of the node holding ``value``, replacing the old one. Returns the node,
     /// or None (and no change) in unknown space.
     #[pyo3(name = "setNodeColor")]
     fn set_node_color(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         r: u8,
         g: u8,
         b: u8,
     ) -> PyResult<Option<PyColorNode>> {
-        self.color_op(value, Color::new(r, g, b), ColorOcTree::set_node_color)
+        Self::color_op(slf, value, Color::new(r, g, b), ColorOcTree::set_node_color)
     }
 
     /// Average ``(r, g, b)`` into the node's colour (integer mean per channel; the colour
     /// itself when the node had none). Returns the node, or None in unknown space.
     #[pyo3(name = "averageNodeColor")]
     fn average_node_color(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         r: u8,
         g: u8,
         b: u8,
     ) -> PyResult<Option<PyColorNode>> {
-        self.color_op(value, Color::new(r, g, b), ColorOcTree::average_node_color)
+        Self::color_op(
+            slf,
+            value,
+            Color::new(r, g, b),
+            ColorOcTree::average_node_color,
+        )
     }
 
     /// Integrate ``(r, g, b)`` weighted by the node's occupancy ``p``:
@@ -275,13 +365,14 @@ impl PyColorOcTree {
     /// Returns the node, or None in unknown space.
     #[pyo3(name = "integrateNodeColor")]
     fn integrate_node_color(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         r: u8,
         g: u8,
         b: u8,
     ) -> PyResult<Option<PyColorNode>> {
-        self.color_op(
+        Self::color_op(
+            slf,
             value,
             Color::new(r, g, b),
             ColorOcTree::integrate_node_color,
@@ -292,7 +383,7 @@ impl PyColorOcTree {
     #[pyo3(name = "isNodeOccupied")]
     fn is_node_occupied(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
         if let Ok(n) = node.cast::<PyColorNode>() {
-            return Ok(self.tree.params().is_occupied(n.get().value));
+            return Ok(self.tree.params().is_occupied(n.borrow().value));
         }
         Ok(self.tree.params().is_occupied(node_value(node)?))
     }
@@ -323,6 +414,104 @@ impl PyColorOcTree {
     fn expand(&mut self, py: Python<'_>) {
         let tree = &mut self.tree;
         py.detach(|| tree.expand());
+    }
+
+    /// Follow a ray from ``origin`` along ``direction`` to the first occupied voxel, as
+    /// ``OcTree.castRay``: writes the centre of the voxel where it stopped into ``end`` (a
+    /// float array of 3, changed in place) and returns True only for an occupied voxel; stops
+    /// at unknown space unless ``ignoreUnknownCells``, and beyond ``maxRange`` when > 0.
+    #[pyo3(
+        name = "castRay",
+        signature = (origin, direction, end, ignoreUnknownCells=false, maxRange=-1.0)
+    )]
+    #[allow(non_snake_case)]
+    fn cast_ray(
+        &self,
+        origin: &Bound<'_, PyAny>,
+        direction: &Bound<'_, PyAny>,
+        end: &Bound<'_, PyAny>,
+        ignoreUnknownCells: bool,
+        maxRange: f64,
+    ) -> PyResult<bool> {
+        cast_ray_into(
+            self.tree.occupancy(),
+            origin,
+            direction,
+            end,
+            ignoreUnknownCells,
+            maxRange,
+        )
+    }
+
+    /// Many casts at once, as ``OcTree.cast_rays``: ``(hit, ends)``, bool (N,) and float64
+    /// (N, 3), NaN rows where the ray could not be cast.
+    #[pyo3(signature = (origins, directions, ignore_unknown=false, max_range=None))]
+    fn cast_rays<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        ignore_unknown: bool,
+        max_range: Option<f64>,
+    ) -> PyResult<CastArrays<'py>> {
+        cast_rays_arrays(
+            py,
+            self.tree.occupancy(),
+            origins,
+            directions,
+            ignore_unknown,
+            max_range,
+        )
+    }
+
+    /// Iterator over every node, inner ones too, down to ``maxDepth`` (0 = 16); its
+    /// ``getColor()`` gives each node's colour.
+    #[pyo3(signature = (maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_tree(&self, py: Python<'_>, maxDepth: i64) -> PyResult<Py<TreeIterator>> {
+        let d = max_depth(convert::depth(maxDepth, "maxDepth")?);
+        let items = iterator_items(py, self.tree.occupancy(), true, d);
+        TreeIterator::create(py, self.colored(py, items, d))
+    }
+
+    /// Iterator over the leaves, treating nodes at ``maxDepth`` (0 = 16) as leaves.
+    #[pyo3(signature = (maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_leafs(&self, py: Python<'_>, maxDepth: i64) -> PyResult<Py<LeafIterator>> {
+        let d = max_depth(convert::depth(maxDepth, "maxDepth")?);
+        let items = iterator_items(py, self.tree.occupancy(), false, d);
+        LeafIterator::create(py, self.colored(py, items, d))
+    }
+
+    /// Iterator over the leaves whose cube overlaps the box ``[bbx_min, bbx_max]``; empty when
+    /// a corner is outside the map.
+    #[pyo3(signature = (bbx_min, bbx_max, maxDepth=0))]
+    #[allow(non_snake_case)]
+    fn begin_leafs_bbx(
+        &self,
+        py: Python<'_>,
+        bbx_min: &Bound<'_, PyAny>,
+        bbx_max: &Bound<'_, PyAny>,
+        maxDepth: i64,
+    ) -> PyResult<Py<LeafBbxIterator>> {
+        let d = max_depth(convert::depth(maxDepth, "maxDepth")?);
+        let items = bbx_items(py, self.tree.occupancy(), bbx_min, bbx_max, d)?;
+        LeafBbxIterator::create(py, self.colored(py, items, d))
+    }
+
+    /// An iterator past the last node.
+    fn end_tree(&self, py: Python<'_>) -> PyResult<Py<TreeIterator>> {
+        TreeIterator::create(py, self.empty_iterator())
+    }
+
+    /// An iterator past the last leaf.
+    fn end_leafs(&self, py: Python<'_>) -> PyResult<Py<LeafIterator>> {
+        LeafIterator::create(py, self.empty_iterator())
+    }
+
+    /// An iterator past the last leaf of a box.
+    fn end_leafs_bbx(&self, py: Python<'_>) -> PyResult<Py<LeafBbxIterator>> {
+        LeafBbxIterator::create(py, self.empty_iterator())
     }
 
     /// Delete the node at ``depth`` (0 = 16) holding ``value`` with its subtree

@@ -6,11 +6,11 @@
 //! tree.begin_leafs()` yields one object per node.
 
 use crate::convert;
-use crate::engine::{probability, KeyConverter, NodeItem, TREE_DEPTH};
+use crate::engine::{probability, Color, KeyConverter, NodeItem, TREE_DEPTH};
 use crate::node::PyKey;
 use crate::NullPointerException;
 use numpy::PyArray1;
-use pyo3::exceptions::PyStopIteration;
+use pyo3::exceptions::{PyStopIteration, PyTypeError};
 use pyo3::prelude::*;
 use pyo3::PyClassInitializer;
 use std::sync::Arc;
@@ -19,6 +19,9 @@ use std::sync::Arc;
 #[pyclass(module = "octoquant", name = "iterator_base", subclass)]
 pub struct IteratorBase {
     items: Arc<Vec<NodeItem>>,
+    /// The nodes' colours, parallel to `items`, for a ColorOcTree's iterators; `None` for a
+    /// plain OcTree's (whose `getColor` is a TypeError, as in octomap-python).
+    colors: Option<Arc<Vec<Color>>>,
     pos: usize,
     conv: Arc<KeyConverter>,
     max_depth: u8,
@@ -29,9 +32,24 @@ impl IteratorBase {
     pub fn new(items: Vec<NodeItem>, conv: KeyConverter, max_depth: u8) -> Self {
         IteratorBase {
             items: Arc::new(items),
+            colors: None,
             pos: 0,
             conv: Arc::new(conv),
             max_depth,
+        }
+    }
+
+    /// An iterator over a ColorOcTree's `items` with their `colors` (same length, same order).
+    pub fn with_colors(
+        items: Vec<NodeItem>,
+        colors: Vec<Color>,
+        conv: KeyConverter,
+        max_depth: u8,
+    ) -> Self {
+        debug_assert_eq!(items.len(), colors.len());
+        IteratorBase {
+            colors: Some(Arc::new(colors)),
+            ..Self::new(items, conv, max_depth)
         }
     }
 
@@ -39,6 +57,7 @@ impl IteratorBase {
     fn at_current(&self) -> Self {
         IteratorBase {
             items: self.items.clone(),
+            colors: self.colors.clone(),
             pos: self.pos,
             conv: self.conv.clone(),
             max_depth: self.max_depth,
@@ -147,6 +166,20 @@ impl IteratorBase {
     #[pyo3(name = "getLogOdds")]
     fn get_log_odds(&self) -> PyResult<f32> {
         Ok(self.current()?.value)
+    }
+
+    /// Colour ``(r, g, b)`` of the current node (white when none was set). A plain OcTree's
+    /// iterators raise TypeError, as octomap-python's do.
+    #[pyo3(name = "getColor")]
+    fn get_color(&self) -> PyResult<(u8, u8, u8)> {
+        let Some(colors) = &self.colors else {
+            return Err(PyTypeError::new_err(
+                "getColor() is only available on ColorOcTree iterators",
+            ));
+        };
+        self.current()?;
+        let c = colors[self.pos];
+        Ok((c.r, c.g, c.b))
     }
 
     /// Whether the current node is a leaf (no children, or at the iterator's depth limit).

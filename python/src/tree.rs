@@ -33,7 +33,7 @@ pub struct PyOcTree {
 }
 
 /// `cast_rays`' result: hit flags and end points.
-type CastArrays<'py> = (Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>);
+pub type CastArrays<'py> = (Bound<'py, PyArray1<bool>>, Bound<'py, PyArray2<f64>>);
 
 /// `extractPointCloud`'s result: occupied and free voxel centres.
 type CloudArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
@@ -158,15 +158,8 @@ impl PyOcTree {
     }
 
     fn iterator_base(&self, py: Python<'_>, nodes: bool, d: u8) -> IteratorBase {
-        let tree = &self.tree;
-        let items = py.detach(|| {
-            if nodes {
-                engine::nodes(tree, d)
-            } else {
-                engine::leaves(tree, d)
-            }
-        });
-        IteratorBase::new(items, tree.converter().clone(), d)
+        let items = iterator_items(py, &self.tree, nodes, d);
+        IteratorBase::new(items, self.tree.converter().clone(), d)
     }
 }
 
@@ -333,14 +326,14 @@ impl PyOcTree {
         ignoreUnknownCells: bool,
         maxRange: f64,
     ) -> PyResult<bool> {
-        let o = vec3_f32(origin, "origin")?;
-        let d = vec3_f32(direction, "direction")?;
-        let out = end_array(end)?;
-        let r = engine::cast_ray(&self.tree, &o, &d, ignoreUnknownCells, maxRange);
-        if let Some(e) = r.end {
-            out.set(e)?;
-        }
-        Ok(r.hit)
+        cast_ray_into(
+            &self.tree,
+            origin,
+            direction,
+            end,
+            ignoreUnknownCells,
+            maxRange,
+        )
     }
 
     /// Many casts at once: ``origins`` (N, 3) or one (3,) origin for all, ``directions``
@@ -355,36 +348,14 @@ impl PyOcTree {
         ignore_unknown: bool,
         max_range: Option<f64>,
     ) -> PyResult<CastArrays<'py>> {
-        let dirs = convert::points_f32(directions, "directions")?;
-        let origins = match vec3_f32(origins, "origins") {
-            Ok(o) => vec![o; dirs.len()],
-            Err(_) => convert::points_f32(origins, "origins")?,
-        };
-        if origins.len() != dirs.len() {
-            return Err(PyValueError::new_err(format!(
-                "origins has {} rows but directions has {}",
-                origins.len(),
-                dirs.len()
-            )));
-        }
-        let tree = &self.tree;
-        let mr = max_range.unwrap_or(-1.0);
-        let results: Vec<(bool, [f64; 3])> = py.detach(|| {
-            origins
-                .par_iter()
-                .zip(dirs.par_iter())
-                .map(|(o, d)| {
-                    let r = engine::cast_ray(tree, o, d, ignore_unknown, mr);
-                    let e = r
-                        .end
-                        .map_or([f64::NAN; 3], |e| [e.x as f64, e.y as f64, e.z as f64]);
-                    (r.hit, e)
-                })
-                .collect()
-        });
-        let hits: Vec<bool> = results.iter().map(|r| r.0).collect();
-        let ends: Vec<[f64; 3]> = results.into_iter().map(|r| r.1).collect();
-        Ok((PyArray1::from_vec(py, hits), array_n3(py, ends)))
+        cast_rays_arrays(
+            py,
+            &self.tree,
+            origins,
+            directions,
+            ignore_unknown,
+            max_range,
+        )
     }
 
     /// The node holding ``value`` (an OcTreeKey or a point), descending at most to ``depth``
@@ -761,7 +732,7 @@ impl PyOcTree {
                 let tree = &self.tree;
                 py.detach(|| engine::leaves(tree, d))
             }
-            Some((lo, hi)) => self.bbx_items(py, lo, hi, d)?,
+            Some((lo, hi)) => bbx_items(py, &self.tree, lo, hi, d)?,
         };
         let conv = self.tree.converter();
         let np = py.import("numpy")?;
@@ -1203,7 +1174,7 @@ impl PyOcTree {
         maxDepth: i64,
     ) -> PyResult<Py<LeafBbxIterator>> {
         let d = max_depth(depth(maxDepth, "maxDepth")?);
-        let items = self.bbx_items(py, bbx_min, bbx_max, d)?;
+        let items = bbx_items(py, &self.tree, bbx_min, bbx_max, d)?;
         let base = IteratorBase::new(items, self.tree.converter().clone(), d);
         LeafBbxIterator::create(py, base)
     }
@@ -1354,30 +1325,106 @@ impl PyOcTree {
     fn empty_iterator(&self) -> IteratorBase {
         IteratorBase::new(Vec::new(), self.tree.converter().clone(), TREE_DEPTH)
     }
+}
 
-    /// Leaves down to depth `d` overlapping the box between two points as OctoMap's
-    /// `begin_leafs_bbx` finds them; none when a corner is outside the map (OctoMap's end
-    /// iterator).
-    fn bbx_items(
-        &self,
-        py: Python<'_>,
-        lo: &Bound<'_, PyAny>,
-        hi: &Bound<'_, PyAny>,
-        d: u8,
-    ) -> PyResult<Vec<engine::NodeItem>> {
-        let lo = vec3_f32(lo, "bbx_min")?.cast::<f64>();
-        let hi = vec3_f32(hi, "bbx_max")?.cast::<f64>();
-        let (Some(a), Some(b)) = (self.key_of_point(&lo), self.key_of_point(&hi)) else {
-            return Ok(Vec::new());
-        };
-        let tree = &self.tree;
-        Ok(py.detach(|| {
+// The pieces of iteration and ray casting an OcTree and a ColorOcTree (through its occupancy
+// tree) share.
+
+/// Every node (`nodes`) or every leaf down to depth `d`, collected without the GIL in
+/// OctoMap's iterator order: what `begin_tree` / `begin_leafs` walk.
+pub fn iterator_items(py: Python<'_>, tree: &OcTree, nodes: bool, d: u8) -> Vec<engine::NodeItem> {
+    py.detach(|| {
+        if nodes {
+            engine::nodes(tree, d)
+        } else {
             engine::leaves(tree, d)
-                .into_iter()
-                .filter(|n| octomap_bbx_overlap(n, &a, &b))
-                .collect()
-        }))
+        }
+    })
+}
+
+/// Leaves down to depth `d` overlapping the box between two points as OctoMap's
+/// `begin_leafs_bbx` finds them; none when a corner is outside the map (OctoMap's end
+/// iterator).
+pub fn bbx_items(
+    py: Python<'_>,
+    tree: &OcTree,
+    lo: &Bound<'_, PyAny>,
+    hi: &Bound<'_, PyAny>,
+    d: u8,
+) -> PyResult<Vec<engine::NodeItem>> {
+    let lo = vec3_f32(lo, "bbx_min")?.cast::<f64>();
+    let hi = vec3_f32(hi, "bbx_max")?.cast::<f64>();
+    let conv = tree.converter();
+    let (Some(a), Some(b)) = (conv.point_to_key(&lo), conv.point_to_key(&hi)) else {
+        return Ok(Vec::new());
+    };
+    Ok(py.detach(|| {
+        engine::leaves(tree, d)
+            .into_iter()
+            .filter(|n| octomap_bbx_overlap(n, &a, &b))
+            .collect()
+    }))
+}
+
+/// octomap-python's `castRay` on `tree`: writes the end voxel's centre into `end` (a float
+/// array of 3, changed in place) and returns whether an occupied voxel stopped the ray.
+pub fn cast_ray_into(
+    tree: &OcTree,
+    origin: &Bound<'_, PyAny>,
+    direction: &Bound<'_, PyAny>,
+    end: &Bound<'_, PyAny>,
+    ignore_unknown: bool,
+    max_range: f64,
+) -> PyResult<bool> {
+    let o = vec3_f32(origin, "origin")?;
+    let d = vec3_f32(direction, "direction")?;
+    let out = end_array(end)?;
+    let r = engine::cast_ray(tree, &o, &d, ignore_unknown, max_range);
+    if let Some(e) = r.end {
+        out.set(e)?;
     }
+    Ok(r.hit)
+}
+
+/// `cast_rays` on `tree`: many casts in parallel without the GIL, `(hit, ends)` arrays with
+/// NaN rows where a ray could not be cast.
+pub fn cast_rays_arrays<'py>(
+    py: Python<'py>,
+    tree: &OcTree,
+    origins: &Bound<'py, PyAny>,
+    directions: &Bound<'py, PyAny>,
+    ignore_unknown: bool,
+    max_range: Option<f64>,
+) -> PyResult<CastArrays<'py>> {
+    let dirs = convert::points_f32(directions, "directions")?;
+    let origins = match vec3_f32(origins, "origins") {
+        Ok(o) => vec![o; dirs.len()],
+        Err(_) => convert::points_f32(origins, "origins")?,
+    };
+    if origins.len() != dirs.len() {
+        return Err(PyValueError::new_err(format!(
+            "origins has {} rows but directions has {}",
+            origins.len(),
+            dirs.len()
+        )));
+    }
+    let mr = max_range.unwrap_or(-1.0);
+    let results: Vec<(bool, [f64; 3])> = py.detach(|| {
+        origins
+            .par_iter()
+            .zip(dirs.par_iter())
+            .map(|(o, d)| {
+                let r = engine::cast_ray(tree, o, d, ignore_unknown, mr);
+                let e = r
+                    .end
+                    .map_or([f64::NAN; 3], |e| [e.x as f64, e.y as f64, e.z as f64]);
+                (r.hit, e)
+            })
+            .collect()
+    });
+    let hits: Vec<bool> = results.iter().map(|r| r.0).collect();
+    let ends: Vec<[f64; 3]> = results.into_iter().map(|r| r.1).collect();
+    Ok((PyArray1::from_vec(py, hits), array_n3(py, ends)))
 }
 
 /// OctoMap's `leaf_bbx_iterator` test of a node against the key box `[lo, hi]` (corners taken

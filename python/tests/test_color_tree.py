@@ -140,3 +140,144 @@ def test_file_round_trip_and_errors(tmp_path):
         octoquant.ColorOcTree.read(plain.write())
     with pytest.raises(ValueError):
         octoquant.ColorOcTree.read(t.write()[:-3])
+
+
+def om_node(om, node):
+    """octomap-python's node, or None for its null node (it returns a node object that raises
+    NullPointerException where octoquant returns None)."""
+    try:
+        node.getValue()
+    except om.NullPointerException:
+        return None
+    return node
+
+
+def nodes_of(it, color=True):
+    """(depth, key, log-odds, colour) of every node an iterator walks, read while it stands on
+    each (octomap-python's iterator objects all share one position)."""
+    out = []
+    for n in it:
+        k = n.getKey()
+        row = (n.getDepth(), (k[0], k[1], k[2]), n.getValue(), tuple(n.getCoordinate()))
+        out.append(row + ((tuple(n.getColor()),) if color else ()))
+    return out
+
+
+@pytest.fixture(scope="module")
+def colored_pair(octomap, data_dir):
+    """octomap-python's ColorOcTree over the table scene (free space by ray insertion, end
+    points' colours integrated, inner colours updated) and octoquant's read from its bytes."""
+    xyz, rgb = table_scene(data_dir)
+    a = octomap.ColorOcTree(0.02)
+    a.insertPointCloud(xyz[::4].astype(np.float64), np.zeros(3))
+    for p, c in zip(xyz[::9].astype(np.float64), rgb[::9].tolist()):
+        a.integrateNodeColor(p, *c)
+    a.updateInnerOccupancy()
+    b = octoquant.ColorOcTree.read(a.write())
+    assert b.size() == a.size() > 10_000
+    return a, b, xyz
+
+
+def test_iterators_walk_the_same_nodes_and_colours(octomap, colored_pair):
+    a, b, _ = colored_pair
+    tree_a, tree_b = nodes_of(a.begin_tree()), nodes_of(b.begin_tree())
+    assert len(tree_b) == a.size()
+    assert tree_b == tree_a
+    # inner nodes carry the average colours, and some leaves are coloured, some white
+    colours = {row[4] for row in tree_b}
+    assert len(colours) > 100 and (255, 255, 255) in colours
+    assert any(row[0] < 16 and row[4] != (255, 255, 255) for row in tree_b)
+    assert nodes_of(b.begin_leafs()) == nodes_of(a.begin_leafs())
+    assert nodes_of(b.begin_leafs(13)) == nodes_of(a.begin_leafs(13))
+    assert nodes_of(b.begin_tree(11)) == nodes_of(a.begin_tree(11))
+    lo, hi = np.array([-0.2, -0.1, 0.6]), np.array([0.1, 0.2, 1.0])
+    box_b = nodes_of(b.begin_leafs_bbx(lo, hi))
+    assert len(box_b) > 100
+    assert box_b == nodes_of(a.begin_leafs_bbx(lo, hi))
+    # isLeaf on the tree iterator, occupancy through an iterator
+    leaf_a = [n.isLeaf() for n in a.begin_tree(12)]
+    assert [n.isLeaf() for n in b.begin_tree(12)] == leaf_a
+    occ_a = [a.isNodeOccupied(n) for n in a.begin_leafs()]
+    assert [b.isNodeOccupied(n) for n in b.begin_leafs()] == occ_a
+
+
+def test_iterator_ends_and_plain_tree_colour(octomap, colored_pair):
+    a, b, _ = colored_pair
+    for t, npe in ((a, octomap.NullPointerException), (b, octoquant.NullPointerException)):
+        with pytest.raises(npe):
+            t.end_leafs().getColor()
+        it = t.begin_leafs()
+        assert it.getColor() == tuple(it.getColor())
+    plain = octoquant.OcTree(0.1)
+    plain.updateNode(np.zeros(3), True)
+    with pytest.raises(TypeError, match="ColorOcTree"):
+        next(iter(plain.begin_leafs())).getColor()
+
+
+def test_node_colour_accessors_match(octomap, colored_pair):
+    a, b, xyz = colored_pair
+    rng = np.random.default_rng(5)
+    seen_inner = 0
+    for p in xyz[rng.choice(len(xyz), 400, replace=False)].astype(np.float64):
+        for depth in (0, 16, 14, 12):
+            na, nb = om_node(octomap, a.search(p, depth)), b.search(p, depth)
+            assert (nb is None) == (na is None)
+            if nb is None:
+                continue
+            seen_inner += nb.hasChildren()
+            assert (nb.getValue(), nb.hasChildren()) == (na.getValue(), na.hasChildren())
+            assert nb.getColor() == tuple(na.getColor())
+            assert nb.isColorSet() == na.isColorSet()
+            assert nb.getAverageChildColor() == tuple(na.getAverageChildColor())
+    assert seen_inner > 100
+    ra, rb = a.getRoot(), b.getRoot()
+    assert rb.getColor() == tuple(ra.getColor())
+    assert rb.getAverageChildColor() == tuple(ra.getAverageChildColor())
+
+
+def test_set_color_on_nodes_in_hand_matches(octomap, colored_pair):
+    a0, _, xyz = colored_pair
+    a = octomap.ColorOcTree.read(a0.write())
+    b = octoquant.ColorOcTree.read(a0.write())
+    for i, p in enumerate(xyz[::5000].astype(np.float64)):
+        depth = (0, 16, 15, 13, 10)[i % 5]
+        na, nb = om_node(octomap, a.search(p, depth)), b.search(p, depth)
+        assert (nb is None) == (na is None)
+        if nb is None:
+            continue
+        c = (i * 7 % 256, 255 - i % 256, 3)
+        na.setColor(*c)
+        nb.setColor(*c)
+        assert nb.getColor() == c == tuple(na.getColor())
+        assert b.search(p, depth).getColor() == c
+    assert b.write() == a.write()
+    # a node gone from its tree cannot be coloured
+    p = xyz[0].astype(np.float64)
+    n = b.search(p)
+    b.clear()
+    with pytest.raises(ValueError, match="no longer"):
+        n.setColor(1, 2, 3)
+
+
+def test_cast_ray_matches(octomap, colored_pair):
+    a, b, xyz = colored_pair
+    rng = np.random.default_rng(11)
+    targets = xyz[rng.choice(len(xyz), 1500, replace=False)].astype(np.float64)
+    dirs = targets + rng.normal(scale=0.05, size=targets.shape)
+    origin = np.zeros(3)
+    hits = 0
+    cases = [dict(), dict(ignoreUnknownCells=True), dict(ignoreUnknownCells=True, maxRange=0.8)]
+    for d in dirs:
+        for kw in cases:
+            ea, eb = np.zeros(3), np.zeros(3)
+            ha = a.castRay(origin, d, ea, **kw)
+            hb = b.castRay(origin, d, eb, **kw)
+            assert (hb, eb.tolist()) == (ha, ea.tolist()), (d, kw)
+            hits += hb
+    assert 500 < hits < 3 * len(dirs)
+    # the vectorised form agrees with the single casts
+    h, ends = b.cast_rays(origin, dirs[:50], ignore_unknown=True)
+    for d, hv, e in zip(dirs[:50], h, ends):
+        ea = np.zeros(3)
+        assert bool(hv) == a.castRay(origin, d, ea, ignoreUnknownCells=True)
+        assert e.tolist() == ea.tolist()

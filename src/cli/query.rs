@@ -57,46 +57,11 @@ pub(super) fn query_points(at: &[f64], file: Option<&Path>) -> Result<Vec<Point3
     Ok(points)
 }
 
-/// The numbers of a text file, `width` per line, with the line numbers in errors.
+/// The numbers of a text file, `width` per line (see `octoquant::rows`); errors name the
+/// file and the line.
 pub(super) fn read_rows(path: &Path, width: usize) -> Result<Vec<Vec<f64>>> {
     let text = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let text = String::from_utf8_lossy(&text);
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line
-            .split(|c: char| c.is_whitespace() || c == ',')
-            .filter(|f| !f.is_empty())
-            .collect();
-        if fields.len() != width {
-            bail!(
-                "{} (line {}): {} numbers, expected {width}",
-                path.display(),
-                i + 1,
-                fields.len()
-            );
-        }
-        let row = fields
-            .iter()
-            .map(|f| {
-                f.parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .with_context(|| {
-                        format!(
-                            "{} (line {}): {f:?} is not a finite number",
-                            path.display(),
-                            i + 1
-                        )
-                    })
-            })
-            .collect::<Result<Vec<f64>>>()?;
-        rows.push(row);
-    }
-    Ok(rows)
+    octoquant::rows::parse_rows(&text, width).with_context(|| format!("{}", path.display()))
 }
 
 fn class_name(c: VoxelClass) -> &'static str {

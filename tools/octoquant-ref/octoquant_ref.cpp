@@ -30,6 +30,7 @@
 //   print_size                        prints "size N"
 //   changes_on | changes_reset        enableChangeDetection(true) / resetChangeDetection()
 //   print_changes                     prints "change KX KY KZ NEW" per changed key, sorted
+//   print_changes_ordered             the same in the changed-keys map's iteration order
 //
 // Colour commands (color-script only; "inner" is then ColorOcTree::updateInnerOccupancy, skipped
 // on an empty tree where OctoMap 1.9.7 crashes, and read_ot expects a ColorOcTree):
@@ -367,6 +368,10 @@ static int run_script(std::istream& in) {
       std::sort(v.begin(), v.end());
       for (auto& t : v)
         std::printf("change %u %u %u %d\n", std::get<0>(t), std::get<1>(t), std::get<2>(t), std::get<3>(t));
+    } else if (cmd == "print_changes_ordered") {
+      for (KeyBoolMap::const_iterator it = tree->changedKeysBegin(); it != tree->changedKeysEnd(); ++it)
+        std::printf("change %u %u %u %d\n", unsigned(it->first[0]), unsigned(it->first[1]),
+                    unsigned(it->first[2]), it->second ? 1 : 0);
     } else if (cmd == "print_size") {
       std::printf("size %zu\n", tree->size());
     } else if (color && (cmd == "color" || cmd == "avgcolor" || cmd == "intcolor")) {

@@ -35,6 +35,8 @@ fn main() {
     mcap(&mut seeds);
     source(&mut seeds);
     octree_ops(&mut seeds);
+    rows(&mut seeds);
+    distance_map(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
     tiles(&mut seeds);
@@ -971,6 +973,41 @@ fn octree_ops(s: &mut Seeds) {
     }
 }
 
+// ---- rows files (`--points`, `--rays`) and distance maps ---------------------------------
+
+fn rows(s: &mut Seeds) {
+    // the first byte picks the width: 0 -> 3 numbers a row, 1 -> 6
+    let files: [(&str, u8, &str); 6] = [
+        ("points", 0, "# x y z\n1 2 3\n\n-0.5, 2.25, 1e-3\n4\t5\t6\n"),
+        ("rays", 1, "0 0 0 1 0 0\n0.1,0.2,0.3, 0,0,-1\n"),
+        ("short-line", 0, "1 2 3\n1 2\n"),
+        ("nan", 0, "1 2 3\nnan 0 0\n"),
+        ("overflow", 1, "0 0 0 1 0 1e999\n"),
+        ("crlf", 0, "1 2 3\r\n4 5 6\r\n"),
+    ];
+    for (name, width, text) in files {
+        let mut bytes = vec![width];
+        bytes.extend_from_slice(text.as_bytes());
+        s.put("rows", &format!("{name}.txt"), &bytes);
+    }
+}
+
+fn distance_map(s: &mut Seeds) {
+    // `arbitrary` reads any bytes: deterministic pseudo-random strings of a few lengths
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    for (i, len) in [32usize, 128, 512, 2048].into_iter().enumerate() {
+        let bytes: Vec<u8> = (0..len)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 24) as u8
+            })
+            .collect();
+        s.put("distance_map", &format!("random-{i}.bin"), &bytes);
+    }
+}
+
 /// Tile update buffers (OQTU) at several tile depths, from deterministic pseudo-random
 /// sorted codes inside each tile, and tile directory indexes, written by the tiles crate's
 /// own encoder and index writer (each read back here).
@@ -1008,7 +1045,11 @@ fn tiles(s: &mut Seeds) {
         for pick in [0u8, 1] {
             let mut seed = vec![pick];
             seed.extend_from_slice(&bytes);
-            s.put("tile_lists", &format!("depth-{depth:02}-{pick}.oqtu"), &seed);
+            s.put(
+                "tile_lists",
+                &format!("depth-{depth:02}-{pick}.oqtu"),
+                &seed,
+            );
         }
     }
     let dir = std::env::temp_dir().join(format!("octoquant-seedgen-{}", std::process::id()));
