@@ -26,7 +26,6 @@
 #![forbid(unsafe_code)]
 
 mod brick;
-mod change_set;
 mod color;
 mod color_tree;
 mod compare;
@@ -35,6 +34,7 @@ mod error;
 pub mod io;
 mod iter;
 mod key;
+pub mod key_table;
 mod merge;
 mod node_id;
 mod params;
@@ -56,6 +56,7 @@ pub use compare::{
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
+pub use key_table::KeyTable;
 pub use merge::MergeStats;
 pub use params::{logodds, probability, OccupancyParams, SensorPreset, SensorProbabilities};
 pub use stamped_tree::{now_seconds, StampedNodeInfo, StampedOcTree};

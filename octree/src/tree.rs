@@ -1,8 +1,8 @@
 //! The occupancy octree: node updates with OctoMap's exact semantics, search and summaries.
 
-use crate::change_set::ChangeSet;
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
+use crate::key_table::KeyTable;
 use crate::params::OccupancyParams;
 use crate::store::{Adder, MemoryUsage, NodeRef, NodeStore, Outcome, NO_BLOCK};
 use nalgebra::Point3;
@@ -100,7 +100,7 @@ pub struct OcTree {
     size: usize,
     /// Change detection (OctoMap's `changed_keys`): key -> "the voxel is new", in OctoMap's
     /// iteration order; made on the first enabling and kept (OctoMap never drops it).
-    changes: Option<Box<ChangeSet>>,
+    changes: Option<Box<KeyTable<bool>>>,
     /// Whether updates are recorded (OctoMap's `use_change_detection`).
     detect_changes: bool,
 }
@@ -417,7 +417,9 @@ impl OcTree {
             changes.insert(key, true);
         } else if p.is_occupied(old) != p.is_occupied(new) {
             match changes.get(&key) {
-                None => changes.insert(key, false),
+                None => {
+                    changes.insert(key, false);
+                }
                 Some(false) => changes.remove(&key),
                 Some(true) => {}
             }
