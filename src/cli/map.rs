@@ -570,43 +570,18 @@ fn run_stamped(a: &Args) -> Result<()> {
     octoquant::output::write_atomic(&plan.output, |w| {
         octoquant::octree::io::write_stamped_ot(&tree, w)
     })?;
-    let t = &stats.total;
+    let extra = serde_json::json!({
+        "last_update": tree.last_update_time(),
+        "degrade_older_than": a.degrade_older_than,
+    });
+    let line = format!(
+        "{} nodes, last update at {} s",
+        tree.size(),
+        tree.last_update_time()
+    );
     let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
-    if a.json {
-        let json = serde_json::json!({
-            "frames": stats.frames,
-            "points": t.points,
-            "non_finite": t.non_finite,
-            "outside_map": t.outside_map,
-            "free_updates": t.free,
-            "occupied_updates": t.occupied,
-            "load_seconds": load_s,
-            "insert_seconds": t.seconds,
-            "resolution": tree.resolution(),
-            "nodes": tree.size(),
-            "last_update": tree.last_update_time(),
-            "degrade_older_than": a.degrade_older_than,
-            "output": plan.output.to_string_lossy(),
-        });
-        outln!("{json}")?;
-    } else {
-        outln!("frames:          {}", stats.frames)?;
-        outln!(
-            "points:          {} ({} non-finite and {} outside the map skipped)",
-            t.points,
-            t.non_finite,
-            t.outside_map
-        )?;
-        outln!("loading:         {load_s:.3} s")?;
-        outln!("insertion:       {:.3} s", t.seconds)?;
-        outln!(
-            "tree:            {} nodes, last update at {} s",
-            tree.size(),
-            tree.last_update_time()
-        )?;
-        outln!("wrote:           {}", plan.output.display())?;
-    }
-    Ok(())
+    let tree_figures = (tree.resolution(), tree.size());
+    typed_summary(a, &stats, load_s, tree_figures, extra, &line, &plan.output)
 }
 
 /// `map --color`: a ColorOcTree from coloured inputs, written as .ot.
@@ -634,10 +609,35 @@ fn run_color(a: &Args) -> Result<()> {
     progress.finish();
     let tree = mapper.into_tree();
     save_color_tree_file(&tree, &plan.output)?;
-    let t = &stats.total;
+    let merge = ColorMerge::from(a.color_merge).name();
+    let extra = serde_json::json!({
+        "colored_nodes": tree.num_colored_nodes(),
+        "color_merge": merge,
+    });
+    let line = format!(
+        "{} nodes, {} with a colour ({merge} merge)",
+        tree.size(),
+        tree.num_colored_nodes()
+    );
     let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
+    let tree_figures = (tree.resolution(), tree.size());
+    typed_summary(a, &stats, load_s, tree_figures, extra, &line, &plan.output)
+}
+
+/// The summary of `map --color` and `map --stamped`: the common counts, then the tree type's
+/// own figures (`extra` in JSON, `tree_line` in text).
+fn typed_summary(
+    a: &Args,
+    stats: &MapStats,
+    load_s: f64,
+    (resolution, nodes): (f64, usize),
+    extra: serde_json::Value,
+    tree_line: &str,
+    output: &std::path::Path,
+) -> Result<()> {
+    let t = &stats.total;
     if a.json {
-        let json = serde_json::json!({
+        let mut json = serde_json::json!({
             "frames": stats.frames,
             "points": t.points,
             "non_finite": t.non_finite,
@@ -646,12 +646,13 @@ fn run_color(a: &Args) -> Result<()> {
             "occupied_updates": t.occupied,
             "load_seconds": load_s,
             "insert_seconds": t.seconds,
-            "resolution": tree.resolution(),
-            "nodes": tree.size(),
-            "colored_nodes": tree.num_colored_nodes(),
-            "color_merge": ColorMerge::from(a.color_merge).name(),
-            "output": plan.output.to_string_lossy(),
+            "resolution": resolution,
+            "nodes": nodes,
         });
+        if let (Some(all), serde_json::Value::Object(more)) = (json.as_object_mut(), extra) {
+            all.extend(more);
+        }
+        json["output"] = serde_json::Value::from(output.to_string_lossy());
         outln!("{json}")?;
     } else {
         outln!("frames:          {}", stats.frames)?;
@@ -663,13 +664,8 @@ fn run_color(a: &Args) -> Result<()> {
         )?;
         outln!("loading:         {load_s:.3} s")?;
         outln!("insertion:       {:.3} s", t.seconds)?;
-        outln!(
-            "tree:            {} nodes, {} with a colour ({} merge)",
-            tree.size(),
-            tree.num_colored_nodes(),
-            ColorMerge::from(a.color_merge).name()
-        )?;
-        outln!("wrote:           {}", plan.output.display())?;
+        outln!("tree:            {tree_line}")?;
+        outln!("wrote:           {}", output.display())?;
     }
     Ok(())
 }
