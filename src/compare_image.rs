@@ -14,8 +14,10 @@
 //! A pixel is one voxel column while the map's longer side fits in the requested size;
 //! beyond, each pixel covers `k × k` columns (k a power of two), so any map gives a picture of
 //! bounded size. The maps are walked together ([`for_each_class_cube`]), never expanded.
+//! [`with_legend`] frames the picture with a title and a legend of these colours
+//! ([`LEGEND`]), as `octoquant compare --png` writes it.
 
-use crate::render::{Image, UNKNOWN_COLOUR};
+use crate::render::{draw_text, Image, PANEL, TEXT, UNKNOWN_COLOUR};
 use octoquant_octree::{for_each_class_cube, ClassCube, OcTree, OctreeError, VoxelClass};
 
 /// Occupied only in the first map and, elsewhere in the column, only in the second.
@@ -30,6 +32,58 @@ pub const BOTH_OCCUPIED: [u8; 3] = [200, 200, 205];
 pub const ONE_KNOWS: [u8; 3] = [70, 110, 200];
 /// Free in both.
 pub const BOTH_FREE: [u8; 3] = [78, 84, 96];
+
+/// The legend's rows: each colour of the picture and what it means, in the order of
+/// [`DifferenceImage::pixels`].
+pub const LEGEND: [([u8; 3], &str); 7] = [
+    (BOTH_CHANGES, "CHANGED BOTH WAYS"),
+    (ONLY_FIRST, "OCCUPIED ONLY IN A"),
+    (ONLY_SECOND, "OCCUPIED ONLY IN B"),
+    (BOTH_OCCUPIED, "OCCUPIED IN BOTH"),
+    (ONE_KNOWS, "FREE IN ONE ONLY"),
+    (BOTH_FREE, "FREE IN BOTH"),
+    (UNKNOWN_COLOUR, "UNKNOWN IN BOTH"),
+];
+
+/// Layout of [`with_legend`]: margin, swatch size and legend row height in pixels (text is
+/// 5×7 glyphs at scale 1).
+const PAD: u32 = 8;
+const SWATCH: u32 = 9;
+const ROW: u32 = 14;
+const LEGEND_W: u32 = SWATCH + 6 + 18 * 6;
+
+/// Where [`with_legend`] puts legend row `i`'s swatch (a square of 9 pixels): its top-left
+/// pixel, right of the map area `[x, y, width, height]` (so readers of the picture can find it).
+pub fn legend_swatch([mx, my, mw, _]: [u32; 4], i: usize) -> (u32, u32) {
+    (mx + mw + PAD, my + i as u32 * ROW)
+}
+
+/// `d` framed for reading: a title line (`title`, e.g. the two file names), the map below it,
+/// and to its right the legend ([`LEGEND`]: a swatch and its meaning per colour). The map's
+/// pixels are unchanged, moved to `image.map_area`.
+pub fn with_legend(d: DifferenceImage, title: &str) -> DifferenceImage {
+    let (w, h) = (d.image.width, d.image.height);
+    let top = PAD + 7 + PAD;
+    let width = PAD + w + PAD + LEGEND_W + PAD;
+    let height = top + h.max(LEGEND.len() as u32 * ROW) + PAD;
+    let mut img = Image::new(width, height, PANEL);
+    for y in 0..h {
+        for x in 0..w {
+            if let Some(c) = d.image.pixel(x, y) {
+                img.fill(i64::from(PAD + x), i64::from(top + y), 1, 1, c);
+            }
+        }
+    }
+    img.map_area = [PAD, top, w, h];
+    draw_text(&mut img, i64::from(PAD), i64::from(PAD), title, 1, TEXT);
+    for (i, (colour, label)) in LEGEND.iter().enumerate() {
+        let (sx, sy) = legend_swatch(img.map_area, i);
+        let (x, y) = (i64::from(sx), i64::from(sy));
+        img.fill(x, y, SWATCH.into(), SWATCH.into(), *colour);
+        draw_text(&mut img, x + i64::from(SWATCH) + 6, y + 1, label, 1, TEXT);
+    }
+    DifferenceImage { image: img, ..d }
+}
 
 /// A column's state, most telling last (a pixel keeps the highest it sees).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]

@@ -114,7 +114,7 @@ pub struct Image {
 }
 
 impl Image {
-    fn new(width: u32, height: u32, colour: [u8; 3]) -> Image {
+    pub(crate) fn new(width: u32, height: u32, colour: [u8; 3]) -> Image {
         let n = width as usize * height as usize;
         let mut rgb = Vec::with_capacity(n * 3);
         for _ in 0..n {
@@ -144,7 +144,7 @@ impl Image {
         }
     }
 
-    fn fill(&mut self, x: i64, y: i64, w: i64, h: i64, c: [u8; 3]) {
+    pub(crate) fn fill(&mut self, x: i64, y: i64, w: i64, h: i64, c: [u8; 3]) {
         for yy in y..y + h {
             for xx in x..x + w {
                 self.put(xx, yy, c);
@@ -157,8 +157,8 @@ impl Image {
 pub const UNKNOWN_COLOUR: [u8; 3] = [28, 31, 38];
 /// Known free space.
 pub const FREE_COLOUR: [u8; 3] = [78, 84, 96];
-const PANEL: [u8; 3] = [16, 18, 22];
-const TEXT: [u8; 3] = [225, 228, 232];
+pub(crate) const PANEL: [u8; 3] = [16, 18, 22];
+pub(crate) const TEXT: [u8; 3] = [225, 228, 232];
 
 /// The colour of `t` in [0, 1] on the height scale (indigo, blue, teal, yellow, red); values
 /// outside are clamped, NaN gives the low end.
@@ -589,7 +589,7 @@ fn glyph(c: char) -> Option<&'static [&'static str; 7]> {
 }
 
 /// Draw `text` (upper-cased; unknown characters are blanks) with its top-left at (x, y).
-fn draw_text(img: &mut Image, x: i64, y: i64, text: &str, scale: i64, colour: [u8; 3]) {
+pub(crate) fn draw_text(img: &mut Image, x: i64, y: i64, text: &str, scale: i64, colour: [u8; 3]) {
     let mut cx = x;
     for ch in text.chars() {
         if let Some(rows) = glyph(ch) {

@@ -163,11 +163,26 @@ fn png_colours_each_column_by_its_class_pairs() {
     let mut reader = decoder.read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).unwrap();
-    let (w, h) = (info.width, info.height);
     assert_eq!(
         (png["width"].as_u64(), png["height"].as_u64()),
-        (Some(w.into()), Some(h.into()))
+        (Some(info.width.into()), Some(info.height.into()))
     );
+    // the map sits in `map_area`; title and legend around it
+    let area: Vec<u32> = png["map_area"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as u32)
+        .collect();
+    let (ax, ay, w, h) = (area[0], area[1], area[2], area[3]);
+    assert!(
+        ax + w < info.width && ay > 0 && ay + h <= info.height,
+        "{area:?}"
+    );
+    let at = |x: u32, y: u32| {
+        let i = (y as usize * info.width as usize + x as usize) * 3;
+        [buf[i], buf[i + 1], buf[i + 2]]
+    };
     let a = octoquant::treefile::read_tree_file(&plain).unwrap();
     let b = octoquant::treefile::read_tree_file(&ranged).unwrap();
     let conv = a.converter().clone();
@@ -192,8 +207,7 @@ fn png_colours_each_column_by_its_class_pairs() {
     let mut checked = 0;
     for row in (0..h).step_by(3) {
         for col in (0..w).step_by(3) {
-            let i = (row as usize * w as usize + col as usize) * 3;
-            let got = [buf[i], buf[i + 1], buf[i + 2]];
+            let got = at(ax + col, ay + row);
             let (kx, ky) = (x0 + col as u16, y0 + (h - 1 - row) as u16);
             let (mut first, mut second, mut both_occ, mut one, mut both_free) =
                 (false, false, false, false, false);
@@ -235,4 +249,12 @@ fn png_colours_each_column_by_its_class_pairs() {
         "{seen:?}"
     );
     assert!(seen.len() >= 4, "{seen:?}");
+    // the legend: every colour's swatch, whole, where the library says it is
+    let area = [ax, ay, w, h];
+    for (i, (colour, _)) in LEGEND.iter().enumerate() {
+        let (sx, sy) = legend_swatch(area, i);
+        for (dx, dy) in [(0, 0), (8, 0), (0, 8), (8, 8), (4, 4)] {
+            assert_eq!(at(sx + dx, sy + dy), *colour, "legend row {i}");
+        }
+    }
 }

@@ -5,7 +5,7 @@
 
 use super::{json_path, print_json};
 use anyhow::{bail, Result};
-use octoquant::compare_image::difference_image;
+use octoquant::compare_image::{difference_image, with_legend};
 use octoquant::octree::{compare_classes, kl_divergence, Divergence, VoxelClass};
 use octoquant::output::{check_output, write_atomic};
 use octoquant::render::write_png;
@@ -23,11 +23,12 @@ pub struct Args {
     json: bool,
     /// Also draw where the maps differ, seen from above: red occupied only in the first map,
     /// green only in the second, yellow both kinds in one column, light grey occupied in both,
-    /// blue free in one map and unknown in the other, dark grey free in both.
+    /// blue free in one map and unknown in the other, dark grey free in both; titled with the
+    /// two file names (A, B), with a legend of the colours at its right.
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
-    /// The picture's longer side at most, in pixels (a pixel covers more voxel columns
-    /// when the map is larger).
+    /// The map's longer side in the picture at most, in pixels (a pixel covers more voxel
+    /// columns when the map is larger; title and legend come on top).
     #[arg(long, default_value_t = 1000, value_name = "N")]
     max_pixels: u32,
 }
@@ -55,7 +56,8 @@ pub fn run(a: &Args) -> Result<()> {
     let names = ["unknown", "free", "occupied"];
     let picture = match &a.png {
         Some(png) => {
-            let d = difference_image(&ta, &tb, a.max_pixels)?;
+            let title = format!("A {}   B {}", file_label(&a.first), file_label(&a.second));
+            let d = with_legend(difference_image(&ta, &tb, a.max_pixels)?, &title);
             write_atomic(png, |w| write_png(&d.image, w))?;
             Some((png, d))
         }
@@ -80,6 +82,7 @@ pub fn run(a: &Args) -> Result<()> {
             "output": json_path(png),
             "width": d.image.width,
             "height": d.image.height,
+            "map_area": d.image.map_area,
             "columns_per_pixel": d.columns_per_pixel,
             "origin": d.origin,
             "pixels": pixels,
@@ -185,4 +188,12 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A file's name for the picture's title (its glyphs: letters, digits and `.-=')':/`).
+fn file_label(p: &std::path::Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
