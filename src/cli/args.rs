@@ -221,6 +221,24 @@ impl InputArgs {
     }
 }
 
+/// All points of `path`, the frames merged in world coordinates.
+pub fn read_points(
+    path: &std::path::Path,
+    read: &ReadOptions,
+) -> Result<Vec<nalgebra::Point3<f32>>> {
+    if read.format.is_none()
+        && octoquant::formats::source::logical_extension(path).as_deref() == Some("ply")
+    {
+        return Ok(octoquant::formats::ply::read_ply_f32(path)?);
+    }
+    let frames = read_frames(path, read)?;
+    let mut points = Vec::with_capacity(frames.iter().map(|f| f.points.len()).sum());
+    for f in frames {
+        points.extend(f.points);
+    }
+    Ok(points)
+}
+
 /// The sensor model: a named preset, optionally with its clamping or hit/miss probabilities
 /// replaced (`map` and `bench`).
 #[derive(clap::Args)]

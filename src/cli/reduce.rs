@@ -2,17 +2,16 @@
 //! reducer over a whole cloud, written as PLY; with `--stream`, input and output stages on two
 //! threads (`reduce_stream.rs`).
 
-use super::args::ReadArgs;
+use super::args::{read_points, ReadArgs};
 use super::reduce_stream::{run_stream, StreamJob};
+use super::vocab::StorageArg;
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
-use octoquant::formats::ply::{read_ply_f32, write_ply_file, PlyEncoding};
-use octoquant::formats::source::logical_extension;
-use octoquant::formats::{read_frames, ReadOptions};
+use octoquant::formats::ply::{write_ply_file, PlyEncoding};
 use octoquant::output::check_output;
 use octoquant_density::{CentreDistance, DensityGrid, GridSpec, Storage};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -67,13 +66,6 @@ pub struct Args {
     storage: Option<StorageArg>,
 }
 
-/// `--storage`: what a cell of the streamed store keeps.
-#[derive(clap::ValueEnum, Clone, Copy)]
-pub(super) enum StorageArg {
-    OneNode,
-    AllMembers,
-}
-
 /// `--distance`: the grid's centre distance.
 #[derive(clap::ValueEnum, Clone, Copy)]
 enum DistanceArg {
@@ -88,19 +80,6 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
         [x, y, z] => Ok([*x, *y, *z]),
         _ => bail!("--{what} takes one value or three (x,y,z), got {}", v.len()),
     }
-}
-
-/// All points of `path`, the frames merged in world coordinates.
-pub(super) fn read_points(path: &Path, read: &ReadOptions) -> Result<Vec<Point3<f32>>> {
-    if read.format.is_none() && logical_extension(path).as_deref() == Some("ply") {
-        return Ok(read_ply_f32(path)?);
-    }
-    let frames = read_frames(path, read)?;
-    let mut points = Vec::with_capacity(frames.iter().map(|f| f.points.len()).sum());
-    for f in frames {
-        points.extend(f.points);
-    }
-    Ok(points)
 }
 
 pub fn run(a: &Args) -> Result<()> {

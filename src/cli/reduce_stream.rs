@@ -11,7 +11,8 @@
 //! cycle does not depend on the pieces or the threads' timing: it equals the batch reduction
 //! of the input without the deleted points. The intermediate cycles do depend on timing.
 
-use super::reduce::{read_points, StorageArg};
+use super::args::read_points;
+use super::vocab::StorageArg;
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
 use octoquant::formats::ply::{write_ply_file, PlyEncoding};

@@ -53,6 +53,14 @@ impl From<SensorModelArg> for SensorPreset {
     }
 }
 
+/// `--storage` of `reduce --stream`: what a cell of the streamed store keeps (see
+/// `octoquant_density::Storage`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StorageArg {
+    OneNode,
+    AllMembers,
+}
+
 /// `--ray`: which voxels a free-space ray clears (see [`RayModel`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RayArg {
