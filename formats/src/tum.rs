@@ -110,25 +110,40 @@ pub struct DepthImage {
 /// The most pixels a depth image may have: 64 Mi, sixty times a 1280 x 720 depth camera.
 pub const MAX_DEPTH_PIXELS: u64 = 1 << 26;
 
-/// Decode a 16-bit grayscale PNG depth image.
-pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
-    let png_err = |e: png::DecodingError| FormatError::syntax(path, Location::File, e.to_string());
+/// A PNG decoder over a sensor file.
+type PngReader = png::Reader<Box<dyn std::io::BufRead + Send>>;
+
+/// A PNG decoder past its header, with the image's width and height. The header's size is
+/// checked before any pixel is allocated: a damaged header could otherwise ask for gigabytes
+/// (the png crate's own limit applies to its inner buffers). `what` names the image in errors.
+fn png_reader(
+    path: &Path,
+    transformations: png::Transformations,
+    what: &str,
+) -> Result<(PngReader, u32, u32), FormatError> {
     let mut decoder = png::Decoder::new(open(path)?);
-    decoder.set_transformations(png::Transformations::IDENTITY);
-    let mut reader = decoder.read_info().map_err(png_err)?;
-    // the header's size is checked before the pixels are allocated: a damaged header could
-    // otherwise ask for gigabytes (the png crate's own limit applies to its inner buffers)
+    decoder.set_transformations(transformations);
+    let reader = decoder
+        .read_info()
+        .map_err(|e| FormatError::syntax(path, Location::File, e.to_string()))?;
     let (w, h) = (reader.info().width, reader.info().height);
     if w as u64 * h as u64 > MAX_DEPTH_PIXELS {
         return Err(FormatError::syntax(
             path,
             Location::File,
             format!(
-                "depth image header declares {w} x {h} pixels, more than the \
+                "{what} image header declares {w} x {h} pixels, more than the \
                  {MAX_DEPTH_PIXELS} this reader accepts"
             ),
         ));
     }
+    Ok((reader, w, h))
+}
+
+/// Decode a 16-bit grayscale PNG depth image.
+pub fn read_depth_png(path: &Path) -> Result<DepthImage, FormatError> {
+    let png_err = |e: png::DecodingError| FormatError::syntax(path, Location::File, e.to_string());
+    let (mut reader, w, h) = png_reader(path, png::Transformations::IDENTITY, "depth")?;
     // the pixel type and the decompression limit are checked before the buffer is allocated
     let (color, depth) = (reader.info().color_type, reader.info().bit_depth);
     if color != png::ColorType::Grayscale || depth != png::BitDepth::Sixteen {
@@ -185,20 +200,8 @@ pub struct ColorImage {
 /// RGBA or palette, 8 or 16 bits (16-bit channels keep their high byte; alpha is ignored).
 pub fn read_color_png(path: &Path) -> Result<ColorImage, FormatError> {
     let png_err = |e: png::DecodingError| FormatError::syntax(path, Location::File, e.to_string());
-    let mut decoder = png::Decoder::new(open(path)?);
-    decoder.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = decoder.read_info().map_err(png_err)?;
-    let (w, h) = (reader.info().width, reader.info().height);
-    if w as u64 * h as u64 > MAX_DEPTH_PIXELS {
-        return Err(FormatError::syntax(
-            path,
-            Location::File,
-            format!(
-                "colour image header declares {w} x {h} pixels, more than the \
-                 {MAX_DEPTH_PIXELS} this reader accepts"
-            ),
-        ));
-    }
+    let (mut reader, w, h) =
+        png_reader(path, png::Transformations::normalize_to_color8(), "colour")?;
     let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     if let Some(msg) = decompression_limit().check(file_len, w as u64 * h as u64 * 4) {
         return Err(FormatError::syntax(
