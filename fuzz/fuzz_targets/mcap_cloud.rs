@@ -1,5 +1,6 @@
 //! One `sensor_msgs/PointCloud2` message: the first byte picks the encoding (ROS 1 or CDR),
-//! the rest goes to `decode_point_cloud2`, and a decoded cloud extracts its points.
+//! the rest goes to `decode_point_cloud2`, and a decoded cloud extracts its points, also with
+//! their `rgb`/`rgba` colours (one per point when the cloud has them).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use octoquant_formats::mcap::{decode_point_cloud2, Encoding};
@@ -15,5 +16,8 @@ fuzz_target!(|data: &[u8]| {
     };
     if let Ok(cloud) = decode_point_cloud2(msg, encoding) {
         let _ = cloud.points_f32();
+        if let Ok((points, Some(colors), _)) = cloud.points_colors_f32(true) {
+            assert_eq!(colors.len(), points.len());
+        }
     }
 });

@@ -1,9 +1,10 @@
 //! PCD v0.7 (ascii, binary, binary_compressed with LZF) through the real entry point
 //! `read_pcd` on a `.pcd` file, with the viewpoint applied or as origin only (by the
-//! input length's parity, so each input reads once).
+//! input length's parity, so each input reads once), with its colour field (`rgb`/`rgba`)
+//! decoded or not (by the length's second bit).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use octoquant_formats::pcd::{read_pcd, PcdOptions, ViewpointUse};
+use octoquant_formats::pcd::{read_pcd_with, PcdOptions, ViewpointUse};
 use octoquant_fuzz::with_file;
 
 fuzz_target!(|data: &[u8]| {
@@ -13,6 +14,7 @@ fuzz_target!(|data: &[u8]| {
         } else {
             ViewpointUse::OriginOnly
         };
-        let _ = read_pcd(path, &PcdOptions { viewpoint });
+        let colors = data.len() & 2 != 0;
+        let _ = read_pcd_with(path, &PcdOptions { viewpoint }, colors);
     });
 });

@@ -21,10 +21,16 @@ fuzz_target!(|data: &[u8]| {
     for (tile, name) in &index.tiles {
         assert_eq!(tile.depth(), index.tile_depth, "a tile of another depth");
         assert!(!name.is_empty() && !name.contains(['/', '\\']) && !name.starts_with('.'));
-        assert!(!name.chars().any(char::is_control), "a file name with a control character");
+        assert!(
+            !name.chars().any(char::is_control),
+            "a file name with a control character"
+        );
     }
     let out = scratch_subdir("tile_index_again");
     write_index(&out, &index).unwrap_or_else(|e| panic!("an index that reads does not write: {e}"));
     let back = read_index(&out).unwrap_or_else(|e| panic!("our own index does not read back: {e}"));
-    assert!(back == index, "the tile index does not survive a write/read round trip");
+    assert!(
+        back == index,
+        "the tile index does not survive a write/read round trip"
+    );
 });

@@ -42,13 +42,20 @@ fuzz_target!(|data: &[u8]| {
         .unwrap_or_else(|e| panic!("lists that read do not encode: {e}"));
     let back = TileUpdates::from_bytes(&again)
         .unwrap_or_else(|e| panic!("our own tile buffer does not read back: {e}"));
-    assert!(back == lists, "tile lists do not survive an encode/decode round trip");
+    assert!(
+        back == lists,
+        "tile lists do not survive an encode/decode round trip"
+    );
     // applying is bounded by the input: each code is at least one byte of it
     let mut tree = OcTree::new(0.1).expect("0.1 m is a valid resolution");
     let stats = apply_tile_updates(&mut tree, lists.tile, std::slice::from_ref(&lists))
         .unwrap_or_else(|e| panic!("lists that read do not apply to their own tile: {e}"));
     assert_eq!(stats.frames, lists.frames.len(), "frames applied");
-    assert_eq!(stats.free + stats.occupied, lists.voxel_updates(), "voxel updates applied");
+    assert_eq!(
+        stats.free + stats.occupied,
+        lists.voxel_updates(),
+        "voxel updates applied"
+    );
     if let Err(e) = check_well_formed(&tree, InnerNodes::Refresh) {
         panic!("applying tile lists gave a malformed tree: {e}");
     }
