@@ -44,7 +44,8 @@
 //! - `lanes/`: many walks at once in the lanes of SIMD registers (`dispatch.rs` picks the
 //!   widest path: `avx512.rs`, `avx2.rs`, `sse2.rs` or `brick_walk.rs`, one at a time; the
 //!   Bresenham lines in `bresenham_avx512.rs` or `bresenham_avx2.rs`; the depth-image replay
-//!   in `replay_avx512.rs`; `refill.rs` and `runs.rs` shared by the AVX2 and AVX-512 lanes).
+//!   in `replay.rs` over `replay_avx512.rs` and `replay_avx2.rs`; `refill.rs` and `runs.rs`
+//!   shared by the AVX2 and AVX-512 lanes).
 //! - `cpu.rs`: the run-time checks of the CPU's vector extensions, the one place that asks.
 //!
 //! ```
@@ -79,7 +80,8 @@
 // Audited exceptions: the calls into the AVX2 and AVX-512 code after the run-time checks of
 // `cpu.rs` that the CPU has it: `lanes/avx2.rs` (`walk_quads`), `lanes/avx512.rs`
 // (`walk_octs`), `lanes/bresenham_avx2.rs` and `lanes/bresenham_avx512.rs` (`walk_lines`),
-// `lanes/replay_avx512.rs` (`replay_rays`, and its loads and stores of whole arrays) and
+// `lanes/replay.rs` (`replay_rays`' calls into `lanes/replay_avx512.rs` and
+// `lanes/replay_avx2.rs`, and their loads and stores of whole arrays) and
 // `setups.rs` (`set_up`'s call of its AVX-512 build); in tests, the call of the AVX-512 run
 // merge after the same check (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe
 // code.

@@ -42,10 +42,7 @@
 //! the very comparisons the whole walk would.
 
 use crate::dda::{min_axis, step_budget, RaySetup};
-#[cfg(target_arch = "x86_64")]
-use crate::lanes::REPLAY_RAYS;
-#[cfg(not(target_arch = "x86_64"))]
-const REPLAY_RAYS: usize = 16;
+use crate::lanes::{ReplayPath, REPLAY_RAYS};
 use nalgebra::Rotation3;
 use octoquant_octree::Key;
 
@@ -419,14 +416,14 @@ pub(crate) fn near_steps(r: &RaySetup, t: f64, near: &mut u32) {
 
 /// Append to `out` each ray `r` of `rays` at its exact DDA state at its time `t`: every
 /// crossing earlier than `t` taken, each axis's `tMax` replayed by the same additions. Returns
-/// the near bits of their steps before `t` (see [`near_steps`]). Sixteen rays at a time where
-/// the CPU has AVX-512, else one by one.
+/// the near bits of their steps before `t` (see [`near_steps`]). In the lanes of AVX-512 or
+/// AVX2 where the CPU has them, else one by one.
 pub(crate) fn jump(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>) -> u32 {
-    jump_with(rays, out, true)
+    jump_with(rays, out, ReplayPath::Avx512)
 }
 
-/// [`jump`], eight rays at a time only when `wide` (and the CPU has AVX-512).
-fn jump_with(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>, wide: bool) -> u32 {
+/// [`jump`] through the `widest` replay path at most.
+fn jump_with(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>, widest: ReplayPath) -> u32 {
     const K: usize = REPLAY_RAYS;
     let mut near = 0;
     for group in rays.chunks(K) {
@@ -443,12 +440,7 @@ fn jump_with(rays: &[(RaySetup, f64)], out: &mut Vec<RaySetup>, wide: bool) -> u
             }
             until[l] = *at;
         }
-        #[cfg(target_arch = "x86_64")]
-        let done = wide
-            .then(|| crate::lanes::replay_rays(&mut t, &d, &step, &until, &mut n))
-            .flatten();
-        #[cfg(not(target_arch = "x86_64"))]
-        let done: Option<u32> = None;
+        let done = crate::lanes::replay_rays(&mut t, &d, &step, &until, &mut n, widest);
         match done {
             Some(bits) => near |= bits,
             None => {

@@ -58,8 +58,8 @@ fn anywhere() -> impl Strategy<Value = [f32; 3]> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
-    /// The jump lands on the plain loop's state, with its near bits, on both paths (eight
-    /// lanes and one by one), for rays with and without ties.
+    /// The jump lands on the plain loop's state, with its near bits, on every path (eight
+    /// lanes, four lanes and one by one), for rays with and without ties.
     #[test]
     fn jump_lands_where_the_plain_walk_is(
         res in prop::sample::select(vec![0.02, 0.05, 0.1, 0.25]),
@@ -72,15 +72,21 @@ proptest! {
             .iter()
             .filter_map(|&(o, e, f)| lane_ray(res, o, e).map(|r| (r, f * r.length)))
             .collect();
-        let (mut wide, mut one) = (Vec::new(), Vec::new());
-        let near_wide = jump_with(&queued, &mut wide, true);
-        let near_one = jump_with(&queued, &mut one, false);
-        prop_assert_eq!(near_wide, near_one);
+        // every path (those the CPU lacks fall back to the next narrower one)
+        let paths = [ReplayPath::Avx512, ReplayPath::Avx2, ReplayPath::Scalar];
+        let mut outs = Vec::new();
+        let mut nears = Vec::new();
+        for path in paths {
+            let mut out = Vec::new();
+            nears.push(jump_with(&queued, &mut out, path));
+            prop_assert_eq!(out.len(), queued.len());
+            outs.push(out);
+        }
         let mut near = 0;
-        for ((r, t), (w, o)) in queued.iter().zip(wide.iter().zip(&one)) {
+        for (i, (r, t)) in queued.iter().enumerate() {
             let (key, tm, bits) = naive_state(r, *t);
             near |= bits;
-            for got in [w, o] {
+            for got in outs.iter().map(|o| &o[i]) {
                 prop_assert_eq!(got.key_origin, key);
                 prop_assert_eq!(got.code_origin, key.morton());
                 prop_assert_eq!(got.t_max.map(f64::to_bits), tm.map(f64::to_bits));
@@ -90,7 +96,9 @@ proptest! {
                 prop_assert_eq!(got.budget, manhattan + STEP_MARGIN);
             }
         }
-        prop_assert_eq!(near_one, near);
+        for got in nears {
+            prop_assert_eq!(got, near);
+        }
     }
 }
 

@@ -20,8 +20,9 @@
 //!   ([`OctScratch`](avx512::OctScratch)).
 //! - `bresenham_avx2`: four Bresenham lines at once with AVX2.
 //! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512.
-//! - `replay_avx512`: sixteen depth-image rays moved to the end of their heads at once
-//!   ([`replay_rays`], for [`crate::pixel_grid`]).
+//! - `replay`: sixteen depth-image rays moved to the end of their heads at once
+//!   ([`replay_rays`], for [`crate::pixel_grid`]), eight lanes at a time in `replay_avx512`,
+//!   four in `replay_avx2`.
 //! - `refill` and `runs`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes
 //!   on rays, and merging the runs of one brick among the bricks the lanes leave.
 
@@ -42,6 +43,9 @@ mod avx512;
 mod bresenham_avx2;
 #[cfg(target_arch = "x86_64")]
 mod bresenham_avx512;
+mod replay;
+#[cfg(target_arch = "x86_64")]
+mod replay_avx2;
 #[cfg(target_arch = "x86_64")]
 mod replay_avx512;
 
@@ -51,5 +55,4 @@ pub(crate) use brick_walk::BrickWalk;
 pub(crate) use dispatch::{test_paths, LinePath};
 pub(crate) use dispatch::{walk_all, walk_lines, LaneScratch, LineScratch};
 
-#[cfg(target_arch = "x86_64")]
-pub(crate) use replay_avx512::{replay_rays, REPLAY_RAYS};
+pub(crate) use replay::{replay_rays, ReplayPath, REPLAY_RAYS};

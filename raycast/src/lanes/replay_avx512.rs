@@ -1,8 +1,9 @@
-//! The replay of the skipped heads of depth-image rays sixteen at a time in the 512-bit
-//! registers of AVX-512, chosen at run time: each ray's DDA state at the end of its head (see
-//! [`crate::pixel_grid`]), with the very `f64` additions of the walk one ray at a time.
+//! The replay of the skipped heads of depth-image rays eight at a time in the 512-bit
+//! registers of AVX-512 (chosen at run time by [`super::replay`]): each ray's DDA state at the
+//! end of its head (see [`crate::pixel_grid`]), with the very `f64` additions of the walk one
+//! ray at a time.
 
-use crate::cpu::has_avx512;
+use super::replay::{Axes, REPLAY_RAYS};
 use core::arch::x86_64::{
     __m512d, _mm512_abs_pd, _mm512_add_pd, _mm512_cmp_pd_mask, _mm512_cvtepi32_epi64,
     _mm512_cvtpd_epi32, _mm512_div_pd, _mm512_fmadd_pd, _mm512_loadu_pd, _mm512_mask_add_pd,
@@ -13,48 +14,19 @@ use core::arch::x86_64::{
     _MM_FROUND_TO_POS_INF,
 };
 
-/// Rays moved at once by [`replay_rays`].
-pub(crate) const REPLAY_RAYS: usize = 16;
+/// Eight-lane groups.
+const G: usize = REPLAY_RAYS / 8;
 
-/// The per-axis values of [`REPLAY_RAYS`] rays, one array per axis.
-pub(crate) type Axes = [[f64; REPLAY_RAYS]; 3];
-
-/// For [`REPLAY_RAYS`] rays at once (sixteen, in two interleaved groups of eight, so that the
-/// additions' latency overlaps), do what [`crate::pixel_grid::near_steps`] and
-/// [`crate::pixel_grid::jump`] do one ray at a time:
-/// - the DDA's steps before `until[l]` inside the 3x3x3 block around the origin voxel, with
-///   the DDA's own comparisons (ties to z over y over x); their bits are returned, or-ed
-///   over the rays, the origin voxel's bit included;
-/// - each axis's `tMax` additions `t[a][l] += d[a][l]` while `t[a][l] < until[l]`, counted in
-///   `n[a][l]`: the same `f64` additions in the same order as one by one.
-///
-/// Lanes without a ray get `until = −∞`. `None` (nothing done) on CPUs without AVX-512.
-pub(crate) fn replay_rays(
-    t: &mut Axes,
-    d: &Axes,
-    step: &Axes,
-    until: &[f64; REPLAY_RAYS],
-    n: &mut Axes,
-) -> Option<u32> {
-    if !has_avx512() {
-        return None;
-    }
-    // SAFETY: `replay_avx512` needs AVX-512 Foundation, found just above; its loads and stores
-    // are of whole arrays of eight.
-    #[allow(unsafe_code)]
-    let near = unsafe { replay_avx512(t, d, step, until, n) };
-    Some(near)
-}
-
+/// [`super::replay::replay_rays`] with AVX-512 (the caller checked that the CPU has it): the
+/// sixteen rays in two interleaved groups of eight, so that the additions' latency overlaps.
 #[target_feature(enable = "avx512f")]
-fn replay_avx512(
+pub(super) fn replay_avx512(
     t: &mut Axes,
     d: &Axes,
     step: &Axes,
     until: &[f64; REPLAY_RAYS],
     n: &mut Axes,
 ) -> u32 {
-    const G: usize = REPLAY_RAYS / 8;
     // SAFETY (every load and store below): the pointer is to eight consecutive `f64` of an
     // array of sixteen, at offset 0 or 8.
     #[allow(unsafe_code)]
