@@ -303,6 +303,69 @@ fn tum_full_frames_skip_ray_heads_and_match_octomap() {
     }
 }
 
+/// An organised PCD (PCL's stereo table scene, 640 x 480 points in pixel order) gets a pinhole
+/// camera fitted to its points, so exact insertion skips the ray heads neighbouring pixels
+/// cover, as for TUM depth images: the key sets of the plain `computeUpdate`, and maps
+/// byte-identical to OctoMap's.
+#[test]
+fn organized_pcd_skips_ray_heads_and_matches_octomap() {
+    let Some(pcd) = common::data_file(
+        "pcd/pcl_table_scene_mug_stereo_textured/table_scene_mug_stereo_textured.pcd",
+    ) else {
+        return;
+    };
+    let frames = read_frames(&pcd, &ReadOptions::default()).unwrap();
+    assert_eq!(frames.len(), 1);
+    let f = &frames[0];
+    let camera = f
+        .camera
+        .as_ref()
+        .expect("an organised depth cloud gets a camera");
+    let c = &camera.camera;
+    assert_eq!((c.width, c.height), (640, 480));
+    assert_eq!(camera.pixels.len(), f.points.len());
+    // the stereo rig's focal length and principal point, as the points imply them
+    assert!(
+        (c.fx - 964.36).abs() < 0.05 && (c.fy - 964.36).abs() < 0.05,
+        "{c:?}"
+    );
+    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
+    for (res, mr) in [(0.01, None), (0.005, Some(1.5)), (0.02, None)] {
+        let conv = octoquant::octree::KeyConverter::new(res).unwrap();
+        let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
+        let a = compute_update_f32(&conv, &f.points, &f.origin, mr, &mut plain);
+        let b = compute_update_grid_f32(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
+        assert!(
+            b.heads_skipped * 2 > b.rays,
+            "res {res}: {} of {} rays skipped their heads",
+            b.heads_skipped,
+            b.rays
+        );
+        assert_eq!(
+            (a.rays, a.non_finite, a.free, a.occupied),
+            (b.rays, b.non_finite, b.free, b.occupied)
+        );
+        assert!(
+            plain.free_bricks() == fast.free_bricks(),
+            "res {res}: free sets differ"
+        );
+        assert!(plain.occupied_bricks() == fast.occupied_bricks());
+    }
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let dir = common::scratch("map_diff_organized_pcd");
+    let ff = dir.join("table.frames");
+    octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
+    let (rot, rbt) = reference(&refprog, &ff, 0.01, None, false, &dir);
+    for threads in [1, 2] {
+        let (ot, bt) = ours(&frames, 0.01, None, InsertMode::Exact, threads);
+        let what = format!("organised table scene, {threads} threads");
+        assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
+        assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
+    }
+}
+
 /// The CLI end to end: `octoquant map` on the norlab directory writes the same .bt as the
 /// library, and reports what it skipped.
 #[test]

@@ -14,7 +14,7 @@
 //! | [`text`] | `x y z` lists (`.dat`, `.txt`), OctoMap `NODE` logs (`.log`), `origin` frames | see the module |
 //! | [`vtk`] | legacy ASCII `.vtk`; a scan directory + trajectory `.csv` | one per scan, in time order |
 //! | [`tum`] | TUM depth `.png`; an association file with poses | one per depth image |
-//! | [`pcd`] | PCD v0.7 ascii / binary / binary_compressed | one |
+//! | [`pcd`] | PCD v0.7 ascii / binary / binary_compressed | one (organised clouds get a fitted camera, [`organized`]) |
 //! | [`mcap`] | `sensor_msgs/PointCloud2` in ROS 1 / ROS 2 MCAP bags, posed by tf | one per cloud |
 //! | [`ply`] | PLY `vertex` positions (read and write) | one |
 //! | [`binvox`] | binvox voxel grids (`binvox2bt`'s input) | voxels, not frames |
@@ -38,6 +38,7 @@ pub mod frames;
 pub mod graph;
 mod input;
 pub mod mcap;
+pub mod organized;
 pub mod output;
 pub mod packed_color;
 pub mod pcd;

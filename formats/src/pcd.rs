@@ -19,10 +19,11 @@
 
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
+use crate::organized::fit_pinhole_camera;
 use crate::packed_color::{parse_packed_token, unpack_rgb};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{decompression_limit, excerpt, read_all, ByteReader};
-use nalgebra::{Point3, Quaternion, Vector3};
+use nalgebra::{Point3, Quaternion, Rotation3, Vector3};
 use octoquant_octree::Color;
 use std::path::Path;
 
@@ -618,6 +619,8 @@ pub fn read_pcd_with(
     let colors = cloud.colors.take();
     let t = cloud.viewpoint_translation;
     let bad_pose = |what: &str| FormatError::missing_pose(path, Location::File, what);
+    // the camera's orientation in the frame's coordinates (for an organised cloud's fit)
+    let mut rotation = Rotation3::identity();
     let frame = match options.viewpoint {
         ViewpointUse::Ignore => Frame::new(Point3::origin(), &cloud.points),
         ViewpointUse::OriginOnly => {
@@ -631,6 +634,7 @@ pub fn read_pcd_with(
             let rot = unit_quaternion(q.w, q.i, q.j, q.k)
                 .filter(|_| t.iter().all(|c| c.is_finite()))
                 .ok_or_else(|| bad_pose("VIEWPOINT is not finite or has a zero quaternion"))?;
+            rotation = rot.to_rotation_matrix();
             Frame::new_f32(
                 t.cast::<f32>().into(),
                 cloud
@@ -641,7 +645,19 @@ pub fn read_pcd_with(
             )
         }
     };
-    Ok(vec![Frame { colors, ..frame }])
+    // an organised cloud from a depth camera: its pixels speed up exact insertion
+    let camera = fit_pinhole_camera(
+        &frame.points,
+        &frame.origin,
+        rotation,
+        cloud.width,
+        cloud.height,
+    );
+    Ok(vec![Frame {
+        colors,
+        camera,
+        ..frame
+    }])
 }
 
 #[cfg(test)]
