@@ -81,10 +81,10 @@
 // `cpu.rs` that the CPU has it: `lanes/avx2.rs` (`walk_quads`), `lanes/avx512.rs`
 // (`walk_octs`), `lanes/bresenham_avx2.rs` and `lanes/bresenham_avx512.rs` (`walk_lines`),
 // `lanes/replay.rs` (`replay_rays`' calls into `lanes/replay_avx512.rs` and
-// `lanes/replay_avx2.rs`, and their loads and stores of whole arrays) and
-// `setups.rs` (`set_up`'s call of its AVX-512 build); in tests, the call of the AVX-512 run
-// merge after the same check (`lanes/avx512.rs`, `merge_runs_wide`). Everything else is safe
-// code.
+// `lanes/replay_avx2.rs`, and their loads and stores of whole arrays) and `setups.rs`
+// (`set_up`'s calls of its AVX-512 and AVX2 builds); in tests, the calls of the AVX-512 run
+// merge and of the AVX2 set-ups after the same checks (`lanes/avx512.rs`, `merge_runs_wide`;
+// `setups_tests.rs`). Everything else is safe code.
 #![deny(unsafe_code)]
 
 mod bresenham;

@@ -4,7 +4,7 @@
 //! divisions (the direction, each axis's `tMax` and `tDelta`), one after another. Here the
 //! rays of a scan wait in columns ([`Pending`]) and their set-ups are computed in one loop
 //! without branches, which the compiler turns into vector divisions (sixteen `f32` or eight
-//! `f64` lanes with AVX-512, chosen at run time). Every lane makes the same IEEE operations
+//! `f64` lanes with AVX-512, eight or four with AVX2, chosen at run time). Every lane makes the same IEEE operations
 //! in the same order as the one-ray set-up, so the results are the same bits; the
 //! depth-image checks of [`crate::pixel_grid`] (the direction check and the head's time) are
 //! done in the same loop.
@@ -187,7 +187,7 @@ impl Shared {
 }
 
 /// Compute the set-ups of the pending rays into `out`: eight or sixteen lanes at a time where
-/// the CPU has AVX-512, else with the target's own vectors.
+/// the CPU has AVX-512, four or eight with AVX2, else with the target's own vectors.
 pub(crate) fn set_up(p: &Pending, s: &Shared, out: &mut Setups) {
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::has_avx512() {
@@ -199,12 +199,28 @@ pub(crate) fn set_up(p: &Pending, s: &Shared, out: &mut Setups) {
         };
         return;
     }
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        // SAFETY: `set_up_avx2` needs AVX2, found just above; it is the safe `set_up_lanes`
+        // compiled for it.
+        #[allow(unsafe_code)]
+        unsafe {
+            set_up_avx2(p, s, out)
+        };
+        return;
+    }
     set_up_lanes(p, s, out);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 fn set_up_avx512(p: &Pending, s: &Shared, out: &mut Setups) {
+    set_up_lanes(p, s, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn set_up_avx2(p: &Pending, s: &Shared, out: &mut Setups) {
     set_up_lanes(p, s, out);
 }
 

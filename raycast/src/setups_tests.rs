@@ -3,13 +3,25 @@ use crate::dda::{key_of, setup_with_keys};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
 
-/// The two paths of [`set_up`]: the AVX-512 build where the CPU has it, and the plain one.
+/// The paths of [`set_up`]: the plain one, the one it chooses (AVX-512 or AVX2 where the CPU
+/// has them) and the AVX2 build where the CPU has AVX2.
 fn both_paths(p: &Pending, s: &Shared) -> Vec<Setups> {
     let mut plain = Setups::default();
     set_up_lanes(p, s, &mut plain);
     let mut chosen = Setups::default();
     set_up(p, s, &mut chosen);
-    vec![plain, chosen]
+    let mut paths = vec![plain, chosen];
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        let mut avx2 = Setups::default();
+        // SAFETY: the CPU has AVX2, checked just above.
+        #[allow(unsafe_code)]
+        unsafe {
+            set_up_avx2(p, s, &mut avx2)
+        };
+        paths.push(avx2);
+    }
+    paths
 }
 
 /// Coordinates on a grid of quarter voxels (ends on corners, faces and centres, and axes
