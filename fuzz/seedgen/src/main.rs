@@ -442,6 +442,27 @@ fn pcd(s: &mut Seeds) {
         }
     }
     s.put("pcd", "binary-f64.pcd", &d);
+    // organised: a 10 x 8 depth image seen by a pinhole camera (focal length 10 pixels,
+    // principal point (4.5, 3.5)), one pixel invalid; the reader fits that camera to it
+    let mut o = b"# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n\
+        SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 10\nHEIGHT 8\nVIEWPOINT 0 0 0 1 0 0 0\n\
+        POINTS 80\nDATA binary\n"
+        .to_vec();
+    for v in 0..8u8 {
+        for u in 0..10u8 {
+            let z = 1.0 + 0.05 * f32::from((u * 3 + v * 5) % 7);
+            let p = if (u, v) == (7, 2) {
+                [f32::NAN; 3]
+            } else {
+                let (a, b) = ((f32::from(u) - 4.5) / 10.0, (f32::from(v) - 3.5) / 10.0);
+                [a * z, b * z, z]
+            };
+            for c in p {
+                o.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    s.put("pcd", "organised.pcd", &o);
     // binary_compressed: field-major, LZF
     let mut raw = Vec::new();
     for k in 0..3 {
