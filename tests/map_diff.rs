@@ -262,27 +262,10 @@ fn tum_full_frames_skip_ray_heads_and_match_octomap() {
     };
     let frames = read_frames(&assoc, &ReadOptions::default()).unwrap();
     assert_eq!(frames.len(), 10);
-    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
     for f in &frames {
-        let camera = f.camera.as_ref().expect("TUM frames carry their pixels");
+        assert!(f.camera.is_some(), "TUM frames carry their pixels");
         for (res, mr) in [(0.05, None), (0.02, Some(2.0)), (0.1, None)] {
-            let conv = octoquant::octree::KeyConverter::new(res).unwrap();
-            let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
-            let a = compute_update_f32(&conv, &f.points, &f.origin, mr, &mut plain);
-            let b =
-                compute_update_grid_f32(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
-            assert!(
-                b.heads_skipped * 2 > f.points.len(),
-                "res {res}: {} of {} rays skipped their heads",
-                b.heads_skipped,
-                f.points.len()
-            );
-            assert_eq!((a.rays, a.free, a.occupied), (b.rays, b.free, b.occupied));
-            assert!(
-                plain.free_bricks() == fast.free_bricks(),
-                "res {res}: free sets differ"
-            );
-            assert!(plain.occupied_bricks() == fast.occupied_bricks());
+            assert_grid_path_is_plain(f, res, mr);
         }
     }
     let Some(refprog) = common::reference_program() else {
@@ -293,13 +276,55 @@ fn tum_full_frames_skip_ray_heads_and_match_octomap() {
     let ff = dir.join("tum.frames");
     octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
     for mr in [None, Some(2.5)] {
-        let (rot, rbt) = reference(&refprog, &ff, 0.05, mr, false, &dir);
-        for threads in [1, 2] {
-            let (ot, bt) = ours(&frames, 0.05, mr, InsertMode::Exact, threads);
-            let what = format!("tum full frames, max range {mr:?}, {threads} threads");
-            assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
-            assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
-        }
+        let what = format!("tum full frames, max range {mr:?}");
+        assert_exact_is_octomaps(&refprog, &frames, &ff, &dir, 0.05, mr, &what);
+    }
+}
+
+/// The key sets of `f` (a frame with its pixel grid) at `res` and max range `mr` through
+/// the depth-image path equal the plain `computeUpdate`'s, with the same counts, while more
+/// than half the rays skip their heads.
+fn assert_grid_path_is_plain(f: &Frame, res: f64, mr: Option<f64>) {
+    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
+    let camera = f.camera.as_ref().expect("a frame with its pixels");
+    let conv = octoquant::octree::KeyConverter::new(res).unwrap();
+    let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
+    let a = compute_update_f32(&conv, &f.points, &f.origin, mr, &mut plain);
+    let b = compute_update_grid_f32(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
+    assert!(
+        b.heads_skipped * 2 > b.rays,
+        "res {res}: {} of {} rays skipped their heads",
+        b.heads_skipped,
+        b.rays
+    );
+    assert_eq!(
+        (a.rays, a.non_finite, a.free, a.occupied),
+        (b.rays, b.non_finite, b.free, b.occupied)
+    );
+    assert!(
+        plain.free_bricks() == fast.free_bricks(),
+        "res {res}: free sets differ"
+    );
+    assert!(plain.occupied_bricks() == fast.occupied_bricks());
+}
+
+/// Exact insertion of `frames` (also written to `ff`) at `res` and max range `mr`, with one
+/// thread and two, gives OctoMap's `.ot` and `.bt` bytes.
+fn assert_exact_is_octomaps(
+    refprog: &Path,
+    frames: &[Frame],
+    ff: &Path,
+    dir: &Path,
+    res: f64,
+    mr: Option<f64>,
+    what: &str,
+) {
+    let (rot, rbt) = reference(refprog, ff, res, mr, false, dir);
+    for threads in [1, 2] {
+        let (ot, bt) = ours(frames, res, mr, InsertMode::Exact, threads);
+        let what = format!("{what}, {threads} threads");
+        assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
+        assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
     }
 }
 
@@ -329,27 +354,8 @@ fn organized_pcd_skips_ray_heads_and_matches_octomap() {
         (c.fx - 964.36).abs() < 0.05 && (c.fy - 964.36).abs() < 0.05,
         "{c:?}"
     );
-    use octoquant_raycast::{compute_update_f32, compute_update_grid_f32, ScanUpdate};
     for (res, mr) in [(0.01, None), (0.005, Some(1.5)), (0.02, None)] {
-        let conv = octoquant::octree::KeyConverter::new(res).unwrap();
-        let (mut plain, mut fast) = (ScanUpdate::new(), ScanUpdate::new());
-        let a = compute_update_f32(&conv, &f.points, &f.origin, mr, &mut plain);
-        let b = compute_update_grid_f32(&conv, &f.points, &camera.grid(), &f.origin, mr, &mut fast);
-        assert!(
-            b.heads_skipped * 2 > b.rays,
-            "res {res}: {} of {} rays skipped their heads",
-            b.heads_skipped,
-            b.rays
-        );
-        assert_eq!(
-            (a.rays, a.non_finite, a.free, a.occupied),
-            (b.rays, b.non_finite, b.free, b.occupied)
-        );
-        assert!(
-            plain.free_bricks() == fast.free_bricks(),
-            "res {res}: free sets differ"
-        );
-        assert!(plain.occupied_bricks() == fast.occupied_bricks());
+        assert_grid_path_is_plain(f, res, mr);
     }
     let Some(refprog) = common::reference_program() else {
         return;
@@ -357,13 +363,15 @@ fn organized_pcd_skips_ray_heads_and_matches_octomap() {
     let dir = common::scratch("map_diff_organized_pcd");
     let ff = dir.join("table.frames");
     octoquant::formats::frames::write_frames_file(&ff, &frames).unwrap();
-    let (rot, rbt) = reference(&refprog, &ff, 0.01, None, false, &dir);
-    for threads in [1, 2] {
-        let (ot, bt) = ours(&frames, 0.01, None, InsertMode::Exact, threads);
-        let what = format!("organised table scene, {threads} threads");
-        assert!(ot == rot, "{what}: .ot {}", first_diff(&ot, &rot));
-        assert!(bt == rbt, "{what}: .bt {}", first_diff(&bt, &rbt));
-    }
+    assert_exact_is_octomaps(
+        &refprog,
+        &frames,
+        &ff,
+        &dir,
+        0.01,
+        None,
+        "organised table scene",
+    );
 }
 
 /// The CLI end to end: `octoquant map` on the norlab directory writes the same .bt as the
