@@ -22,7 +22,7 @@
 //! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512.
 //! - `replay`: sixteen depth-image rays moved to the end of their heads at once
 //!   ([`replay_rays`], for [`crate::pixel_grid`]), eight lanes at a time in `replay_avx512`,
-//!   four in `replay_avx2`.
+//!   four in `replay_avx2`; `replay_batch` holds the batch's size and arrays they share.
 //! - `refill` and `runs`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes
 //!   on rays, and merging the runs of one brick among the bricks the lanes leave.
 
@@ -48,6 +48,7 @@ mod replay;
 mod replay_avx2;
 #[cfg(target_arch = "x86_64")]
 mod replay_avx512;
+mod replay_batch;
 
 #[cfg(test)]
 pub(crate) use brick_walk::BrickWalk;

@@ -5,11 +5,7 @@
 #[cfg(target_arch = "x86_64")]
 use crate::cpu::{has_avx2, has_avx512};
 
-/// Rays moved at once by [`replay_rays`].
-pub(crate) const REPLAY_RAYS: usize = 16;
-
-/// The per-axis values of [`REPLAY_RAYS`] rays, one array per axis.
-pub(crate) type Axes = [[f64; REPLAY_RAYS]; 3];
+pub(crate) use super::replay_batch::{Axes, REPLAY_RAYS};
 
 /// The replay's paths, narrowest first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]

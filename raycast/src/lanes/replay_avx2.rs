@@ -10,7 +10,7 @@
 //! adding zero, which would turn −0 into +0); and with sixteen registers the axes are replayed
 //! one after the other (their chains are independent), four groups of four rays side by side.
 
-use super::replay::{Axes, REPLAY_RAYS};
+use super::replay_batch::{Axes, REPLAY_RAYS};
 use core::arch::x86_64::{
     __m256d, __m256i, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256, _mm256_andnot_pd,
     _mm256_blendv_pd, _mm256_castpd_si256, _mm256_cmp_pd, _mm256_cvtepi32_epi64,

@@ -3,7 +3,7 @@
 //! end of its head (see [`crate::pixel_grid`]), with the very `f64` additions of the walk one
 //! ray at a time.
 
-use super::replay::{Axes, REPLAY_RAYS};
+use super::replay_batch::{Axes, REPLAY_RAYS};
 use core::arch::x86_64::{
     __m512d, _mm512_abs_pd, _mm512_add_pd, _mm512_cmp_pd_mask, _mm512_cvtepi32_epi64,
     _mm512_cvtpd_epi32, _mm512_div_pd, _mm512_fmadd_pd, _mm512_loadu_pd, _mm512_mask_add_pd,
