@@ -4,10 +4,10 @@
 //! divisions (the direction, each axis's `tMax` and `tDelta`), one after another. Here the
 //! rays of a scan wait in columns ([`Pending`]) and their set-ups are computed in one loop
 //! without branches, which the compiler turns into vector divisions (sixteen `f32` or eight
-//! `f64` lanes with AVX-512, eight or four with AVX2, chosen at run time). Every lane makes the same IEEE operations
-//! in the same order as the one-ray set-up, so the results are the same bits; the
-//! depth-image checks of [`crate::pixel_grid`] (the direction check and the head's time) are
-//! done in the same loop.
+//! `f64` lanes with AVX-512, eight or four with AVX2, chosen at run time). Every lane makes
+//! the same IEEE operations in the same order as the one-ray set-up, so the results are the
+//! same bits; the depth-image checks of [`crate::pixel_grid`] (the direction check and the
+//! head's time) are done in the same loop.
 
 use crate::dda::{step_budget, RaySetup};
 use crate::pixel_grid::{fits_dir, SkipPlan};
