@@ -6,7 +6,7 @@
 //! `insertPointCloud`; the resulting `.bt`/`.ot` files are byte-identical to OctoMap's.
 
 use crate::checkpoint::{
-    options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
+    frame_digest, options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
 };
 use crate::filters::{count_zero_f32, DroppedPoints, PointFilters};
 use crate::frame::Frame;
@@ -279,7 +279,7 @@ impl Mapper {
             st.free = s.free;
             st.occupied = s.occupied;
             st.seconds = start.elapsed().as_secs_f64();
-            self.account(frame, &st);
+            self.account(frame_digest(frame), &st);
             return st;
         }
         let conv = self.tree.converter().clone();
@@ -293,7 +293,7 @@ impl Mapper {
         );
         st.tree_seconds = apply(&mut self.tree, &self.update, self.options.lazy);
         st.seconds = start.elapsed().as_secs_f64();
-        self.account(frame, &st);
+        self.account(frame_digest(frame), &st);
         st
     }
 
@@ -507,7 +507,7 @@ impl Mapper {
         let Some(first) = frames.next() else {
             return Ok(());
         };
-        let mut frame = first?;
+        let frame = first?;
         let conv = self.tree.converter().clone();
         let lazy = self.options.lazy;
         let mut mark = Instant::now();
@@ -521,6 +521,9 @@ impl Mapper {
             &mut self.update,
             &mut self.centres,
         );
+        let mut digest = frame_digest(frame.borrow());
+        // a frame is needed only until its rays are cast and its digest taken
+        drop(frame);
         loop {
             // a source error ends the run after the frame in hand, as without pipelining
             let (next_frame, failed) = match frames.next() {
@@ -543,16 +546,22 @@ impl Mapper {
                     // tables, the threads' sets) go to the next frame's computation, so that
                     // one set of them exists, not two
                     next_update.pass_buffers(update);
+                    // the checkpoints' frame digest too is found off the serial path
                     let (t, n) = rayon::join(
                         || apply(tree, update, lazy),
                         || {
-                            prepare(
-                                &conv,
-                                options,
-                                f.borrow(),
-                                &identity,
-                                next_update,
-                                next_centres,
+                            rayon::join(
+                                || {
+                                    prepare(
+                                        &conv,
+                                        options,
+                                        f.borrow(),
+                                        &identity,
+                                        next_update,
+                                        next_centres,
+                                    )
+                                },
+                                || frame_digest(f.borrow()),
                             )
                         },
                     );
@@ -565,17 +574,17 @@ impl Mapper {
             cur.tree_seconds = tree_s;
             cur.seconds = mark.elapsed().as_secs_f64();
             mark = Instant::now();
-            self.account(frame.borrow(), &cur);
+            self.account(digest, &cur);
             after(self, &cur)?;
             if let Some(e) = failed {
                 return Err(e);
             }
-            match (next_frame, next) {
-                (Some(f), Some(n)) => {
-                    frame = f;
+            match next {
+                Some((n, d)) => {
                     cur = n;
+                    digest = d;
                 }
-                _ => return Ok(()),
+                None => return Ok(()),
             }
         }
     }
@@ -619,8 +628,9 @@ impl Mapper {
         Ok(m)
     }
 
-    fn account(&mut self, frame: &Frame, st: &FrameStats) {
-        self.fingerprint.add(frame);
+    /// Count a frame inserted: its [`frame_digest`] and its stats.
+    fn account(&mut self, digest: u64, st: &FrameStats) {
+        self.fingerprint.add_digest(digest);
         self.stats.add(st);
     }
 
