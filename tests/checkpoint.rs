@@ -401,3 +401,58 @@ fn resume_refuses_another_run() {
         "{err}"
     );
 }
+
+/// With two threads small frames are cast two at a time, yet a checkpoint saved after frame
+/// `i` (a checkpoint after every frame here) holds exactly the frames up to `i`: its tree is,
+/// byte for byte, that of inserting them one by one, for every `i`.
+#[test]
+fn every_checkpoint_of_a_pipelined_run_holds_exactly_its_frames() {
+    let frames: Vec<Frame> = scene_frames(16).into_iter().step_by(5).take(12).collect();
+    let options = MapperOptions {
+        resolution: 0.3,
+        max_range: Some(30.0),
+        ..MapperOptions::default()
+    };
+    // only the .ot: writing a .bt turns the tree to maximum likelihood and prunes it
+    let ot = |tree: &mut octoquant::OcTree| {
+        let mut out = Vec::new();
+        write_ot(tree, &mut out).unwrap();
+        out
+    };
+    let mut prefix = Mapper::new(options.clone()).unwrap();
+    let expect: Vec<Vec<u8>> = frames
+        .iter()
+        .map(|f| {
+            prefix.insert(f);
+            ot(prefix.tree_mut())
+        })
+        .collect();
+    let dir = scratch("checkpoint-every-frame");
+    let ck = CheckpointOptions {
+        dir: dir.clone(),
+        every: 1,
+    };
+    let identity = RunIdentity::new(&options, Vec::new(), &frames);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let mut seen = Vec::new();
+    pool.install(|| {
+        let mut m = Mapper::new(options.clone()).unwrap();
+        m.insert_run(&frames, Some((&ck, &identity)), |done| {
+            let c = Checkpoint::load(&dir).unwrap();
+            assert_eq!(c.frames_done, done);
+            let got = ot(&mut c.load_tree().unwrap());
+            assert!(
+                got == expect[done - 1],
+                "checkpoint after frame {done}: {}",
+                first_diff(&got, &expect[done - 1])
+            );
+            seen.push(done);
+        })
+        .unwrap();
+    });
+    assert_eq!(seen, (1..=frames.len()).collect::<Vec<_>>());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

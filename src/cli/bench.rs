@@ -404,6 +404,18 @@ pub fn run(a: &Args) -> Result<()> {
         let vs_quantized = octoquant::octree::compare_classes(&quantized.tree, &r.tree)?;
         rows.push((r, med, total_s, vs_octomap, classes, vs_quantized));
     }
+    // with threads, frames overlap: the whole run's time is the fair measure of its speed-up
+    let one_thread_total = |mode: InsertMode| {
+        rows.iter()
+            .find(|(r, ..)| r.mode == mode && r.threads == 1)
+            .map(|&(_, _, total_s, ..)| total_s)
+    };
+    let total_speedup = |r: &Run, total_s: f64| {
+        (r.threads > 1)
+            .then(|| one_thread_total(r.mode))
+            .flatten()
+            .map(|one| one / total_s.max(1e-12))
+    };
     if a.json {
         use serde_json::{json, Value};
         let mut list = Vec::new();
@@ -425,6 +437,9 @@ pub fn run(a: &Args) -> Result<()> {
                 "class_agreement_with_quantized": vs_q.agreement(),
                 "classes_vs_exact": c,
             });
+            if let Some(x) = total_speedup(r, *total_s) {
+                run["total_time_speedup_vs_one_thread"] = json!(x);
+            }
             if let Some((ratio, same)) = vs {
                 run["speedup_vs_octomap"] = json!(ratio);
                 run["bt_identical_to_octomap"] = json!(same);
@@ -544,6 +559,18 @@ pub fn run(a: &Args) -> Result<()> {
             p.memory
                 .map_or("-".into(), |m| format!("{:.1} MB", m as f64 / 1e6)),
             ratios.join(", ")
+        )?;
+    }
+    let threaded: Vec<String> = rows
+        .iter()
+        .filter_map(|&(r, _, total_s, ..)| {
+            total_speedup(r, total_s).map(|x| format!("{} {}t {x:.2}x", r.mode.name(), r.threads))
+        })
+        .collect();
+    if !threaded.is_empty() {
+        outln!(
+            "threads against one thread, by the whole run's time (frames overlap, so this, not the median frame, is the speed-up): {}",
+            threaded.join(", ")
         )?;
     }
     outln!("agree %: share of voxels known to either map with the same class (free/occupied/unknown) as the exact map; agree q%: the same against the quantized map (same end points, DDA rays)")?;
