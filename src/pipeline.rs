@@ -189,8 +189,9 @@ pub struct Mapper {
     options: MapperOptions,
     update: ScanUpdate,
     centres: Vec<Point3<f32>>,
-    /// More buffers for [`Mapper::insert_frames`]: the frames cast while others are applied.
-    spare: Vec<(ScanUpdate, Vec<Point3<f32>>)>,
+    /// The second buffers of [`Mapper::insert_frames`]: the next frame's rays.
+    next_update: ScanUpdate,
+    next_centres: Vec<Point3<f32>>,
     stats: MapStats,
     /// Fingerprint of every frame inserted so far (what a checkpoint records).
     fingerprint: FramesFingerprint,
@@ -211,47 +212,8 @@ pub enum RunError {
 }
 
 /// Frames read ahead of insertion by [`Mapper::insert_stream`]'s reader thread, at most: with
-/// the one the reader holds and the frames being cast (one, or two small ones), the frames
-/// in memory at any moment (a frame's points are dropped once its rays are cast).
+/// the frame being cast and the one being applied, the frames in memory at any moment.
 pub const READ_AHEAD: usize = 2;
-
-/// Frames are cast two at a time while the key sets (and working buffers) of each stay
-/// within this many bytes: depth images (about 1 MiB at 5 cm), not LiDAR frames (11-16 MiB
-/// for norlab's at 20 cm), whose casting splits well across threads on its own and which,
-/// cast two at a time, ran slower (their sets compete for the caches) and held twice the
-/// memory.
-const PAIR_MAX_BYTES: usize = 4 << 20;
-
-/// A frame whose rays are cast, waiting for the tree: its key sets, statistics and digest.
-struct Cast {
-    update: ScanUpdate,
-    centres: Vec<Point3<f32>>,
-    stats: FrameStats,
-    digest: u64,
-}
-
-impl Cast {
-    /// Cast `frame`'s rays into the buffers `(update, centres)` (files carry no sensor
-    /// orientation: the filters' sensor frame has the world's axes) and take its digest.
-    fn new(
-        conv: &KeyConverter,
-        options: &MapperOptions,
-        frame: &Frame,
-        (mut update, mut centres): (ScanUpdate, Vec<Point3<f32>>),
-    ) -> Cast {
-        let identity = UnitQuaternion::identity();
-        let (stats, digest) = rayon::join(
-            || prepare(conv, options, frame, &identity, &mut update, &mut centres),
-            || frame_digest(frame),
-        );
-        Cast {
-            update,
-            centres,
-            stats,
-            digest,
-        }
-    }
-}
 
 impl Mapper {
     /// A mapper with an empty tree. Errors for an invalid resolution.
@@ -269,7 +231,8 @@ impl Mapper {
             options,
             update: ScanUpdate::new(),
             centres: Vec::new(),
-            spare: Vec::new(),
+            next_update: ScanUpdate::new(),
+            next_centres: Vec::new(),
             stats: MapStats::default(),
             fingerprint: FramesFingerprint::new(),
             resumed_from: None,
@@ -336,16 +299,12 @@ impl Mapper {
 
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
-    /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of the
-    /// next frame are cast on the others, or of the next two, each on its own thread, when
-    /// frames are small (key sets of at most 4 MiB: depth images). With one rayon thread it
-    /// is a plain loop.
+    /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of frame
+    /// `i + 1` are cast on the others. With one rayon thread it is a plain loop.
     ///
-    /// Each frame's `seconds` is its share of the throughput: the wall time since the previous
-    /// frames were counted, split evenly between the frames it brought into the tree (one, or
-    /// two cast together), plus the tree update of a frame applied after the first;
-    /// `ray_seconds` and `tree_seconds` are measured inside each stage and overlap between
-    /// frames. Their sum over a run is its wall time, which is the fair measure with threads.
+    /// Each frame's `seconds` is the wall time from the end of the previous frame's tree
+    /// update to the end of its own (its share of the throughput); `ray_seconds` and
+    /// `tree_seconds` are measured inside each stage and overlap between frames.
     pub fn insert_frames(&mut self, frames: &[Frame]) -> Vec<FrameStats> {
         if self.options.mode == InsertMode::Simple
             || rayon::current_num_threads() < 2
@@ -427,9 +386,8 @@ impl Mapper {
     /// tree (none for a new mapper; the checkpoint's position for a resumed one, whose
     /// skipped frames must have the checkpoint's fingerprint). Only a few frames are in memory
     /// at any time: with two or more rayon threads a reader thread reads at most
-    /// [`READ_AHEAD`] frames ahead while the next frames' rays are cast (one frame, or two
-    /// small ones) and the previous ones are applied to the tree (the pipelining of
-    /// [`Mapper::insert_frames`]); with one thread,
+    /// [`READ_AHEAD`] frames ahead while one frame's rays are cast and the previous one is
+    /// applied to the tree (the pipelining of [`Mapper::insert_frames`]); with one thread,
     /// frames are read, cast and applied in turn. The tree is the same, byte for byte, either
     /// way and for any number of frames.
     ///
@@ -538,119 +496,97 @@ impl Mapper {
     }
 
     /// The pipelined loop of [`Mapper::insert_frames`] and [`Mapper::insert_stream`] (frames
-    /// owned or borrowed): while one frame is applied to the tree, the rays of the next are
-    /// cast; `after` runs with the frame's stats once each frame is in the tree (later frames'
-    /// rays may be ready, but the tree holds exactly the frames counted).
-    ///
-    /// Frames whose key sets are small (depth images; see [`PAIR_MAX_BYTES`]) are cast two at
-    /// a time, each on its own thread, while the first of the previous two is applied; the
-    /// second is applied right after. A single frame's casting splits across threads less
-    /// well than two independent frames do (two single-threaded runs side by side take the
-    /// time of one), and the tree is the same either way: each frame's sets do not depend on
-    /// the threads, and frames go into the tree in order.
+    /// owned or borrowed): while frame `i` is applied to the tree, the rays of frame `i + 1`
+    /// are cast; `after` runs with the frame's stats once each frame is in the tree (the next
+    /// one's rays may be ready, but the tree holds exactly the frames counted).
     fn pipeline<F: Borrow<Frame> + Sync>(
         &mut self,
         frames: &mut dyn Iterator<Item = Result<F, RunError>>,
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
     ) -> Result<(), RunError> {
+        let Some(first) = frames.next() else {
+            return Ok(());
+        };
+        let frame = first?;
         let conv = self.tree.converter().clone();
         let lazy = self.options.lazy;
-        let pairs = rayon::current_num_threads() >= 2;
-        let options = self.options.clone();
-        // the wall time of the step a frame was cast in, split between the frames it cast
-        let mut share = 0.0;
-        // `ready`: the cast frames waiting for the tree, in order; `spare`: the buffers of
-        // frames already applied
-        let mut ready: Vec<Cast> = Vec::new();
-        let mut spare = std::mem::take(&mut self.spare);
-        spare.push((
-            std::mem::take(&mut self.update),
-            std::mem::take(&mut self.centres),
-        ));
-        let mut failed = None;
-        let outcome = loop {
-            // the first frame is cast alone: its size is not known before
-            let small = !ready.is_empty()
-                && ready
-                    .iter()
-                    .all(|c| c.update.heap_bytes() <= PAIR_MAX_BYTES);
-            let depth = if pairs && small { 2 } else { 1 };
-            // a source error ends the run after the frames in hand, as without pipelining
-            let mut next_frames = Vec::with_capacity(depth);
-            while next_frames.len() < depth && failed.is_none() {
-                match frames.next() {
-                    Some(Ok(f)) => next_frames.push(f),
-                    Some(Err(e)) => failed = Some(e),
-                    None => break,
-                }
-            }
-            // the frames being applied need only their sets: their working buffers (hash
-            // tables, the threads' sets) go to the frames being cast, so that no more sets of
-            // them exist than frames are cast at once
-            let mut slots: Vec<(ScanUpdate, Vec<Point3<f32>>)> = (0..next_frames.len())
-                .map(|_| spare.pop().unwrap_or_default())
-                .collect();
-            if depth == 1 {
-                spare.clear();
-            }
-            for (slot, c) in slots.iter_mut().zip(ready.iter_mut()) {
-                slot.0.pass_buffers(&mut c.update);
-            }
-            let cast = |f: &F, slot| Cast::new(&conv, &options, f.borrow(), slot);
-            let cast_all = |slots: Vec<_>| -> Vec<Cast> {
-                match (next_frames.as_slice(), <[_; 2]>::try_from(slots)) {
-                    ([f, g], Ok([sf, sg])) => {
-                        let (c, d) = rayon::join(|| cast(f, sf), || cast(g, sg));
-                        vec![c, d]
-                    }
-                    (fs, Ok(pair)) => fs.iter().zip(pair).map(|(f, s)| cast(f, s)).collect(),
-                    (fs, Err(slots)) => fs.iter().zip(slots).map(|(f, s)| cast(f, s)).collect(),
-                }
+        let mut mark = Instant::now();
+        // files carry no sensor orientation: the filters' sensor frame has the world's axes
+        let identity = UnitQuaternion::identity();
+        let mut cur = prepare(
+            &conv,
+            &self.options,
+            frame.borrow(),
+            &identity,
+            &mut self.update,
+            &mut self.centres,
+        );
+        let mut digest = frame_digest(frame.borrow());
+        // a frame is needed only until its rays are cast and its digest taken
+        drop(frame);
+        loop {
+            // a source error ends the run after the frame in hand, as without pipelining
+            let (next_frame, failed) = match frames.next() {
+                Some(Ok(f)) => (Some(f), None),
+                Some(Err(e)) => (None, Some(e)),
+                None => (None, None),
             };
-            // the frames cast in the previous step go into the tree, each followed by
-            // `after`, while the next ones are cast on the other threads
-            let step = Instant::now();
-            let casting = !next_frames.is_empty();
-            let mut next = Vec::new();
-            let mut batch = Ok(());
-            rayon::in_place_scope(|scope| {
-                let into = &mut next;
-                scope.spawn(move |_| *into = cast_all(slots));
-                for c in ready.iter_mut() {
-                    let t = apply(&mut self.tree, &c.update, lazy);
-                    c.stats.tree_seconds = t;
-                    // its share of the step it was cast in (and, in a last step that casts
-                    // nothing, its own tree update)
-                    c.stats.seconds = share + if casting { 0.0 } else { t };
-                    self.account(c.digest, &c.stats);
-                    batch = after(self, &c.stats);
-                    if batch.is_err() {
-                        break;
-                    }
+            let Mapper {
+                tree,
+                options,
+                update,
+                centres,
+                next_update,
+                next_centres,
+                ..
+            } = self;
+            let (tree_s, next) = match &next_frame {
+                Some(f) => {
+                    // the tree needs only the sets of `update`: its working buffers (hash
+                    // tables, the threads' sets) go to the next frame's computation, so that
+                    // one set of them exists, not two
+                    next_update.pass_buffers(update);
+                    // the checkpoints' frame digest too is found off the serial path
+                    let (t, n) = rayon::join(
+                        || apply(tree, update, lazy),
+                        || {
+                            rayon::join(
+                                || {
+                                    prepare(
+                                        &conv,
+                                        options,
+                                        f.borrow(),
+                                        &identity,
+                                        next_update,
+                                        next_centres,
+                                    )
+                                },
+                                || frame_digest(f.borrow()),
+                            )
+                        },
+                    );
+                    (t, Some(n))
                 }
-            });
-            drop(next_frames);
-            share = step.elapsed().as_secs_f64() / next.len().max(1) as f64;
-            spare.extend(ready.drain(..).map(|c| (c.update, c.centres)));
-            ready = next;
-            if let Err(e) = batch {
-                break Err(e);
+                None => (apply(tree, update, lazy), None),
+            };
+            std::mem::swap(update, next_update);
+            std::mem::swap(centres, next_centres);
+            cur.tree_seconds = tree_s;
+            cur.seconds = mark.elapsed().as_secs_f64();
+            mark = Instant::now();
+            self.account(digest, &cur);
+            after(self, &cur)?;
+            if let Some(e) = failed {
+                return Err(e);
             }
-            if ready.is_empty() {
-                break match failed.take() {
-                    Some(e) => Err(e),
-                    None => Ok(()),
-                };
+            match next {
+                Some((n, d)) => {
+                    cur = n;
+                    digest = d;
+                }
+                None => return Ok(()),
             }
-        };
-        // keep the buffers for the next run (or a later single insertion)
-        spare.extend(ready.drain(..).map(|c| (c.update, c.centres)));
-        if let Some((u, c)) = spare.pop() {
-            self.update = u;
-            self.centres = c;
         }
-        self.spare = spare;
-        outcome
     }
 
     /// Save a checkpoint of the run `identity` into `dir`: the tree as it is (inner nodes

@@ -402,9 +402,10 @@ fn resume_refuses_another_run() {
     );
 }
 
-/// With two threads small frames are cast two at a time, yet a checkpoint saved after frame
-/// `i` (a checkpoint after every frame here) holds exactly the frames up to `i`: its tree is,
-/// byte for byte, that of inserting them one by one, for every `i`.
+/// With two threads the next frame's rays are cast while a frame goes into the tree, yet a
+/// checkpoint saved after frame `i` (a checkpoint after every frame here) holds exactly the
+/// frames up to `i`: its tree is, byte for byte, that of inserting them one by one, for
+/// every `i`.
 #[test]
 fn every_checkpoint_of_a_pipelined_run_holds_exactly_its_frames() {
     let frames: Vec<Frame> = scene_frames(16).into_iter().step_by(5).take(12).collect();
