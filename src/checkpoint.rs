@@ -364,27 +364,17 @@ pub fn frame_digest(f: &Frame) -> u64 {
         h.word(c.to_bits());
     }
     h.word(f.points.len() as u32);
-    let mut lanes = [Fnv::new().0; DIGEST_LANES];
-    for group in f.points.chunks(DIGEST_LANES) {
-        for (l, p) in lanes.iter_mut().zip(group) {
-            let xy = u64::from(p.x.to_bits()) | (u64::from(p.y.to_bits()) << 32);
-            *l = Fnv::mix(Fnv::mix(*l, xy), u64::from(p.z.to_bits()));
-        }
-    }
-    lanes.iter().for_each(|&l| h.wide(l));
+    h.chains(&f.points, |l, p| {
+        let xy = u64::from(p.x.to_bits()) | (u64::from(p.y.to_bits()) << 32);
+        Fnv::mix(Fnv::mix(l, xy), u64::from(p.z.to_bits()))
+    });
     match &f.camera {
         None => h.word(0),
         Some(cam) => {
             h.word(1);
             h.bytes(format!("{:?}", cam.camera).as_bytes());
             h.word(cam.pixels.len() as u32);
-            let mut lanes = [Fnv::new().0; DIGEST_LANES];
-            for group in cam.pixels.chunks(DIGEST_LANES) {
-                for (l, &px) in lanes.iter_mut().zip(group) {
-                    *l = Fnv::mix(*l, u64::from(px));
-                }
-            }
-            lanes.iter().for_each(|&l| h.wide(l));
+            h.chains(&cam.pixels, |l, &px| Fnv::mix(l, u64::from(px)));
         }
     }
     h.0
@@ -404,6 +394,17 @@ impl Fnv {
     /// One step over a 64-bit word.
     fn wide(&mut self, w: u64) {
         self.0 = Self::mix(self.0, w);
+    }
+    /// Item `k` of `items` into chain `k % 8` of [`DIGEST_LANES`] FNV-1a chains (`step` feeds
+    /// one item to a chain's value), then each chain's value into this hash in turn.
+    fn chains<T>(&mut self, items: &[T], step: impl Fn(u64, &T) -> u64) {
+        let mut lanes = [Fnv::new().0; DIGEST_LANES];
+        for group in items.chunks(DIGEST_LANES) {
+            for (l, item) in lanes.iter_mut().zip(group) {
+                *l = step(*l, item);
+            }
+        }
+        lanes.iter().for_each(|&l| self.wide(l));
     }
     /// The FNV-1a step: xor, then multiply.
     #[inline(always)]
