@@ -88,6 +88,7 @@
 #![deny(unsafe_code)]
 
 mod bresenham;
+mod brick_sort;
 mod brickset;
 mod cast;
 #[cfg(target_arch = "x86_64")]

@@ -349,8 +349,15 @@ fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
 
 /// List both sets in Morton order, masking occupied voxels out of the free ones.
 fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
-    out.work.free_set.sorted(&mut out.bricks);
-    out.work.occ_set.sorted(&mut out.occ_bricks);
+    for (set, bricks) in [
+        (&mut out.work.free_set, &mut out.bricks),
+        (&mut out.work.occ_set, &mut out.occ_bricks),
+    ] {
+        // sorted in the table, which the next frame clears anyway
+        let n = set.sort_in_place();
+        bricks.clear();
+        bricks.extend_from_slice(set.sorted_front(n));
+    }
     emit(out, stats);
 }
 
