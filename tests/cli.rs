@@ -507,3 +507,61 @@ fn reader_options_are_on_the_command_line() {
         stderr(&o)
     );
 }
+
+/// `map --threads N`: one and two threads write the same bytes from real LiDAR frames (the
+/// plain loop with one, the pipelined one with two), a checkpointed run may be resumed with
+/// another count, and a count of 0 is refused before any work.
+#[test]
+fn map_threads_changes_nothing_in_the_map() {
+    let Some(scans) = crate::common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let dir = scratch("cli-map-threads");
+    // the summary says how many threads the run had
+    let map = |args: &[&str], threads: u64| {
+        let o = octoquant(&dir)
+            .arg("map")
+            .args(args)
+            .args(["-q", "--json"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(json_of(&o)["threads"], threads, "{}", stderr(&o));
+    };
+    let s = scans.to_str().unwrap();
+    let two = [
+        s,
+        "--res",
+        "0.2",
+        "--threads",
+        "2",
+        "-o",
+        "two.bt",
+        "--checkpoint",
+        "ck",
+        "--every",
+        "4",
+    ];
+    map(&[s, "--res", "0.2", "--threads", "1", "-o", "one.bt"], 1);
+    map(&two, 2);
+    let one = std::fs::read(dir.join("one.bt")).unwrap();
+    assert!(one.len() > 100_000, "{} bytes", one.len());
+    assert!(
+        one == std::fs::read(dir.join("two.bt")).unwrap(),
+        "1 and 2 threads differ"
+    );
+    // the finished checkpoint resumed on one thread writes its outputs again, the same
+    std::fs::remove_file(dir.join("two.bt")).unwrap();
+    map(&["--resume", "ck", "--threads", "1"], 1);
+    assert!(
+        one == std::fs::read(dir.join("two.bt")).unwrap(),
+        "resumed on 1 thread"
+    );
+    let o = octoquant(&dir)
+        .args(["map", s, "--threads", "0", "-o", "zero.bt"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
+    assert!(!dir.join("zero.bt").exists());
+}

@@ -85,6 +85,11 @@ pub struct Args {
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
+    /// Threads for the insertion (default: all cores). The map is the same, byte for byte,
+    /// whatever the count: frames go into the tree in order, and each frame's key sets are
+    /// unions that do not depend on how its rays were shared out.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
     /// No progress on stderr (neither the bar nor the plain lines).
     #[arg(short, long)]
     quiet: bool,
@@ -100,8 +105,8 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = 100, requires = "checkpoint")]
     every: usize,
     /// Continue the run checkpointed in DIR. Its options, inputs, outputs and checkpoint
-    /// interval come from the checkpoint, so no other option may be given (but --json); the
-    /// inputs must be unchanged. The outputs are byte-identical to an uninterrupted run's.
+    /// interval come from the checkpoint, so no other option may be given (but --json,
+    /// --threads and the progress options); the inputs must be unchanged. The outputs are byte-identical to an uninterrupted run's.
     #[arg(
         long,
         value_name = "DIR",
@@ -671,6 +676,18 @@ fn typed_summary(
 }
 
 pub fn run(a: &Args) -> Result<()> {
+    match a.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(usize::from(n))
+            .build()
+            .context("cannot start the insertion threads")?
+            .install(|| run_on_threads(a)),
+        None => run_on_threads(a),
+    }
+}
+
+/// [`run`] inside the thread pool the run was given.
+fn run_on_threads(a: &Args) -> Result<()> {
     if a.color {
         return run_color(a);
     }
@@ -800,6 +817,7 @@ pub fn run(a: &Args) -> Result<()> {
             "occupied_updates": t.occupied,
             "load_seconds": load_s,
             "insert_seconds": t.seconds,
+            "threads": rayon::current_num_threads(),
             "points_per_second": pps,
             "resolution": tree.resolution(),
             "bounds": bounds,
@@ -849,11 +867,12 @@ pub fn run(a: &Args) -> Result<()> {
         )?;
         outln!("loading:         {load_s:.3} s")?;
         outln!(
-            "insertion:       {:.3} s, {:.0} points/s (rays {:.3} s, tree {:.3} s)",
+            "insertion:       {:.3} s, {:.0} points/s (rays {:.3} s, tree {:.3} s), {} threads",
             t.seconds,
             pps,
             t.ray_seconds,
-            t.tree_seconds
+            t.tree_seconds,
+            rayon::current_num_threads()
         )?;
         outln!(
             "tree:            {} nodes, {:.2} bytes/node ({} nodes in the .bt after ML + prune)",
