@@ -7,8 +7,10 @@ use crate::convert::{self, array3, array_n3, depth, path, source, vec3, vec3_f32
 use crate::engine::{
     self, logodds, probability, InnerNodes, Key, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
-use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
-use crate::node::{key_arg, node_address, node_value, PyKey, PyNode};
+use crate::iter::{
+    max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
+};
+use crate::node::{key_arg, node_address, PyKey, PyNode};
 use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
