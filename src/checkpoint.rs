@@ -14,9 +14,9 @@
 //! [`crate::pipeline::Mapper::insert_run`], [`crate::pipeline::Mapper::save_checkpoint`] and
 //! [`crate::pipeline::Mapper::resume`] are the entry points.
 
-use crate::filters::{CropBox, GroundFilter};
+use crate::map_stats::{FrameStats, MapStats};
+use crate::mapper_options::{options_to_settings, parse_num, set_option, MapperOptions};
 use crate::output::{remove_stale_temporaries_in, write_atomic, OutputError};
-use crate::pipeline::{FrameStats, InsertMode, MapStats, MapperOptions};
 use crate::Frame;
 use octoquant_octree::io::{read_ot, write_ot};
 use octoquant_octree::{OcTree, OccupancyParams, OctreeError};
@@ -437,170 +437,6 @@ impl Write for HashingWriter<'_> {
     }
 }
 
-/// The options as `(name, value)` lines, every float in its shortest exact form, in a fixed
-/// order: what a checkpoint stores and compares.
-pub(crate) fn options_to_settings(o: &MapperOptions) -> Vec<(&'static str, String)> {
-    let p = &o.params;
-    let f = &o.filters;
-    vec![
-        ("resolution", format!("{:?}", o.resolution)),
-        ("mode", o.mode.name().to_string()),
-        ("prob_hit_log", format!("{:?}", p.hit)),
-        ("prob_miss_log", format!("{:?}", p.miss)),
-        ("clamp_min_log", format!("{:?}", p.clamp_min)),
-        ("clamp_max_log", format!("{:?}", p.clamp_max)),
-        (
-            "occupancy_threshold_log",
-            format!("{:?}", p.occupancy_threshold),
-        ),
-        (
-            "max_range",
-            o.max_range.map_or("none".into(), |m| format!("{m:?}")),
-        ),
-        ("lazy", o.lazy.to_string()),
-        (
-            "reduce",
-            o.reduce
-                .map_or("none".into(), |[x, y, z]| format!("{x:?} {y:?} {z:?}")),
-        ),
-        (
-            "quantize_max_grid_bits",
-            o.quantize.max_grid_bits.to_string(),
-        ),
-        (
-            "quantize_bits_per_point",
-            o.quantize.bits_per_point.to_string(),
-        ),
-        (
-            "quantize_parallel_threshold",
-            o.quantize.parallel_threshold.to_string(),
-        ),
-        ("drop_zero", f.drop_zero.to_string()),
-        ("min_range", opt(f.min_range)),
-        ("crop_sensor", crop(&f.crop_sensor)),
-        ("crop_world", crop(&f.crop_world)),
-        ("z_min", opt(f.z_min)),
-        ("z_max", opt(f.z_max)),
-        (
-            "ground",
-            f.ground.map_or("none".into(), |g| {
-                format!("{:?} {:?} {} {}", g.distance, g.angle, g.iterations, g.seed)
-            }),
-        ),
-    ]
-}
-
-fn opt(v: Option<f64>) -> String {
-    v.map_or("none".into(), |v| format!("{v:?}"))
-}
-
-fn crop(b: &Option<CropBox>) -> String {
-    b.map_or("none".into(), |b| {
-        b.to_array()
-            .iter()
-            .map(|v| format!("{v:?}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    })
-}
-
-/// `v` as space-separated numbers, `n` of them.
-fn numbers(v: &str, n: usize) -> Result<Vec<f64>, String> {
-    let c: Vec<f64> = v.split(' ').map(parse_num).collect::<Result<_, _>>()?;
-    if c.len() != n {
-        return Err(format!("{v:?} is not {n} numbers"));
-    }
-    Ok(c)
-}
-
-fn parse_num<T: std::str::FromStr>(v: &str) -> Result<T, String> {
-    v.parse().map_err(|_| format!("{v:?} is not a number"))
-}
-
-fn set_option(o: &mut MapperOptions, key: &str, v: &str) -> Result<bool, String> {
-    let opt_f64 = |v: &str| -> Result<Option<f64>, String> {
-        if v == "none" {
-            Ok(None)
-        } else {
-            parse_num(v).map(Some)
-        }
-    };
-    match key {
-        "resolution" => o.resolution = parse_num(v)?,
-        "mode" => {
-            o.mode = [
-                InsertMode::Exact,
-                InsertMode::Discretize,
-                InsertMode::Quantized,
-                InsertMode::QuantizedBresenham,
-                InsertMode::Simple,
-            ]
-            .into_iter()
-            .find(|m| m.name() == v)
-            .ok_or_else(|| format!("unknown mode {v:?}"))?
-        }
-        "prob_hit_log" => o.params.hit = parse_num(v)?,
-        "prob_miss_log" => o.params.miss = parse_num(v)?,
-        "clamp_min_log" => o.params.clamp_min = parse_num(v)?,
-        "clamp_max_log" => o.params.clamp_max = parse_num(v)?,
-        "occupancy_threshold_log" => o.params.occupancy_threshold = parse_num(v)?,
-        "max_range" => o.max_range = opt_f64(v)?,
-        "lazy" => o.lazy = v.parse().map_err(|_| format!("{v:?} is not true/false"))?,
-        "reduce" => {
-            o.reduce = if v == "none" {
-                None
-            } else {
-                let c: Vec<f64> = v.split(' ').map(parse_num).collect::<Result<_, _>>()?;
-                match c[..] {
-                    [x, y, z] => Some([x, y, z]),
-                    _ => return Err(format!("{v:?} is not three cell sizes")),
-                }
-            }
-        }
-        "quantize_max_grid_bits" => o.quantize.max_grid_bits = parse_num(v)?,
-        "quantize_bits_per_point" => o.quantize.bits_per_point = parse_num(v)?,
-        "quantize_parallel_threshold" => o.quantize.parallel_threshold = parse_num(v)?,
-        "drop_zero" => {
-            o.filters.drop_zero = v.parse().map_err(|_| format!("{v:?} is not true/false"))?
-        }
-        "min_range" => o.filters.min_range = opt_f64(v)?,
-        "crop_sensor" | "crop_world" => {
-            let b = if v == "none" {
-                None
-            } else {
-                Some(CropBox::from_slice(key, &numbers(v, 6)?).map_err(|e| e.to_string())?)
-            };
-            if key == "crop_sensor" {
-                o.filters.crop_sensor = b;
-            } else {
-                o.filters.crop_world = b;
-            }
-        }
-        "z_min" => o.filters.z_min = opt_f64(v)?,
-        "z_max" => o.filters.z_max = opt_f64(v)?,
-        "ground" => {
-            o.filters.ground = if v == "none" {
-                None
-            } else {
-                let mut it = v.split(' ');
-                let (Some(d), Some(a), Some(i), Some(s), None) =
-                    (it.next(), it.next(), it.next(), it.next(), it.next())
-                else {
-                    return Err(format!("{v:?} is not: distance angle iterations seed"));
-                };
-                Some(GroundFilter {
-                    distance: parse_num(d)?,
-                    angle: parse_num(a)?,
-                    iterations: parse_num(i)?,
-                    seed: parse_num(s)?,
-                })
-            }
-        }
-        _ => return Ok(false),
-    }
-    Ok(true)
-}
-
 fn stats_fields(s: &MapStats) -> Vec<(&'static str, String)> {
     let t = &s.total;
     vec![
@@ -995,7 +831,7 @@ fn is_checkpoint_file(name: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::filters::PointFilters;
+    use crate::mapper_options::InsertMode;
     use nalgebra::Point3;
 
     fn scratch(tag: &str) -> PathBuf {
@@ -1015,43 +851,6 @@ mod tests {
                 )
             })
             .collect()
-    }
-
-    #[test]
-    fn options_round_trip_exactly() {
-        let mut o = MapperOptions {
-            resolution: 0.123456789,
-            max_range: Some(7.25),
-            mode: InsertMode::QuantizedBresenham,
-            lazy: true,
-            reduce: Some([0.1, 0.2, 1.0 / 3.0]),
-            filters: PointFilters {
-                drop_zero: true,
-                min_range: Some(0.3),
-                crop_sensor: Some(
-                    CropBox::from_slice("b", &[-0.5, -0.25, -1.0, 0.5, 0.25, 0.1]).unwrap(),
-                ),
-                crop_world: Some(
-                    CropBox::from_slice("b", &[-1e3, -2e3, -3.0, 1e3, 2e3, 1.0 / 3.0]).unwrap(),
-                ),
-                z_min: Some(-0.7),
-                z_max: Some(2.5),
-                ground: Some(GroundFilter {
-                    distance: 0.05,
-                    angle: 0.2,
-                    iterations: 77,
-                    seed: u64::MAX,
-                }),
-            },
-            ..MapperOptions::default()
-        };
-        o.params.hit = 0.8472979;
-        o.quantize.bits_per_point = 17;
-        let mut back = MapperOptions::default();
-        for (k, v) in options_to_settings(&o) {
-            assert!(set_option(&mut back, k, &v).unwrap(), "{k}");
-        }
-        assert_eq!(back, o);
     }
 
     #[test]

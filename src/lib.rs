@@ -66,6 +66,8 @@ pub mod filters;
 pub mod grid;
 pub mod import;
 pub mod keyset_order;
+mod map_stats;
+mod mapper_options;
 pub mod pipeline;
 pub mod query;
 pub mod render;

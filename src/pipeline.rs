@@ -6,13 +6,13 @@
 //! `insertPointCloud`; the resulting `.bt`/`.ot` files are byte-identical to OctoMap's.
 
 use crate::checkpoint::{
-    frame_digest, options_to_settings, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
+    frame_digest, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
 };
-use crate::filters::{count_zero_f32, DroppedPoints, PointFilters};
+use crate::filters::{count_zero_f32, PointFilters};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
-use octoquant_octree::{KeyConverter, OcTree, OccupancyParams, OctreeError};
-use octoquant_quantize::{quantize_endpoints, QuantizeOptions};
+use octoquant_octree::{KeyConverter, OcTree, OctreeError};
+use octoquant_quantize::quantize_endpoints;
 use octoquant_raycast::{
     apply_update, compute_discrete_update_f32, compute_update_f32, compute_update_grid_f32,
     compute_update_with_f32, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
@@ -21,86 +21,11 @@ use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// How a frame's end points become rays.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum InsertMode {
-    /// OctoMap's `insertPointCloud`: one ray per end point.
-    #[default]
-    Exact,
-    /// OctoMap's `discretize = true`, computed as OctoMap does (unique end-point keys, rays to
-    /// voxel centres).
-    Discretize,
-    /// The dense voxel-key quantization pre-pass (Kwon & Yoon): same tree as `Discretize`,
-    /// computed with a bit grid over the frame's key box.
-    Quantized,
-    /// The quantization pre-pass, then integer Bresenham rays between voxel keys: the fastest
-    /// mode; same occupied voxels as `Quantized`, slightly less free space (see
-    /// `octoquant_raycast::walk_bresenham_keys`). Not OctoMap-identical.
-    QuantizedBresenham,
-    /// OctoMap's `insertPointCloudRays` (graph2tree `-simple`): per point, misses along the
-    /// ray then a hit, no deduplication, no maximum range.
-    Simple,
-}
-
-impl InsertMode {
-    /// The mode's one name: the `--mode` value on the command line, and the name in text and
-    /// JSON output (`exact`, `discretize`, `quantized`, `quantized+bresenham`, `simple`).
-    pub fn name(self) -> &'static str {
-        match self {
-            InsertMode::Exact => "exact",
-            InsertMode::Discretize => "discretize",
-            InsertMode::Quantized => "quantized",
-            InsertMode::QuantizedBresenham => "quantized+bresenham",
-            InsertMode::Simple => "simple",
-        }
-    }
-}
-
-/// Everything that configures a [`Mapper`]; `Default` is OctoMap's default insertion at 0.1 m.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MapperOptions {
-    /// Leaf size in metres.
-    pub resolution: f64,
-    /// Sensor model (hit/miss, clamping, threshold).
-    pub params: OccupancyParams,
-    /// Readings beyond this distance only clear space (OctoMap's `maxrange`); `None` = off.
-    pub max_range: Option<f64>,
-    /// How end points become rays.
-    pub mode: InsertMode,
-    /// Skip inner-node upkeep during insertion; [`Mapper::finish`] restores it.
-    pub lazy: bool,
-    /// Thin each frame with the online density reducer first (cell size per axis, metres).
-    pub reduce: Option<[f64; 3]>,
-    /// Limits of the dense quantization grid.
-    pub quantize: QuantizeOptions,
-    /// Points to drop before insertion (octomap_server's filters and more; see
-    /// [`crate::filters`]). The default drops nothing.
-    pub filters: PointFilters,
-}
-
-impl Default for MapperOptions {
-    fn default() -> Self {
-        MapperOptions {
-            resolution: 0.1,
-            params: OccupancyParams::default(),
-            max_range: None,
-            mode: InsertMode::Exact,
-            lazy: false,
-            reduce: None,
-            quantize: QuantizeOptions::default(),
-            filters: PointFilters::default(),
-        }
-    }
-}
-
-impl MapperOptions {
-    /// The options as `(name, value)` pairs in a fixed order, every number in its shortest
-    /// exact form: what a checkpoint records, so that a resumed run is refused when any of
-    /// them differs (see [`crate::checkpoint`]).
-    pub fn settings(&self) -> Vec<(&'static str, String)> {
-        options_to_settings(self)
-    }
-}
+// The options and statistics of a mapper are defined in modules of their own, because the
+// checkpoint manifest records them too (the pipeline uses the checkpoint, and both use them);
+// their public paths stay here, where users have always found them.
+pub use crate::map_stats::{FrameStats, MapStats};
+pub use crate::mapper_options::{InsertMode, MapperOptions};
 
 /// Where and how often [`Mapper::insert_run`] saves checkpoints.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -110,77 +35,6 @@ pub struct CheckpointOptions {
     /// Save after every this many frames (at multiples of it, counted from the run's first
     /// frame) and after the last frame; 0 saves only after the last.
     pub every: usize,
-}
-
-/// What happened to one frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct FrameStats {
-    /// Points in the frame.
-    pub points: usize,
-    /// Points with NaN/inf coordinates, skipped.
-    pub non_finite: usize,
-    /// Finite points outside the map, dropped (as OctoMap drops them).
-    pub outside_map: usize,
-    /// Points exactly at the sensor origin (drivers' `(0, 0, 0)` "no return" points), counted
-    /// whether or not they are dropped (they are only with
-    /// [`PointFilters::drop_zero`]; OctoMap inserts them).
-    pub zero: usize,
-    /// Points dropped by the [`MapperOptions::filters`], by reason.
-    pub dropped: DroppedPoints,
-    /// Points left after the filters and density reduction (equal to `points` without them).
-    pub reduced: usize,
-    /// Rays cast (after quantization).
-    pub rays: usize,
-    /// Of which: depth-image rays walked only from where their neighbours stop covering them
-    /// (the same map either way; see [`octoquant_raycast::compute_update_grid_f32`]).
-    pub heads_skipped: usize,
-    /// Free-voxel updates applied.
-    pub free: usize,
-    /// Occupied-voxel updates applied.
-    pub occupied: usize,
-    /// Wall-clock seconds spent on this frame.
-    pub seconds: f64,
-    /// Of which: reduction, quantization and ray casting into key sets.
-    pub ray_seconds: f64,
-    /// Of which: applying the key sets to the tree.
-    pub tree_seconds: f64,
-}
-
-/// Totals over every frame inserted so far.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct MapStats {
-    /// Frames inserted.
-    pub frames: usize,
-    /// Sum of the per-frame statistics.
-    pub total: FrameStats,
-}
-
-impl MapStats {
-    /// Count one more frame with statistics `st`.
-    pub fn add(&mut self, st: &FrameStats) {
-        let t = &mut self.total;
-        self.frames += 1;
-        t.points += st.points;
-        t.non_finite += st.non_finite;
-        t.outside_map += st.outside_map;
-        t.zero += st.zero;
-        t.dropped.add(&st.dropped);
-        t.reduced += st.reduced;
-        t.rays += st.rays;
-        t.heads_skipped += st.heads_skipped;
-        t.free += st.free;
-        t.occupied += st.occupied;
-        t.seconds += st.seconds;
-        t.ray_seconds += st.ray_seconds;
-        t.tree_seconds += st.tree_seconds;
-    }
-
-    /// Count the frames of `other` too (statistics of another batch of the same run).
-    pub fn merge(&mut self, other: &MapStats) {
-        let frames = self.frames + other.frames;
-        self.add(&other.total);
-        self.frames = frames;
-    }
 }
 
 /// Builds an occupancy tree from frames.

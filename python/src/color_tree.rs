@@ -5,8 +5,10 @@ use crate::convert::{self, source};
 use crate::engine::{
     self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, TREE_DEPTH,
 };
-use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
-use crate::node::{node_value, PyKey};
+use crate::iter::{
+    max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
+};
+use crate::node::PyKey;
 use crate::tree::{
     bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
     CastArrays, Target,

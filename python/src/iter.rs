@@ -7,7 +7,7 @@
 
 use crate::convert;
 use crate::engine::{probability, Color, KeyConverter, NodeItem, TREE_DEPTH};
-use crate::node::PyKey;
+use crate::node::{PyKey, PyNode};
 use crate::NullPointerException;
 use numpy::PyArray1;
 use pyo3::exceptions::{PyStopIteration, PyTypeError};
@@ -252,4 +252,28 @@ pub fn max_depth(d: u8) -> u8 {
     } else {
         d
     }
+}
+
+/// Used by `isNodeOccupied` and friends: the log-odds of a node or iterator argument. It is
+/// here, with the iterators, because an iterator stands for the node it is on; `node.rs`
+/// knows nothing of iterators.
+pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
+    if let Ok(n) = obj.cast::<PyNode>() {
+        return Ok(n.get().value);
+    }
+    if let Ok(it) = obj.cast::<IteratorBase>() {
+        return it.borrow().current().map(|n| n.value);
+    }
+    if obj.is_none() {
+        return Err(crate::NullPointerException::new_err(
+            "no node (search found unknown space)",
+        ));
+    }
+    Err(PyTypeError::new_err(format!(
+        "expected an OcTreeNode or an iterator, got {}",
+        obj.get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default()
+    )))
 }

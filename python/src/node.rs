@@ -177,28 +177,6 @@ impl PyNode {
     }
 }
 
-/// Used by `isNodeOccupied` and friends: the log-odds of a node or iterator argument.
-pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
-    if let Ok(n) = obj.cast::<PyNode>() {
-        return Ok(n.get().value);
-    }
-    if let Ok(it) = obj.cast::<crate::iter::IteratorBase>() {
-        return it.borrow().current().map(|n| n.value);
-    }
-    if obj.is_none() {
-        return Err(crate::NullPointerException::new_err(
-            "no node (search found unknown space)",
-        ));
-    }
-    Err(PyTypeError::new_err(format!(
-        "expected an OcTreeNode or an iterator, got {}",
-        obj.get_type()
-            .name()
-            .map(|n| n.to_string())
-            .unwrap_or_default()
-    )))
-}
-
 /// The key and depth of a node argument (an `OcTreeNode`), for the per-node calls; `None`
 /// (unknown space) raises NullPointerException.
 pub fn node_address(obj: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {

@@ -7,8 +7,10 @@ use crate::convert::{self, array3, array_n3, depth, path, source, vec3, vec3_f32
 use crate::engine::{
     self, logodds, probability, InnerNodes, Key, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
-use crate::iter::{max_depth, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator};
-use crate::node::{key_arg, node_address, node_value, PyKey, PyNode};
+use crate::iter::{
+    max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
+};
+use crate::node::{key_arg, node_address, PyKey, PyNode};
 use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
@@ -573,7 +575,17 @@ impl PyOcTree {
         bbx_max: &Bound<'_, PyAny>,
         treatUnknownAsOccupied: bool,
     ) -> PyResult<()> {
-        crate::distance::generate(self, py, maxdist, bbx_min, bbx_max, treatUnknownAsOccupied)
+        let m = crate::distance::generate(
+            &self.tree,
+            py,
+            maxdist,
+            bbx_min,
+            bbx_max,
+            treatUnknownAsOccupied,
+        )?;
+        self.edt = Some(Box::new(m));
+        self.tree.enable_change_detection(true);
+        Ok(())
     }
 
     /// ``dynamicEDT_update``: take in the voxels changed since the last update and recompute
@@ -581,26 +593,26 @@ impl PyOcTree {
     #[pyo3(name = "dynamicEDT_update")]
     #[allow(non_snake_case)]
     fn dynamic_edt_update(&mut self, py: Python<'_>, updateRealDist: bool) -> PyResult<()> {
-        crate::distance::update(self, py, updateRealDist)
+        crate::distance::update(&mut self.tree, self.edt.as_deref_mut(), py, updateRealDist)
     }
 
     /// ``dynamicEDT_getMaxDist``: the distance clamp in metres.
     #[pyo3(name = "dynamicEDT_getMaxDist")]
     fn dynamic_edt_max_dist(&self) -> PyResult<f32> {
-        crate::distance::max_dist(self)
+        crate::distance::max_dist(self.edt.as_deref())
     }
 
     /// ``dynamicEDT_checkConsistency``: whether the map's obstacles are the tree's.
     #[pyo3(name = "dynamicEDT_checkConsistency")]
     fn dynamic_edt_check_consistency(&self) -> PyResult<bool> {
-        crate::distance::check_consistency(self)
+        crate::distance::check_consistency(&self.tree, self.edt.as_deref())
     }
 
     /// ``dynamicEDT_getDistance``: distance (metres) from a point or an ``OcTreeKey`` to the
     /// nearest obstacle; -1.0 outside the box.
     #[pyo3(name = "dynamicEDT_getDistance")]
     fn dynamic_edt_get_distance(&self, p: &Bound<'_, PyAny>) -> PyResult<f32> {
-        crate::distance::distance(self, p)
+        crate::distance::distance(self.edt.as_deref(), p)
     }
 
     /// ``dynamicEDT_getDistanceAndClosestObstacle``: ``(distance, obstacle)``, the obstacle
@@ -611,7 +623,7 @@ impl PyOcTree {
         py: Python<'py>,
         p: &Bound<'py, PyAny>,
     ) -> PyResult<(f32, crate::distance::Obstacle<'py>)> {
-        crate::distance::distance_and_closest_obstacle(self, py, p)
+        crate::distance::distance_and_closest_obstacle(self.edt.as_deref(), py, p)
     }
 
     /// ``dynamicEDT_getDistance`` of every row of an (N, 3) array, as float32.
@@ -620,7 +632,7 @@ impl PyOcTree {
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        crate::distance::distances(self, py, points)
+        crate::distance::distances(self.edt.as_deref(), py, points)
     }
 
     /// The occupancy probability at one point (metres), that of the node holding it (the

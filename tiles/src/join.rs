@@ -9,7 +9,8 @@
 //! place, read back with [`octoquant_octree::io::read_ot`], which checks it.
 
 use crate::error::TileError;
-use crate::tile::{check_depth, Tile};
+use crate::tile::Tile;
+use crate::tile_check::check_depth;
 use octoquant_octree::{io, OcTree, OccupancyParams};
 use std::io::Read;
 

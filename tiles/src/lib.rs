@@ -82,6 +82,7 @@ mod join_stream;
 mod spill;
 mod split;
 mod tile;
+mod tile_check;
 
 pub use apply::{apply_tile_updates, ApplyStats};
 pub use error::TileError;

@@ -18,7 +18,8 @@
 
 use crate::error::TileError;
 use crate::join::{join_tiles, tile_of_tree};
-use crate::tile::{check_depth, Tile};
+use crate::tile::Tile;
+use crate::tile_check::check_depth;
 use octoquant_octree::{io, OcTree, OccupancyParams};
 use std::io::Write;
 use std::path::{Path, PathBuf};

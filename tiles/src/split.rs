@@ -1,7 +1,8 @@
 //! One frame's update split by tile: sorted Morton codes per tile, tagged with the frame.
 
 use crate::error::TileError;
-use crate::tile::{check_depth, Tile};
+use crate::tile::Tile;
+use crate::tile_check::check_depth;
 use octoquant_octree::Brick;
 use octoquant_raycast::ScanUpdate;
 use std::collections::BTreeMap;

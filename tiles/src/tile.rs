@@ -1,6 +1,10 @@
 //! A tile: one node at a fixed depth of OctoMap's key space, named by its Morton prefix.
+//!
+//! What a tile is and where it lies. The constructors that check a caller's depth and index,
+//! [`Tile::new`] and [`Tile::of_key`], are in `tile_check.rs`, beside the error they return:
+//! the error's variants name tiles, so the error module uses this one, and this one uses
+//! neither.
 
-use crate::error::TileError;
 use octoquant_octree::{Key, TREE_DEPTH};
 
 /// The bits of a voxel's Morton code ([`Key::morton`]): three per level, 16 levels.
@@ -25,23 +29,13 @@ impl std::fmt::Display for Tile {
     }
 }
 
-/// Checks a tile depth: 0..=16.
-pub(crate) fn check_depth(depth: u8) -> Result<(), TileError> {
-    if depth > TREE_DEPTH {
-        return Err(TileError::InvalidDepth { depth });
-    }
-    Ok(())
-}
-
 impl Tile {
-    /// The tile at `depth` with Morton prefix `index`; errors for a depth above 16 or an index
-    /// of more than `3 * depth` bits.
-    pub fn new(depth: u8, index: u64) -> Result<Tile, TileError> {
-        check_depth(depth)?;
-        if index >> (3 * depth as u32) != 0 {
-            return Err(TileError::InvalidTile { depth, index });
-        }
-        Ok(Tile { depth, index })
+    /// The tile at `depth` with Morton prefix `index`, both already checked (the checked
+    /// constructor is [`Tile::new`]): for code that has validated them against the error it
+    /// returns.
+    pub(crate) fn from_checked(depth: u8, index: u64) -> Tile {
+        debug_assert!(depth <= TREE_DEPTH && index >> (3 * depth as u32) == 0);
+        Tile { depth, index }
     }
 
     /// The tile at `depth` (at most 16) holding the voxel with Morton code `code` (bits above
@@ -53,12 +47,6 @@ impl Tile {
             depth,
             index: code >> shift(depth),
         }
-    }
-
-    /// The tile at `depth` holding voxel `key`; errors for a depth above 16.
-    pub fn of_key(key: Key, depth: u8) -> Result<Tile, TileError> {
-        check_depth(depth)?;
-        Ok(Tile::of_code(key.morton(), depth))
     }
 
     /// The tile's depth (0 = root .. 16 = voxel).
@@ -118,23 +106,5 @@ mod tests {
         let other = Key::new(40000, 1234, 0);
         assert!(!Tile::of_key(key, 1).unwrap().contains_code(other.morton()));
         assert!(Tile::of_key(key, 0).unwrap().contains_code(other.morton()));
-    }
-
-    #[test]
-    fn bad_tiles_are_errors() {
-        assert!(matches!(
-            Tile::new(17, 0),
-            Err(TileError::InvalidDepth { depth: 17 })
-        ));
-        assert!(Tile::new(2, 63).is_ok());
-        assert!(matches!(
-            Tile::new(2, 64),
-            Err(TileError::InvalidTile {
-                depth: 2,
-                index: 64
-            })
-        ));
-        assert!(Tile::of_key(Key::new(0, 0, 0), 17).is_err());
-        assert!(!Tile::new(0, 0).unwrap().contains_code(1 << 48));
     }
 }
