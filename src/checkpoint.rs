@@ -78,6 +78,13 @@ pub enum CheckpointError {
         /// Its value in this run.
         now: String,
     },
+    /// The mapper was made [`without_checkpoints`](crate::pipeline::Mapper::without_checkpoints):
+    /// it kept no fingerprint of its frames, so it cannot save a checkpoint.
+    #[error("cannot save a checkpoint in {}: this mapper keeps no fingerprint of its frames (made without checkpoints)", dir.display())]
+    NotTracked {
+        /// The checkpoint directory asked for.
+        dir: PathBuf,
+    },
     /// Creating the directory or removing old files failed.
     #[error("cannot write checkpoint in {}: {source}", dir.display())]
     Io {

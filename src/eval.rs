@@ -147,7 +147,8 @@ pub fn cross_validate(
         .max_scans
         .map_or(frames.len(), |n| n.min(frames.len()))];
     let held_out = |i: usize| options.every > 0 && (i + 1).is_multiple_of(options.every);
-    let mut mapper = Mapper::new(options.mapper.clone())?;
+    // the map is only evaluated, never checkpointed: no frame fingerprints
+    let mut mapper = Mapper::new(options.mapper.clone())?.without_checkpoints();
     let mut scans_inserted = 0;
     for (i, f) in used.iter().enumerate() {
         if !held_out(i) {

@@ -457,3 +457,69 @@ fn every_checkpoint_of_a_pipelined_run_holds_exactly_its_frames() {
     assert_eq!(seen, (1..=frames.len()).collect::<Vec<_>>());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `Mapper::without_checkpoints` (what `map` without `--checkpoint`, `bench` and Python use)
+/// digests no frame and changes nothing in the map: on real TUM depth frames, whose digest
+/// covers points and pixels, its tree equals the default mapper's, with one thread and with
+/// two (pipelined); saving a checkpoint from it, or asking a run for checkpoints, is refused
+/// before anything is written or inserted.
+#[test]
+fn a_mapper_without_checkpoints_builds_the_same_tree_and_saves_none() {
+    let Some(assoc) =
+        crate::common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let mut frames =
+        octoquant::formats::read_frames(&assoc, &octoquant::formats::ReadOptions::default())
+            .unwrap();
+    frames.truncate(3);
+    assert!(frames.iter().all(|f| f.camera.is_some()), "depth images");
+    let options = MapperOptions {
+        resolution: 0.05,
+        ..MapperOptions::default()
+    };
+    let ot = |m: &mut Mapper| {
+        let mut out = Vec::new();
+        write_ot(m.tree_mut(), &mut out).unwrap();
+        out
+    };
+    let mut with = Mapper::new(options.clone()).unwrap();
+    for f in &frames {
+        with.insert(f);
+    }
+    let want = ot(&mut with);
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut m = Mapper::new(options.clone()).unwrap().without_checkpoints();
+        pool.install(|| m.insert_frames(&frames));
+        assert_eq!(m.stats().frames, 3);
+        let got = ot(&mut m);
+        assert!(
+            got == want,
+            "{threads} threads: {}",
+            first_diff(&got, &want)
+        );
+    }
+    let dir = scratch("checkpoint-untracked").join("ck");
+    let mut m = Mapper::new(options.clone()).unwrap().without_checkpoints();
+    m.insert(&frames[0]);
+    let identity = RunIdentity::new(&options, Vec::new(), &frames);
+    let e = m.save_checkpoint(&dir, &identity).unwrap_err();
+    assert!(e.to_string().contains("no fingerprint"), "{e}");
+    assert!(!dir.exists(), "nothing written");
+    let ck = CheckpointOptions {
+        dir: dir.clone(),
+        every: 1,
+    };
+    let mut fresh = Mapper::new(options).unwrap().without_checkpoints();
+    let e = fresh
+        .insert_run(&frames, Some((&ck, &identity)), |_| {})
+        .unwrap_err();
+    assert!(e.to_string().contains("no fingerprint"), "{e}");
+    assert_eq!(fresh.stats().frames, 0, "refused before inserting");
+    assert!(!dir.exists(), "nothing written");
+}

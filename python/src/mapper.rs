@@ -221,7 +221,10 @@ impl PyMapper {
             filters,
             ..MapperOptions::default()
         };
-        let mapper = Mapper::new(options).map_err(|e| convert::value_error("Mapper", &e))?;
+        // Python has no checkpoints: no frame needs its fingerprint
+        let mapper = Mapper::new(options)
+            .map_err(|e| convert::value_error("Mapper", &e))?
+            .without_checkpoints();
         Ok(PyMapper {
             mapper: Box::new(mapper),
             pool,

@@ -82,7 +82,8 @@ fn run_mode(frames: &[Frame], opts: &MapperOptions, threads: usize) -> Result<Ru
         .num_threads(threads)
         .build()?;
     let (mut mapper, frame_ms) = pool.install(|| -> Result<_> {
-        let mut mapper = Mapper::new(opts.clone())?;
+        // as `map` without --checkpoint: no frame fingerprints
+        let mut mapper = Mapper::new(opts.clone())?.without_checkpoints();
         let ms = mapper
             .insert_frames(frames)
             .iter()

@@ -717,7 +717,14 @@ fn run_on_threads(a: &Args) -> Result<()> {
         }
     }
     let fresh = match &resumed {
-        None => Some(Mapper::new(plan.options.clone()).context("invalid --res")?),
+        None => {
+            let m = Mapper::new(plan.options.clone()).context("invalid --res")?;
+            // without --checkpoint no frame needs its fingerprint
+            Some(match plan.checkpoint {
+                Some(_) => m,
+                None => m.without_checkpoints(),
+            })
+        }
         Some(_) => None,
     };
     plan.preflight()?;
