@@ -322,8 +322,14 @@ impl Mapper {
             }
             n += 1;
         }
-        if let Some(fingerprint) = self.fingerprint.filter(|fp| n > 0 && skipped != *fp) {
+        // without a fingerprint only the count of the frames skipped can be checked
+        let differs = self.fingerprint.is_some_and(|fp| skipped != fp);
+        if n > 0 && (n < done || differs) {
             let dir = self.resumed_from.clone().unwrap_or_default();
+            let fingerprint = |f: Option<FramesFingerprint>| match f {
+                Some(f) => format!("fingerprint {:016x}", f.value()),
+                None => "no fingerprint kept".into(),
+            };
             return Err(CheckpointError::Mismatch {
                 dir,
                 what: if n < done {
@@ -331,11 +337,11 @@ impl Mapper {
                 } else {
                     "the frames' content".into()
                 },
-                saved: format!(
-                    "{done} frames done, fingerprint {:016x}",
-                    fingerprint.value()
+                saved: format!("{done} frames done, {}", fingerprint(self.fingerprint)),
+                now: format!(
+                    "{n} frames read, {}",
+                    fingerprint(self.fingerprint.map(|_| skipped))
                 ),
-                now: format!("{n} frames read, fingerprint {:016x}", skipped.value()),
             }
             .into());
         }

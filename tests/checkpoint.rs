@@ -522,4 +522,19 @@ fn a_mapper_without_checkpoints_builds_the_same_tree_and_saves_none() {
     assert!(e.to_string().contains("no fingerprint"), "{e}");
     assert_eq!(fresh.stats().frames, 0, "refused before inserting");
     assert!(!dir.exists(), "nothing written");
+    // a run continued with fewer frames than are in the tree is still refused: without a
+    // fingerprint the count is checked
+    let mut three = Mapper::new(MapperOptions {
+        resolution: 0.05,
+        ..MapperOptions::default()
+    })
+    .unwrap()
+    .without_checkpoints();
+    three.insert_run(&frames, None, |_| {}).unwrap();
+    let e = three.insert_run(&frames[..2], None, |_| {}).unwrap_err();
+    assert!(e.to_string().contains("the number of frames"), "{e}");
+    assert!(e.to_string().contains("no fingerprint kept"), "{e}");
+    // with all of them it skips them and inserts nothing more
+    three.insert_run(&frames, None, |_| {}).unwrap();
+    assert_eq!(three.stats().frames, 3);
 }

@@ -253,7 +253,7 @@ impl BrickSink for BrickSet {
 
     /// In a table beyond the second-level cache (LiDAR frames) each insert would wait for its
     /// cache miss: there the home slot of the brick [`PREFETCH_AHEAD`] places on is asked for
-    /// while a brick goes in, so that the misses overlap (a quarter off the casting time of
+    /// while a brick goes in, so that the misses overlap (about a fifth off the casting time of
     /// norlab at 0.2 m). In a smaller table, bricks already in the set, found in one of their
     /// first two slots, are added in a tight loop; anything else (a new brick, a longer
     /// probe, growth) goes through [`BrickSet::insert_brick_hashed`] and the loop resumes.
