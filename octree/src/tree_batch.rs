@@ -318,6 +318,17 @@ impl Walk {
             t.add_size(8);
             lb = t.store.expand_node(node);
         }
+        if !TRACK {
+            // the whole group at once when its transitions are memoized
+            if let Some(g) = t.store.voxels.update_group(lb, byte, &self.memo) {
+                t.add_size(g.created);
+                if g.applied && !self.lazy && t.store.set_voxel_parent(kb, j, lb, g.uniform, g.max)
+                {
+                    t.sub_size(8);
+                }
+                return g.applied;
+            }
+        }
         let mut applied = false;
         let mut bits = byte;
         while bits != 0 {

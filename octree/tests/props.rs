@@ -274,14 +274,16 @@ proptest! {
 
     /// `update_keys` and `update_bricks` equal one `update_node` per key (full `.ot` bytes,
     /// size, changed keys) on batches that saturate and prune whole regions, so that early
-    /// exits at pruned nodes, refreshes after lazy batches and re-expansion all happen.
+    /// exits at pruned nodes, refreshes after lazy batches and re-expansion all happen. With
+    /// change detection off, the batched walk updates a block's voxels together (its own
+    /// path), so both settings are checked.
     #[test]
-    fn batch_updates_at_the_clamps(ops in saturating_ops()) {
+    fn batch_updates_at_the_clamps(ops in saturating_ops(), track in any::<bool>()) {
         let mut single = OcTree::new(0.1).unwrap();
         let mut by_keys = OcTree::new(0.1).unwrap();
         let mut by_bricks = OcTree::new(0.1).unwrap();
         for t in [&mut single, &mut by_keys, &mut by_bricks] {
-            t.enable_change_detection(true);
+            t.enable_change_detection(track);
         }
         for (region, seed, hit, lazy, reps) in ops {
             let ks = cube_keys(region, seed);

@@ -361,6 +361,14 @@ impl NodeStore {
     #[inline(always)]
     pub fn refresh_voxel_parent(&mut self, kb: u32, j: usize, lb: u32) -> bool {
         let (pruned, v) = self.voxels.collapse_or_max(lb);
+        self.set_voxel_parent(kb, j, lb, pruned, v)
+    }
+
+    /// [`NodeStore::refresh_voxel_parent`] with the voxel block's outcome already known (from
+    /// [`VoxelBlocks::update_group`]): `pruned` when its eight voxels are equal leaves, `v`
+    /// their common value or their max. Returns `pruned`.
+    #[inline(always)]
+    pub fn set_voxel_parent(&mut self, kb: u32, j: usize, lb: u32, pruned: bool, v: f32) -> bool {
         let blk = &mut self.inner.blocks[kb as usize];
         blk.vals[j & 7] = v;
         if pruned {
