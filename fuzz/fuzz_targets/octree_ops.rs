@@ -1,5 +1,5 @@
-//! Structure-aware: random operation sequences on an `OcTree` (update, set, delete, prune,
-//! expand, max-likelihood, inner occupancy, `.bt`/`.ot` write and read back), checked after
+//! Structure-aware: random operation sequences on an `OcTree` (update, batched updates of
+//! bricks with change detection on or off, set, delete, prune, expand, max-likelihood, inner occupancy, `.bt`/`.ot` write and read back), checked after
 //! every step against the tree's invariants (`check_well_formed`, strict while no operation
 //! has left it lazy) and at the end against a naive oracle: a map from voxel key to log-odds
 //! that every operation updates the obvious way. (Deleting the root's last child leaves the
@@ -10,7 +10,7 @@ use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
 use octoquant_octree::validate::check_well_formed;
-use octoquant_octree::{InnerNodes, Key, OcTree, Update, TREE_DEPTH};
+use octoquant_octree::{Brick, InnerNodes, Key, OcTree, Update, TREE_DEPTH};
 use std::collections::BTreeMap;
 
 /// A voxel key: mostly inside a 16³ block around the centre (so siblings meet and prune),
@@ -51,6 +51,16 @@ enum Op {
     UpdateOctant {
         key: FuzzKey,
         update: FuzzUpdate,
+    },
+    /// `update_bricks` (the batched walk every scan insertion takes) on up to four bricks of
+    /// 4x4x4 voxels, each the brick of a key with any mask, in the order given (repeats
+    /// included); with change detection on or off, which the walk compiles as two paths.
+    UpdateBricks {
+        bricks: [(FuzzKey, u64); 4],
+        count: u8,
+        update: FuzzUpdate,
+        lazy: bool,
+        track: bool,
     },
     Set {
         key: FuzzKey,
@@ -167,6 +177,36 @@ fuzz_target!(|input: Input| {
                     model_update(&tree, &mut model, k, u);
                     tree.update_node(k, u, InnerNodes::Refresh);
                 }
+            }
+            Op::UpdateBricks {
+                bricks,
+                count,
+                update,
+                lazy,
+                track,
+            } => {
+                let u = update_of(update);
+                let list: Vec<Brick> = bricks[..usize::from(count % 5)]
+                    .iter()
+                    .map(|&(key, voxels)| Brick {
+                        code: Brick::of_voxel(key.key().morton()).code,
+                        voxels,
+                    })
+                    .collect();
+                // the documented meaning: `update_node` on every selected voxel, brick by
+                // brick, in mask-bit order
+                for b in &list {
+                    for bit in 0..64 {
+                        if b.voxels >> bit & 1 == 1 {
+                            let k = Key::from_morton((b.code << 6) | bit);
+                            model_update(&tree, &mut model, k, u);
+                        }
+                    }
+                }
+                tree.enable_change_detection(track);
+                tree.update_bricks(&list, u, InnerNodes::from_lazy(lazy));
+                tree.enable_change_detection(false);
+                strict &= !lazy;
             }
             Op::Set { key, value, lazy } => {
                 let k = key.key();
