@@ -1,10 +1,11 @@
 //! Structure-aware: random operation sequences on an `OcTree` (update, batched updates of
-//! bricks with change detection on or off, set, delete, prune, expand, max-likelihood, inner occupancy, `.bt`/`.ot` write and read back), checked after
-//! every step against the tree's invariants (`check_well_formed`, strict while no operation
-//! has left it lazy) and at the end against a naive oracle: a map from voxel key to log-odds
-//! that every operation updates the obvious way. (Deleting the root's last child leaves the
-//! root as a leaf covering the whole map, as in OctoMap, whose next update expands it into
-//! the whole space: the oracle is off from there until the next `Clear`.)
+//! bricks with change detection on or off, set, delete, prune, expand, max-likelihood, inner
+//! occupancy, `.bt`/`.ot` write and read back), checked after every step against the tree's
+//! invariants (`check_well_formed`, strict while no operation has left it lazy) and at the
+//! end against a naive oracle: a map from voxel key to log-odds that every operation updates
+//! the obvious way. (Deleting the root's last child leaves the root as a leaf covering the
+//! whole map, as in OctoMap, whose next update expands it into the whole space: the oracle is
+//! off from there until the next `Clear`.)
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
