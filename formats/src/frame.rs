@@ -1,5 +1,6 @@
 //! A frame: one scan's sensor origin and end points, in world coordinates.
 
+use crate::error::FormatError;
 use nalgebra::Point3;
 use octoquant_octree::Color;
 use octoquant_raycast::{PinholeCamera, PixelGrid};
@@ -71,6 +72,61 @@ impl Frame {
             camera: None,
             colors: None,
         }
+    }
+}
+
+/// Frames made one at a time from a list of rows known in advance (the scan files of a VTK
+/// sequence, the rows of a TUM association): `make` reads a row's files only when its frame
+/// is asked for, and [`RowFrames::skip_frames`] passes over rows without reading anything.
+pub struct RowFrames<T> {
+    rows: std::vec::IntoIter<T>,
+    make: MakeFrame<T>,
+}
+
+/// How a [`RowFrames`] turns a row into its frame.
+type MakeFrame<T> = Box<dyn FnMut(T) -> Result<Frame, FormatError> + Send>;
+
+impl<T> RowFrames<T> {
+    /// Frames from `rows`, each made by `make`.
+    pub fn new(
+        rows: Vec<T>,
+        make: impl FnMut(T) -> Result<Frame, FormatError> + Send + 'static,
+    ) -> Self {
+        RowFrames {
+            rows: rows.into_iter(),
+            make: Box::new(make),
+        }
+    }
+
+    /// Pass over the next `n` frames (fewer when fewer rows are left) without reading their
+    /// files; returns how many were passed. Errors those frames would have given are not
+    /// seen: whoever reads them reports them.
+    pub fn skip_frames(&mut self, n: usize) -> usize {
+        let k = n.min(self.rows.len());
+        if k > 0 {
+            self.rows.nth(k - 1);
+        }
+        k
+    }
+}
+
+impl<T> Iterator for RowFrames<T> {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.rows.next().map(&mut self.make)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.rows.size_hint()
+    }
+}
+
+impl<T> std::fmt::Debug for RowFrames<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RowFrames")
+            .field("rows_left", &self.rows.len())
+            .finish_non_exhaustive()
     }
 }
 

@@ -8,9 +8,9 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{open, read_all, ByteReader};
+use crate::source::{open_skippable, read_all, ByteReader, Opened};
 use nalgebra::Point3;
-use std::io::{self, BufRead, Read, Write};
+use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
 /// The 8-byte magic at the start of a `.frames` file.
@@ -72,7 +72,7 @@ pub fn read_frames_file(path: &Path) -> Result<Vec<Frame>, FormatError> {
 pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
     let mut s = FramesStream {
         path: path.to_path_buf(),
-        inner: open(path)?,
+        inner: open_skippable(path)?,
         pos: 0,
         left: 0,
         next: 0,
@@ -98,10 +98,11 @@ pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
     Ok(s)
 }
 
-/// The frames of a `.frames` file, read as they are asked for ([`frames_file_stream`]).
+/// The frames of a `.frames` file, read as they are asked for ([`frames_file_stream`]), or
+/// passed over without reading their points ([`FramesStream::skip_frames`]).
 pub struct FramesStream {
     path: PathBuf,
-    inner: Box<dyn BufRead + Send>,
+    inner: Opened,
     /// Bytes consumed so far.
     pos: u64,
     /// Frames still to read.
@@ -175,6 +176,54 @@ impl FramesStream {
                 format!("{trailing} bytes of trailing data after the frames"),
             ));
         }
+        Ok(())
+    }
+}
+
+impl FramesStream {
+    /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
+    /// many were passed: only each frame's 16-byte header is read, and an uncompressed file
+    /// seeks over the points, so reading frames `k..` of a large file costs about as much as
+    /// those frames (a distributed build's slice). A frame cut short by the end of the file is
+    /// the truncation error [`parse_frames`] gives, and ends the stream.
+    pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        let mut passed = 0;
+        while passed < n && self.left > 0 && !self.done {
+            let r = self.skip_frame();
+            if r.is_err() {
+                self.done = true;
+            }
+            r?;
+            passed += 1;
+        }
+        Ok(passed)
+    }
+
+    /// Pass over one frame: its header read, its points skipped.
+    fn skip_frame(&mut self) -> Result<(), FormatError> {
+        let i = self.next;
+        let what = format!("frame {i} header");
+        // field by field, as `frame` reads it, so that a cut header fails alike
+        for _ in 0..3 {
+            self.f32(&what)?;
+        }
+        let n = self.u32(&what)?;
+        let bytes = u64::from(n) * 12;
+        let start = self.pos;
+        let got = self
+            .inner
+            .skip(bytes)
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(start), e))?;
+        self.pos += got;
+        if got < bytes {
+            return Err(FormatError::Truncated {
+                path: self.path.clone(),
+                offset: self.pos,
+                what: format!("{n} points of frame {i} ({bytes} bytes from byte {start})"),
+            });
+        }
+        self.next += 1;
+        self.left -= 1;
         Ok(())
     }
 }

@@ -2,7 +2,7 @@
 //! it as frames ([`read_frames`] with [`ReadOptions`]).
 
 use crate::error::{FormatError, Location};
-use crate::frame::Frame;
+use crate::frame::{Frame, RowFrames};
 use crate::graph::GraphOptions;
 use crate::pcd::PcdOptions;
 use crate::tum::TumOptions;
@@ -234,9 +234,29 @@ pub fn count_frames(path: &Path, options: &ReadOptions) -> Option<usize> {
 /// yielded. `.graph`, text, single-scan formats (PCD, PLY, one VTK, one PNG) are parsed whole
 /// when the stream is made, and yielded from memory.
 pub struct FrameStream {
-    inner: Box<dyn Iterator<Item = Result<Frame, FormatError>> + Send>,
+    inner: Source,
     limit: source::DecompressionLimit,
     failed: bool,
+}
+
+impl FrameStream {
+    /// Pass over the next `n` frames as cheaply as the input allows, returning how many were
+    /// passed (fewer at the end of the input): a `.frames` file reads only the frames' headers
+    /// and seeks over their points when stored uncompressed; VTK sequences and TUM
+    /// associations skip their rows without opening the scan or image files; other inputs
+    /// read the frames and drop them. What makes frames `k..` of an input cost about what
+    /// those frames cost (a distributed build's slice). An error met on the way ends the
+    /// stream; an error inside a frame that is passed over unread is reported by whoever
+    /// reads that frame.
+    pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        if self.failed {
+            return Ok(0);
+        }
+        let inner = &mut self.inner;
+        let r = source::with_decompression_limit(self.limit, || inner.skip_frames(n));
+        self.failed = r.is_err();
+        r
+    }
 }
 
 impl Iterator for FrameStream {
@@ -269,11 +289,82 @@ impl std::fmt::Debug for FrameStream {
     }
 }
 
-type Source = Box<dyn Iterator<Item = Result<Frame, FormatError>> + Send>;
+/// What a [`FrameStream`] reads from: the frames of one input, one at a time, and a way to
+/// pass over frames that by default reads and drops them.
+trait FrameSource: Iterator<Item = Result<Frame, FormatError>> + Send {
+    /// Pass over the next `n` frames; how many were passed (fewer at the end).
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        for passed in 0..n {
+            match self.next() {
+                Some(Ok(_)) => {}
+                Some(Err(e)) => return Err(e),
+                None => return Ok(passed),
+            }
+        }
+        Ok(n)
+    }
+}
+
+type Source = Box<dyn FrameSource>;
+
+/// Frames already in memory: passing over them drops them.
+struct Listed(std::vec::IntoIter<Frame>);
+
+impl Iterator for Listed {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.0.next().map(Ok)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.0.size_hint()
+    }
+}
+
+impl FrameSource for Listed {
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        let k = n.min(self.0.len());
+        if k > 0 {
+            self.0.nth(k - 1);
+        }
+        Ok(k)
+    }
+}
+
+impl FrameSource for frames::FramesStream {
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        frames::FramesStream::skip_frames(self, n)
+    }
+}
+
+impl<T: Send> FrameSource for RowFrames<T> {
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        Ok(RowFrames::skip_frames(self, n))
+    }
+}
+
+/// An MCAP file's frames (the default pass-over: the tf messages between clouds must still
+/// be read for the frames after them).
+struct McapSource(mcap::McapFrames);
+
+impl Iterator for McapSource {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.0.next().map(|r| r.map(|(f, _)| f))
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.0.size_hint()
+    }
+}
+
+impl FrameSource for McapSource {}
 
 /// Frames already in memory, as a source.
 fn all(frames: Result<Vec<Frame>, FormatError>) -> Result<Source, FormatError> {
-    Ok(Box::new(frames?.into_iter().map(Ok)))
+    Ok(Box::new(Listed(frames?.into_iter())))
 }
 
 fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatError> {
@@ -328,9 +419,7 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
                 colors: options.mcap.colors || options.colors,
                 ..options.mcap.clone()
             };
-            Ok(Box::new(
-                mcap::mcap_frames(path, &mcap)?.map(|r| r.map(|(f, _)| f)),
-            ))
+            Ok(Box::new(McapSource(mcap::mcap_frames(path, &mcap)?)))
         }
         InputFormat::Ply => all(ply::read_ply_frames_with(path, options.colors)),
     }

@@ -24,7 +24,7 @@
 use crate::error::{FormatError, Location};
 use std::cell::Cell;
 use std::fs::File;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader, Read, Seek};
 use std::path::Path;
 
 /// How far compressed data may expand: the output of one compressed stream (a `.gz`/`.bz2`
@@ -183,8 +183,76 @@ fn lower_ext(path: &Path) -> Option<String> {
 /// thread's [`decompression_limit`] (relative to the compressed file's size): past it, reads
 /// fail with an `InvalidData` error that says so.
 pub fn open(path: &Path) -> Result<Box<dyn BufRead + Send>, FormatError> {
+    Ok(match open_skippable(path)? {
+        Opened::Plain { reader, .. } => Box::new(reader),
+        Opened::Stream(reader) => reader,
+    })
+}
+
+/// An input opened by [`open_skippable`]: a regular file stored as it is, which can pass over
+/// bytes without reading them, or a stream (decompressed data, a pipe), which has to read them.
+pub enum Opened {
+    /// An uncompressed regular file and its length in bytes.
+    Plain {
+        /// The file, buffered.
+        reader: BufReader<File>,
+        /// Bytes in the file when it was opened.
+        len: u64,
+    },
+    /// A gzip or bzip2 file, decompressed under the decompression limit, or an input that is
+    /// not a regular file.
+    Stream(Box<dyn BufRead + Send>),
+}
+
+impl Opened {
+    /// Pass over the next `n` bytes (fewer at the end of the input), returning how many were
+    /// passed. An uncompressed file moves its position without reading (what lets a reader
+    /// jump to the part of a large file it needs); compressed data is decoded and dropped.
+    pub fn skip(&mut self, n: u64) -> std::io::Result<u64> {
+        match self {
+            Opened::Plain { reader, len } => {
+                let at = reader.stream_position()?;
+                let n = n.min(len.saturating_sub(at));
+                // a skip within `len` fits an `i64`: file lengths do
+                reader.seek_relative(i64::try_from(n).map_err(std::io::Error::other)?)?;
+                Ok(n)
+            }
+            Opened::Stream(reader) => std::io::copy(&mut reader.take(n), &mut std::io::sink()),
+        }
+    }
+}
+
+impl Read for Opened {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match self {
+            Opened::Plain { reader, .. } => reader.read(buf),
+            Opened::Stream(reader) => reader.read(buf),
+        }
+    }
+}
+
+impl BufRead for Opened {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        match self {
+            Opened::Plain { reader, .. } => reader.fill_buf(),
+            Opened::Stream(reader) => reader.fill_buf(),
+        }
+    }
+
+    fn consume(&mut self, amt: usize) {
+        match self {
+            Opened::Plain { reader, .. } => reader.consume(amt),
+            Opened::Stream(reader) => reader.consume(amt),
+        }
+    }
+}
+
+/// [`open`], keeping an uncompressed file seekable (see [`Opened::skip`]).
+pub fn open_skippable(path: &Path) -> Result<Opened, FormatError> {
     let file = File::open(path).map_err(|e| FormatError::io(path, Location::File, e))?;
-    let compressed = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let meta = file.metadata().ok();
+    let compressed = meta.as_ref().map_or(0, |m| m.len());
+    let regular = meta.is_some_and(|m| m.is_file());
     let mut raw = BufReader::with_capacity(1 << 16, file);
     // the first bytes decide; the extension only when they show no compression (a file
     // named .gz that is not gzip then fails in the decoder, naming the file)
@@ -199,15 +267,19 @@ pub fn open(path: &Path) -> Result<Box<dyn BufRead + Send>, FormatError> {
         limit: decompression_limit(),
     };
     Ok(match compression {
-        Compression::None => Box::new(raw),
-        Compression::Gzip => Box::new(BufReader::with_capacity(
+        Compression::None if regular => Opened::Plain {
+            reader: raw,
+            len: compressed,
+        },
+        Compression::None => Opened::Stream(Box::new(raw)),
+        Compression::Gzip => Opened::Stream(Box::new(BufReader::with_capacity(
             1 << 16,
             capped(Box::new(flate2::bufread::MultiGzDecoder::new(raw)) as Box<dyn Read + Send>),
-        )),
-        Compression::Bzip2 => Box::new(BufReader::with_capacity(
+        ))),
+        Compression::Bzip2 => Opened::Stream(Box::new(BufReader::with_capacity(
             1 << 16,
             capped(Box::new(bzip2::bufread::MultiBzDecoder::new(raw))),
-        )),
+        ))),
     })
 }
 

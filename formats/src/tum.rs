@@ -18,7 +18,7 @@
 //! and palette PNGs are read (16-bit channels keep their high byte, alpha is ignored).
 
 use crate::error::{FormatError, Location};
-use crate::frame::{CameraPixels, Frame};
+use crate::frame::{CameraPixels, Frame, RowFrames};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{decompression_limit, excerpt, open, LineReader};
 use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
@@ -411,7 +411,7 @@ pub fn read_tum_sequence(
 pub fn tum_sequence_frames(
     association: &Path,
     options: &TumOptions,
-) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
+) -> Result<RowFrames<AssociationRow>, FormatError> {
     tum_sequence_frames_with(association, options, false)
 }
 
@@ -422,7 +422,7 @@ pub fn tum_sequence_frames_with(
     association: &Path,
     options: &TumOptions,
     colors: bool,
-) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
+) -> Result<RowFrames<AssociationRow>, FormatError> {
     options.check(association)?;
     let rows = read_association(association)?;
     if rows.is_empty() {
@@ -433,7 +433,7 @@ pub fn tum_sequence_frames_with(
         ));
     }
     let options = *options;
-    Ok(rows.into_iter().map(move |row| {
+    Ok(RowFrames::new(rows, move |row: AssociationRow| {
         let img = read_depth_png(&row.depth)?;
         let rgb = if colors {
             let rgb = read_color_png(&row.rgb)?;

@@ -8,7 +8,7 @@
 //! time order. World point = R(q)·p + t computed in `f64`, stored as `f32`; origin = t.
 
 use crate::error::{FormatError, Location};
-use crate::frame::Frame;
+use crate::frame::{Frame, RowFrames};
 use crate::pose::{rigid_transform, unit_quaternion};
 use crate::source::{excerpt, read_all};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
@@ -324,10 +324,13 @@ pub fn parse_scan_stamp(file_name: &str) -> Option<(u64, u32)> {
     Some((sec.parse().ok()?, nsec))
 }
 
+/// A scan file of a sequence: the seconds and nanoseconds of its stamp, and its path.
+pub type ScanEntry = (u64, u32, PathBuf);
+
 /// The `.vtk` scans of a directory with their stamps, sorted by time.
 ///
 /// A `.vtk` file whose name carries no `_<sec>_<nanosec>` stamp is an error naming it.
-pub fn list_scans(scans_dir: &Path) -> Result<Vec<(u64, u32, PathBuf)>, FormatError> {
+pub fn list_scans(scans_dir: &Path) -> Result<Vec<ScanEntry>, FormatError> {
     let rd =
         std::fs::read_dir(scans_dir).map_err(|e| FormatError::io(scans_dir, Location::File, e))?;
     let mut scans = Vec::new();
@@ -363,7 +366,7 @@ pub fn read_vtk_sequence(scans_dir: &Path, trajectory: &Path) -> Result<Vec<Fram
 pub fn vtk_sequence_frames(
     scans_dir: &Path,
     trajectory: &Path,
-) -> Result<impl Iterator<Item = Result<Frame, FormatError>> + Send + 'static, FormatError> {
+) -> Result<RowFrames<ScanEntry>, FormatError> {
     let poses = read_trajectory_csv(trajectory)?;
     let mut by_stamp: HashMap<(u64, u32), StampedPose> = HashMap::with_capacity(poses.len());
     for p in poses {
@@ -371,26 +374,29 @@ pub fn vtk_sequence_frames(
     }
     let scans = list_scans(scans_dir)?;
     let trajectory = trajectory.to_path_buf();
-    Ok(scans.into_iter().map(move |(sec, nsec, path)| {
-        let pose = by_stamp.get(&(sec, nsec)).ok_or_else(|| {
-            FormatError::missing_pose(
-                &path,
-                Location::File,
-                format!(
-                    "no row of {} has stamp {sec}.{nsec:09}",
-                    trajectory.display()
-                ),
-            )
-        })?;
-        let data = read_all(&path)?;
-        let points = parse_vtk_points(&path, &data)?
-            .iter()
-            .map(|p| pose.transform(p))
-            .collect();
-        let mut f = Frame::new_f32(pose.translation.cast::<f32>().into(), points);
-        f.stamp = Some(pose.stamp());
-        Ok(f)
-    }))
+    Ok(RowFrames::new(
+        scans,
+        move |(sec, nsec, path): ScanEntry| {
+            let pose = by_stamp.get(&(sec, nsec)).ok_or_else(|| {
+                FormatError::missing_pose(
+                    &path,
+                    Location::File,
+                    format!(
+                        "no row of {} has stamp {sec}.{nsec:09}",
+                        trajectory.display()
+                    ),
+                )
+            })?;
+            let data = read_all(&path)?;
+            let points = parse_vtk_points(&path, &data)?
+                .iter()
+                .map(|p| pose.transform(p))
+                .collect();
+            let mut f = Frame::new_f32(pose.translation.cast::<f32>().into(), points);
+            f.stamp = Some(pose.stamp());
+            Ok(f)
+        },
+    ))
 }
 
 /// Read a scan sequence with identity poses: every `.vtk` in `scans_dir` in stamp order, its

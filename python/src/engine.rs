@@ -60,9 +60,11 @@ pub fn read_frames(path: &Path, options: &ReadOptions) -> Result<Vec<Frame>, Str
 
 /// Frames `first .. first + count` of a sensor file (all from `first` when `count` is `None`),
 /// read one at a time and only as far as needed (the slice a distributed task reads). The
-/// frames before `first` are read and dropped, their errors reported; an input that ends
-/// before `first`, or before `first + count` when a count is given, is an error naming the
-/// file and the frame counts.
+/// frames before `first` are passed over as cheaply as the input allows (`FrameStream::
+/// skip_frames`: a `.frames` file seeks over their points, VTK sequences and TUM associations
+/// do not open their files), so a slice costs about what its own frames cost; an input that
+/// ends before `first`, or before `first + count` when a count is given, is an error naming
+/// the file and the frame counts.
 pub fn read_frame_range(
     path: &Path,
     options: &ReadOptions,
@@ -77,11 +79,9 @@ pub fn read_frame_range(
             count.map_or_else(|| "end".to_string(), |c| (first + c).to_string())
         )
     };
-    for seen in 0..first {
-        match stream.next() {
-            Some(f) => drop(f.map_err(|e| e.to_string())?),
-            None => return Err(short(seen)),
-        }
+    let passed = stream.skip_frames(first).map_err(|e| e.to_string())?;
+    if passed < first {
+        return Err(short(passed));
     }
     let mut frames = Vec::new();
     while count.is_none_or(|c| frames.len() < c) {

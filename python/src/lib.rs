@@ -51,7 +51,9 @@ type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 /// ``(fx, fy, cx, cy)`` (TUM depth), ``viewpoint`` (PCD ``VIEWPOINT``: ``"origin"`` as PCL,
 /// ``"apply"`` or ``"ignore"``). ``first`` and ``count``: only frames ``first .. first +
 /// count`` (all from ``first`` without a count), read one at a time and no further than
-/// needed (what a distributed task reads); an input with fewer frames raises ValueError.
+/// needed (what a distributed task reads), the frames before ``first`` passed over without
+/// reading their points where the input allows (``.frames`` seeks, VTK sequences and TUM
+/// associations skip their files); an input with fewer frames raises ValueError.
 /// Releases the GIL while reading.
 #[pyfunction]
 #[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
