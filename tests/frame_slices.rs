@@ -1,8 +1,9 @@
 //! Reading a slice of an input (`FrameStream::skip_frames`, what each task of a distributed
 //! build does): the frames after the skipped ones are exactly those of a whole read, a
 //! `.frames` file skips without reading the skipped points, VTK sequences and TUM
-//! associations without opening the skipped files, and a damaged file fails the same way
-//! whether its frames are skipped or read.
+//! associations without opening the skipped files, MCAP files without decoding the skipped
+//! clouds, and a damaged `.frames` file fails the same way whether its frames are skipped or
+//! read.
 
 use crate::common;
 use nalgebra::Point3;
@@ -289,4 +290,12 @@ fn tum_associations_skip_rows_without_decoding_their_images() {
     let (_, original) = after_skip(&assoc, &options, 1);
     assert_eq!(rest.len(), 9);
     assert_eq!(bits(&rest), bits(&original));
+}
+
+#[test]
+fn mcap_slices_are_the_whole_read_after_any_skip() {
+    let Some(path) = common::data_file("mcap/pointcloudset_ouster_os1/test.mcap") else {
+        return;
+    };
+    check_slices(&path, &ReadOptions::default(), &[0, 1, 2, 3, 50]);
 }

@@ -243,8 +243,9 @@ impl FrameStream {
     /// Pass over the next `n` frames as cheaply as the input allows, returning how many were
     /// passed (fewer at the end of the input): a `.frames` file reads only the frames' headers
     /// and seeks over their points when stored uncompressed; VTK sequences and TUM
-    /// associations skip their rows without opening the scan or image files; other inputs
-    /// read the frames and drop them. What makes frames `k..` of an input cost about what
+    /// associations skip their rows without opening the scan or image files, MCAP files find
+    /// the skipped clouds' messages without decoding them; other inputs (parsed whole when
+    /// the stream is made) drop frames already in memory. What makes frames `k..` of an input cost about what
     /// those frames cost (a distributed build's slice). An error met on the way ends the
     /// stream; an error inside a frame that is passed over unread is reported by whoever
     /// reads that frame.
@@ -344,8 +345,7 @@ impl<T: Send> FrameSource for RowFrames<T> {
     }
 }
 
-/// An MCAP file's frames (the default pass-over: the tf messages between clouds must still
-/// be read for the frames after them).
+/// An MCAP file's frames; passing over them finds their messages without decoding the clouds.
 struct McapSource(mcap::McapFrames);
 
 impl Iterator for McapSource {
@@ -360,7 +360,11 @@ impl Iterator for McapSource {
     }
 }
 
-impl FrameSource for McapSource {}
+impl FrameSource for McapSource {
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        self.0.skip_clouds(n)
+    }
+}
 
 /// Frames already in memory, as a source.
 fn all(frames: Result<Vec<Frame>, FormatError>) -> Result<Source, FormatError> {

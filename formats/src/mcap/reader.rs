@@ -698,11 +698,13 @@ impl std::fmt::Debug for McapFrames {
 }
 
 impl McapFrames {
-    /// The next cloud of the topic, decoded and posed, or `None` after the last.
-    fn next_cloud(&mut self) -> Result<Option<(Frame, CloudStats)>, FormatError> {
+    /// The next message on the topic (its index in the file), or `None` after the last.
+    fn next_topic_message(
+        &mut self,
+    ) -> Result<Option<(usize, ::mcap::Message<'static>)>, FormatError> {
         let path = self.path.as_path();
         let topic = &self.topic;
-        let (index, m) = loop {
+        loop {
             match self.messages.next_message()? {
                 None => return Ok(None),
                 Some((index, m)) => {
@@ -715,11 +717,41 @@ impl McapFrames {
                         message_encoding(path, ch)?;
                     }
                     if ch.topic == *topic {
-                        break (index, m);
+                        return Ok(Some((index, m)));
                     }
                 }
             }
+        }
+    }
+
+    /// Pass over the next `n` clouds of the topic without decoding them (the transforms were
+    /// all read by the first pass, so the clouds after them come out the same); returns how
+    /// many were passed, fewer after the last. The chunks holding them are still read.
+    pub fn skip_clouds(&mut self, n: usize) -> Result<usize, FormatError> {
+        let mut passed = 0;
+        while passed < n && !self.done {
+            match self.next_topic_message() {
+                Ok(Some(_)) => {
+                    self.clouds += 1;
+                    passed += 1;
+                }
+                Ok(None) => self.done = true,
+                Err(e) => {
+                    self.done = true;
+                    return Err(e);
+                }
+            }
+        }
+        Ok(passed)
+    }
+
+    /// The next cloud of the topic, decoded and posed, or `None` after the last.
+    fn next_cloud(&mut self) -> Result<Option<(Frame, CloudStats)>, FormatError> {
+        let Some((index, m)) = self.next_topic_message()? else {
+            return Ok(None);
         };
+        let path = self.path.as_path();
+        let topic = &self.topic;
         let ch = &m.channel;
         let encoding = message_encoding(path, ch)?;
         let cloud: PointCloud2 =
