@@ -299,3 +299,95 @@ fn mcap_slices_are_the_whole_read_after_any_skip() {
     };
     check_slices(&path, &ReadOptions::default(), &[0, 1, 2, 3, 50]);
 }
+
+#[test]
+fn graph_files_stream_their_nodes_and_skip_their_points() {
+    use octoquant::formats::graph::{self, GraphOptions};
+    let dir = common::scratch("frame_slices_graph");
+    // a written graph of several nodes, plain and gzipped, in both point conventions
+    let g = graph::graph_from_frames(&sample_frames());
+    let plain = dir.join("s.graph");
+    graph::write_graph_file(&plain, &g).unwrap_or_else(|e| panic!("{e}"));
+    let gz = dir.join("s.graph.gz");
+    let mut enc = flate2::write::GzEncoder::new(
+        std::fs::File::create(&gz).unwrap_or_else(|e| panic!("{e}")),
+        flate2::Compression::fast(),
+    );
+    enc.write_all(&std::fs::read(&plain).unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    enc.finish().unwrap_or_else(|e| panic!("{e}"));
+    for path in [&plain, &gz] {
+        for points_global in [false, true] {
+            let options = ReadOptions {
+                graph: GraphOptions { points_global },
+                ..ReadOptions::default()
+            };
+            // the stream gives what the whole-file parse gives
+            let parsed = graph::graph_to_frames(
+                &graph::read_graph(path).unwrap_or_else(|e| panic!("{e}")),
+                &options.graph,
+            );
+            let (_, streamed) = after_skip(path, &options, 0);
+            assert_eq!(bits(&streamed), bits(&parsed));
+            check_slices(path, &options, &[0, 1, 3, 6, 7, 9]);
+        }
+    }
+    // the real ScanGraph file too
+    if let Some(real) = common::data_file("octomap_reference/spherical_scan.graph") {
+        let parsed = graph::graph_to_frames(
+            &graph::read_graph(&real).unwrap_or_else(|e| panic!("{e}")),
+            &GraphOptions::default(),
+        );
+        let (_, streamed) = after_skip(&real, &ReadOptions::default(), 0);
+        assert_eq!(bits(&streamed), bits(&parsed));
+        check_slices(&real, &ReadOptions::default(), &[0, 1, 2]);
+    }
+    // every cut of the file fails, streamed or parsed, and never yields a wrong frame
+    let bytes = std::fs::read(&plain).unwrap_or_default();
+    let whole = graph::graph_to_frames(&g, &GraphOptions::default());
+    for cut in (0..bytes.len()).step_by(97) {
+        let path = dir.join("cut.graph");
+        std::fs::write(&path, &bytes[..cut]).unwrap_or_else(|e| panic!("{e}"));
+        assert!(graph::parse_graph(&path, &bytes[..cut]).is_err());
+        let mut got = Vec::new();
+        let mut failed = false;
+        for r in graph::graph_file_stream(&path, &GraphOptions::default())
+            .into_iter()
+            .flatten()
+        {
+            match r {
+                Ok(f) => got.push(f),
+                Err(_) => failed = true,
+            }
+        }
+        let opened = graph::graph_file_stream(&path, &GraphOptions::default()).is_ok();
+        assert!(failed || !opened, "cut at {cut} read without an error");
+        assert_eq!(bits(&got), bits(&whole[..got.len()]), "cut at {cut}");
+    }
+}
+
+#[test]
+fn a_plain_graph_file_is_skipped_without_reading_the_skipped_points() {
+    use octoquant::formats::graph;
+    let dir = common::scratch("frame_slices_graph_big");
+    let path = dir.join("big.graph");
+    let mut frames = vec![Frame::new_f32(
+        Point3::new(1.0, 2.0, 3.0),
+        vec![Point3::new(0.5, 0.25, 0.125); 200_000],
+    )];
+    frames.push(Frame::new_f32(Point3::origin(), vec![Point3::new(4.0, 5.0, 6.0)]));
+    graph::write_graph_file(&path, &graph::graph_from_frames(&frames))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut s = frame_stream(&path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let Some(before) = bytes_read_by_this_thread() else {
+        common::skip::<()>("/proc/thread-self/io (per-thread I/O accounting)");
+        return;
+    };
+    assert_eq!(s.skip_frames(1).ok(), Some(1));
+    let read = bytes_read_by_this_thread().unwrap_or(u64::MAX) - before;
+    // 200 000 points are 5.6 MB in the file
+    assert!(read < 1 << 20, "{read} bytes read to skip one node");
+    let rest: Vec<Frame> = s.collect::<Result<_, _>>().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(rest.len(), 1);
+    assert_eq!(rest[0].points.len(), 1);
+}

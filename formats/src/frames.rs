@@ -8,10 +8,10 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{open_skippable, read_all, ByteReader, Opened};
+use crate::source::{read_all, ByteReader, FieldStream};
 use nalgebra::Point3;
-use std::io::{self, Read, Write};
-use std::path::{Path, PathBuf};
+use std::io::{self, Write};
+use std::path::Path;
 
 /// The 8-byte magic at the start of a `.frames` file.
 pub const FRAMES_MAGIC: &[u8; 8] = b"OCTFRAME";
@@ -70,16 +70,9 @@ pub fn read_frames_file(path: &Path) -> Result<Vec<Frame>, FormatError> {
 /// read is in memory. Yields what [`parse_frames`] returns, frame by frame, with the same
 /// errors (the first error ends the stream).
 pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
-    let mut s = FramesStream {
-        path: path.to_path_buf(),
-        inner: open_skippable(path)?,
-        pos: 0,
-        left: 0,
-        next: 0,
-        done: false,
-    };
-    let magic = s.take_bytes(8, "the OCTFRAME magic")?;
-    if magic != FRAMES_MAGIC {
+    let mut s = FieldStream::open(path)?;
+    let magic: [u8; 8] = s.array("the OCTFRAME magic")?;
+    if &magic != FRAMES_MAGIC {
         return Err(FormatError::syntax(
             path,
             Location::Byte(0),
@@ -94,17 +87,19 @@ pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
             format!(".frames version {version} (only {FRAMES_VERSION})"),
         ));
     }
-    s.left = s.u32("frame count")?;
-    Ok(s)
+    let left = s.u32("frame count")?;
+    Ok(FramesStream {
+        fields: s,
+        left,
+        next: 0,
+        done: false,
+    })
 }
 
 /// The frames of a `.frames` file, read as they are asked for ([`frames_file_stream`]), or
 /// passed over without reading their points ([`FramesStream::skip_frames`]).
 pub struct FramesStream {
-    path: PathBuf,
-    inner: Opened,
-    /// Bytes consumed so far.
-    pos: u64,
+    fields: FieldStream,
     /// Frames still to read.
     left: u32,
     /// Index of the next frame.
@@ -113,79 +108,29 @@ pub struct FramesStream {
 }
 
 impl FramesStream {
-    /// Exactly `n` bytes (n small), or the truncation error [`parse_frames`] gives.
-    fn take_bytes(&mut self, n: usize, what: &str) -> Result<Vec<u8>, FormatError> {
-        let mut buf = Vec::with_capacity(n);
-        self.fill(&mut buf, n as u64, what)?;
-        Ok(buf)
-    }
-
-    /// Append exactly `n` bytes to `buf`, growing it as data arrives; at the end of the file,
-    /// the truncation error naming the file's length.
-    fn fill(&mut self, buf: &mut Vec<u8>, n: u64, what: &str) -> Result<(), FormatError> {
-        let start = self.pos;
-        let got = (&mut self.inner)
-            .take(n)
-            .read_to_end(buf)
-            .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
-        self.pos += got as u64;
-        if (got as u64) < n {
-            return Err(FormatError::Truncated {
-                path: self.path.clone(),
-                offset: self.pos,
-                what: format!("{what} ({n} bytes from byte {start})"),
-            });
-        }
-        Ok(())
-    }
-
-    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
-        let b = self.take_bytes(4, what)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    }
-
-    fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
-        self.u32(what).map(f32::from_bits)
+    /// A frame's header: its origin and point count.
+    fn header(&mut self) -> Result<(Point3<f32>, u32), FormatError> {
+        let what = format!("frame {} header", self.next);
+        let s = &mut self.fields;
+        let origin = Point3::new(s.f32(&what)?, s.f32(&what)?, s.f32(&what)?);
+        Ok((origin, s.u32(&what)?))
     }
 
     fn frame(&mut self) -> Result<Frame, FormatError> {
-        let i = self.next;
-        let what = format!("frame {i} header");
-        let origin = Point3::new(self.f32(&what)?, self.f32(&what)?, self.f32(&what)?);
-        let n = self.u32(&what)?;
+        let (origin, n) = self.header()?;
         let mut bytes = Vec::new();
-        self.fill(
-            &mut bytes,
-            u64::from(n) * 12,
-            &format!("{n} points of frame {i}"),
-        )?;
+        let what = format!("{n} points of frame {}", self.next);
+        self.fields.fill(&mut bytes, u64::from(n) * 12, &what)?;
         self.next += 1;
         self.left -= 1;
         Ok(Frame::new_f32(origin, points_from_le(&bytes)))
     }
 
-    /// After the last frame: nothing may follow.
-    fn check_end(&mut self) -> Result<(), FormatError> {
-        let at = self.pos;
-        let trailing = std::io::copy(&mut self.inner, &mut std::io::sink())
-            .map_err(|e| FormatError::io(&self.path, Location::Byte(at), e))?;
-        if trailing != 0 {
-            return Err(FormatError::syntax(
-                &self.path,
-                Location::Byte(at),
-                format!("{trailing} bytes of trailing data after the frames"),
-            ));
-        }
-        Ok(())
-    }
-}
-
-impl FramesStream {
     /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
     /// many were passed: only each frame's 16-byte header is read, and an uncompressed file
     /// seeks over the points, so reading frames `k..` of a large file costs about as much as
     /// those frames (a distributed build's slice). A frame cut short by the end of the file is
-    /// the truncation error [`parse_frames`] gives, and ends the stream.
+    /// the truncation error reading it gives, and ends the stream.
     pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
         let mut passed = 0;
         while passed < n && self.left > 0 && !self.done {
@@ -201,27 +146,9 @@ impl FramesStream {
 
     /// Pass over one frame: its header read, its points skipped.
     fn skip_frame(&mut self) -> Result<(), FormatError> {
-        let i = self.next;
-        let what = format!("frame {i} header");
-        // field by field, as `frame` reads it, so that a cut header fails alike
-        for _ in 0..3 {
-            self.f32(&what)?;
-        }
-        let n = self.u32(&what)?;
-        let bytes = u64::from(n) * 12;
-        let start = self.pos;
-        let got = self
-            .inner
-            .skip(bytes)
-            .map_err(|e| FormatError::io(&self.path, Location::Byte(start), e))?;
-        self.pos += got;
-        if got < bytes {
-            return Err(FormatError::Truncated {
-                path: self.path.clone(),
-                offset: self.pos,
-                what: format!("{n} points of frame {i} ({bytes} bytes from byte {start})"),
-            });
-        }
+        let (_, n) = self.header()?;
+        let what = format!("{n} points of frame {}", self.next);
+        self.fields.skip(u64::from(n) * 12, &what)?;
         self.next += 1;
         self.left -= 1;
         Ok(())
@@ -239,7 +166,7 @@ impl Iterator for FramesStream {
             self.frame()
         } else {
             self.done = true;
-            return self.check_end().err().map(Err);
+            return self.fields.check_end("the frames").err().map(Err);
         };
         if r.is_err() {
             self.done = true;

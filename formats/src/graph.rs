@@ -14,7 +14,7 @@
 use crate::error::FormatError;
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{read_all, ByteReader};
+use crate::source::{read_all, ByteReader, FieldStream, Fields};
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::io::{self, Write};
 use std::path::Path;
@@ -65,10 +65,10 @@ pub struct GraphOptions {
 const POINT_BYTES: usize = 4 + 3 * 8;
 const POSE_BYTES: usize = 4 + 3 * 8 + 4 + 4 * 8;
 
-fn read_vector3(r: &mut ByteReader<'_>, what: &str) -> Result<Vector3<f32>, FormatError> {
+fn read_vector3(r: &mut impl Fields, what: &str) -> Result<Vector3<f32>, FormatError> {
     let tag = r.i32(what)?;
     if tag != 3 {
-        return Err(r.error_at(4, format!("{what}: element count {tag}, expected 3")));
+        return Err(r.error_back(4, format!("{what}: element count {tag}, expected 3")));
     }
     let x = r.f64(what)? as f32;
     let y = r.f64(what)? as f32;
@@ -76,11 +76,11 @@ fn read_vector3(r: &mut ByteReader<'_>, what: &str) -> Result<Vector3<f32>, Form
     Ok(Vector3::new(x, y, z))
 }
 
-fn read_pose(r: &mut ByteReader<'_>, what: &str) -> Result<Pose6D, FormatError> {
+fn read_pose(r: &mut impl Fields, what: &str) -> Result<Pose6D, FormatError> {
     let translation = read_vector3(r, what)?;
     let tag = r.i32(what)?;
     if tag != 4 {
-        return Err(r.error_at(
+        return Err(r.error_back(
             4,
             format!("{what} quaternion: element count {tag}, expected 4"),
         ));
@@ -92,6 +92,28 @@ fn read_pose(r: &mut ByteReader<'_>, what: &str) -> Result<Pose6D, FormatError> 
     Ok(Pose6D {
         translation,
         rotation: Quaternion::new(q[0], q[1], q[2], q[3]),
+    })
+}
+
+/// What follows node `i`'s points: its pose and id.
+fn read_node_tail(r: &mut impl Fields, i: u32) -> Result<(Pose6D, u32), FormatError> {
+    let pose = read_pose(r, &format!("pose of node {i}"))?;
+    let id = r.u32(&format!("id of node {i}"))?;
+    Ok((pose, id))
+}
+
+/// Edge `i`.
+fn read_edge(r: &mut impl Fields, i: u32) -> Result<ScanEdge, FormatError> {
+    let what = format!("edge {i}");
+    let first = r.u32(&what)?;
+    let second = r.u32(&what)?;
+    let constraint = read_pose(r, &what)?;
+    let weight = r.f64(&what)?;
+    Ok(ScanEdge {
+        first,
+        second,
+        constraint,
+        weight,
     })
 }
 
@@ -120,24 +142,13 @@ pub fn parse_graph(path: &Path, data: &[u8]) -> Result<ScanGraph, FormatError> {
         for _ in 0..n {
             points.push(Point3::from(read_vector3(&mut r, "point")?));
         }
-        let pose = read_pose(&mut r, &format!("pose of node {i}"))?;
-        let id = r.u32(&format!("id of node {i}"))?;
+        let (pose, id) = read_node_tail(&mut r, i)?;
         nodes.push(ScanNode { id, pose, points });
     }
     let n_edges = r.u32("edge count")?;
     let mut edges = Vec::with_capacity(r.capacity_for(n_edges.into(), 8 + POSE_BYTES + 8));
     for i in 0..n_edges {
-        let what = format!("edge {i}");
-        let first = r.u32(&what)?;
-        let second = r.u32(&what)?;
-        let constraint = read_pose(&mut r, &what)?;
-        let weight = r.f64(&what)?;
-        edges.push(ScanEdge {
-            first,
-            second,
-            constraint,
-            weight,
-        });
+        edges.push(read_edge(&mut r, i)?);
     }
     if r.remaining() != 0 {
         return Err(r.error_at(
@@ -161,20 +172,151 @@ pub fn graph_to_frames(graph: &ScanGraph, options: &GraphOptions) -> Vec<Frame> 
     graph
         .nodes
         .iter()
-        .map(|node| {
-            if options.points_global {
-                Frame::new_f32(Point3::from(node.pose.translation), node.points.clone())
-            } else {
-                let points = node.points.iter().map(|p| node.pose.transform(p)).collect();
-                Frame::new_f32(node.pose.graph2tree_origin(), points)
-            }
-        })
+        .map(|node| node_frame(&node.pose, node.points.clone(), options))
         .collect()
 }
 
-/// Read a `.graph` file straight into frames (see [`graph_to_frames`]).
+/// The frame graph2tree inserts for a node with `pose` and `points` (see [`graph_to_frames`]).
+fn node_frame(pose: &Pose6D, mut points: Vec<Point3<f32>>, options: &GraphOptions) -> Frame {
+    if options.points_global {
+        Frame::new_f32(Point3::from(pose.translation), points)
+    } else {
+        for p in &mut points {
+            *p = pose.transform(p);
+        }
+        Frame::new_f32(pose.graph2tree_origin(), points)
+    }
+}
+
+/// Read a `.graph` file straight into frames (see [`graph_to_frames`]), one node at a time
+/// ([`graph_file_stream`]): the file's bytes are never all in memory.
 pub fn read_graph_frames(path: &Path, options: &GraphOptions) -> Result<Vec<Frame>, FormatError> {
-    Ok(graph_to_frames(&read_graph(path)?, options))
+    graph_file_stream(path, options)?.collect()
+}
+
+/// A `.graph` file (optionally `.gz`/`.bz2`) read one node at a time as frames (what
+/// [`graph_to_frames`] gives for [`read_graph`]'s graph): only the node being read is in
+/// memory. The edges after the nodes are checked when the last frame has been read, and any
+/// error ends the stream. A damaged file fails as [`parse_graph`] fails, though not always
+/// with the same message (a stream cannot see that a node's points run past the end of the
+/// file before reading them).
+pub fn graph_file_stream(path: &Path, options: &GraphOptions) -> Result<GraphStream, FormatError> {
+    let mut fields = FieldStream::open(path)?;
+    let left = fields.u32("node count")?;
+    Ok(GraphStream {
+        fields,
+        options: *options,
+        left,
+        next: 0,
+        done: false,
+    })
+}
+
+/// The frames of a `.graph` file, read as they are asked for ([`graph_file_stream`]), or
+/// passed over without reading their points ([`GraphStream::skip_frames`]).
+pub struct GraphStream {
+    fields: FieldStream,
+    options: GraphOptions,
+    /// Nodes still to read.
+    left: u32,
+    /// Index of the next node.
+    next: u32,
+    done: bool,
+}
+
+impl GraphStream {
+    /// The next node as its frame.
+    fn node(&mut self) -> Result<Frame, FormatError> {
+        let i = self.next;
+        let s = &mut self.fields;
+        let n = s.u32(&format!("point count of node {i}"))?;
+        let start = s.pos();
+        // the points grow as they arrive: a count read from the file allocates nothing
+        let mut points = Vec::new();
+        for _ in 0..n {
+            match read_vector3(s, "point") {
+                Ok(v) => points.push(Point3::from(v)),
+                // cut short: named as `parse_graph` names it
+                Err(FormatError::Truncated { .. }) => {
+                    let what = format!("{n} points of node {i}");
+                    return Err(s.truncated(&what, u64::from(n) * POINT_BYTES as u64, start));
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let (pose, _) = read_node_tail(s, i)?;
+        self.next += 1;
+        self.left -= 1;
+        Ok(node_frame(&pose, points, &self.options))
+    }
+
+    /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
+    /// many were passed: each node's point count, pose and id are read, and its points are
+    /// skipped (an uncompressed file seeks over them), so a slice of a large graph costs
+    /// about what its own nodes cost. Errors inside skipped points are not seen; a file cut
+    /// short is the truncation error reading gives, and ends the stream.
+    pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        let mut passed = 0;
+        while passed < n && self.left > 0 && !self.done {
+            let r = self.skip_node();
+            if r.is_err() {
+                self.done = true;
+            }
+            r?;
+            passed += 1;
+        }
+        Ok(passed)
+    }
+
+    fn skip_node(&mut self) -> Result<(), FormatError> {
+        let i = self.next;
+        let s = &mut self.fields;
+        let n = s.u32(&format!("point count of node {i}"))?;
+        let what = format!("{n} points of node {i}");
+        s.skip(u64::from(n) * POINT_BYTES as u64, &what)?;
+        read_node_tail(s, i)?;
+        self.next += 1;
+        self.left -= 1;
+        Ok(())
+    }
+
+    /// After the last node: the edges, then nothing.
+    fn finish(&mut self) -> Result<(), FormatError> {
+        let n_edges = self.fields.u32("edge count")?;
+        for i in 0..n_edges {
+            read_edge(&mut self.fields, i)?;
+        }
+        self.fields.check_end("the graph")
+    }
+}
+
+impl Iterator for GraphStream {
+    type Item = Result<Frame, FormatError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        let r = if self.left > 0 {
+            self.node()
+        } else {
+            self.done = true;
+            return self.finish().err().map(Err);
+        };
+        if r.is_err() {
+            self.done = true;
+        }
+        Some(r)
+    }
+
+    /// The nodes the header still announces (and perhaps the error of the end).
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.done {
+            return (0, Some(0));
+        }
+        let left = self.left as usize;
+        (left, Some(left + 1))
+    }
 }
 
 /// A graph holding world-coordinate frames for graph2tree `-g`: node i has id i, the

@@ -231,8 +231,9 @@ pub fn count_frames(path: &Path, options: &ReadOptions) -> Option<usize> {
 /// Frames read on demand from one input ([`frame_stream`]). Each call to `next` reads one
 /// frame under the input's decompression limit; memory held between calls is the reader's
 /// state (a file handle, the MCAP tf tree, an index of scan files), not the frames already
-/// yielded. `.graph`, text, single-scan formats (PCD, PLY, one VTK, one PNG) are parsed whole
-/// when the stream is made, and yielded from memory.
+/// yielded (`.frames` and `.graph` files hold one frame's points at a time). Text logs and
+/// single-scan formats (PCD, PLY, one VTK, one PNG) are parsed whole when the stream is made,
+/// and yielded from memory.
 pub struct FrameStream {
     inner: Source,
     limit: source::DecompressionLimit,
@@ -241,11 +242,11 @@ pub struct FrameStream {
 
 impl FrameStream {
     /// Pass over the next `n` frames as cheaply as the input allows, returning how many were
-    /// passed (fewer at the end of the input): a `.frames` file reads only the frames' headers
-    /// and seeks over their points when stored uncompressed; VTK sequences and TUM
+    /// passed (fewer at the end of the input): `.frames` and `.graph` files read only the
+    /// frames' headers and seek over their points when stored uncompressed; VTK sequences and TUM
     /// associations skip their rows without opening the scan or image files, MCAP files find
-    /// the skipped clouds' messages without decoding them; other inputs (parsed whole when
-    /// the stream is made) drop frames already in memory. What makes frames `k..` of an input cost about what
+    /// the skipped clouds' messages without decoding them; other inputs (text, single scans:
+    /// parsed whole when the stream is made) drop frames already in memory. What makes frames `k..` of an input cost about what
     /// those frames cost (a distributed build's slice). An error met on the way ends the
     /// stream; an error inside a frame that is passed over unread is reported by whoever
     /// reads that frame.
@@ -333,6 +334,12 @@ impl FrameSource for Listed {
     }
 }
 
+impl FrameSource for graph::GraphStream {
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
+        graph::GraphStream::skip_frames(self, n)
+    }
+}
+
 impl FrameSource for frames::FramesStream {
     fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
         frames::FramesStream::skip_frames(self, n)
@@ -377,7 +384,7 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
         None => InputFormat::detect(path)?,
     };
     match format {
-        InputFormat::Graph => all(graph::read_graph_frames(path, &options.graph)),
+        InputFormat::Graph => Ok(Box::new(graph::graph_file_stream(path, &options.graph)?)),
         InputFormat::Frames => Ok(Box::new(frames::frames_file_stream(path)?)),
         InputFormat::Text => all(text::read_text(path)),
         InputFormat::Vtk => all(vtk::read_vtk(path)),

@@ -25,7 +25,7 @@ use crate::error::{FormatError, Location};
 use std::cell::Cell;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// How far compressed data may expand: the output of one compressed stream (a `.gz`/`.bz2`
 /// file, an LZF block, an MCAP chunk, a PNG's pixels) may be at most `max_ratio` times its
@@ -281,6 +281,186 @@ pub fn open_skippable(path: &Path) -> Result<Opened, FormatError> {
             capped(Box::new(bzip2::bufread::MultiBzDecoder::new(raw))),
         ))),
     })
+}
+
+/// Little-endian fields with errors naming the file and offset, from memory ([`ByteReader`])
+/// or from a file read as it goes ([`FieldStream`]): what a record parser is written against,
+/// so that a whole-file parse and a stream read the same records with the same errors.
+pub(crate) trait Fields {
+    /// A little-endian `u32`.
+    fn u32(&mut self, what: &str) -> Result<u32, FormatError>;
+    /// A little-endian `i32`.
+    fn i32(&mut self, what: &str) -> Result<i32, FormatError>;
+    /// A little-endian `f64`.
+    fn f64(&mut self, what: &str) -> Result<f64, FormatError>;
+    /// A syntax error `back` bytes before the current offset.
+    fn error_back(&self, back: u64, message: String) -> FormatError;
+}
+
+impl Fields for ByteReader<'_> {
+    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        ByteReader::u32(self, what)
+    }
+    fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
+        ByteReader::i32(self, what)
+    }
+    fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
+        ByteReader::f64(self, what)
+    }
+    fn error_back(&self, back: u64, message: String) -> FormatError {
+        self.error_at(usize::try_from(back).unwrap_or(usize::MAX), message)
+    }
+}
+
+impl Fields for FieldStream {
+    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        FieldStream::u32(self, what)
+    }
+    fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
+        FieldStream::i32(self, what)
+    }
+    fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
+        FieldStream::f64(self, what)
+    }
+    fn error_back(&self, back: u64, message: String) -> FormatError {
+        self.error_at(back, message)
+    }
+}
+
+/// Little-endian fields read one after another from a file, tracking the offset so that
+/// every error names the file and byte: the streaming counterpart of [`ByteReader`], for
+/// formats read a frame at a time (`.frames`, `.graph`). A field cut short by the end of the
+/// file is the same truncation error `ByteReader` gives on the whole file's bytes.
+pub(crate) struct FieldStream {
+    path: PathBuf,
+    inner: Opened,
+    pos: u64,
+}
+
+impl FieldStream {
+    /// `path` opened at its first byte ([`open_skippable`]).
+    pub(crate) fn open(path: &Path) -> Result<Self, FormatError> {
+        Ok(FieldStream {
+            path: path.to_path_buf(),
+            inner: open_skippable(path)?,
+            pos: 0,
+        })
+    }
+
+    /// Bytes consumed so far.
+    pub(crate) fn pos(&self) -> u64 {
+        self.pos
+    }
+
+    /// The truncation error of `n` bytes of `what` wanted from byte `start`, at the current
+    /// offset (the end of the file).
+    pub(crate) fn truncated(&self, what: &str, n: u64, start: u64) -> FormatError {
+        FormatError::Truncated {
+            path: self.path.clone(),
+            offset: self.pos,
+            what: format!("{what} ({n} bytes from byte {start})"),
+        }
+    }
+
+    /// The next `N` bytes.
+    pub(crate) fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
+        let mut a = [0u8; N];
+        let start = self.pos;
+        let mut got = 0;
+        while got < N {
+            let buf = self
+                .inner
+                .fill_buf()
+                .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
+            if buf.is_empty() {
+                break;
+            }
+            let k = buf.len().min(N - got);
+            a[got..got + k].copy_from_slice(&buf[..k]);
+            self.inner.consume(k);
+            got += k;
+            self.pos += k as u64;
+        }
+        if got < N {
+            return Err(self.truncated(what, N as u64, start));
+        }
+        Ok(a)
+    }
+
+    /// A little-endian `u32`.
+    pub(crate) fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        self.array(what).map(u32::from_le_bytes)
+    }
+
+    /// A little-endian `i32`.
+    pub(crate) fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
+        self.array(what).map(i32::from_le_bytes)
+    }
+
+    /// A little-endian `f32`.
+    pub(crate) fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
+        self.array(what).map(f32::from_le_bytes)
+    }
+
+    /// A little-endian `f64`.
+    pub(crate) fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
+        self.array(what).map(f64::from_le_bytes)
+    }
+
+    /// Append exactly `n` bytes to `buf`, growing it as data arrives (a length read from the
+    /// file never allocates past what the file holds).
+    pub(crate) fn fill(&mut self, buf: &mut Vec<u8>, n: u64, what: &str) -> Result<(), FormatError> {
+        let start = self.pos;
+        let got = (&mut self.inner)
+            .take(n)
+            .read_to_end(buf)
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
+        self.pos += got as u64;
+        if (got as u64) < n {
+            return Err(self.truncated(what, n, start));
+        }
+        Ok(())
+    }
+
+    /// Pass over exactly `n` bytes without reading them where the file allows
+    /// ([`Opened::skip`]); the same truncation error as [`FieldStream::fill`].
+    pub(crate) fn skip(&mut self, n: u64, what: &str) -> Result<(), FormatError> {
+        let start = self.pos;
+        let got = self
+            .inner
+            .skip(n)
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(start), e))?;
+        self.pos += got;
+        if got < n {
+            return Err(self.truncated(what, n, start));
+        }
+        Ok(())
+    }
+
+    /// A syntax error `back` bytes before the current offset.
+    pub(crate) fn error_at(&self, back: u64, message: impl Into<String>) -> FormatError {
+        FormatError::syntax(
+            &self.path,
+            Location::Byte(self.pos.saturating_sub(back)),
+            message,
+        )
+    }
+
+    /// At the end of the data: nothing may follow (else the error counts the bytes left,
+    /// `after` naming what they follow).
+    pub(crate) fn check_end(&mut self, after: &str) -> Result<(), FormatError> {
+        let at = self.pos;
+        let trailing = std::io::copy(&mut self.inner, &mut std::io::sink())
+            .map_err(|e| FormatError::io(&self.path, Location::Byte(at), e))?;
+        if trailing != 0 {
+            return Err(FormatError::syntax(
+                &self.path,
+                Location::Byte(at),
+                format!("{trailing} bytes of trailing data after {after}"),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The whole (decompressed) contents of `path`. A read or decompression error reports the
