@@ -121,15 +121,20 @@ pub struct DifferenceImage {
     pub pixels: [u64; 7],
 }
 
+/// The largest `max_pixels` [`difference_image`] honours: a map spanning the whole key range
+/// at one voxel column per pixel would need 2^32 pixels (gigabytes); larger values draw at
+/// this size.
+pub const MAX_DIFFERENCE_PIXELS: u32 = 8192;
+
 /// Draw where `a` and `b` differ (see the [module docs](self)), the longer side at most
-/// `max_pixels` (at least 16). Errors when the resolutions differ; two empty maps give a 1×1
-/// picture of unknown space.
+/// `max_pixels` (taken as at least 16 and at most [`MAX_DIFFERENCE_PIXELS`]). Errors when the
+/// resolutions differ; two empty maps give a 1×1 picture of unknown space.
 pub fn difference_image(
     a: &OcTree,
     b: &OcTree,
     max_pixels: u32,
 ) -> Result<DifferenceImage, OctreeError> {
-    let max_pixels = max_pixels.max(16);
+    let max_pixels = max_pixels.clamp(16, MAX_DIFFERENCE_PIXELS);
     // the key box of the known space
     let (mut lo, mut hi) = ([u32::MAX; 2], [0u32; 2]);
     for_each_class_cube(a, b, |c| {

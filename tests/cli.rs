@@ -565,3 +565,227 @@ fn map_threads_changes_nothing_in_the_map() {
     assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
     assert!(!dir.join("zero.bt").exists());
 }
+
+/// A wall 3 m in front of the origin, as `dir/wall.frames`; with `map`, also its map
+/// `dir/wall.bt` at 0.2 m.
+fn wall_input(dir: &Path, map: bool) {
+    use nalgebra::Point3;
+    let wall = vec![octoquant::Frame::new_f32(
+        Point3::origin(),
+        (0..100)
+            .map(|j| Point3::new(3.0, (j % 10) as f32 * 0.1, (j / 10) as f32 * 0.1))
+            .collect(),
+    )];
+    octoquant::formats::frames::write_frames_file(&dir.join("wall.frames"), &wall).unwrap();
+    if map {
+        let o = octoquant(dir)
+            .args(["map", "wall.frames", "--res", "0.2", "-q", "-o", "wall.bt"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+}
+
+/// `args` fails with an error naming `option`, and `output` (in `dir`) is not written.
+fn refused(dir: &Path, args: &[&str], option: &str, output: &str) {
+    let o = octoquant(dir).args(args).output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(
+        o.status.code(),
+        Some(if err.starts_with("error:") { 2 } else { 1 }),
+        "{args:?}: {err}"
+    );
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert!(err.contains(option), "{args:?} should name {option}: {err}");
+    assert!(!dir.join(output).exists(), "{args:?} wrote {output}");
+}
+
+/// Sensor models under which a map could hold one class only are refused, naming the
+/// option: a lower clamp at or above the occupancy threshold (0.5: nothing free), an upper one
+/// below it (nothing occupied), a miss of 0.5 (every voxel a ray crosses stays at the
+/// threshold, occupied). Before, each wrote a map of one class. Negative probabilities reach
+/// the check instead of reading as options.
+#[test]
+fn sensor_models_with_one_reachable_class_are_refused() {
+    let dir = scratch("cli-sensor-classes");
+    wall_input(&dir, false);
+    for bad in [
+        ["--clamping", "0.6", "0.9"],
+        ["--clamping", "0.5", "0.9"],
+        ["--clamping", "0.1", "0.4"],
+        ["--clamping", "-0.1", "0.9"],
+    ] {
+        let mut args = vec!["map", "wall.frames", "--res", "0.2", "-o", "m.bt"];
+        args.extend(bad);
+        refused(&dir, &args, "--clamping", "m.bt");
+    }
+    for bad in [["--sensor", "0.5", "0.7"], ["--sensor", "-0.4", "0.7"]] {
+        let mut args = vec!["map", "wall.frames", "--res", "0.2", "-o", "m.bt"];
+        args.extend(bad);
+        refused(&dir, &args, "--sensor", "m.bt");
+    }
+    // the edges that keep both classes reachable are fine
+    let o = octoquant(&dir)
+        .args(["map", "wall.frames", "--res", "0.2", "-q", "-o", "m.bt"])
+        .args(["--clamping", "0.1", "0.5", "--sensor", "0.49", "0.5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Thread counts far beyond any core count are refused before any work (thousands of
+/// insertion threads took minutes on a tiny input), in `map` and `bench`; `bench` also
+/// refuses 0 threads (it ran single-threaded), `--frames 0` and `--repeat 0` (a table of
+/// zeros, or one repetition instead of none).
+#[test]
+fn absurd_thread_frame_and_repeat_counts_are_refused() {
+    let dir = scratch("cli-thread-counts");
+    wall_input(&dir, false);
+    for n in ["257", "65535", "100000"] {
+        refused(
+            &dir,
+            &["map", "wall.frames", "--threads", n, "-o", "m.bt"],
+            "--threads",
+            "m.bt",
+        );
+    }
+    for (option, value) in [
+        ("--threads", "0"),
+        ("--threads", "100000"),
+        ("--frames", "0"),
+        ("--repeat", "0"),
+    ] {
+        refused(
+            &dir,
+            &["bench", "wall.frames", "--res", "0.2", option, value],
+            option,
+            "m.bt",
+        );
+    }
+    // an input without frames is an error too, not a table of zeros
+    octoquant::formats::frames::write_frames_file(&dir.join("none.frames"), &[]).unwrap();
+    let o = octoquant(&dir)
+        .args(["bench", "none.frames", "--res", "0.2"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no frames"), "{}", stderr(&o));
+}
+
+/// `--res` so coarse that voxel coordinates overflow 32-bit floats is refused: before, the
+/// map was written and `export` then wrote `inf` coordinates.
+#[test]
+fn a_resolution_beyond_float_coordinates_is_refused() {
+    let dir = scratch("cli-res-coarse");
+    wall_input(&dir, false);
+    for r in ["1e300", "1e34"] {
+        refused(
+            &dir,
+            &["map", "wall.frames", "--res", r, "-o", "m.bt"],
+            "--res",
+            "m.bt",
+        );
+    }
+    let o = octoquant(&dir)
+        .args(["map", "wall.frames", "--res", "1e6", "-q", "-o", "m.bt"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// `compare --png` with a huge `--max-pixels` is refused: two points 6.5 km apart at 0.1 m
+/// asked for a 65 000 × 65 000 picture (13 GB, killed after a minute).
+#[test]
+fn compare_max_pixels_is_bounded() {
+    let dir = scratch("cli-compare-pixels");
+    wall_input(&dir, true);
+    for n in ["4294967295", "8193", "0"] {
+        refused(
+            &dir,
+            &[
+                "compare",
+                "wall.bt",
+                "wall.bt",
+                "--png",
+                "c.png",
+                "--max-pixels",
+                n,
+            ],
+            "--max-pixels",
+            "c.png",
+        );
+    }
+    let o = octoquant(&dir)
+        .args([
+            "compare",
+            "wall.bt",
+            "wall.bt",
+            "--png",
+            "c.png",
+            "--max-pixels",
+            "16",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("c.png").exists());
+}
+
+/// `distance --max-dist` beyond what its f32 holds names the option and the value given
+/// (it said "invalid maximum distance inf m").
+#[test]
+fn distance_max_dist_beyond_f32_names_the_option() {
+    let dir = scratch("cli-distance-max");
+    wall_input(&dir, true);
+    for d in ["1e300", "1e39", "-1"] {
+        refused(
+            &dir,
+            &[
+                "distance",
+                "wall.bt",
+                "--max-dist",
+                d,
+                "--at",
+                "0",
+                "0",
+                "0",
+            ],
+            "--max-dist",
+            "wall.png",
+        );
+    }
+}
+
+/// The demo checks its scanners' options before it makes its directory: a bad `--spacing`
+/// left an empty `octoquant-demo/` behind and named `frame_spacing`, not the option.
+#[test]
+fn demo_checks_scanner_options_before_making_a_directory() {
+    let dir = scratch("cli-demo-scanner-options");
+    for (option, value) in [
+        ("--spacing", "0"),
+        ("--step", "0"),
+        ("--rings", "0"),
+        ("--noise", "inf"),
+    ] {
+        let o = octoquant(&dir)
+            .args(["demo", option, value])
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains(option), "{option}: {}", stderr(&o));
+        assert!(names(&dir).is_empty(), "{option}: {:?}", names(&dir));
+    }
+}
+
+/// `--pixel-step 0` is refused (it was read as 1).
+#[test]
+fn pixel_step_zero_is_refused() {
+    let dir = scratch("cli-pixel-step");
+    wall_input(&dir, false);
+    refused(
+        &dir,
+        &["map", "wall.frames", "--pixel-step", "0", "-o", "m.bt"],
+        "--pixel-step",
+        "m.bt",
+    );
+}

@@ -61,7 +61,9 @@ impl OccupancyParams {
     /// A sensor model from probabilities, converted like OctoMap's setters.
     ///
     /// Errors unless every probability is in (0, 1), `hit >= 0.5`, `miss <= 0.5` and
-    /// `clamp_min <= threshold <= clamp_max`.
+    /// `clamp_min <= clamp_max`. As in OctoMap, the threshold may lie outside the clamping
+    /// range (then every voxel holds one class); callers that want both classes reachable
+    /// check that themselves.
     pub fn from_probabilities(
         hit: f64,
         miss: f64,

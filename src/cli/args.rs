@@ -25,8 +25,8 @@ pub struct ReadArgs {
     /// MCAP input: express clouds in this tf frame (default: the root of the tf tree).
     #[arg(long)]
     fixed_frame: Option<String>,
-    /// Use only every N-th pixel of TUM depth images.
-    #[arg(long, default_value_t = 1)]
+    /// Use only every N-th pixel of TUM depth images (at least 1).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pixel_step: u32,
     /// TUM depth images: the camera intrinsics in pixels (default: TUM's recommended 525 525
     /// 319.5 239.5).
@@ -249,11 +249,13 @@ pub struct SensorArgs {
     /// replace its parts.
     #[arg(long, value_enum, default_value = "octomap")]
     pub sensor_model: SensorModelArg,
-    /// Clamping probabilities (OctoMap defaults 0.1192 0.971).
-    #[arg(long, num_args = 2, value_names = ["PMIN", "PMAX"])]
+    /// Clamping probabilities (OctoMap defaults 0.1192 0.971); PMIN must lie below the
+    /// occupancy threshold 0.5 and PMAX at or above it, or no voxel could be free (occupied).
+    #[arg(long, num_args = 2, value_names = ["PMIN", "PMAX"], allow_negative_numbers = true)]
     pub clamping: Option<Vec<f64>>,
-    /// Sensor model, miss first as in graph2tree (defaults 0.4 0.7).
-    #[arg(long, num_args = 2, value_names = ["PMISS", "PHIT"])]
+    /// Sensor model, miss first as in graph2tree (defaults 0.4 0.7); PMISS must be below 0.5
+    /// and PHIT at least 0.5.
+    #[arg(long, num_args = 2, value_names = ["PMISS", "PHIT"], allow_negative_numbers = true)]
     pub sensor: Option<Vec<f64>>,
 }
 
@@ -267,8 +269,41 @@ impl SensorArgs {
         if let Some(v) = &self.sensor {
             (p.miss, p.hit) = (v[0], v[1]);
         }
-        p.params()
+        let params = p
+            .params()
             .context("invalid --sensor-model/--clamping/--sensor")?;
+        // The library takes any model OctoMap's setters take; a map built with one of these
+        // would hold one class only, whatever the sensor saw, so the command line refuses them.
+        // A voxel is occupied when its log-odds is >= the threshold: it can be free only when
+        // the lower clamp lies below the threshold, occupied only when the upper one reaches it.
+        if params.clamp_min >= params.occupancy_threshold {
+            bail!(
+                "--clamping {} {}: PMIN must lie below the occupancy threshold {}, or no voxel \
+                 could ever be free",
+                p.clamp_min,
+                p.clamp_max,
+                p.threshold
+            );
+        }
+        if params.clamp_max < params.occupancy_threshold {
+            bail!(
+                "--clamping {} {}: PMAX must not lie below the occupancy threshold {}, or no \
+                 voxel could ever be occupied",
+                p.clamp_min,
+                p.clamp_max,
+                p.threshold
+            );
+        }
+        // a miss of log-odds 0 leaves each voxel a ray crosses at the threshold: occupied
+        if params.miss >= params.occupancy_threshold {
+            bail!(
+                "--sensor {} {}: PMISS must lie below the occupancy threshold {}, or every voxel \
+                 a ray crosses would be marked occupied",
+                p.miss,
+                p.hit,
+                p.threshold
+            );
+        }
         Ok(p)
     }
 
@@ -302,13 +337,43 @@ impl TreeArgs {
         }
     }
 
-    /// The resolution, checked: a positive finite number of metres.
+    /// The resolution, checked: a positive finite number of metres, at most [`MAX_RES`]
+    /// (so that every voxel's coordinates are finite 32-bit floats, as the exports write them).
     pub fn resolution(&self) -> Result<f64> {
         if !(self.res.is_finite() && self.res > 0.0) {
             bail!("--res {} is not a positive number of metres", self.res);
         }
+        if self.res > MAX_RES {
+            bail!(
+                "--res {} is too coarse: the map would span ±{:e} m, beyond what 32-bit \
+                 coordinates hold (at most --res {MAX_RES:e})",
+                self.res,
+                self.res * 32768.0
+            );
+        }
         Ok(self.res)
     }
+}
+
+/// The coarsest `--res`: the map spans ±32768 leaves around the origin, and at this size its
+/// farthest corner, 2^16 leaves from the origin counting its node's own size, is still a
+/// finite `f32` (the type of frame points and of exported coordinates).
+pub const MAX_RES: f64 = 1e33;
+
+/// The most threads `--threads` starts: each insertion thread keeps its own key sets, emptied
+/// and merged on every frame, so far more threads than cores only slow a run down (thousands
+/// of them took minutes on a frame file a single thread maps in a quarter of a second).
+pub const MAX_THREADS: u16 = 256;
+
+/// `--threads N`: a count in `1..=MAX_THREADS`, with an error naming the option.
+pub fn parse_threads(s: &str) -> Result<u16, String> {
+    let n: u64 = s
+        .parse()
+        .map_err(|_| format!("{s:?} is not a whole number of threads"))?;
+    if !(1..=u64::from(MAX_THREADS)).contains(&n) {
+        return Err(format!("{n} threads: give 1 to {MAX_THREADS}"));
+    }
+    Ok(n as u16)
 }
 
 #[cfg(test)]

@@ -17,9 +17,9 @@ pub struct Args {
     tree: TreeArgs,
     #[command(flatten)]
     sensor: SensorArgs,
-    /// Threads for the multi-threaded runs (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
+    /// Threads for the multi-threaded runs, 1 to 256 (default: all cores).
+    #[arg(long, value_name = "N", value_parser = super::args::parse_threads)]
+    threads: Option<u16>,
     /// The C++ reference program (tools/octoquant-ref) to time OctoMap on the same frames.
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -29,15 +29,15 @@ pub struct Args {
     /// `memory BYTES`.
     #[arg(long, value_parser = parse_peer)]
     peer: Vec<(String, PathBuf)>,
-    /// Use only the first N frames.
-    #[arg(long)]
-    frames: Option<usize>,
+    /// Use only the first N frames (at least 1).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    frames: Option<u64>,
     #[command(flatten)]
     input: InputArgs,
     /// Repeat every run (each mode, and OctoMap) this many times, interleaved, and take
     /// medians over all of them: single-frame inputs then still give a stable figure.
-    #[arg(long, default_value_t = 3)]
-    repeat: usize,
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..))]
+    repeat: u64,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -314,11 +314,15 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let mut frames = a.input.read_frames()?;
     if let Some(n) = a.frames {
-        frames.truncate(n);
+        frames.truncate(usize::try_from(n).unwrap_or(usize::MAX));
     }
-    let all = a
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if frames.is_empty() {
+        bail!("no frames to time: the inputs hold none");
+    }
+    let all = a.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        usize::from,
+    );
     let modes = [
         InsertMode::Exact,
         InsertMode::Quantized,
@@ -338,7 +342,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     // repetitions interleave every mode and OctoMap, so a slow spell of a shared machine
     // hits all of them alike
-    for rep in 0..a.repeat.max(1) {
+    for rep in 0..a.repeat {
         let mut i = 0;
         for &threads in &thread_counts {
             for mode in modes {
@@ -460,7 +464,7 @@ pub fn run(a: &Args) -> Result<()> {
         }
         let mut summary = json!({
             "frames": frames.len(),
-            "repetitions": a.repeat.max(1),
+            "repetitions": a.repeat,
             "points": points,
             "res": base.resolution,
             "max_range": base.max_range,
@@ -495,7 +499,7 @@ pub fn run(a: &Args) -> Result<()> {
         points,
         base.resolution,
         base.max_range.map_or("off".into(), |m| format!("{m} m")),
-        a.repeat.max(1)
+        a.repeat
     )?;
     if let Some(((e, _), (d, _))) = &reference {
         outln!(

@@ -5,7 +5,7 @@
 
 use super::{json_path, print_json};
 use anyhow::{bail, Result};
-use octoquant::compare_image::{difference_image, with_legend};
+use octoquant::compare_image::{difference_image, with_legend, MAX_DIFFERENCE_PIXELS};
 use octoquant::octree::{compare_classes, kl_divergence, Divergence, VoxelClass};
 use octoquant::output::{check_output, write_atomic};
 use octoquant::render::write_png;
@@ -27,9 +27,10 @@ pub struct Args {
     /// two file names (A, B), with a legend of the colours at its right.
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
-    /// The map's longer side in the picture at most, in pixels (a pixel covers more voxel
-    /// columns when the map is larger; title and legend come on top).
-    #[arg(long, default_value_t = 1000, value_name = "N")]
+    /// The map's longer side in the picture at most, in pixels, 16 to 8192 (a pixel covers
+    /// more voxel columns when the map is larger; title and legend come on top).
+    #[arg(long, default_value_t = 1000, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(16..=i64::from(MAX_DIFFERENCE_PIXELS)))]
     max_pixels: u32,
 }
 

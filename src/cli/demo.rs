@@ -88,24 +88,6 @@ pub fn run(a: &Args) -> Result<()> {
     // the options are checked before a directory is made
     let resolution = a.tree.resolution()?;
     let max_range = a.tree.max_range()?;
-    let out = match &a.out {
-        Some(dir) => {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
-            dir.clone()
-        }
-        None => {
-            let dir = create_fresh_dir(Path::new("."), DEMO_DIR)?;
-            errln!(
-                "writing into {}/ (a new directory; --out DIR to choose)",
-                dir.display()
-            );
-            dir
-        }
-    };
-    let bt = out.join("map.bt");
-    let png = out.join("map.png");
-    check_writable(&bt)?;
     let scene = Scene::builtin();
     let options = ScanOptions {
         seed: a.seed,
@@ -127,6 +109,34 @@ pub fn run(a: &Args) -> Result<()> {
     let scan_range = lidar.max_range.max(tls.max_range);
     let max_range = max_range.unwrap_or(scan_range);
 
+    // the scanners' settings too: an error names the options and leaves no directory behind
+    options.validate().context("invalid --noise")?;
+    if !a.no_lidar {
+        lidar
+            .validate()
+            .context("invalid --rings/--columns/--spacing")?;
+    }
+    if !a.no_terrestrial {
+        tls.validate().context("invalid --step")?;
+    }
+    let out = match &a.out {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            dir.clone()
+        }
+        None => {
+            let dir = create_fresh_dir(Path::new("."), DEMO_DIR)?;
+            errln!(
+                "writing into {}/ (a new directory; --out DIR to choose)",
+                dir.display()
+            );
+            dir
+        }
+    };
+    let bt = out.join("map.bt");
+    let png = out.join("map.png");
+    check_writable(&bt)?;
     let mut frames: Vec<Frame> = Vec::new();
     let mut stats: Vec<ScanStats> = Vec::new();
     let mut scan_rows = Vec::new();

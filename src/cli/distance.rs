@@ -84,8 +84,15 @@ pub fn run(a: &Args) -> Result<()> {
     if a.at.iter().any(|v| !v.is_finite()) {
         bail!("--at {:?}: every coordinate must be a finite number", a.at);
     }
-    if !a.max_dist.is_finite() {
-        bail!("--max-dist {}: must be a finite number", a.max_dist);
+    // the distance map keeps it as an f32: a larger value would become infinite there
+    if !(a.max_dist.is_finite() && (a.max_dist as f32).is_finite()) {
+        bail!(
+            "--max-dist {}: must be a finite number of metres",
+            a.max_dist
+        );
+    }
+    if a.max_dist < 0.0 {
+        bail!("--max-dist {}: must not be negative", a.max_dist);
     }
     if a.at.is_empty() && a.points.is_none() && a.slice.is_none() {
         bail!("nothing to do: give --at, --points or --slice with -o");

@@ -85,10 +85,10 @@ pub struct Args {
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
-    /// Threads for the insertion (default: all cores). The map is the same, byte for byte,
+    /// Threads for the insertion, 1 to 256 (default: all cores). The map is the same, byte for byte,
     /// whatever the count: frames go into the tree in order, and each frame's key sets are
     /// unions that do not depend on how its rays were shared out.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "N", value_parser = super::args::parse_threads)]
     threads: Option<u16>,
     /// No progress on stderr (neither the bar nor the plain lines).
     #[arg(short, long)]

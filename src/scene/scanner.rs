@@ -48,6 +48,13 @@ impl Default for ScanOptions {
     }
 }
 
+impl ScanOptions {
+    /// Checks the options as every scan does (a finite range noise >= 0), without scanning.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        check_options(self)
+    }
+}
+
 /// Per-frame counts of a scan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ScanStats {
@@ -112,7 +119,9 @@ impl TerrestrialScanner {
         }
     }
 
-    fn validate(&self) -> Result<(), SceneError> {
+    /// Checks the settings as [`scan_terrestrial`] does (elevations, ranges, angular step,
+    /// stations, rays per station), without scanning.
+    pub fn validate(&self) -> Result<(), SceneError> {
         check_angles(
             self.min_elevation_deg,
             self.max_elevation_deg,
@@ -199,7 +208,9 @@ impl SpinningLidar {
             .sum()
     }
 
-    fn validate(&self) -> Result<(), SceneError> {
+    /// Checks the settings as [`scan_lidar`] does (elevations, ranges, rings and columns,
+    /// path, frame spacing, rate, frame count), without scanning.
+    pub fn validate(&self) -> Result<(), SceneError> {
         check_angles(
             self.min_elevation_deg,
             self.max_elevation_deg,
