@@ -375,7 +375,10 @@ fn a_plain_graph_file_is_skipped_without_reading_the_skipped_points() {
         Point3::new(1.0, 2.0, 3.0),
         vec![Point3::new(0.5, 0.25, 0.125); 200_000],
     )];
-    frames.push(Frame::new_f32(Point3::origin(), vec![Point3::new(4.0, 5.0, 6.0)]));
+    frames.push(Frame::new_f32(
+        Point3::origin(),
+        vec![Point3::new(4.0, 5.0, 6.0)],
+    ));
     graph::write_graph_file(&path, &graph::graph_from_frames(&frames))
         .unwrap_or_else(|e| panic!("{e}"));
     let mut s = frame_stream(&path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -387,7 +390,9 @@ fn a_plain_graph_file_is_skipped_without_reading_the_skipped_points() {
     let read = bytes_read_by_this_thread().unwrap_or(u64::MAX) - before;
     // 200 000 points are 5.6 MB in the file
     assert!(read < 1 << 20, "{read} bytes read to skip one node");
-    let rest: Vec<Frame> = s.collect::<Result<_, _>>().unwrap_or_else(|e| panic!("{e}"));
+    let rest: Vec<Frame> = s
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(rest.len(), 1);
     assert_eq!(rest[0].points.len(), 1);
 }

@@ -409,7 +409,12 @@ impl FieldStream {
 
     /// Append exactly `n` bytes to `buf`, growing it as data arrives (a length read from the
     /// file never allocates past what the file holds).
-    pub(crate) fn fill(&mut self, buf: &mut Vec<u8>, n: u64, what: &str) -> Result<(), FormatError> {
+    pub(crate) fn fill(
+        &mut self,
+        buf: &mut Vec<u8>,
+        n: u64,
+        what: &str,
+    ) -> Result<(), FormatError> {
         let start = self.pos;
         let got = (&mut self.inner)
             .take(n)
