@@ -214,7 +214,7 @@ fn bad_arguments_fail_with_a_message_and_write_nothing() {
         ),
         (
             vec![&m, "--max-dist", "-1", "--at", "0", "0", "0"],
-            "maximum distance",
+            "--max-dist -1: must not be negative",
         ),
         (
             vec![&m, "--max-dist", "1e30", "--at", "0", "0", "0"],
