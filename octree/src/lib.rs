@@ -38,6 +38,7 @@ pub mod key_table;
 mod merge;
 mod node_id;
 mod params;
+mod payload_tree;
 mod stamped_tree;
 mod store;
 mod tree;

@@ -8,7 +8,8 @@
 //! for the occupancy plus a side table of time stamps keyed by node (depth and smallest voxel
 //! key), with an entry for every existing node whose stamp is not 0 (OctoMap's stamp of a new
 //! node). The plain tree's packed voxel blocks stay as they are, and every structural change
-//! OctoMap makes is mirrored in the table.
+//! OctoMap makes is mirrored in the table (the bookkeeping `payload_tree` shares with the
+//! colour tree; this module gives it the stamp rules through `NodePayload` for `u32`).
 //!
 //! # OctoMap's stamp semantics (1.9.7), reproduced
 //!
@@ -55,9 +56,9 @@ use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
 use crate::node_id::{child_id, node_id, NodeId};
 use crate::params::OccupancyParams;
+use crate::payload_tree::{NodePayload, PayloadTree};
 use crate::store::NodeRef;
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
-use std::collections::HashMap;
 
 /// The current time as OctoMap stamps it: `(unsigned int) time(NULL)`, whole seconds since
 /// the Unix epoch, truncated to 32 bits (0 if the clock is before the epoch).
@@ -81,9 +82,23 @@ pub struct StampedNodeInfo {
 /// 1.9.7's stamp rules and `.ot` bytes (see the module docs).
 #[derive(Clone)]
 pub struct StampedOcTree {
-    pub(crate) tree: OcTree,
-    /// Stamps of the nodes whose stamp is not 0.
-    pub(crate) stamps: HashMap<NodeId, u32>,
+    /// The occupancy and the stamps of the nodes whose stamp is not 0.
+    pub(crate) base: PayloadTree<u32>,
+}
+
+/// A time stamp's pruning rule (`OcTreeNodeStamped::operator==` in `pruneNode`): children
+/// collapse only when their stamps are equal too, and the collapsed node takes child 0's.
+impl NodePayload for u32 {
+    const UNSET: u32 = 0;
+
+    fn may_collapse(child: impl Fn(usize) -> u32) -> bool {
+        let t0 = child(0);
+        (1..8).all(|i| child(i) == t0)
+    }
+
+    fn collapsed(children: [u32; 8]) -> u32 {
+        children[0]
+    }
 }
 
 impl std::fmt::Debug for StampedOcTree {
@@ -113,72 +128,60 @@ impl StampedOcTree {
     /// gives, since `.ot` files hold no stamps).
     pub fn from_occupancy(tree: OcTree) -> Self {
         StampedOcTree {
-            tree,
-            stamps: HashMap::new(),
+            base: PayloadTree::new(tree),
         }
     }
 
     /// The occupancy tree, for every read-only query `OcTree` offers.
     pub fn occupancy(&self) -> &OcTree {
-        &self.tree
+        &self.base.tree
     }
 
     /// The occupancy tree without the stamps.
     pub fn into_occupancy(self) -> OcTree {
-        self.tree
+        self.base.tree
     }
 
     /// Leaf size in metres.
     pub fn resolution(&self) -> f64 {
-        self.tree.resolution()
+        self.base.tree.resolution()
     }
 
     /// Key <-> coordinate conversion of this tree.
     pub fn converter(&self) -> &KeyConverter {
-        self.tree.converter()
+        self.base.tree.converter()
     }
 
     /// The sensor model.
     pub fn params(&self) -> &OccupancyParams {
-        self.tree.params()
+        self.base.tree.params()
     }
 
     /// Number of nodes.
     pub fn size(&self) -> usize {
-        self.tree.size()
+        self.base.tree.size()
     }
 
     /// Whether the tree has no node.
     pub fn is_empty(&self) -> bool {
-        self.tree.is_empty()
+        self.base.tree.is_empty()
     }
 
     /// Remove every node.
     pub fn clear(&mut self) {
-        self.tree.clear();
-        self.stamps.clear();
+        self.base.clear();
     }
 
+    /// The stamp of node `id` (0 when it has none).
     pub(crate) fn stamp_of(&self, id: NodeId) -> u32 {
-        self.stamps.get(&id).copied().unwrap_or(0)
-    }
-
-    fn put_stamp(&mut self, id: NodeId, t: u32) {
-        if t == 0 {
-            self.stamps.remove(&id);
-        } else {
-            self.stamps.insert(id, t);
-        }
+        self.base.get(id)
     }
 
     /// The node `search` finds for `key` at `depth` (16 = voxel), with its stamp; `None` in
     /// unknown space.
     pub fn search(&self, key: Key, depth: u8) -> Option<StampedNodeInfo> {
-        let node = self.tree.search(key, depth)?;
-        Some(StampedNodeInfo {
-            node,
-            timestamp: self.stamp_of(node_id(key, node.depth)),
-        })
+        let (node, timestamp) = self.base.search(key, depth)?;
+        Some(StampedNodeInfo { node, timestamp })
     }
 
     /// The stamp of the node holding voxel `key` (the voxel or the pruned leaf covering it);
@@ -190,7 +193,7 @@ impl StampedOcTree {
     /// The root's stamp (OctoMap's `getLastUpdateTime`): the time of the last eager update
     /// anywhere in the tree; 0 for an empty tree.
     pub fn last_update_time(&self) -> u32 {
-        if self.tree.is_empty() {
+        if self.base.tree.is_empty() {
             0
         } else {
             self.stamp_of(node_id(Key::default(), 0))
@@ -205,21 +208,9 @@ impl StampedOcTree {
     /// Integrate one observation of voxel `key` at time `now` (OctoMap's `updateNode` on an
     /// `OcTreeStamped` whose clock reads `now`). Returns the voxel's new log-odds.
     pub fn update_node_at(&mut self, key: Key, update: Update, inner: InnerNodes, now: u32) -> f32 {
-        let delta = self.tree.delta(update);
-        if let Some(n) = self.tree.search(key, TREE_DEPTH) {
-            let p = self.tree.params();
-            if (delta >= 0.0 && n.value >= p.clamp_max) || (delta <= 0.0 && n.value <= p.clamp_min)
-            {
-                return n.value; // OctoMap's early exit: nothing changes, no stamp either
-            }
-        }
-        if delta.is_nan() {
-            return self.tree.update_node(key, update, inner);
-        }
-        self.before_descent(key);
-        let v = self.tree.update_node(key, update, inner);
-        self.after_descent(key, inner, Some(now), now);
-        v
+        self.base.update_node(key, update, inner, |b| {
+            after_descent(b, key, inner, Some(now), now);
+        })
     }
 
     /// [`StampedOcTree::set_node_value_at`] at the system clock's time.
@@ -242,13 +233,9 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) -> Result<f32, OctreeError> {
-        if value.is_nan() {
-            return Err(OctreeError::NanValue);
-        }
-        self.before_descent(key);
-        let v = self.tree.set_node_value(key, value, inner)?;
-        self.after_descent(key, inner, None, now);
-        Ok(v)
+        self.base.set_node_value(key, value, inner, |b| {
+            after_descent(b, key, inner, None, now);
+        })
     }
 
     /// Apply one scan's update as OctoMap's `insertPointCloud` does after `computeUpdate`:
@@ -268,83 +255,6 @@ impl StampedOcTree {
         }
     }
 
-    /// A descent to `key` expands a pruned leaf on the path and every level below it; each
-    /// expansion gives the eight children the expanded node's stamp (`copyData`).
-    fn before_descent(&mut self, key: Key) {
-        let Some(n) = self.tree.search(key, TREE_DEPTH) else {
-            return; // unknown space: new nodes start at 0
-        };
-        if n.depth >= TREE_DEPTH {
-            return;
-        }
-        let t = self.stamp_of(node_id(key, n.depth));
-        if t == 0 {
-            return;
-        }
-        for d in n.depth..TREE_DEPTH {
-            let id = node_id(key, d);
-            for i in 0..8 {
-                self.stamps.insert(child_id(id, i), t);
-            }
-        }
-    }
-
-    /// After a descent to `key`: stamp the voxel (`leaf_now`, or keep its stamp for a `set`),
-    /// then replay `updateNodeRecurs`'s way back up. The plain tree pruned every ancestor
-    /// whose children were equal-valued leaves; OctoMap also needs equal stamps, so from the
-    /// deepest level where the stamps differ upwards those prunings are undone (the children
-    /// re-created by expansion had exactly the pruned value, and their stamps are still in
-    /// the table). Every ancestor left with children gets `now`.
-    fn after_descent(&mut self, key: Key, inner: InnerNodes, leaf_now: Option<u32>, now: u32) {
-        let leaf = node_id(key, TREE_DEPTH);
-        if let Some(t) = leaf_now {
-            self.put_stamp(leaf, t);
-        }
-        if inner.is_deferred() {
-            return;
-        }
-        let Some(n) = self.tree.search(key, TREE_DEPTH) else {
-            return;
-        };
-        let mut cur = self.stamp_of(leaf);
-        // the deepest level OctoMap would not have pruned, if the plain tree did
-        let mut unpruned_from = None;
-        for d in (n.depth..TREE_DEPTH).rev() {
-            let id = node_id(key, d);
-            let path_child = node_id(key, d + 1);
-            let equal = (0..8).all(|i| {
-                let c = child_id(id, i);
-                c == path_child || self.stamp_of(c) == cur
-            });
-            if !equal {
-                unpruned_from = Some(d);
-                break;
-            }
-            for i in 0..8 {
-                self.stamps.remove(&child_id(id, i));
-            }
-            self.put_stamp(id, cur);
-            cur = self.stamp_of(id);
-        }
-        let inner_to = match unpruned_from {
-            Some(k) => {
-                for d in n.depth..=k {
-                    let r = self
-                        .tree
-                        .search_ref(key, d)
-                        .expect("the pruned ancestor is on the path");
-                    self.tree.store.expand_node(r);
-                    self.tree.add_size(8);
-                }
-                k + 1
-            }
-            None => n.depth,
-        };
-        for d in 0..inner_to {
-            self.put_stamp(node_id(key, d), now);
-        }
-    }
-
     /// [`StampedOcTree::degrade_outdated_nodes_at`] at the system clock's time.
     pub fn degrade_outdated_nodes(&mut self, time_thres: u32) {
         self.degrade_outdated_nodes_at(time_thres, now_seconds());
@@ -356,9 +266,10 @@ impl StampedOcTree {
     /// Inner nodes are not refreshed (call [`StampedOcTree::update_inner_occupancy_at`] for
     /// that), exactly as OctoMap leaves them.
     pub fn degrade_outdated_nodes_at(&mut self, time_thres: u32, now: u32) {
-        let p = *self.tree.params();
-        let miss = self.tree.delta(Update::Miss);
+        let p = *self.base.tree.params();
+        let miss = self.base.tree.delta(Update::Miss);
         let stale: Vec<(Key, u8, f32)> = self
+            .base
             .tree
             .leaves()
             .filter(|l| {
@@ -376,8 +287,8 @@ impl StampedOcTree {
             } else {
                 v
             };
-            if let Some(r) = self.tree.search_ref(key, depth) {
-                self.tree.store.set_value(r, v);
+            if let Some(r) = self.base.tree.search_ref(key, depth) {
+                self.base.tree.store.set_value(r, v);
             }
         }
     }
@@ -385,75 +296,19 @@ impl StampedOcTree {
     /// Collapse every node whose eight children are leaves with equal log-odds and equal
     /// stamps, level by level as OctoMap's `prune()`; the node takes child 0's stamp.
     pub fn prune(&mut self) {
-        if self.tree.is_empty() {
-            return;
-        }
-        for depth in (1..TREE_DEPTH).rev() {
-            let pruned = self.prune_level(NodeRef::ROOT, node_id(Key::default(), 0), depth);
-            if pruned == 0 {
-                break;
-            }
-            self.tree.sub_size(8 * pruned);
-        }
-    }
-
-    fn prune_level(&mut self, n: NodeRef, id: NodeId, target: u8) -> usize {
-        if n.depth == target {
-            let t0 = self.stamp_of(child_id(id, 0));
-            if (1..8).any(|i| self.stamp_of(child_id(id, i)) != t0) {
-                return 0;
-            }
-            if self.tree.store.prune_node(n) {
-                for i in 0..8 {
-                    self.stamps.remove(&child_id(id, i));
-                }
-                self.put_stamp(id, t0);
-                return 1;
-            }
-            return 0;
-        }
-        let mut count = 0;
-        for i in 0..8 {
-            if let Some(c) = self.tree.store.child(n, i) {
-                count += self.prune_level(c, child_id(id, i), target);
-            }
-        }
-        count
+        self.base.prune();
     }
 
     /// Give every leaf above depth 16 eight children, recursively (OctoMap's `expand()`);
     /// each child takes its parent's log-odds and stamp.
     pub fn expand(&mut self) {
-        if !self.tree.is_empty() {
-            self.expand_recurs(NodeRef::ROOT, node_id(Key::default(), 0));
-        }
-    }
-
-    fn expand_recurs(&mut self, n: NodeRef, id: NodeId) {
-        if n.depth >= TREE_DEPTH {
-            return;
-        }
-        if !self.tree.store.has_children(n) {
-            self.tree.store.expand_node(n);
-            self.tree.add_size(8);
-            let t = self.stamp_of(id);
-            if t != 0 {
-                for i in 0..8 {
-                    self.stamps.insert(child_id(id, i), t);
-                }
-            }
-        }
-        for i in 0..8 {
-            if let Some(c) = self.tree.store.child(n, i) {
-                self.expand_recurs(c, child_id(id, i));
-            }
-        }
+        self.base.expand();
     }
 
     /// Set every node to the clamp its occupancy points to (OctoMap's `toMaxLikelihood()`);
     /// stamps are untouched.
     pub fn to_max_likelihood(&mut self) {
-        self.tree.to_max_likelihood();
+        self.base.tree.to_max_likelihood();
     }
 
     /// [`StampedOcTree::update_inner_occupancy_at`] at the system clock's time.
@@ -464,22 +319,7 @@ impl StampedOcTree {
     /// Bring every inner node up to date (OctoMap's `updateInnerOccupancy`): log-odds to the
     /// max of its children, stamp to `now`.
     pub fn update_inner_occupancy_at(&mut self, now: u32) {
-        if self.tree.is_empty() {
-            return;
-        }
-        self.tree.update_inner_occupancy();
-        let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
-        while let Some((n, id)) = stack.pop() {
-            if !self.tree.store.has_children(n) {
-                continue;
-            }
-            self.put_stamp(id, now);
-            for i in 0..8 {
-                if let Some(c) = self.tree.store.child(n, i) {
-                    stack.push((c, child_id(id, i)));
-                }
-            }
-        }
+        self.base.update_inner_occupancy(|_| now);
     }
 
     /// [`StampedOcTree::delete_node_at`] at the system clock's time.
@@ -492,84 +332,71 @@ impl StampedOcTree {
     /// the way hand theirs to their children, and the parent that keeps children is refreshed
     /// at `now`. Returns whether anything was deleted.
     pub fn delete_node_at(&mut self, key: Key, depth: u8, now: u32) -> bool {
-        let depth = if depth == 0 || depth > TREE_DEPTH {
-            TREE_DEPTH
-        } else {
-            depth
-        };
-        let Some(found) = self.tree.search(key, depth) else {
+        let Some(left) = self.base.delete_node(key, depth) else {
             return false;
         };
-        // OctoMap expands a pruned leaf on the way (never the root) down to the target depth
-        if found.depth < depth && !found.has_children && found.depth > 0 {
-            let t = self.stamp_of(node_id(key, found.depth));
-            if t != 0 {
-                for d in found.depth..depth {
-                    let id = node_id(key, d);
-                    for i in 0..8 {
-                        self.stamps.insert(child_id(id, i), t);
-                    }
-                }
-            }
-        }
-        if found.depth == depth {
-            self.forget_subtree(key, depth);
-        }
-        if !self.tree.delete_node(key, depth) {
-            return false;
-        }
-        // the target and the ancestors left without children are gone (never the root); the
-        // deepest one left, if it still has children, ran updateOccupancyChildren
-        for d in (0..=depth).rev() {
-            match self.tree.node_at_depth(key, d) {
-                Some(n) => {
-                    if n.has_children {
-                        self.put_stamp(node_id(key, d), now);
-                    }
-                    break;
-                }
-                None => {
-                    self.stamps.remove(&node_id(key, d));
-                }
-            }
+        // the deepest node left, if it still has children, ran updateOccupancyChildren
+        if left.has_children {
+            self.base.set(node_id(key, left.depth), now);
         }
         true
-    }
-
-    /// Remove the stamps of the strict descendants of the node at `depth` holding `key`.
-    fn forget_subtree(&mut self, key: Key, depth: u8) {
-        let Some(start) = self.tree.search_ref(key, depth) else {
-            return;
-        };
-        let mut stack = vec![(start, node_id(key, depth))];
-        while let Some((n, id)) = stack.pop() {
-            for i in 0..8 {
-                if let Some(c) = self.tree.store.child(n, i) {
-                    let cid = child_id(id, i);
-                    self.stamps.remove(&cid);
-                    stack.push((c, cid));
-                }
-            }
-        }
     }
 
     /// Every node with its stamp, pre-order (children in OctoMap's order 0..8): depth,
     /// smallest voxel key, log-odds, stamp. For comparing with OctoMap node by node.
     pub fn nodes_with_stamps(&self) -> Vec<(u8, Key, f32, u32)> {
         let mut out = Vec::with_capacity(self.size());
-        if self.tree.is_empty() {
+        if self.base.tree.is_empty() {
             return out;
         }
         let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
         while let Some((n, id)) = stack.pop() {
-            out.push((id.0, id.1, self.tree.store.value(n), self.stamp_of(id)));
+            out.push((id.0, id.1, self.base.tree.store.value(n), self.stamp_of(id)));
             for i in (0..8).rev() {
-                if let Some(c) = self.tree.store.child(n, i) {
+                if let Some(c) = self.base.tree.store.child(n, i) {
                     stack.push((c, child_id(id, i)));
                 }
             }
         }
         out
+    }
+}
+
+/// After a descent to `key`: stamp the voxel (`leaf_now`, or keep its stamp for a `set`),
+/// then replay `updateNodeRecurs`'s way back up. The plain tree pruned every ancestor whose
+/// children were equal-valued leaves; OctoMap also needs equal stamps, so from the deepest
+/// level where the stamps differ upwards those prunings are undone (the children re-created
+/// by expansion had exactly the pruned value, and their stamps are still in the table). Every
+/// ancestor left with children gets `now`.
+fn after_descent(
+    base: &mut PayloadTree<u32>,
+    key: Key,
+    inner: InnerNodes,
+    leaf_now: Option<u32>,
+    now: u32,
+) {
+    if let Some(t) = leaf_now {
+        base.set(node_id(key, TREE_DEPTH), t);
+    }
+    let Some((top, refused)) = base.collapse_path(key, inner) else {
+        return;
+    };
+    let inner_to = match refused {
+        Some(k) => {
+            for d in top..=k {
+                let r = base
+                    .tree
+                    .search_ref(key, d)
+                    .expect("the pruned ancestor is on the path");
+                base.tree.store.expand_node(r);
+                base.tree.add_size(8);
+            }
+            k + 1
+        }
+        None => top,
+    };
+    for d in 0..inner_to {
+        base.set(node_id(key, d), now);
     }
 }
 

@@ -107,7 +107,10 @@ fn degrading_applies_one_miss_to_stale_occupied_leaves_only() {
     let root_before = t.search(old, 1).unwrap().node.value;
     t.degrade_outdated_nodes_at(50, 200);
     let after = |t: &StampedOcTree, k| t.search(k, 16).unwrap();
-    assert_eq!(after(&t, old).node.value, vo + t.tree.delta(Update::Miss));
+    assert_eq!(
+        after(&t, old).node.value,
+        vo + t.occupancy().delta(Update::Miss)
+    );
     assert_eq!(after(&t, old).timestamp, 100, "no new stamp");
     assert_eq!(after(&t, free).node.value, vf, "free leaves stay");
     assert_eq!(after(&t, fresh).node.value, vfr, "recent leaves stay");
@@ -177,7 +180,7 @@ proptest! {
         prop_assert_eq!(a, b);
         // every node on an updated path got `now`; nodes created only by lazy descents are 0
         prop_assert!(t.nodes_with_stamps().iter().all(|n| n.3 == now || n.3 == 0));
-        prop_assert_eq!(t.stamps.len() <= t.size(), true);
+        prop_assert_eq!(t.base.payloads.len() <= t.size(), true);
     }
 
     /// The side table only names existing nodes, whatever the operations.
@@ -197,7 +200,7 @@ proptest! {
         }
         let existing: std::collections::HashSet<NodeId> =
             t.nodes_with_stamps().iter().map(|n| (n.0, n.1)).collect();
-        for id in t.stamps.keys() {
+        for id in t.base.payloads.keys() {
             prop_assert!(existing.contains(id), "stamp for a missing node {:?}", id);
         }
     }

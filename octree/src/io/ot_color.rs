@@ -9,9 +9,10 @@ use super::header::write_header_id;
 use super::ot::{read_typed_header, OT_HEADER};
 use super::stream::Stream;
 use crate::color::Color;
-use crate::color_tree::{child_id, node_id, ColorOcTree, NodeId};
+use crate::color_tree::ColorOcTree;
 use crate::error::OctreeError;
 use crate::key::{Key, TREE_DEPTH};
+use crate::node_id::{child_id, node_id, NodeId};
 use crate::store::NodeRef;
 use crate::tree::OcTree;
 use std::io::{Read, Write};
@@ -41,7 +42,7 @@ pub fn write_color_ot<W: Write>(tree: &ColorOcTree, w: W) -> std::io::Result<()>
 }
 
 fn write_node(tree: &ColorOcTree, n: NodeRef, id: NodeId, out: &mut Vec<u8>) {
-    let store = &tree.tree.store;
+    let store = &tree.base.tree.store;
     out.extend_from_slice(&store.value(n).to_le_bytes());
     out.extend_from_slice(&tree.color_of(id).to_array());
     let mut mask = 0u8;
@@ -68,8 +69,8 @@ pub fn read_color_ot<R: Read>(reader: R) -> Result<ColorOcTree, OctreeError> {
     let mut tree = ColorOcTree::from_occupancy(OcTree::new(h.res)?);
     if h.size > 0 {
         let data_start = s.offset;
-        tree.tree.store.root_val = Some(0.0);
-        tree.tree.add_size(1);
+        tree.base.tree.store.root_val = Some(0.0);
+        tree.base.tree.add_size(1);
         read_node(&mut tree, &mut s, NodeRef::ROOT, node_id(Key::default(), 0))?;
         if tree.size() as u64 != h.size {
             return Err(s.format_err(
@@ -99,7 +100,7 @@ fn read_node<R: Read>(
     if v.is_nan() {
         return Err(s.format_err(FMT, at, "node log-odds is NaN".into()));
     }
-    tree.tree.store.set_value(n, v);
+    tree.base.tree.store.set_value(n, v);
     tree.put_color(id, Color::new(rec[4], rec[5], rec[6]));
     let mask = rec[7];
     if mask != 0 && n.depth >= TREE_DEPTH {
@@ -115,8 +116,8 @@ fn read_node<R: Read>(
     for i in 0..8 {
         if mask & (1 << i) != 0 {
             // placeholder value, overwritten by the child's own record
-            let c = tree.tree.store.create_child(n, i, 0.0);
-            tree.tree.add_size(1);
+            let c = tree.base.tree.store.create_child(n, i, 0.0);
+            tree.base.tree.add_size(1);
             read_node(tree, s, c, child_id(id, i))?;
         }
     }

@@ -1,0 +1,329 @@
+//! The machinery shared by the tree types that carry a payload per node beside the occupancy
+//! (`ColorOcTree`'s colours, `OcTreeStamped`'s time stamps): an [`OcTree`] plus a side table
+//! of payloads keyed by node ([`NodeId`]), kept in step with every structural change OctoMap
+//! makes.
+//!
+//! Why a side table and not the store: the store packs depth-16 voxels as 2-byte palette
+//! indices, which is what makes plain maps 4-8 bytes per node; a payload there would grow the
+//! voxel blocks of every map and touch the hot update paths. Beside it, plain `OcTree`s pay
+//! nothing and a payload tree pays only for its nodes whose payload is set.
+//!
+//! What is the same for every payload lives here, written once: the table's convention (only
+//! set payloads are stored, and only for existing nodes), OctoMap's `copyData` on expansion
+//! (children take their parent's payload), the level-by-level `prune()`, `expand()`, the
+//! inner-node refresh traversal, `deleteNode` and the bookkeeping around an update's descent.
+//! What differs, OctoMap's rule for collapsing eight children into their parent, comes from
+//! the payload type through [`NodePayload`]; the rest of each type's semantics stays in its
+//! own module.
+
+use crate::error::OctreeError;
+use crate::key::{Key, TREE_DEPTH};
+use crate::node_id::{child_id, node_id, NodeId};
+use crate::store::NodeRef;
+use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
+use std::collections::HashMap;
+
+/// A per-node payload of a [`PayloadTree`] and OctoMap's rule for it when eight children are
+/// collapsed into their parent (`pruneNode`), the one structural rule that differs between
+/// the payload types.
+pub(crate) trait NodePayload: Copy + PartialEq {
+    /// The payload of a node that was never given one (white, stamp 0); never stored.
+    const UNSET: Self;
+
+    /// Whether children with these payloads (`child(i)` reads child `i`'s) may be collapsed
+    /// into their parent, their occupancy permitting: OctoMap's node comparison.
+    fn may_collapse(child: impl Fn(usize) -> Self) -> bool;
+
+    /// The payload the parent takes when its eight children are collapsed into it.
+    fn collapsed(children: [Self; 8]) -> Self;
+}
+
+/// An occupancy tree plus a payload per node in a side table, with the table mirrored through
+/// every structural change (see the module docs).
+#[derive(Clone)]
+pub(crate) struct PayloadTree<P> {
+    /// The occupancy, exactly as a plain `OcTree` holds it.
+    pub(crate) tree: OcTree,
+    /// The payloads of the existing nodes whose payload is not [`NodePayload::UNSET`].
+    pub(crate) payloads: HashMap<NodeId, P>,
+}
+
+impl<P: NodePayload> PayloadTree<P> {
+    /// A payload tree over `tree`, every payload unset.
+    pub(crate) fn new(tree: OcTree) -> Self {
+        PayloadTree {
+            tree,
+            payloads: HashMap::new(),
+        }
+    }
+
+    /// Remove every node and payload.
+    pub(crate) fn clear(&mut self) {
+        self.tree.clear();
+        self.payloads.clear();
+    }
+
+    /// The payload of node `id` ([`NodePayload::UNSET`] when it has none).
+    pub(crate) fn get(&self, id: NodeId) -> P {
+        self.payloads.get(&id).copied().unwrap_or(P::UNSET)
+    }
+
+    /// Give node `id` the payload `p`; an unset payload removes its entry.
+    pub(crate) fn set(&mut self, id: NodeId, p: P) {
+        if p == P::UNSET {
+            self.payloads.remove(&id);
+        } else {
+            self.payloads.insert(id, p);
+        }
+    }
+
+    /// The node `search` finds for `key` at `depth`, with its payload; `None` in unknown space.
+    pub(crate) fn search(&self, key: Key, depth: u8) -> Option<(NodeInfo, P)> {
+        let node = self.tree.search(key, depth)?;
+        Some((node, self.get(node_id(key, node.depth))))
+    }
+
+    /// OctoMap's `updateNode` on the occupancy with the payload bookkeeping: nothing happens
+    /// when the update cannot change the voxel (OctoMap's early exit) or its delta is NaN;
+    /// otherwise the expansions on the way copy payloads down, and `settle` then mirrors what
+    /// happened on the way back up. Returns the voxel's new log-odds.
+    pub(crate) fn update_node(
+        &mut self,
+        key: Key,
+        update: Update,
+        inner: InnerNodes,
+        settle: impl FnOnce(&mut Self),
+    ) -> f32 {
+        let delta = self.tree.delta(update);
+        if let Some(n) = self.tree.search(key, TREE_DEPTH) {
+            let p = self.tree.params();
+            if (delta >= 0.0 && n.value >= p.clamp_max) || (delta <= 0.0 && n.value <= p.clamp_min)
+            {
+                return n.value; // OctoMap's early exit: nothing changes
+            }
+        }
+        if delta.is_nan() {
+            return self.tree.update_node(key, update, inner);
+        }
+        self.before_descent(key);
+        let v = self.tree.update_node(key, update, inner);
+        settle(self);
+        v
+    }
+
+    /// OctoMap's `setNodeValue` on the occupancy with the payload bookkeeping, as
+    /// [`PayloadTree::update_node`] (no early exit). Errors on NaN, changing nothing.
+    pub(crate) fn set_node_value(
+        &mut self,
+        key: Key,
+        value: f32,
+        inner: InnerNodes,
+        settle: impl FnOnce(&mut Self),
+    ) -> Result<f32, OctreeError> {
+        if value.is_nan() {
+            return Err(OctreeError::NanValue);
+        }
+        self.before_descent(key);
+        let v = self.tree.set_node_value(key, value, inner)?;
+        settle(self);
+        Ok(v)
+    }
+
+    /// A descent to `key` expands a pruned leaf on the path and every level below it.
+    fn before_descent(&mut self, key: Key) {
+        if let Some(n) = self.tree.search(key, TREE_DEPTH) {
+            self.copy_down(key, n.depth, TREE_DEPTH);
+        }
+    }
+
+    /// The leaf at depth `from` holding `key` is about to be expanded level by level down to
+    /// depth `to`: each expansion gives the eight children the leaf's payload (`copyData`).
+    fn copy_down(&mut self, key: Key, from: u8, to: u8) {
+        let p = self.get(node_id(key, from));
+        if p == P::UNSET {
+            return; // the new children are unset too
+        }
+        for d in from..to {
+            let id = node_id(key, d);
+            for i in 0..8 {
+                self.payloads.insert(child_id(id, i), p);
+            }
+        }
+    }
+
+    /// After an eager descent to `key`, the occupancy tree has pruned the ancestors of `key`
+    /// that are now leaves: apply the payload rule to them deepest first, as
+    /// `updateNodeRecurs` does on its way back up, until one level's payloads forbid the
+    /// collapse. Returns the depth of the node now holding `key` and the level refused, if any
+    /// (OctoMap pruned neither it nor anything above it); `None` for a deferred descent or
+    /// when `key` is in unknown space.
+    pub(crate) fn collapse_path(
+        &mut self,
+        key: Key,
+        inner: InnerNodes,
+    ) -> Option<(u8, Option<u8>)> {
+        if inner.is_deferred() {
+            return None;
+        }
+        let top = self.tree.search(key, TREE_DEPTH)?.depth;
+        for d in (top..TREE_DEPTH).rev() {
+            let id = node_id(key, d);
+            if !P::may_collapse(|i| self.get(child_id(id, i))) {
+                return Some((top, Some(d)));
+            }
+            self.collapse(id);
+        }
+        Some((top, None))
+    }
+
+    /// The eight children of `id` were just collapsed into it: their entries go and it takes
+    /// [`NodePayload::collapsed`] of their payloads.
+    fn collapse(&mut self, id: NodeId) {
+        let kids =
+            std::array::from_fn(|i| self.payloads.remove(&child_id(id, i)).unwrap_or(P::UNSET));
+        self.set(id, P::collapsed(kids));
+    }
+
+    /// Collapse every node whose eight children are leaves of equal occupancy and whose
+    /// payloads allow it, level by level as OctoMap's `prune()`.
+    pub(crate) fn prune(&mut self) {
+        if self.tree.is_empty() {
+            return;
+        }
+        for depth in (1..TREE_DEPTH).rev() {
+            let pruned = self.prune_level(NodeRef::ROOT, node_id(Key::default(), 0), depth);
+            if pruned == 0 {
+                break;
+            }
+            self.tree.sub_size(8 * pruned);
+        }
+    }
+
+    /// One level of [`PayloadTree::prune`]: collapse what can be at depth `target` below `n`
+    /// (node `id`); returns how many nodes were collapsed.
+    fn prune_level(&mut self, n: NodeRef, id: NodeId, target: u8) -> usize {
+        if n.depth == target {
+            if P::may_collapse(|i| self.get(child_id(id, i))) && self.tree.store.prune_node(n) {
+                self.collapse(id);
+                return 1;
+            }
+            return 0;
+        }
+        let mut count = 0;
+        for i in 0..8 {
+            if let Some(c) = self.tree.store.child(n, i) {
+                count += self.prune_level(c, child_id(id, i), target);
+            }
+        }
+        count
+    }
+
+    /// Give every leaf above depth 16 eight children, recursively (OctoMap's `expand()`);
+    /// each child takes its parent's occupancy and payload.
+    pub(crate) fn expand(&mut self) {
+        if !self.tree.is_empty() {
+            self.expand_recurs(NodeRef::ROOT, node_id(Key::default(), 0));
+        }
+    }
+
+    /// [`PayloadTree::expand`] below `n` (node `id`).
+    fn expand_recurs(&mut self, n: NodeRef, id: NodeId) {
+        if n.depth >= TREE_DEPTH {
+            return;
+        }
+        if !self.tree.store.has_children(n) {
+            self.tree.store.expand_node(n);
+            self.tree.add_size(8);
+            let (depth, key) = id;
+            self.copy_down(key, depth, depth + 1);
+        }
+        for i in 0..8 {
+            if let Some(c) = self.tree.store.child(n, i) {
+                self.expand_recurs(c, child_id(id, i));
+            }
+        }
+    }
+
+    /// Bring every inner node up to date, bottom-up (OctoMap's `updateInnerOccupancy`):
+    /// occupancy to the max of its children, payload to `rule` of its children's payloads
+    /// (unset for a missing child).
+    pub(crate) fn update_inner_occupancy(&mut self, rule: impl Fn([P; 8]) -> P + Copy) {
+        if self.tree.is_empty() {
+            return;
+        }
+        self.tree.update_inner_occupancy();
+        self.inner_payloads(NodeRef::ROOT, node_id(Key::default(), 0), rule);
+    }
+
+    /// The payload half of `updateInnerOccupancyRecurs` below `n` (node `id`); returns the
+    /// node's payload.
+    fn inner_payloads(&mut self, n: NodeRef, id: NodeId, rule: impl Fn([P; 8]) -> P + Copy) -> P {
+        if !self.tree.store.has_children(n) {
+            return self.get(id);
+        }
+        let mut kids = [P::UNSET; 8];
+        for (i, k) in kids.iter_mut().enumerate() {
+            if let Some(c) = self.tree.store.child(n, i) {
+                *k = self.inner_payloads(c, child_id(id, i), rule);
+            }
+        }
+        let p = rule(kids);
+        self.set(id, p);
+        p
+    }
+
+    /// Delete the node at `depth` holding `key` with its subtree (OctoMap's `deleteNode`, see
+    /// [`OcTree::delete_node`]): the payloads of the deleted nodes go with them, and pruned
+    /// nodes expanded on the way hand theirs to their children. Returns the deepest node left
+    /// on the path (it has children unless it is the root), `None` when nothing was deleted.
+    pub(crate) fn delete_node(&mut self, key: Key, depth: u8) -> Option<NodeInfo> {
+        let depth = if depth == 0 || depth > TREE_DEPTH {
+            TREE_DEPTH
+        } else {
+            depth
+        };
+        let found = self.tree.search(key, depth)?;
+        // OctoMap expands a pruned leaf on the way (never the root) down to the target depth
+        if found.depth < depth && !found.has_children && found.depth > 0 {
+            self.copy_down(key, found.depth, depth);
+        }
+        if found.depth == depth {
+            self.forget_subtree(key, depth);
+        }
+        if !self.tree.delete_node(key, depth) {
+            return None;
+        }
+        // the target and the ancestors left without children are gone (never the root)
+        for d in (1..=depth).rev() {
+            if let Some(n) = self.tree.node_at_depth(key, d) {
+                return Some(n);
+            }
+            self.payloads.remove(&node_id(key, d));
+        }
+        Some(
+            self.tree
+                .node_at_depth(key, 0)
+                .expect("the root is never deleted"),
+        )
+    }
+
+    /// Remove the payloads of the strict descendants of the node at `depth` holding `key`.
+    fn forget_subtree(&mut self, key: Key, depth: u8) {
+        if self.payloads.is_empty() {
+            return;
+        }
+        let Some(start) = self.tree.search_ref(key, depth) else {
+            return;
+        };
+        let mut stack = vec![(start, node_id(key, depth))];
+        while let Some((n, id)) = stack.pop() {
+            for i in 0..8 {
+                if let Some(c) = self.tree.store.child(n, i) {
+                    let cid = child_id(id, i);
+                    self.payloads.remove(&cid);
+                    stack.push((c, cid));
+                }
+            }
+        }
+    }
+}
