@@ -82,19 +82,27 @@ fn write(path: &Path, frames: &[Frame]) {
     frames::write_frames_file(path, frames).unwrap_or_else(|e| panic!("{e}"));
 }
 
+/// A gzip copy of `plain` beside it (`NAME.gz`).
+fn gzipped(plain: &Path) -> PathBuf {
+    let mut name = plain.as_os_str().to_owned();
+    name.push(".gz");
+    let gz = PathBuf::from(name);
+    let mut enc = flate2::write::GzEncoder::new(
+        std::fs::File::create(&gz).unwrap_or_else(|e| panic!("{e}")),
+        flate2::Compression::fast(),
+    );
+    enc.write_all(&std::fs::read(plain).unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    enc.finish().unwrap_or_else(|e| panic!("{e}"));
+    gz
+}
+
 #[test]
 fn frames_files_plain_and_compressed_give_the_whole_read_after_any_skip() {
     let dir = common::scratch("frame_slices_frames");
     let plain = dir.join("s.frames");
     write(&plain, &sample_frames());
-    let gz = dir.join("s.frames.gz");
-    let mut enc = flate2::write::GzEncoder::new(
-        std::fs::File::create(&gz).unwrap_or_else(|e| panic!("{e}")),
-        flate2::Compression::fast(),
-    );
-    enc.write_all(&std::fs::read(&plain).unwrap_or_default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    enc.finish().unwrap_or_else(|e| panic!("{e}"));
+    let gz = gzipped(&plain);
     for path in [&plain, &gz] {
         check_slices(path, &ReadOptions::default(), &[0, 1, 2, 5, 6, 7, 8, 100]);
         // skips in steps land where one skip does
@@ -308,14 +316,7 @@ fn graph_files_stream_their_nodes_and_skip_their_points() {
     let g = graph::graph_from_frames(&sample_frames());
     let plain = dir.join("s.graph");
     graph::write_graph_file(&plain, &g).unwrap_or_else(|e| panic!("{e}"));
-    let gz = dir.join("s.graph.gz");
-    let mut enc = flate2::write::GzEncoder::new(
-        std::fs::File::create(&gz).unwrap_or_else(|e| panic!("{e}")),
-        flate2::Compression::fast(),
-    );
-    enc.write_all(&std::fs::read(&plain).unwrap_or_default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    enc.finish().unwrap_or_else(|e| panic!("{e}"));
+    let gz = gzipped(&plain);
     for path in [&plain, &gz] {
         for points_global in [false, true] {
             let options = ReadOptions {

@@ -8,7 +8,7 @@
 use crate::error::{FormatError, Location};
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{read_all, ByteReader, FieldStream};
+use crate::source::{read_all, ByteReader, FieldStream, Fields, RecordProgress};
 use nalgebra::Point3;
 use std::io::{self, Write};
 use std::path::Path;
@@ -87,12 +87,10 @@ pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
             format!(".frames version {version} (only {FRAMES_VERSION})"),
         ));
     }
-    let left = s.u32("frame count")?;
+    let count = s.u32("frame count")?;
     Ok(FramesStream {
         fields: s,
-        left,
-        next: 0,
-        done: false,
+        progress: RecordProgress::new(count),
     })
 }
 
@@ -100,58 +98,42 @@ pub fn frames_file_stream(path: &Path) -> Result<FramesStream, FormatError> {
 /// passed over without reading their points ([`FramesStream::skip_frames`]).
 pub struct FramesStream {
     fields: FieldStream,
-    /// Frames still to read.
-    left: u32,
-    /// Index of the next frame.
-    next: u32,
-    done: bool,
+    progress: RecordProgress,
+}
+
+/// Frame `i`'s header: its origin and point count.
+fn frame_header(s: &mut FieldStream, i: u32) -> Result<(Point3<f32>, u32), FormatError> {
+    let what = format!("frame {i} header");
+    let origin = Point3::new(s.f32(&what)?, s.f32(&what)?, s.f32(&what)?);
+    Ok((origin, s.u32(&what)?))
+}
+
+/// Frame `i`, read whole.
+fn read_frame(s: &mut FieldStream, i: u32) -> Result<Frame, FormatError> {
+    let (origin, n) = frame_header(s, i)?;
+    let mut bytes = Vec::new();
+    s.fill(
+        &mut bytes,
+        u64::from(n) * 12,
+        &format!("{n} points of frame {i}"),
+    )?;
+    Ok(Frame::new_f32(origin, points_from_le(&bytes)))
+}
+
+/// Frame `i` passed over: its header read, its points skipped.
+fn skip_frame(s: &mut FieldStream, i: u32) -> Result<(), FormatError> {
+    let (_, n) = frame_header(s, i)?;
+    s.skip(u64::from(n) * 12, &format!("{n} points of frame {i}"))
 }
 
 impl FramesStream {
-    /// A frame's header: its origin and point count.
-    fn header(&mut self) -> Result<(Point3<f32>, u32), FormatError> {
-        let what = format!("frame {} header", self.next);
-        let s = &mut self.fields;
-        let origin = Point3::new(s.f32(&what)?, s.f32(&what)?, s.f32(&what)?);
-        Ok((origin, s.u32(&what)?))
-    }
-
-    fn frame(&mut self) -> Result<Frame, FormatError> {
-        let (origin, n) = self.header()?;
-        let mut bytes = Vec::new();
-        let what = format!("{n} points of frame {}", self.next);
-        self.fields.fill(&mut bytes, u64::from(n) * 12, &what)?;
-        self.next += 1;
-        self.left -= 1;
-        Ok(Frame::new_f32(origin, points_from_le(&bytes)))
-    }
-
     /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
     /// many were passed: only each frame's 16-byte header is read, and an uncompressed file
     /// seeks over the points, so reading frames `k..` of a large file costs about as much as
     /// those frames (a distributed build's slice). A frame cut short by the end of the file is
     /// the truncation error reading it gives, and ends the stream.
     pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
-        let mut passed = 0;
-        while passed < n && self.left > 0 && !self.done {
-            let r = self.skip_frame();
-            if r.is_err() {
-                self.done = true;
-            }
-            r?;
-            passed += 1;
-        }
-        Ok(passed)
-    }
-
-    /// Pass over one frame: its header read, its points skipped.
-    fn skip_frame(&mut self) -> Result<(), FormatError> {
-        let (_, n) = self.header()?;
-        let what = format!("{n} points of frame {}", self.next);
-        self.fields.skip(u64::from(n) * 12, &what)?;
-        self.next += 1;
-        self.left -= 1;
-        Ok(())
+        self.progress.skip(&mut self.fields, n, skip_frame)
     }
 }
 
@@ -159,28 +141,13 @@ impl Iterator for FramesStream {
     type Item = Result<Frame, FormatError>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        if self.done {
-            return None;
-        }
-        let r = if self.left > 0 {
-            self.frame()
-        } else {
-            self.done = true;
-            return self.fields.check_end("the frames").err().map(Err);
-        };
-        if r.is_err() {
-            self.done = true;
-        }
-        Some(r)
+        self.progress
+            .next_item(&mut self.fields, read_frame, |s| s.check_end("the frames"))
     }
 
     /// The frames the header still announces (and perhaps the error of trailing data).
     fn size_hint(&self) -> (usize, Option<usize>) {
-        if self.done {
-            return (0, Some(0));
-        }
-        let left = self.left as usize;
-        (left, Some(left + 1))
+        self.progress.size_hint()
     }
 }
 

@@ -14,7 +14,7 @@
 use crate::error::FormatError;
 use crate::frame::Frame;
 use crate::output::write_atomic;
-use crate::source::{read_all, ByteReader, FieldStream, Fields};
+use crate::source::{read_all, ByteReader, FieldStream, Fields, RecordProgress};
 use nalgebra::{Point3, Quaternion, Vector3};
 use std::io::{self, Write};
 use std::path::Path;
@@ -202,13 +202,11 @@ pub fn read_graph_frames(path: &Path, options: &GraphOptions) -> Result<Vec<Fram
 /// file before reading them).
 pub fn graph_file_stream(path: &Path, options: &GraphOptions) -> Result<GraphStream, FormatError> {
     let mut fields = FieldStream::open(path)?;
-    let left = fields.u32("node count")?;
+    let count = fields.u32("node count")?;
     Ok(GraphStream {
         fields,
         options: *options,
-        left,
-        next: 0,
-        done: false,
+        progress: RecordProgress::new(count),
     })
 }
 
@@ -217,76 +215,58 @@ pub fn graph_file_stream(path: &Path, options: &GraphOptions) -> Result<GraphStr
 pub struct GraphStream {
     fields: FieldStream,
     options: GraphOptions,
-    /// Nodes still to read.
-    left: u32,
-    /// Index of the next node.
-    next: u32,
-    done: bool,
+    progress: RecordProgress,
+}
+
+/// Node `i`, read whole: its pose and its points (its id is read and dropped: frames have none).
+fn read_node(s: &mut FieldStream, i: u32) -> Result<(Pose6D, Vec<Point3<f32>>), FormatError> {
+    let n = s.u32(&format!("point count of node {i}"))?;
+    let start = s.pos();
+    let needed = u64::from(n) * POINT_BYTES as u64;
+    let what = || format!("{n} points of node {i}");
+    // as `parse_graph`: points the file cannot hold are a truncation, whatever they hold
+    if s.remaining().is_some_and(|left| left < needed) {
+        s.skip(needed, &what())?;
+    }
+    // the points grow as they arrive: a count read from the file allocates nothing
+    let mut points = Vec::new();
+    for _ in 0..n {
+        match read_vector3(s, "point") {
+            Ok(v) => points.push(Point3::from(v)),
+            // cut short: named as `parse_graph` names it
+            Err(FormatError::Truncated { .. }) => return Err(s.truncated(&what(), needed, start)),
+            Err(e) => return Err(e),
+        }
+    }
+    let (pose, _) = read_node_tail(s, i)?;
+    Ok((pose, points))
+}
+
+/// Node `i` passed over: its point count, pose and id read, its points skipped.
+fn skip_node(s: &mut FieldStream, i: u32) -> Result<(), FormatError> {
+    let n = s.u32(&format!("point count of node {i}"))?;
+    let what = format!("{n} points of node {i}");
+    s.skip(u64::from(n) * POINT_BYTES as u64, &what)?;
+    read_node_tail(s, i).map(drop)
+}
+
+/// After the last node: the edges, then nothing.
+fn finish_graph(s: &mut FieldStream) -> Result<(), FormatError> {
+    let n_edges = s.u32("edge count")?;
+    for i in 0..n_edges {
+        read_edge(s, i)?;
+    }
+    s.check_end("the graph")
 }
 
 impl GraphStream {
-    /// The next node as its frame.
-    fn node(&mut self) -> Result<Frame, FormatError> {
-        let i = self.next;
-        let s = &mut self.fields;
-        let n = s.u32(&format!("point count of node {i}"))?;
-        let start = s.pos();
-        // the points grow as they arrive: a count read from the file allocates nothing
-        let mut points = Vec::new();
-        for _ in 0..n {
-            match read_vector3(s, "point") {
-                Ok(v) => points.push(Point3::from(v)),
-                // cut short: named as `parse_graph` names it
-                Err(FormatError::Truncated { .. }) => {
-                    let what = format!("{n} points of node {i}");
-                    return Err(s.truncated(&what, u64::from(n) * POINT_BYTES as u64, start));
-                }
-                Err(e) => return Err(e),
-            }
-        }
-        let (pose, _) = read_node_tail(s, i)?;
-        self.next += 1;
-        self.left -= 1;
-        Ok(node_frame(&pose, points, &self.options))
-    }
-
     /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
     /// many were passed: each node's point count, pose and id are read, and its points are
     /// skipped (an uncompressed file seeks over them), so a slice of a large graph costs
     /// about what its own nodes cost. Errors inside skipped points are not seen; a file cut
     /// short is the truncation error reading gives, and ends the stream.
     pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
-        let mut passed = 0;
-        while passed < n && self.left > 0 && !self.done {
-            let r = self.skip_node();
-            if r.is_err() {
-                self.done = true;
-            }
-            r?;
-            passed += 1;
-        }
-        Ok(passed)
-    }
-
-    fn skip_node(&mut self) -> Result<(), FormatError> {
-        let i = self.next;
-        let s = &mut self.fields;
-        let n = s.u32(&format!("point count of node {i}"))?;
-        let what = format!("{n} points of node {i}");
-        s.skip(u64::from(n) * POINT_BYTES as u64, &what)?;
-        read_node_tail(s, i)?;
-        self.next += 1;
-        self.left -= 1;
-        Ok(())
-    }
-
-    /// After the last node: the edges, then nothing.
-    fn finish(&mut self) -> Result<(), FormatError> {
-        let n_edges = self.fields.u32("edge count")?;
-        for i in 0..n_edges {
-            read_edge(&mut self.fields, i)?;
-        }
-        self.fields.check_end("the graph")
+        self.progress.skip(&mut self.fields, n, skip_node)
     }
 }
 
@@ -294,28 +274,17 @@ impl Iterator for GraphStream {
     type Item = Result<Frame, FormatError>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        if self.done {
-            return None;
-        }
-        let r = if self.left > 0 {
-            self.node()
-        } else {
-            self.done = true;
-            return self.finish().err().map(Err);
-        };
-        if r.is_err() {
-            self.done = true;
-        }
-        Some(r)
+        let options = &self.options;
+        self.progress.next_item(
+            &mut self.fields,
+            |s, i| read_node(s, i).map(|(pose, points)| node_frame(&pose, points, options)),
+            finish_graph,
+        )
     }
 
     /// The nodes the header still announces (and perhaps the error of the end).
     fn size_hint(&self) -> (usize, Option<usize>) {
-        if self.done {
-            return (0, Some(0));
-        }
-        let left = self.left as usize;
-        (left, Some(left + 1))
+        self.progress.size_hint()
     }
 }
 

@@ -22,7 +22,7 @@ use crate::frame::Frame;
 use crate::organized::fit_pinhole_camera;
 use crate::packed_color::{parse_packed_token, unpack_rgb};
 use crate::pose::{rigid_transform, unit_quaternion};
-use crate::source::{decompression_limit, excerpt, read_all, ByteReader};
+use crate::source::{decompression_limit, excerpt, read_all, ByteReader, Fields};
 use nalgebra::{Point3, Quaternion, Rotation3, Vector3};
 use octoquant_octree::Color;
 use std::path::Path;

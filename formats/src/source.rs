@@ -285,45 +285,80 @@ pub fn open_skippable(path: &Path) -> Result<Opened, FormatError> {
 
 /// Little-endian fields with errors naming the file and offset, from memory ([`ByteReader`])
 /// or from a file read as it goes ([`FieldStream`]): what a record parser is written against,
-/// so that a whole-file parse and a stream read the same records with the same errors.
+/// so that a whole-file parse and a stream read the same records with the same errors. The
+/// typed fields are written once, over [`Fields::array`].
 pub(crate) trait Fields {
-    /// A little-endian `u32`.
-    fn u32(&mut self, what: &str) -> Result<u32, FormatError>;
-    /// A little-endian `i32`.
-    fn i32(&mut self, what: &str) -> Result<i32, FormatError>;
-    /// A little-endian `f64`.
-    fn f64(&mut self, what: &str) -> Result<f64, FormatError>;
+    /// The next `N` bytes, or the truncation error naming `what`.
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError>;
+
     /// A syntax error `back` bytes before the current offset.
     fn error_back(&self, back: u64, message: String) -> FormatError;
+
+    /// A little-endian `u32`.
+    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
+        self.array(what).map(u32::from_le_bytes)
+    }
+
+    /// A little-endian `i32`.
+    fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
+        self.array(what).map(i32::from_le_bytes)
+    }
+
+    /// A little-endian `f32`.
+    fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
+        self.array(what).map(f32::from_le_bytes)
+    }
+
+    /// A little-endian `f64`.
+    fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
+        self.array(what).map(f64::from_le_bytes)
+    }
 }
 
 impl Fields for ByteReader<'_> {
-    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
-        ByteReader::u32(self, what)
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
+        let s = self.take(N, what)?;
+        let mut a = [0u8; N];
+        a.copy_from_slice(s);
+        Ok(a)
     }
-    fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
-        ByteReader::i32(self, what)
-    }
-    fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
-        ByteReader::f64(self, what)
-    }
+
     fn error_back(&self, back: u64, message: String) -> FormatError {
         self.error_at(usize::try_from(back).unwrap_or(usize::MAX), message)
     }
 }
 
 impl Fields for FieldStream {
-    fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
-        FieldStream::u32(self, what)
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
+        let mut a = [0u8; N];
+        let start = self.pos;
+        let mut got = 0;
+        while got < N {
+            let buf = self
+                .inner
+                .fill_buf()
+                .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
+            if buf.is_empty() {
+                break;
+            }
+            let k = buf.len().min(N - got);
+            a[got..got + k].copy_from_slice(&buf[..k]);
+            self.inner.consume(k);
+            got += k;
+            self.pos += k as u64;
+        }
+        if got < N {
+            return Err(self.truncated(what, N as u64, start));
+        }
+        Ok(a)
     }
-    fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
-        FieldStream::i32(self, what)
-    }
-    fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
-        FieldStream::f64(self, what)
-    }
+
     fn error_back(&self, back: u64, message: String) -> FormatError {
-        self.error_at(back, message)
+        FormatError::syntax(
+            &self.path,
+            Location::Byte(self.pos.saturating_sub(back)),
+            message,
+        )
     }
 }
 
@@ -352,6 +387,15 @@ impl FieldStream {
         self.pos
     }
 
+    /// Bytes left in the file, when that is known without reading them (an uncompressed
+    /// regular file).
+    pub(crate) fn remaining(&self) -> Option<u64> {
+        match &self.inner {
+            Opened::Plain { len, .. } => Some(len.saturating_sub(self.pos)),
+            Opened::Stream(_) => None,
+        }
+    }
+
     /// The truncation error of `n` bytes of `what` wanted from byte `start`, at the current
     /// offset (the end of the file).
     pub(crate) fn truncated(&self, what: &str, n: u64, start: u64) -> FormatError {
@@ -360,51 +404,6 @@ impl FieldStream {
             offset: self.pos,
             what: format!("{what} ({n} bytes from byte {start})"),
         }
-    }
-
-    /// The next `N` bytes.
-    pub(crate) fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
-        let mut a = [0u8; N];
-        let start = self.pos;
-        let mut got = 0;
-        while got < N {
-            let buf = self
-                .inner
-                .fill_buf()
-                .map_err(|e| FormatError::io(&self.path, Location::Byte(self.pos), e))?;
-            if buf.is_empty() {
-                break;
-            }
-            let k = buf.len().min(N - got);
-            a[got..got + k].copy_from_slice(&buf[..k]);
-            self.inner.consume(k);
-            got += k;
-            self.pos += k as u64;
-        }
-        if got < N {
-            return Err(self.truncated(what, N as u64, start));
-        }
-        Ok(a)
-    }
-
-    /// A little-endian `u32`.
-    pub(crate) fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
-        self.array(what).map(u32::from_le_bytes)
-    }
-
-    /// A little-endian `i32`.
-    pub(crate) fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
-        self.array(what).map(i32::from_le_bytes)
-    }
-
-    /// A little-endian `f32`.
-    pub(crate) fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
-        self.array(what).map(f32::from_le_bytes)
-    }
-
-    /// A little-endian `f64`.
-    pub(crate) fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
-        self.array(what).map(f64::from_le_bytes)
     }
 
     /// Append exactly `n` bytes to `buf`, growing it as data arrives (a length read from the
@@ -442,15 +441,6 @@ impl FieldStream {
         Ok(())
     }
 
-    /// A syntax error `back` bytes before the current offset.
-    pub(crate) fn error_at(&self, back: u64, message: impl Into<String>) -> FormatError {
-        FormatError::syntax(
-            &self.path,
-            Location::Byte(self.pos.saturating_sub(back)),
-            message,
-        )
-    }
-
     /// At the end of the data: nothing may follow (else the error counts the bytes left,
     /// `after` naming what they follow).
     pub(crate) fn check_end(&mut self, after: &str) -> Result<(), FormatError> {
@@ -465,6 +455,83 @@ impl FieldStream {
             ));
         }
         Ok(())
+    }
+}
+
+/// How far a stream of records read one at a time from a [`FieldStream`] has come (the
+/// frame streams of `.frames` and `.graph` files): records left, the next one's index, and
+/// whether the stream has ended (after the end check that follows the last record, or at
+/// the first error, which ends it).
+pub(crate) struct RecordProgress {
+    left: u32,
+    next: u32,
+    done: bool,
+}
+
+impl RecordProgress {
+    /// A stream of `count` records, none read.
+    pub(crate) fn new(count: u32) -> Self {
+        RecordProgress {
+            left: count,
+            next: 0,
+            done: false,
+        }
+    }
+
+    /// The next item: the next record as `read` makes it from the fields (given its
+    /// index), or after the last record the error of the end check `finish`, if any.
+    pub(crate) fn next_item<T>(
+        &mut self,
+        fields: &mut FieldStream,
+        read: impl FnOnce(&mut FieldStream, u32) -> Result<T, FormatError>,
+        finish: impl FnOnce(&mut FieldStream) -> Result<(), FormatError>,
+    ) -> Option<Result<T, FormatError>> {
+        if self.done {
+            return None;
+        }
+        if self.left == 0 {
+            self.done = true;
+            return finish(fields).err().map(Err);
+        }
+        let r = read(fields, self.next);
+        self.advance(r.is_ok());
+        Some(r)
+    }
+
+    /// Pass over the next `n` records with `skip` (fewer when fewer are left); how many were
+    /// passed. An error ends the stream.
+    pub(crate) fn skip(
+        &mut self,
+        fields: &mut FieldStream,
+        n: usize,
+        mut skip: impl FnMut(&mut FieldStream, u32) -> Result<(), FormatError>,
+    ) -> Result<usize, FormatError> {
+        let mut passed = 0;
+        while passed < n && self.left > 0 && !self.done {
+            let r = skip(fields, self.next);
+            self.advance(r.is_ok());
+            r?;
+            passed += 1;
+        }
+        Ok(passed)
+    }
+
+    fn advance(&mut self, ok: bool) {
+        if ok {
+            self.next += 1;
+            self.left -= 1;
+        } else {
+            self.done = true;
+        }
+    }
+
+    /// The records still announced (and perhaps the end check's error).
+    pub(crate) fn size_hint(&self) -> (usize, Option<usize>) {
+        if self.done {
+            return (0, Some(0));
+        }
+        let left = self.left as usize;
+        (left, Some(left + 1))
     }
 }
 
@@ -586,33 +653,6 @@ impl<'a> ByteReader<'a> {
                 what: format!("{what} ({n} bytes from byte {})", self.pos),
             }),
         }
-    }
-
-    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N], FormatError> {
-        let s = self.take(N, what)?;
-        let mut a = [0u8; N];
-        a.copy_from_slice(s);
-        Ok(a)
-    }
-
-    /// A little-endian `u32`.
-    pub(crate) fn u32(&mut self, what: &str) -> Result<u32, FormatError> {
-        self.array(what).map(u32::from_le_bytes)
-    }
-
-    /// A little-endian `i32`.
-    pub(crate) fn i32(&mut self, what: &str) -> Result<i32, FormatError> {
-        self.array(what).map(i32::from_le_bytes)
-    }
-
-    /// A little-endian `f32`.
-    pub(crate) fn f32(&mut self, what: &str) -> Result<f32, FormatError> {
-        self.array(what).map(f32::from_le_bytes)
-    }
-
-    /// A little-endian `f64`.
-    pub(crate) fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
-        self.array(what).map(f64::from_le_bytes)
     }
 
     /// A syntax error at the current offset (or `back` bytes before it).
