@@ -354,4 +354,17 @@ fn cli_grid() {
         ],
         "depth",
     );
+    // the band's ends are named as options: not a number, or the wrong way round
+    for (args, msg) in [
+        (["--zmin", "nan", "--zmax", "1"], "--zmin NaN"),
+        (["--zmin", "0", "--zmax", "inf"], "--zmax inf"),
+        (
+            ["--zmin", "2", "--zmax", "1"],
+            "--zmin 2 lies above --zmax 1",
+        ),
+    ] {
+        let mut all = vec![path.to_str().unwrap(), "-o", yaml.to_str().unwrap()];
+        all.extend(args);
+        fail(&all, msg);
+    }
 }

@@ -2,7 +2,7 @@
 
 use super::vocab::UnknownArg;
 use super::{json_path, print_json};
-use anyhow::Result;
+use anyhow::{bail, Result};
 use octoquant::grid::{project, write_nav2, GridOptions};
 use octoquant::treefile::read_tree_file;
 use std::path::PathBuf;
@@ -33,6 +33,17 @@ pub struct Args {
 }
 
 pub fn run(a: &Args) -> Result<()> {
+    // the band's ends named as options, before any work (the library's error cannot name them)
+    for (name, v) in [("--zmin", a.zmin), ("--zmax", a.zmax)] {
+        if let Some(z) = v.filter(|z| !z.is_finite()) {
+            bail!("{name} {z}: give a finite height in metres (leave it out for no limit)");
+        }
+    }
+    if let (Some(lo), Some(hi)) = (a.zmin, a.zmax) {
+        if lo > hi {
+            bail!("--zmin {lo} lies above --zmax {hi}: the height band is empty");
+        }
+    }
     // the output name is checked before reading the map
     let options = GridOptions {
         zmin: a.zmin,
