@@ -243,13 +243,13 @@ pub struct FrameStream {
 impl FrameStream {
     /// Pass over the next `n` frames as cheaply as the input allows, returning how many were
     /// passed (fewer at the end of the input): `.frames` and `.graph` files read only the
-    /// frames' headers and seek over their points when stored uncompressed; VTK sequences and TUM
-    /// associations skip their rows without opening the scan or image files, MCAP files find
-    /// the skipped clouds' messages without decoding them; other inputs (text, single scans:
-    /// parsed whole when the stream is made) drop frames already in memory. What makes frames `k..` of an input cost about what
-    /// those frames cost (a distributed build's slice). An error met on the way ends the
-    /// stream; an error inside a frame that is passed over unread is reported by whoever
-    /// reads that frame.
+    /// frames' headers and seek over their points when stored uncompressed; VTK sequences and
+    /// TUM associations skip their rows without opening the scan or image files; MCAP files
+    /// find the skipped clouds' messages without decoding them; other inputs (text, single
+    /// scans: parsed whole when the stream is made) drop frames already in memory. That makes
+    /// frames `k..` of an input cost about what those frames cost (a distributed build's
+    /// slice). An error met on the way ends the stream; an error inside a frame that is
+    /// passed over unread is reported by whoever reads that frame.
     pub fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
         if self.failed {
             return Ok(0);
@@ -291,20 +291,11 @@ impl std::fmt::Debug for FrameStream {
     }
 }
 
-/// What a [`FrameStream`] reads from: the frames of one input, one at a time, and a way to
-/// pass over frames that by default reads and drops them.
+/// What a [`FrameStream`] reads from: the frames of one input, one at a time, and each
+/// format's cheapest way to pass over frames.
 trait FrameSource: Iterator<Item = Result<Frame, FormatError>> + Send {
     /// Pass over the next `n` frames; how many were passed (fewer at the end).
-    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError> {
-        for passed in 0..n {
-            match self.next() {
-                Some(Ok(_)) => {}
-                Some(Err(e)) => return Err(e),
-                None => return Ok(passed),
-            }
-        }
-        Ok(n)
-    }
+    fn skip_frames(&mut self, n: usize) -> Result<usize, FormatError>;
 }
 
 type Source = Box<dyn FrameSource>;
