@@ -586,6 +586,12 @@ fn wall_input(dir: &Path, map: bool) {
     }
 }
 
+/// `args` succeeds (in `dir`).
+fn accepted(dir: &Path, args: &[&str]) {
+    let o = octoquant(dir).args(args).output().unwrap();
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+}
+
 /// `args` fails with an error naming `option`, and `output` (in `dir`) is not written.
 fn refused(dir: &Path, args: &[&str], option: &str, output: &str) {
     let o = octoquant(dir).args(args).output().unwrap();
@@ -625,12 +631,24 @@ fn sensor_models_with_one_reachable_class_are_refused() {
         refused(&dir, &args, "--sensor", "m.bt");
     }
     // the edges that keep both classes reachable are fine
-    let o = octoquant(&dir)
-        .args(["map", "wall.frames", "--res", "0.2", "-q", "-o", "m.bt"])
-        .args(["--clamping", "0.1", "0.5", "--sensor", "0.49", "0.5"])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    accepted(
+        &dir,
+        &[
+            "map",
+            "wall.frames",
+            "--res",
+            "0.2",
+            "-q",
+            "-o",
+            "m.bt",
+            "--clamping",
+            "0.1",
+            "0.5",
+            "--sensor",
+            "0.49",
+            "0.5",
+        ],
+    );
 }
 
 /// Thread counts far beyond any core count are refused before any work (thousands of
@@ -686,11 +704,10 @@ fn a_resolution_beyond_float_coordinates_is_refused() {
             "m.bt",
         );
     }
-    let o = octoquant(&dir)
-        .args(["map", "wall.frames", "--res", "1e6", "-q", "-o", "m.bt"])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    accepted(
+        &dir,
+        &["map", "wall.frames", "--res", "1e6", "-q", "-o", "m.bt"],
+    );
 }
 
 /// `compare --png` with a huge `--max-pixels` is refused: two points 6.5 km apart at 0.1 m
@@ -715,8 +732,9 @@ fn compare_max_pixels_is_bounded() {
             "c.png",
         );
     }
-    let o = octoquant(&dir)
-        .args([
+    accepted(
+        &dir,
+        &[
             "compare",
             "wall.bt",
             "wall.bt",
@@ -724,10 +742,8 @@ fn compare_max_pixels_is_bounded() {
             "c.png",
             "--max-pixels",
             "16",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+        ],
+    );
     assert!(dir.join("c.png").exists());
 }
 
