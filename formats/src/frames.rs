@@ -46,9 +46,7 @@ pub fn parse_frames(path: &Path, data: &[u8]) -> Result<Vec<Frame>, FormatError>
     let n_frames = r.u32("frame count")?;
     let mut frames = Vec::with_capacity(r.capacity_for(n_frames.into(), 16));
     for i in 0..n_frames {
-        let what = format!("frame {i} header");
-        let origin = Point3::new(r.f32(&what)?, r.f32(&what)?, r.f32(&what)?);
-        let n = r.u32(&what)?;
+        let (origin, n) = frame_header(&mut r, i)?;
         let bytes = r.take_checked(u64::from(n) * 12, &format!("{n} points of frame {i}"))?;
         frames.push(Frame::new_f32(origin, points_from_le(bytes)));
     }
@@ -101,8 +99,8 @@ pub struct FramesStream {
     progress: RecordProgress,
 }
 
-/// Frame `i`'s header: its origin and point count.
-fn frame_header(s: &mut FieldStream, i: u32) -> Result<(Point3<f32>, u32), FormatError> {
+/// Frame `i`'s header: its origin and point count (from the bytes or from the stream).
+fn frame_header(s: &mut impl Fields, i: u32) -> Result<(Point3<f32>, u32), FormatError> {
     let what = format!("frame {i} header");
     let origin = Point3::new(s.f32(&what)?, s.f32(&what)?, s.f32(&what)?);
     Ok((origin, s.u32(&what)?))
