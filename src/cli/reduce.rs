@@ -82,6 +82,47 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
     }
 }
 
+/// `true` when every coordinate is a finite number.
+pub(super) fn finite(p: &Point3<f32>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
+}
+
+/// The points the grid refused for their cell index (beyond the grid's index range) rather
+/// than for a NaN or infinite coordinate; an error, before anything is written, when that is
+/// every finite point of a non-empty input: the cell size or offset cannot suit the cloud.
+fn check_range(a: &Args, points: u64, non_finite: u64, rejected: u64) -> Result<u64> {
+    let out_of_range = rejected.saturating_sub(non_finite);
+    if points > non_finite && out_of_range == points - non_finite {
+        bail!(
+            "{}: every finite point ({out_of_range}) lies beyond the grid's index range \
+             (cell indices up to 2^53) with --cell {} and --offset {}; nothing written",
+            a.input.display(),
+            list(&a.cell),
+            if a.offset.is_empty() {
+                "0".to_string()
+            } else {
+                list(&a.offset)
+            }
+        );
+    }
+    Ok(out_of_range)
+}
+
+fn list(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:?}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// The rejected count split by cause.
+fn rejected_line(non_finite: u64, out_of_range: u64) -> String {
+    format!(
+        "{} ({non_finite} NaN/inf, {out_of_range} beyond the grid's index range)",
+        non_finite + out_of_range
+    )
+}
+
 pub fn run(a: &Args) -> Result<()> {
     let cell = per_axis(&a.cell, "cell", 0.0)?;
     let offset = per_axis(&a.offset, "offset", 0.0)?;
@@ -110,6 +151,8 @@ pub fn run(a: &Args) -> Result<()> {
     let t_grid = t1.elapsed().as_secs_f64();
     let counts = grid.counts();
     let cells = grid.len();
+    let non_finite = points.iter().filter(|p| !finite(p)).count() as u64;
+    let out_of_range = check_range(a, points.len() as u64, non_finite, counts.rejected)?;
 
     let t2 = Instant::now();
     let (out, cycle) = grid.output_cycle();
@@ -133,6 +176,8 @@ pub fn run(a: &Args) -> Result<()> {
             "cell": cell,
             "points": points.len(),
             "rejected": counts.rejected,
+            "non_finite": non_finite,
+            "out_of_range": out_of_range,
             "grid": cells,
             "eliminated": cycle.eliminated,
             "reduced": out.len(),
@@ -145,7 +190,7 @@ pub fn run(a: &Args) -> Result<()> {
             points.len(),
             a.input.display()
         )?;
-        outln!("rejected:    {} (NaN/inf or out of range)", counts.rejected)?;
+        outln!("rejected:    {}", rejected_line(non_finite, out_of_range))?;
         outln!(
             "grid stage:  {cells} points ({} cells), {:.1} ms, {:.1} M pts/s",
             cells,
@@ -182,12 +227,13 @@ fn run_streamed(a: &Args, spec: GridSpec<3>, cell: [f64; 3]) -> Result<()> {
         encoding,
     };
     let r = run_stream(&job)?;
-    write_ply_file(&a.output, &r.output, encoding)?;
     let storage = match r.storage {
         Storage::OneNode => "one-node",
         _ => "all-members",
     };
     let points = r.counts.inserted + r.counts.rejected;
+    let out_of_range = check_range(a, points, r.non_finite, r.counts.rejected)?;
+    write_ply_file(&a.output, &r.output, encoding)?;
     if a.json {
         print_json(&serde_json::json!({
             "input": json_path(&a.input),
@@ -197,6 +243,8 @@ fn run_streamed(a: &Args, spec: GridSpec<3>, cell: [f64; 3]) -> Result<()> {
             "storage": storage,
             "points": points,
             "rejected": r.counts.rejected,
+            "non_finite": r.non_finite,
+            "out_of_range": out_of_range,
             "stored": r.counts.inserted - r.counts.removed - r.counts.discarded,
             "deleted": r.deleted,
             "not_deleted": r.not_deleted,
@@ -211,10 +259,7 @@ fn run_streamed(a: &Args, spec: GridSpec<3>, cell: [f64; 3]) -> Result<()> {
             "input:       {points} points from {} (streamed, {storage} storage)",
             a.input.display()
         )?;
-        outln!(
-            "rejected:    {} (NaN/inf or out of range)",
-            r.counts.rejected
-        )?;
+        outln!("rejected:    {}", rejected_line(r.non_finite, out_of_range))?;
         if a.delete.is_some() {
             outln!("deleted:     {} ({} not stored)", r.deleted, r.not_deleted)?;
         }

@@ -12,6 +12,7 @@
 //! of the input without the deleted points. The intermediate cycles do depend on timing.
 
 use super::args::read_points;
+use super::reduce::finite;
 use super::vocab::StorageArg;
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
@@ -57,6 +58,8 @@ pub struct StreamResult {
     /// Points of `--delete` found and deleted, and those not stored.
     pub deleted: u64,
     pub not_deleted: u64,
+    /// Input points with a NaN or infinite coordinate (rejected by the grid).
+    pub non_finite: u64,
     /// Seconds reading and inserting the input (including deletions), and the last cycle.
     pub input_seconds: f64,
     pub output_seconds: f64,
@@ -131,7 +134,7 @@ pub fn run_stream(job: &StreamJob<'_>) -> Result<StreamResult> {
         Ok(r) => r,
         Err(_) => bail!("the output thread panicked"),
     };
-    let (deleted, not_deleted) = input?;
+    let (deleted, not_deleted, non_finite) = input?;
     let mut cycles = cycles?;
     let input_seconds = t0.elapsed().as_secs_f64();
 
@@ -155,24 +158,28 @@ pub fn run_stream(job: &StreamJob<'_>) -> Result<StreamResult> {
         storage,
         deleted,
         not_deleted,
+        non_finite,
         input_seconds,
         output_seconds,
     })
 }
 
 /// This thread's part: read, insert in pieces (telling the output thread after each), then
-/// delete. Returns the points deleted and not found. Stops early, without error, when the
-/// output thread has ended (its error is reported instead).
+/// delete. Returns the points deleted and not found, and the input points with a NaN or
+/// infinite coordinate. Stops early, without error, when the output thread has ended (its
+/// error is reported instead).
 fn input_stage(
     job: &StreamJob<'_>,
     shared: &SharedDensityGrid<3>,
     tx: &mpsc::Sender<()>,
     delete: Option<&[Point3<f32>]>,
-) -> Result<(u64, u64)> {
+) -> Result<(u64, u64, u64)> {
+    let mut non_finite = 0;
     let mut piece: Vec<[f64; 3]> = Vec::with_capacity(job.chunk.min(1 << 20));
     for frame in frame_stream(job.input, &job.read)? {
         let frame = frame?;
         for part in frame.points.chunks(job.chunk) {
+            non_finite += part.iter().filter(|p| !finite(p)).count() as u64;
             piece.clear();
             piece.extend(
                 part.iter()
@@ -180,7 +187,7 @@ fn input_stage(
             );
             shared.insert_batch(&piece);
             if tx.send(()).is_err() {
-                return Ok((0, 0));
+                return Ok((0, 0, non_finite));
             }
         }
     }
@@ -201,7 +208,7 @@ fn input_stage(
             }
         }
     }
-    Ok((deleted, missing))
+    Ok((deleted, missing, non_finite))
 }
 
 /// The output thread: a read cycle each time new input has arrived, until the input ends;
