@@ -203,3 +203,53 @@ fn hostile_binvox_files_are_refused_without_output() {
         assert!(!out.exists(), "{name}");
     }
 }
+
+/// An offset that moves every voxel out of the map's addressable cube is refused, naming
+/// `--offset`, with no output (binvox2bt writes an empty map there).
+#[test]
+fn an_offset_that_leaves_no_voxel_in_the_map_is_refused() {
+    let Some(map) = common::data_file("octomap_reference/expected/scan_r02_clamp.bt") else {
+        return;
+    };
+    let dir = scratch("binvox_far_offset");
+    let tree = read_tree_file(&map).unwrap();
+    let key = |p: [f64; 3]| {
+        tree.converter()
+            .point_to_key(&nalgebra::Point3::new(p[0], p[1], p[2]))
+            .unwrap()
+            .0
+    };
+    let (grid, voxels) = grid_from_map(
+        &map,
+        key([-4.0, -4.0, -1.0]),
+        key([4.0, 4.0, 1.0]),
+        &dir.join("g.binvox"),
+    );
+    assert!(voxels > 100, "{voxels} voxels");
+    let out = dir.join("out.bt");
+    let run = |offset: &str| {
+        Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .arg("import")
+            .arg(&grid)
+            .args(["--offset", offset, "0", "0", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let st = run("1e7");
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(st.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--offset") && err.contains(&format!("({voxels})")),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // an offset that keeps the voxels inside is imported
+    let st = run("3");
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    assert!(out.exists());
+}

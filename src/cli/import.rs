@@ -65,6 +65,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let mut tree = None;
     let mut files = Vec::new();
+    let (mut updated, mut outside_map) = (0u64, 0u64);
     for input in &a.inputs {
         let grid = read_binvox(input)?;
         let t = match &mut tree {
@@ -79,6 +80,8 @@ pub fn run(a: &Args) -> Result<()> {
             })?),
         };
         let st = import_binvox(t, &grid, &options);
+        updated += st.hits + st.misses;
+        outside_map += st.outside_map;
         if !a.json {
             errln!(
                 "{}: {} x {} x {} cells, {} voxels, {} outside the box, {} hits, {} misses{}",
@@ -110,6 +113,19 @@ pub fn run(a: &Args) -> Result<()> {
     let Some(mut tree) = tree else {
         bail!("no input files");
     };
+    if updated == 0 && outside_map > 0 {
+        bail!(
+            "every voxel to mark ({outside_map}) lies outside the map's addressable cube \
+             (±{} m at {} m resolution){}; nothing written",
+            tree.resolution() * 32768.0,
+            tree.resolution(),
+            if a.offset.is_some() {
+                ": check --offset"
+            } else {
+                ""
+            }
+        );
+    }
     finish_import(&mut tree);
     write_tree_file(&mut tree, &output)?;
     if a.json {
