@@ -6,7 +6,9 @@ use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
 use octoquant::formats::carmen::{CarmenReader, LaserScan};
 use octoquant::output::{check_output, write_atomic};
-use octoquant_segment::{segment_scan, Line, LineParams, Resegment, Segmentation, NOISE};
+use octoquant_segment::{
+    segment_scan, Line, LineParams, Resegment, SegmentError, Segmentation, NOISE,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -57,6 +59,34 @@ pub struct Args {
     json: bool,
 }
 
+/// A parameter the library refused, named as the command-line option that set it (with the
+/// value as given there: `--eps-theta` in degrees, not the library's radians).
+fn option_error(a: &Args, e: SegmentError) -> anyhow::Error {
+    let SegmentError::InvalidParameter { name, reason, .. } = &e else {
+        return anyhow::Error::new(e).context("invalid segmentation parameters");
+    };
+    let (option, value) = match *name {
+        "eps_theta" => ("--eps-theta", format!("{:?}", a.eps_theta)),
+        "eps_dist" => ("--eps-dist", format!("{:?}", a.eps_dist)),
+        "min_points_theta" | "min_points_dist" | "min_line_points" | "resegment.min_points" => {
+            ("--min-points", a.min_points.to_string())
+        }
+        "split_eps" => ("--split-eps", format!("{:?}", a.split_eps)),
+        "split_min_points" => ("--split-min-points", a.split_min_points.to_string()),
+        "split_spacing_factor" => (
+            "--split-spacing-factor",
+            format!("{:?}", a.split_spacing_factor),
+        ),
+        "resegment.max_rms" => (
+            "--resegment",
+            format!("{:?}", a.resegment.unwrap_or(f64::NAN)),
+        ),
+        "resegment.eps" => ("--resegment-eps", format!("{:?}", a.resegment_eps)),
+        _ => return anyhow::Error::new(e).context("invalid segmentation parameters"),
+    };
+    anyhow::anyhow!("{option} {value}: {reason}")
+}
+
 pub fn run(a: &Args) -> Result<()> {
     let params = LineParams {
         eps_theta: a.eps_theta.to_radians(),
@@ -74,9 +104,9 @@ pub fn run(a: &Args) -> Result<()> {
         }),
         ..LineParams::default()
     };
-    params
-        .validate()
-        .context("invalid segmentation parameters")?;
+    if let Err(e) = params.validate() {
+        return Err(option_error(a, e));
+    }
     if let Some(png) = &a.png {
         check_output(png, &["png"], std::slice::from_ref(&a.log))?;
     }

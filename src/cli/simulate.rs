@@ -12,7 +12,7 @@ use octoquant::formats::frames::write_frames_file;
 use octoquant::output::check_output;
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, City, CityOptions, MissPolicy, ScanOptions, ScanStats, Scene,
-    SpinningLidar, TerrestrialScanner,
+    SceneError, SpinningLidar, TerrestrialScanner,
 };
 use octoquant::Frame;
 use std::path::PathBuf;
@@ -54,6 +54,25 @@ pub struct Args {
     json: bool,
 }
 
+/// A scene error, with a scanner or city option named as the command-line option that set
+/// it (`--rings`, not the field `rings`).
+fn option_error(e: SceneError) -> anyhow::Error {
+    if let SceneError::InvalidOption { name, message } = &e {
+        let option = match *name {
+            "rings" => Some("--rings"),
+            "columns" => Some("--columns"),
+            "frames" => Some("--frames"),
+            "blocks_x" | "blocks_y" => Some("--blocks"),
+            "range_noise" => Some("--noise"),
+            _ => None,
+        };
+        if let Some(option) = option {
+            return anyhow::anyhow!("{option}: {message}");
+        }
+    }
+    e.into()
+}
+
 pub fn run(a: &Args) -> Result<()> {
     check_output(&a.output, &["frames"], &[])?;
     let options = ScanOptions {
@@ -73,8 +92,10 @@ pub fn run(a: &Args) -> Result<()> {
             }
             let scene = Scene::builtin();
             let (mut f, mut s) =
-                scan_terrestrial(&scene, &TerrestrialScanner::builtin(&scene), &options)?;
-            let (lf, ls) = scan_lidar(&scene, &SpinningLidar::builtin_path(), &options)?;
+                scan_terrestrial(&scene, &TerrestrialScanner::builtin(&scene), &options)
+                    .map_err(option_error)?;
+            let (lf, ls) = scan_lidar(&scene, &SpinningLidar::builtin_path(), &options)
+                .map_err(option_error)?;
             f.extend(lf);
             s.extend(ls);
             (f, s, scene.len(), scene.bounds())
@@ -88,16 +109,16 @@ pub fn run(a: &Args) -> Result<()> {
                 city_options.blocks_x = *nx;
                 city_options.blocks_y = *ny;
             }
-            let city = City::generate(&city_options)?;
+            let city = City::generate(&city_options).map_err(option_error)?;
             let scene = city.scene();
-            let mut lidar = city.lidar(a.frames)?;
+            let mut lidar = city.lidar(a.frames).map_err(option_error)?;
             if let Some(r) = a.rings {
                 lidar.rings = r;
             }
             if let Some(c) = a.columns {
                 lidar.columns = c;
             }
-            let (f, s) = scan_lidar(&scene, &lidar, &options)?;
+            let (f, s) = scan_lidar(&scene, &lidar, &options).map_err(option_error)?;
             (f, s, scene.len(), scene.bounds())
         }
     };

@@ -217,11 +217,11 @@ impl SpinningLidar {
             "min_elevation_deg",
         )?;
         check_ranges(self.min_range, self.max_range)?;
-        if self.rings == 0 || self.columns == 0 {
-            return Err(invalid(
-                "rings",
-                "rings and columns must be at least 1".into(),
-            ));
+        if self.rings == 0 {
+            return Err(invalid("rings", "0 is not at least 1".into()));
+        }
+        if self.columns == 0 {
+            return Err(invalid("columns", "0 is not at least 1".into()));
         }
         if self.rings as u64 * self.columns as u64 > MAX_RAYS_PER_FRAME {
             return Err(invalid(
