@@ -154,7 +154,8 @@ pub struct GroundFilter {
     /// Maximum angle between the plane's normal and the z axis, radians
     /// (`ground_filter/angle`, 0.15).
     pub angle: f64,
-    /// RANSAC iterations per frame (PCL's maximum in octomap_server is 200).
+    /// RANSAC iterations per frame (PCL's maximum in octomap_server is 200), 1 to
+    /// [`MAX_GROUND_ITERATIONS`].
     pub iterations: u32,
     /// Seed of the sample generator.
     pub seed: u64,
@@ -188,6 +189,12 @@ impl GroundFilter {
         }
         if self.iterations == 0 {
             return bad("at least one RANSAC iteration is needed", 0.0);
+        }
+        if self.iterations > MAX_GROUND_ITERATIONS {
+            return bad(
+                "at most 100000 RANSAC iterations per frame (MAX_GROUND_ITERATIONS)",
+                f64::from(self.iterations),
+            );
         }
         Ok(())
     }
@@ -464,6 +471,10 @@ impl SplitMix64 {
 /// At most this many points score each RANSAC candidate (an even stride through the frame);
 /// the final inlier set is taken over all points.
 const SCORE_SAMPLE: usize = 4096;
+
+/// The most RANSAC iterations a frame may take: each scores a plane over up to 4096 points,
+/// so this bounds a frame's ground search to seconds (a `u32`'s range would take hours).
+pub const MAX_GROUND_ITERATIONS: u32 = 100_000;
 
 /// The frame's ground plane: RANSAC over planes through three of `points` whose upward normal
 /// is within `g.angle` of the z axis and that pass below `origin`, scored by the number of

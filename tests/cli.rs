@@ -805,3 +805,124 @@ fn pixel_step_zero_is_refused() {
         "m.bt",
     );
 }
+
+/// A cell size or offset under which no finite point of the real PCL cloud has a cell index
+/// is refused, naming the input and `--cell`/`--offset`, without output (batch and stream);
+/// the summary splits the rejected points by cause (the cloud holds 97 920 NaN points).
+#[test]
+fn reduce_refuses_a_grid_that_holds_no_point() {
+    let Some(pcd) = crate::common::data_file(
+        "pcd/pcl_table_scene_mug_stereo_textured/table_scene_mug_stereo_textured.pcd",
+    ) else {
+        return;
+    };
+    let dir = scratch("cli-reduce-range");
+    let input = pcd.to_str().unwrap();
+    for stream in [false, true] {
+        let with = |args: &[&'static str]| {
+            let mut v = vec!["reduce", input];
+            v.extend_from_slice(args);
+            if stream {
+                v.push("--stream");
+            }
+            v
+        };
+        refused(
+            &dir,
+            &with(&["--cell", "1e-300", "-o", "r.ply"]),
+            "--cell 1e-300",
+            "r.ply",
+        );
+        refused(
+            &dir,
+            &with(&["--cell", "0.01", "--offset", "1e300,0,0", "-o", "r.ply"]),
+            "--offset 1e300",
+            "r.ply",
+        );
+        let o = octoquant(&dir)
+            .args(with(&["--cell", "0.01", "-o", "r.ply", "--json"]))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let j = json_of(&o);
+        assert_eq!(
+            (&j["rejected"], &j["non_finite"], &j["out_of_range"]),
+            (&97_920.into(), &97_920.into(), &0.into()),
+            "{j}"
+        );
+        std::fs::remove_file(dir.join("r.ply")).unwrap();
+    }
+}
+
+/// `--ground-iterations` is bounded (4e9 iterations per frame would run for hours).
+#[test]
+fn ground_iterations_are_bounded() {
+    let dir = scratch("cli-ground-iterations");
+    wall_input(&dir, false);
+    for n in ["0", "100001", "4000000000"] {
+        refused(
+            &dir,
+            &[
+                "map",
+                "wall.frames",
+                "--ground",
+                "0.1",
+                "--ground-iterations",
+                n,
+                "-o",
+                "m.bt",
+            ],
+            "--ground-iterations",
+            "m.bt",
+        );
+    }
+    accepted(
+        &dir,
+        &[
+            "map",
+            "wall.frames",
+            "--ground",
+            "0.1",
+            "--ground-iterations",
+            "100000",
+            "-o",
+            "m.bt",
+        ],
+    );
+}
+
+/// `simulate` and `segment` name the option a bad value came from, not the library's field.
+#[test]
+fn simulate_and_segment_name_their_options() {
+    let dir = scratch("cli-option-names");
+    for (args, option) in [
+        (&["--rings", "0"][..], "--rings"),
+        (&["--columns", "0"], "--columns"),
+        (&["--frames", "0"], "--frames"),
+        (&["--blocks", "0", "2"], "--blocks"),
+        (&["--noise=-1"], "--noise"),
+    ] {
+        let mut v = vec!["simulate", "-o", "s.frames"];
+        v.extend_from_slice(args);
+        refused(&dir, &v, option, "s.frames");
+    }
+    let Some(log) = crate::common::data_file("laser2d/radish_clf/intel.clf.bz2") else {
+        return;
+    };
+    let log = log.to_str().unwrap();
+    for (args, option) in [
+        (&["--min-points", "0"][..], "--min-points 0"),
+        (&["--eps-dist=-1"], "--eps-dist -1"),
+        (&["--split-min-points", "0"], "--split-min-points 0"),
+        (&["--split-spacing-factor=-1"], "--split-spacing-factor -1"),
+        (&["--resegment=-1"], "--resegment -1"),
+        (
+            &["--resegment", "0.1", "--resegment-eps=-1"],
+            "--resegment-eps -1",
+        ),
+    ] {
+        let mut v = vec!["segment", log, "--png", "s.png"];
+        v.extend_from_slice(args);
+        refused(&dir, &v, option, "s.png");
+    }
+}

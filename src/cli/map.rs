@@ -7,7 +7,7 @@ use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
 use octoquant::color_map::{ColorMapper, ColorMerge};
-use octoquant::filters::{CropBox, GroundFilter, PointFilters};
+use octoquant::filters::{CropBox, GroundFilter, PointFilters, MAX_GROUND_ITERATIONS};
 use octoquant::formats::{count_frames, frame_stream, FormatError, FrameStream, ReadOptions};
 use octoquant::octree::io::TreeFormat;
 use octoquant::output::{check_output, check_writable, remove_stale_temporaries, same_file};
@@ -212,6 +212,12 @@ impl FilterArgs {
                     iterations: self.ground_iterations,
                     seed: self.ground_seed,
                 };
+                if !(1..=MAX_GROUND_ITERATIONS).contains(&g.iterations) {
+                    bail!(
+                        "--ground-iterations {}: must be 1 to {MAX_GROUND_ITERATIONS} per frame",
+                        g.iterations
+                    );
+                }
                 g.validate("--ground")?;
                 Some(g)
             }
