@@ -244,3 +244,40 @@ fn a_resolution_mismatch_names_the_file_and_writes_nothing() {
         .unwrap();
     assert!(!out.status.success());
 }
+
+/// The same map given twice (by two spellings of its path) is merged, as asked, with a
+/// warning on stderr naming both; distinct maps give no warning.
+#[test]
+fn a_map_given_twice_is_merged_with_a_warning() {
+    let dir = common::scratch("merge_twice");
+    let mut a = OcTree::new(0.1).unwrap();
+    a.update_node(Key::new(1, 2, 3), Update::Hit, InnerNodes::Refresh);
+    let mut b = OcTree::new(0.1).unwrap();
+    b.update_node(Key::new(4, 5, 6), Update::Miss, InnerNodes::Refresh);
+    write_files(&a, &dir, "a");
+    write_files(&b, &dir, "b");
+    let merge = |inputs: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .current_dir(&dir)
+            .arg("merge")
+            .args(inputs)
+            .args(["-o", "m.ot"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let err = merge(&["a.ot", "b.ot", "./a.ot"]);
+    assert!(
+        err.contains("warning: ./a.ot is the same file as a.ot"),
+        "{err}"
+    );
+    // the evidence was added twice, as asked
+    let m = octoquant::treefile::read_tree_file(&dir.join("m.ot")).unwrap();
+    let hit = a.params().hit;
+    assert_eq!(
+        m.search(Key::new(1, 2, 3), 16).map(|n| n.value),
+        Some(2.0 * hit)
+    );
+    assert!(!merge(&["a.ot", "b.ot"]).contains("warning"));
+}

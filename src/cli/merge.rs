@@ -28,10 +28,31 @@ pub struct Args {
     json: bool,
 }
 
+/// A map given twice (the same file, by any path) adds its evidence twice: allowed, since
+/// weighting a map is a use, but said on stderr, since it is more often a slip.
+fn warn_repeated_inputs(inputs: &[PathBuf]) {
+    let mut seen: Vec<(PathBuf, &PathBuf)> = Vec::new();
+    for input in inputs {
+        let Ok(real) = std::fs::canonicalize(input) else {
+            continue; // the read reports it
+        };
+        if let Some((_, first)) = seen.iter().find(|(r, _)| *r == real) {
+            errln!(
+                "warning: {} is the same file as {}: its evidence is merged once more",
+                input.display(),
+                first.display()
+            );
+        } else {
+            seen.push((real, input));
+        }
+    }
+}
+
 pub fn run(a: &Args) -> Result<()> {
     for o in &a.output {
         check_output(o, &TREE_EXTENSIONS, &a.inputs)?;
     }
+    warn_repeated_inputs(&a.inputs);
     let mut tree = read_tree_file(&a.inputs[0])?;
     let (mut leaves, mut pruned, mut voxels) = (0usize, 0usize, 0u64);
     for input in &a.inputs[1..] {
