@@ -255,6 +255,28 @@ impl<P: NodePayload> PayloadTree<P> {
         self.inner_payloads(NodeRef::ROOT, node_id(Key::default(), 0), rule);
     }
 
+    /// [`PayloadTree::update_inner_occupancy`] for a rule that gives every inner node the same
+    /// payload `p` whatever its children hold (the stamped tree's `now`): the leaves' payloads
+    /// are not looked up.
+    pub(crate) fn update_inner_occupancy_to(&mut self, p: P) {
+        if self.tree.is_empty() {
+            return;
+        }
+        self.tree.update_inner_occupancy();
+        let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
+        while let Some((n, id)) = stack.pop() {
+            if !self.tree.store.has_children(n) {
+                continue;
+            }
+            self.set(id, p);
+            for i in 0..8 {
+                if let Some(c) = self.tree.store.child(n, i) {
+                    stack.push((c, child_id(id, i)));
+                }
+            }
+        }
+    }
+
     /// The payload half of `updateInnerOccupancyRecurs` below `n` (node `id`); returns the
     /// node's payload.
     fn inner_payloads(&mut self, n: NodeRef, id: NodeId, rule: impl Fn([P; 8]) -> P + Copy) -> P {

@@ -319,7 +319,7 @@ impl StampedOcTree {
     /// Bring every inner node up to date (OctoMap's `updateInnerOccupancy`): log-odds to the
     /// max of its children, stamp to `now`.
     pub fn update_inner_occupancy_at(&mut self, now: u32) {
-        self.base.update_inner_occupancy(|_| now);
+        self.base.update_inner_occupancy_to(now);
     }
 
     /// [`StampedOcTree::delete_node_at`] at the system clock's time.
