@@ -23,15 +23,20 @@
 //! depend on that order, but colours do (a node pruned by one update and expanded by a later
 //! one of the same scan hands the children's average colour to all of them).
 //!
-//! Only octomap_server's default insertion is reproduced: no maximum range (octomap_server
-//! also clears the clipped ray's end voxel, which OctoMap's `insertPointCloud` does not), no
-//! point filters, reduction, quantization or lazy updates; [`ColorMapper::new`] refuses them.
+//! With a maximum range (octomap_server's `sensor_model/max_range`), a point farther than it
+//! from the origin gives no occupied voxel and no colour: its ray is cut at the range (the cut
+//! end computed in `f32` as OctoMap's `computeUpdate` computes it) and its voxels, *and the cut
+//! end's voxel*, are free (octomap_server's rule; OctoMap's `insertPointCloud` leaves the cut
+//! end's voxel out).
+//!
+//! Point filters, reduction, quantization and lazy updates are not octomap_server's insertion;
+//! [`ColorMapper::new`] refuses them.
 
 use crate::keyset_order::KeySetOrder;
 use crate::pipeline::{FrameStats, InsertMode, MapperOptions};
 use octoquant_formats::Frame;
 use octoquant_octree::{ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
-use octoquant_raycast::{compute_ray_keys_f32, KeyRay};
+use octoquant_raycast::{compute_ray_keys_f32, max_range_end_f32, KeyRay};
 use std::time::Instant;
 
 /// How an end point's colour merges into its node's.
@@ -92,6 +97,8 @@ pub struct ColorMapper {
     tree: ColorOcTree,
     conv: KeyConverter,
     ray: KeyRay,
+    /// octomap_server's `m_maxRange`: negative for none.
+    max_range: f64,
     merge: ColorMerge,
     frames: usize,
 }
@@ -107,14 +114,13 @@ impl std::fmt::Debug for ColorMapper {
 }
 
 impl ColorMapper {
-    /// A mapper into a new tree of `options.resolution` and `options.params`. Only exact mode
-    /// without a maximum range, filters, reduction or lazy updates is octomap_server's
-    /// insertion; anything else is [`ColorMapError::Unsupported`].
+    /// A mapper into a new tree of `options.resolution` and `options.params`, with
+    /// `options.max_range` as octomap_server applies it (see the module docs). Only exact mode
+    /// without filters, reduction or lazy updates is octomap_server's insertion; anything else
+    /// is [`ColorMapError::Unsupported`].
     pub fn new(options: MapperOptions, merge: ColorMerge) -> Result<Self, ColorMapError> {
         let unsupported = if options.mode != InsertMode::Exact {
             Some("insertion mode but exact")
-        } else if options.max_range.is_some() {
-            Some("maximum range like OctoMap's insertPointCloud")
         } else if options.lazy {
             Some("lazy insertion")
         } else if options.reduce.is_some() {
@@ -131,6 +137,7 @@ impl ColorMapper {
         Ok(ColorMapper {
             conv: KeyConverter::new(options.resolution)?,
             ray: KeyRay::new(),
+            max_range: options.max_range.unwrap_or(-1.0),
             tree,
             merge,
             frames: 0,
@@ -171,6 +178,20 @@ impl ColorMapper {
                 st.zero += 1;
             }
             st.rays += 1;
+            if let Some(end) = max_range_end_f32(&origin, p, self.max_range) {
+                // octomap_server's "ray longer than maxrange": free up to and including the
+                // cut end's voxel (only when the ray's keys could be computed)
+                if compute_ray_keys_f32(&self.conv, &origin, &end, &mut self.ray) {
+                    free.insert_range(self.ray.keys());
+                    match self.conv.point_to_key(&end.cast::<f64>()) {
+                        Some(k) => {
+                            free.insert(k);
+                        }
+                        None => st.outside_map += 1,
+                    }
+                }
+                continue;
+            }
             if compute_ray_keys_f32(&self.conv, &origin, p, &mut self.ray) {
                 free.insert_range(self.ray.keys());
             }
@@ -273,10 +294,6 @@ mod tests {
         assert!(matches!(e, ColorMapError::ColorCount { .. }), "{e}");
         assert!(m.tree().is_empty());
         for options in [
-            MapperOptions {
-                max_range: Some(5.0),
-                ..MapperOptions::default()
-            },
             MapperOptions {
                 lazy: true,
                 ..MapperOptions::default()

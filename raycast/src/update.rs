@@ -229,6 +229,19 @@ pub(crate) fn cut_at_range(origin: &Point3<f32>, diff: [f32; 3], max_range: f64)
     )
 }
 
+/// Where a ray from `origin` towards `point` ends when a maximum range `max_range` applies:
+/// `None` while the point is within range (or `max_range` is negative: no limit), else the
+/// point at `max_range` along the ray, computed in `f32` exactly as OctoMap's `computeUpdate`
+/// and octomap_server's `insertScan` compute it. Callers that reproduce one of those decide
+/// what the cut end is (OctoMap leaves it out, octomap_server clears its voxel too).
+pub fn max_range_end_f32(
+    origin: &Point3<f32>,
+    point: &Point3<f32>,
+    max_range: f64,
+) -> Option<Point3<f32>> {
+    beyond_range(origin, sub_f32(point, origin), max_range)
+}
+
 /// The cut end of the ray `origin -> origin + diff` when it is longer than `max_range`
 /// (negative: no limit), `None` when it keeps its end point.
 #[inline(always)]

@@ -320,9 +320,10 @@ pub struct TreeArgs {
     /// Leaf size in metres (> 0).
     #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub res: f64,
-    /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange). Off
-    /// by default, and 0 or less also means off (OctoMap's -1); `demo` defaults to its
-    /// simulated sensors' range.
+    /// Maximum range in metres: farther readings only clear space (OctoMap's maxrange; with
+    /// `map --color` octomap_server's sensor_model/max_range, which also clears the voxel where
+    /// the ray is cut). Off by default, and 0 or less also means off (OctoMap's -1); `demo`
+    /// defaults to its simulated sensors' range.
     #[arg(long, allow_negative_numbers = true)]
     pub max_range: Option<f64>,
 }

@@ -38,9 +38,11 @@
 //                                     setNodeColor / averageNodeColor / integrateNodeColor
 //   points FILE LAZY                  per point: updateNode(point, true, lazy), then
 //                                     integrateNodeColor(x, y, z, r, g, b)
-//   colorscan FRAMES COLORS average|integrate
+//   colorscan FRAMES COLORS average|integrate [MAXRANGE]
 //                                     per frame, octomap_server's colour insertScan (no ground
-//                                     filter, no max range): per point in order, its ray's keys
+//                                     filter; MAXRANGE its sensor_model/max_range, default -1:
+//                                     a farther point frees its ray cut there and the cut
+//                                     end's voxel, nothing else): per point in order, its ray's keys
 //                                     into a free KeySet, its key into an occupied KeySet and
 //                                     averageNodeColor (or integrateNodeColor) at the point;
 //                                     then updateNode(false) on each free key not occupied,
@@ -208,10 +210,13 @@ static void insert_colored_points(ColorOcTree& tree, const std::string& path, bo
 }
 
 // octomap_server's insertScan as its colour server builds it (COLOR_OCTOMAP_SERVER), without
-// ground filtering or a maximum range: the colours merge while the key sets are collected,
-// before the scan's occupancy updates; the map is pruned after each scan (compress_map).
+// ground filtering: the colours merge while the key sets are collected, before the scan's
+// occupancy updates; the map is pruned after each scan (compress_map). max_range < 0: none;
+// else a farther point's ray is cut there and frees the cut end's voxel too (its "ray longer
+// than maxrange" branch).
 static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_path,
-                                 const std::string& colors_path, bool integrate) {
+                                 const std::string& colors_path, bool integrate,
+                                 double max_range) {
   std::vector<Frame> frames = read_frames(frames_path);
   std::ifstream in(colors_path, std::ios::binary);
   if (!in) die("cannot open " + colors_path);
@@ -228,6 +233,15 @@ static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_pa
       const point3d& p = fr.cloud[i];
       // PCL's filters hand octomap_server no NaN point
       if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) continue;
+      if (!(max_range < 0.0 || (p - fr.origin).norm() <= max_range)) {
+        point3d new_end = fr.origin + (p - fr.origin).normalized() * max_range;
+        if (tree.computeRayKeys(fr.origin, new_end, ray)) {
+          free_cells.insert(ray.begin(), ray.end());
+          OcTreeKey end_key;
+          if (tree.coordToKeyChecked(new_end, end_key)) free_cells.insert(end_key);
+        }
+        continue;
+      }
       if (tree.computeRayKeys(fr.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
       OcTreeKey key;
       if (tree.coordToKeyChecked(p, key)) {
@@ -395,8 +409,10 @@ static int run_script(std::istream& in) {
       if constexpr (color) {
         std::string frames, colors, merge;
         if (!(ls >> frames >> colors >> merge) || (merge != "average" && merge != "integrate"))
-          die("colorscan needs FRAMES COLORS average|integrate");
-        insert_colored_scans(*tree, frames, colors, merge == "integrate");
+          die("colorscan needs FRAMES COLORS average|integrate [MAXRANGE]");
+        double max_range = -1.0;
+        if (!(ls >> max_range)) max_range = -1.0;
+        insert_colored_scans(*tree, frames, colors, merge == "integrate", max_range);
       }
     } else if (stamped && cmd == "clock") {
       if (!(ls >> g_clock) || g_clock < 0) die("clock needs a time >= 0");
