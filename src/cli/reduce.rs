@@ -3,7 +3,7 @@
 //! threads (`reduce_stream.rs`).
 
 use super::args::{read_points, ReadArgs};
-use super::reduce_stream::{run_stream, StreamJob};
+use super::reduce_stream::{finite, run_stream, StreamJob};
 use super::vocab::StorageArg;
 use super::{json_path, print_json};
 use anyhow::{bail, Context, Result};
@@ -80,11 +80,6 @@ fn per_axis(v: &[f64], what: &str, default: f64) -> Result<[f64; 3]> {
         [x, y, z] => Ok([*x, *y, *z]),
         _ => bail!("--{what} takes one value or three (x,y,z), got {}", v.len()),
     }
-}
-
-/// `true` when every coordinate is a finite number.
-pub(super) fn finite(p: &Point3<f32>) -> bool {
-    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
 }
 
 /// The points the grid refused for their cell index (beyond the grid's index range) rather

@@ -12,7 +12,6 @@
 //! of the input without the deleted points. The intermediate cycles do depend on timing.
 
 use super::args::read_points;
-use super::reduce::finite;
 use super::vocab::StorageArg;
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
@@ -75,6 +74,11 @@ fn storage(job: &StreamJob<'_>) -> Result<Storage> {
         (Some(StorageArg::OneNode), None) | (None, None) => Storage::OneNode,
         (Some(StorageArg::AllMembers), _) | (None, Some(_)) => Storage::AllMembers,
     })
+}
+
+/// `true` when every coordinate is a finite number (the grid rejects the others).
+pub(super) fn finite(p: &Point3<f32>) -> bool {
+    p.x.is_finite() && p.y.is_finite() && p.z.is_finite()
 }
 
 fn f32s(p: &[f64; 3]) -> Point3<f32> {
