@@ -7,6 +7,7 @@ migration table.
 """
 
 from octoquant._octoquant import (
+    ColorMapper,
     ColorOcTree,
     ColorOcTreeNode,
     DensityReducer,
@@ -29,6 +30,7 @@ from octoquant._octoquant import (
 )
 
 __all__ = [
+    "ColorMapper",
     "ColorOcTree",
     "ColorOcTreeNode",
     "DensityReducer",

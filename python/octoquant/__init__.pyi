@@ -381,6 +381,40 @@ class ColorOcTree:
     def end_leafs(self) -> leaf_iterator: ...
     def end_leafs_bbx(self) -> leaf_bbx_iterator: ...
 
+class ColorMapper:
+    """Coloured scans into a ``ColorOcTree`` as octomap_server's colour server inserts them:
+    each end point's colour merges into its voxel's node before the scan's occupancy updates
+    (a voxel is coloured from its second sighting on), then the scan, then ``prune()``. The
+    same bytes as ``octoquant map --color``. ``merge``: ``"average"`` (octomap_server's
+    ``averageNodeColor``) or ``"integrate"`` (``integrateNodeColor``); ``max_range``:
+    octomap_server's ``sensor_model/max_range`` (a farther point only clears its ray, cut
+    there, and the voxel where it is cut)."""
+
+    def __init__(
+        self,
+        resolution: float = 0.1,
+        merge: Literal["average", "integrate"] = "average",
+        max_range: Optional[float] = None,
+        prob_hit: float = 0.7,
+        prob_miss: float = 0.4,
+        clamping_min: float = 0.1192,
+        clamping_max: float = 0.971,
+        occupancy_threshold: float = 0.5,
+    ) -> None: ...
+    def insert(
+        self,
+        points: Points,
+        colors: NDArray[np.uint8],
+        origin: Optional[Vec3] = None,
+    ) -> dict[str, Any]:
+        """Insert one scan: world points (N, 3), uint8 RGB colours (N, 3), sensor origin."""
+    @property
+    def tree(self) -> ColorOcTree:
+        """A copy of the map so far."""
+    @property
+    def frames(self) -> int:
+        """Scans inserted so far."""
+
 class Mapper:
     """Builds a map from frames with octoquant's pipeline (see the module README)."""
 
@@ -434,6 +468,7 @@ class Mapper:
     def stats(self) -> dict[str, Any]:
         """Totals over every frame inserted so far."""
 
+@overload
 def read_frames(
     path: StrOrBytesPath,
     format: Optional[
@@ -450,6 +485,26 @@ def read_frames(
     viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
     first: int = 0,
     count: Optional[int] = None,
+    colors: Literal[True],
+) -> list[tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8]]]: ...
+@overload
+def read_frames(
+    path: StrOrBytesPath,
+    format: Optional[
+        Literal["graph", "frames", "text", "vtk", "vtk-seq", "pcd", "tum-png", "tum", "mcap", "ply"]
+    ] = None,
+    *,
+    points_global: bool = False,
+    topic: Optional[str] = None,
+    fixed_frame: Optional[str] = None,
+    pixel_step: int = 1,
+    trajectory: Optional[StrOrBytesPath] = None,
+    depth_scale: Optional[float] = None,
+    intrinsics: Optional[tuple[float, float, float, float]] = None,
+    viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
+    first: int = 0,
+    count: Optional[int] = None,
+    colors: Literal[False] = False,
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
     """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI
     reads, with the reader options of ``octoquant map`` as keywords: ``format`` (``--format``),
@@ -459,8 +514,11 @@ def read_frames(
     ``(fx, fy, cx, cy)`` (TUM, default 525, 525, 319.5, 239.5) and ``viewpoint`` (PCD
     ``VIEWPOINT``: ``"origin"`` as PCL, the default, ``"apply"`` or ``"ignore"``). ``first`` and
     ``count``: only frames ``first .. first + count`` (all from ``first`` without a count),
-    read no further than needed; an input with fewer frames raises ``ValueError``. Bad options
-    and files raise ``ValueError`` naming the file; a missing path ``FileNotFoundError``."""
+    read no further than needed; an input with fewer frames raises ``ValueError``. ``colors``:
+    also each frame's (N, 3) uint8 RGB colours, ``[(points, origin, colors), ...]`` (PCD, PLY,
+    TUM with RGB images, PointCloud2; a frame without colours raises ``ValueError``). Bad
+    options and files raise ``ValueError`` naming the file; a missing path
+    ``FileNotFoundError``."""
 
 def count_frames(
     path: StrOrBytesPath,

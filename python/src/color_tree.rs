@@ -150,6 +150,13 @@ pub struct PyColorOcTree {
 }
 
 impl PyColorOcTree {
+    /// A Python object for `tree`.
+    pub(crate) fn wrap(tree: ColorOcTree) -> Self {
+        PyColorOcTree {
+            tree: Box::new(tree),
+        }
+    }
+
     fn load(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<ColorOcTree> {
         let (data, name) = source(obj, "filename")?.bytes()?;
         py.detach(|| engine::read_color_ot(&data))

@@ -3,7 +3,7 @@
 //!
 //! Layout: [`engine`] is the only file that names the octoquant library's paths and free
 //! functions; [`convert`] checks and converts Python arguments; [`tree`], [`color_tree`],
-//! [`node`], [`iter`] and [`mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
+//! [`node`], [`iter`], [`mapper`] and [`color_mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
 //! bounding-box insertion they call; [`density`] and [`segment`] wrap the density reducer and
 //! the 1-D DBSCAN / laser-line segmentation; [`tiles`] the pieces of the exact tiled build
 //! that `octoquant.distributed` runs on Dask.
@@ -11,6 +11,7 @@
 
 mod bbx;
 mod cloud;
+mod color_mapper;
 mod color_tree;
 mod convert;
 mod density;
@@ -26,6 +27,7 @@ mod tree;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 pyo3::create_exception!(
     octoquant,
@@ -54,11 +56,14 @@ type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 /// needed (what a distributed task reads), the frames before ``first`` passed over without
 /// reading their points where the input allows (``.frames`` seeks, VTK sequences and TUM
 /// associations skip their files); an input with fewer frames raises ValueError.
-/// Releases the GIL while reading.
+/// ``colors``: also return each frame's colours, ``[(points, origin, colors), ...]`` with
+/// ``colors`` a uint8 (N, 3) RGB array (PCD ``rgb``/``rgba``, PLY ``red green blue``, TUM RGB
+/// images, PointCloud2 ``rgb``/``rgba``; what :class:`ColorMapper` takes); a frame without
+/// colours raises ValueError. Releases the GIL while reading.
 #[pyfunction]
 #[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
     pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None,
-    first=0, count=None))]
+    first=0, count=None, colors=false))]
 #[allow(clippy::too_many_arguments)]
 fn read_frames<'py>(
     py: Python<'py>,
@@ -74,10 +79,11 @@ fn read_frames<'py>(
     viewpoint: Option<&str>,
     first: i64,
     count: Option<i64>,
-) -> PyResult<Vec<FrameArrays<'py>>> {
+    colors: bool,
+) -> PyResult<Vec<Bound<'py, PyTuple>>> {
     use pyo3::exceptions::PyValueError;
     let p = existing_path(path)?;
-    let options = reader_options(
+    let mut options = reader_options(
         format,
         points_global,
         topic,
@@ -88,6 +94,7 @@ fn read_frames<'py>(
         intrinsics,
         viewpoint,
     )?;
+    options.colors = colors;
     let first = usize::try_from(first)
         .map_err(|_| PyValueError::new_err(format!("first must be >= 0, got {first}")))?;
     let count = count
@@ -105,19 +112,39 @@ fn read_frames<'py>(
             }
         })
         .map_err(PyValueError::new_err)?;
-    Ok(frames
-        .into_iter()
-        .map(|f| {
-            let n = f.points.len();
-            let flat: Vec<f32> = f.points.iter().flat_map(|q| [q.x, q.y, q.z]).collect();
-            let pts =
-                Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
-            (
-                PyArray2::from_owned_array(py, pts),
-                PyArray1::from_slice(py, &[f.origin.x, f.origin.y, f.origin.z]),
-            )
-        })
-        .collect())
+    let mut out = Vec::with_capacity(frames.len());
+    for (i, f) in frames.into_iter().enumerate() {
+        let n = f.points.len();
+        let flat: Vec<f32> = f.points.iter().flat_map(|q| [q.x, q.y, q.z]).collect();
+        let pts = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+        let (pts, origin): FrameArrays<'py> = (
+            PyArray2::from_owned_array(py, pts),
+            PyArray1::from_slice(py, &[f.origin.x, f.origin.y, f.origin.z]),
+        );
+        if !colors {
+            out.push(PyTuple::new(py, [pts.into_any(), origin.into_any()])?);
+            continue;
+        }
+        let rgb = match &f.colors {
+            Some(c) if c.len() == n => c,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "{}: frame {} has no colours (coloured inputs: PCD rgb/rgba, PLY \
+                     red/green/blue, a TUM association with its RGB images, PointCloud2 rgb/rgba)",
+                    p.display(),
+                    first + i
+                )))
+            }
+        };
+        let flat: Vec<u8> = rgb.iter().flat_map(|c| c.to_array()).collect();
+        let rgb = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+        let rgb = PyArray2::from_owned_array(py, rgb);
+        out.push(PyTuple::new(
+            py,
+            [pts.into_any(), origin.into_any(), rgb.into_any()],
+        )?);
+    }
+    Ok(out)
 }
 
 /// How many frames :func:`read_frames` would return for ``path`` with these reader options,
@@ -232,6 +259,7 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<color_tree::PyColorOcTree>()?;
     m.add_class::<color_tree::PyColorNode>()?;
     m.add_class::<mapper::PyMapper>()?;
+    m.add_class::<color_mapper::PyColorMapper>()?;
     m.add_class::<node::PyKey>()?;
     m.add_class::<node::PyNode>()?;
     m.add_class::<iter::IteratorBase>()?;

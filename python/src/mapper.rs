@@ -47,7 +47,7 @@ fn mode(name: &str) -> PyResult<InsertMode> {
         })
 }
 
-fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("points", s.points)?;
     d.set_item("non_finite", s.non_finite)?;

@@ -90,3 +90,57 @@ def test_segment_matches_cli(cli, data_dir):
             assert w["length"] == g["length"]
             assert w["rms_residual"] == g["rms_residual"]
             assert w["max_residual"] == g["max_residual"]
+
+
+@pytest.mark.parametrize(
+    "merge,max_range", [("average", None), ("integrate", None), ("average", 4.0)]
+)
+def test_color_mapper_matches_cli(cli, data_dir, tmp_path, merge, max_range):
+    """octoquant.ColorMapper over read_frames(colors=True) writes the .ot that
+    ``octoquant map --color`` writes from the same TUM RGB-D frames (the CLI's map is proven
+    byte-identical with liboctomap's ColorOcTree inserting as octomap_server does)."""
+    assoc = data_dir / "rgbd" / "tum_fr2_pioneer_slam2_subset" / "my_association.txt"
+    if not assoc.is_file():
+        _missing(str(assoc))
+    out = tmp_path / "cli.ot"
+    args = [cli, "map", str(assoc), "--color", "--color-merge", merge, "--pixel-step", "4"]
+    args += ["--res", "0.05", "-o", str(out), "-q"]
+    if max_range is not None:
+        args += ["--max-range", str(max_range)]
+    res = subprocess.run(args, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    frames = octoquant.read_frames(assoc, pixel_step=4, colors=True)
+    assert len(frames) == 10
+    mapper = octoquant.ColorMapper(0.05, merge=merge, max_range=max_range)
+    for points, origin, colors in frames:
+        assert colors.dtype == np.uint8 and colors.shape == points.shape
+        st = mapper.insert(points, colors, origin)
+        assert st["points"] == len(points)
+    assert mapper.frames == 10
+    tree = mapper.tree
+    assert tree.write() == out.read_bytes()
+    coloured = sum(1 for leaf in tree.begin_leafs() if tree.search(leaf.getKey()).isColorSet())
+    assert coloured > 1000, coloured
+
+
+def test_color_mapper_refusals(data_dir):
+    scan = data_dir / "lidar3d" / "octomap_scan_dat" / "scan.dat.bz2"
+    with pytest.raises(ValueError, match="has no colours"):
+        octoquant.read_frames(scan, colors=True)
+    m = octoquant.ColorMapper(0.1)
+    pts = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], dtype=np.float32)
+    with pytest.raises(ValueError, match="1 colours for 2 points"):
+        m.insert(pts, np.zeros((1, 3), dtype=np.uint8))
+    with pytest.raises(ValueError, match="uint8"):
+        m.insert(pts, np.zeros((2, 3), dtype=np.float64))
+    with pytest.raises(ValueError, match="merge"):
+        octoquant.ColorMapper(0.1, merge="max")
+    with pytest.raises(ValueError, match="max_range"):
+        octoquant.ColorMapper(0.1, max_range=float("nan"))
+    assert m.frames == 0 and m.tree.size() == 0
+    # a voxel is coloured from its second sighting on (octomap_server's order)
+    red = np.array([[200, 0, 0], [200, 0, 0]], dtype=np.uint8)
+    m.insert(pts, red)
+    m.insert(pts, red)
+    node = m.tree.search(pts[0])
+    assert node is not None and node.getColor() == (200, 0, 0)

@@ -1,0 +1,154 @@
+//! `octoquant.ColorMapper`: coloured scans into a `ColorOcTree` as octomap_server's colour
+//! server inserts them (the library's `color_map::ColorMapper`), for NumPy frames.
+
+use crate::color_tree::PyColorOcTree;
+use crate::convert::{self, vec3_f32};
+use crate::engine::{self, Color, ColorMapper, ColorMerge, MapperOptions};
+use crate::mapper::stats_dict;
+use nalgebra::Point3;
+use numpy::PyReadonlyArray2;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Builds a ``ColorOcTree`` from coloured scans, scan by scan, as octomap_server's colour
+/// server (``octomap_color_server``) does: each end point's colour merges into the node that
+/// holds its voxel before the scan's occupancy updates (so a voxel is coloured from its
+/// second sighting on), then one miss per free voxel and one hit per end-point voxel, then
+/// ``prune()``. The same bytes as ``octoquant map --color`` and as liboctomap's
+/// ``ColorOcTree`` doing the same.
+///
+/// ``merge``: ``"average"`` (octomap_server's ``averageNodeColor``) or ``"integrate"``
+/// (OctoMap's occupancy-weighted ``integrateNodeColor``). ``max_range``: octomap_server's
+/// ``sensor_model/max_range``: a farther point colours nothing and only clears its ray, cut at
+/// the range, and the voxel where it is cut. The sensor model is OctoMap's unless given.
+#[pyclass(module = "octoquant", name = "ColorMapper")]
+pub struct PyColorMapper {
+    /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
+    mapper: Box<ColorMapper>,
+}
+
+#[pymethods]
+impl PyColorMapper {
+    #[new]
+    #[pyo3(signature = (
+        resolution=0.1, merge="average", max_range=None, prob_hit=0.7, prob_miss=0.4,
+        clamping_min=0.1192, clamping_max=0.971, occupancy_threshold=0.5
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn py_new(
+        resolution: f64,
+        merge: &str,
+        max_range: Option<f64>,
+        prob_hit: f64,
+        prob_miss: f64,
+        clamping_min: f64,
+        clamping_max: f64,
+        occupancy_threshold: f64,
+    ) -> PyResult<Self> {
+        let merge = match merge {
+            "average" => ColorMerge::Average,
+            "integrate" => ColorMerge::Integrate,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown merge {other:?}; expected average or integrate"
+                )))
+            }
+        };
+        if let Some(r) = max_range {
+            if !(r.is_finite() && r > 0.0) {
+                return Err(PyValueError::new_err(format!(
+                    "max_range must be finite and > 0 (None: no limit), got {r}"
+                )));
+            }
+        }
+        let params = engine::OccupancyParams::from_probabilities(
+            prob_hit,
+            prob_miss,
+            clamping_min,
+            clamping_max,
+            occupancy_threshold,
+        )
+        .map_err(|e| convert::value_error("ColorMapper", &e))?;
+        let options = MapperOptions {
+            resolution,
+            params,
+            max_range,
+            ..MapperOptions::default()
+        };
+        let mapper =
+            ColorMapper::new(options, merge).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(PyColorMapper {
+            mapper: Box::new(mapper),
+        })
+    }
+
+    /// Insert one coloured scan: ``points`` (N, 3) in the world frame, ``colors`` (N, 3)
+    /// ``uint8`` RGB, one per point, ``origin`` the sensor position (default 0). Returns the
+    /// scan's statistics. Releases the GIL.
+    #[pyo3(signature = (points, colors, origin=None))]
+    fn insert<'py>(
+        &mut self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        colors: &Bound<'py, PyAny>,
+        origin: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let pts = convert::points_f32(points, "points")?;
+        let colors = rgb_rows(colors)?;
+        if colors.len() != pts.len() {
+            return Err(PyValueError::new_err(format!(
+                "{} colours for {} points: give one per point",
+                colors.len(),
+                pts.len()
+            )));
+        }
+        let origin = match origin {
+            Some(o) => vec3_f32(o, "origin")?,
+            None => Point3::origin(),
+        };
+        let frame = engine::Frame {
+            colors: Some(colors),
+            ..engine::Frame::new_f32(origin, pts)
+        };
+        let mapper = &mut self.mapper;
+        let st = py
+            .detach(|| mapper.insert(&frame))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        stats_dict(py, &st)
+    }
+
+    /// A copy of the map so far.
+    #[getter]
+    fn tree(&self) -> PyColorOcTree {
+        PyColorOcTree::wrap(self.mapper.tree().clone())
+    }
+
+    /// Scans inserted so far.
+    #[getter]
+    fn frames(&self) -> usize {
+        self.mapper.frames()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "ColorMapper(resolution={}, frames={})",
+            self.mapper.tree().resolution(),
+            self.mapper.frames()
+        )
+    }
+}
+
+/// An (N, 3) ``uint8`` array as colours.
+fn rgb_rows(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Color>> {
+    let err = || PyValueError::new_err("colors must be an (N, 3) uint8 array (r, g, b)");
+    let a: PyReadonlyArray2<'_, u8> = obj.extract().map_err(|_| err())?;
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(err());
+    }
+    Ok(a.rows()
+        .into_iter()
+        .map(|r| Color::new(r[0], r[1], r[2]))
+        .collect())
+}
