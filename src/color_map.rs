@@ -29,13 +29,18 @@
 //! end's voxel*, are free (octomap_server's rule; OctoMap's `insertPointCloud` leaves the cut
 //! end's voxel out).
 //!
-//! Point filters, reduction, quantization and lazy updates are not octomap_server's insertion;
-//! [`ColorMapper::new`] refuses them.
+//! octoquant's point filters ([`crate::filters`], `map --zmin`, `--crop-world`, ...) drop
+//! points, with their colours, before the insertion, as they do before `insertPointCloud`
+//! (octomap_server's own ground filter, which inserts ground points as free, is not
+//! reproduced; see docs/filters.md). Reduction, quantization and lazy updates are not
+//! octomap_server's insertion; [`ColorMapper::new`] refuses them.
 
+use crate::filters::PointFilters;
 use crate::keyset_order::KeySetOrder;
 use crate::pipeline::{FrameStats, InsertMode, MapperOptions};
+use nalgebra::UnitQuaternion;
 use octoquant_formats::Frame;
-use octoquant_octree::{ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
+use octoquant_octree::{Color, ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
 use octoquant_raycast::{compute_ray_keys_f32, max_range_end_f32, KeyRay};
 use std::time::Instant;
 
@@ -86,6 +91,17 @@ pub enum ColorMapError {
         /// Its points.
         points: usize,
     },
+    /// A frame with more points than the filters' index channel holds (2^32).
+    #[error("frame {frame} has {points} points, more than filters take (2^32)")]
+    TooManyPoints {
+        /// The frame's index among those inserted.
+        frame: usize,
+        /// Its points.
+        points: usize,
+    },
+    /// The point filters are invalid.
+    #[error(transparent)]
+    Filter(#[from] crate::filters::FilterError),
     /// The tree cannot be made (an invalid resolution or sensor model).
     #[error(transparent)]
     Octree(#[from] OctreeError),
@@ -99,6 +115,8 @@ pub struct ColorMapper {
     ray: KeyRay,
     /// octomap_server's `m_maxRange`: negative for none.
     max_range: f64,
+    /// octoquant's point filters, applied first.
+    filters: PointFilters,
     merge: ColorMerge,
     frames: usize,
 }
@@ -115,9 +133,10 @@ impl std::fmt::Debug for ColorMapper {
 
 impl ColorMapper {
     /// A mapper into a new tree of `options.resolution` and `options.params`, with
-    /// `options.max_range` as octomap_server applies it (see the module docs). Only exact mode
-    /// without filters, reduction or lazy updates is octomap_server's insertion; anything else
-    /// is [`ColorMapError::Unsupported`].
+    /// `options.max_range` as octomap_server applies it and `options.filters` before the
+    /// insertion (see the module docs). Only exact mode without reduction or lazy updates is
+    /// octomap_server's insertion; anything else is [`ColorMapError::Unsupported`] (as are
+    /// filters that fail [`crate::filters::PointFilters::validate`]).
     pub fn new(options: MapperOptions, merge: ColorMerge) -> Result<Self, ColorMapError> {
         let unsupported = if options.mode != InsertMode::Exact {
             Some("insertion mode but exact")
@@ -125,19 +144,19 @@ impl ColorMapper {
             Some("lazy insertion")
         } else if options.reduce.is_some() {
             Some("density reduction")
-        } else if options.filters.is_active() {
-            Some("octoquant point filters")
         } else {
             None
         };
         if let Some(what) = unsupported {
             return Err(ColorMapError::Unsupported(what));
         }
+        options.filters.validate()?;
         let tree = ColorOcTree::with_params(options.resolution, options.params)?;
         Ok(ColorMapper {
             conv: KeyConverter::new(options.resolution)?,
             ray: KeyRay::new(),
             max_range: options.max_range.unwrap_or(-1.0),
+            filters: options.filters,
             tree,
             merge,
             frames: 0,
@@ -165,17 +184,46 @@ impl ColorMapper {
             reduced: frame.points.len(),
             ..FrameStats::default()
         };
+        let origin = frame.origin;
+        // the filters keep points with their colours: each kept point's index rides along
+        // in the filters' pixel channel
+        let filtered;
+        let (points, colors) = if self.filters.is_active() {
+            let Ok(n) = u32::try_from(frame.points.len()) else {
+                return Err(ColorMapError::TooManyPoints {
+                    frame: index,
+                    points: frame.points.len(),
+                });
+            };
+            let (mut kept, mut kept_index) = (Vec::new(), Vec::new());
+            let index: Vec<u32> = (0..n).collect();
+            let c = self.filters.apply(
+                &origin,
+                &UnitQuaternion::identity(),
+                &frame.points,
+                Some(&index),
+                &mut kept,
+                &mut kept_index,
+            );
+            st.non_finite = c.non_finite;
+            st.zero = c.zero;
+            st.dropped = c.dropped;
+            let kept_colors: Vec<Color> = kept_index.iter().map(|&i| colors[i as usize]).collect();
+            filtered = (kept, kept_colors);
+            (&filtered.0[..], &filtered.1[..])
+        } else {
+            (&frame.points[..], colors)
+        };
         // octomap_server's loop over the points: key sets, and each end point's colour into
         // its node as the tree is now
         let (mut free, mut occupied) = (KeySetOrder::new(), KeySetOrder::new());
-        let origin = frame.origin;
-        for (p, &c) in frame.points.iter().zip(colors) {
+        for (p, &c) in points.iter().zip(colors) {
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 st.non_finite += 1;
                 continue;
             }
-            if *p == origin {
-                st.zero += 1;
+            if *p == origin && !self.filters.is_active() {
+                st.zero += 1; // (the filters counted them)
             }
             st.rays += 1;
             if let Some(end) = max_range_end_f32(&origin, p, self.max_range) {

@@ -597,6 +597,97 @@ fn tum_rgbd_colored_scans_match_octomap_server() {
     check_colored_scans("color_scans_tum", &frames, 0.05, 4.0);
 }
 
+/// octoquant's z band filter with `ColorMapper` equals octomap_server's insertion of the
+/// frames filtered here by hand (points and their colours kept together), on the TUM frames.
+#[test]
+fn tum_rgbd_colored_scans_with_a_z_band_match_octomap_server_on_the_band() {
+    use octoquant::color_map::{ColorMapper, ColorMerge};
+    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
+    else {
+        return;
+    };
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let mut options = octoquant::formats::ReadOptions {
+        colors: true,
+        ..octoquant::formats::ReadOptions::default()
+    };
+    options.tum.pixel_step = 2;
+    let frames: Vec<octoquant::Frame> = octoquant::formats::frame_stream(&assoc, &options)
+        .unwrap()
+        .take(4)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    // the band between the quartiles of the heights
+    let mut z: Vec<f32> = frames
+        .iter()
+        .flat_map(|f| f.points.iter().map(|p| p.z))
+        .filter(|z| z.is_finite())
+        .collect();
+    z.sort_by(f32::total_cmp);
+    let (lo, hi) = (z[z.len() / 4], z[3 * z.len() / 4]);
+    let inside =
+        |p: &nalgebra::Point3<f32>| p.iter().all(|v| v.is_finite()) && p.z >= lo && p.z <= hi;
+    let by_hand: Vec<octoquant::Frame> = frames
+        .iter()
+        .map(|f| {
+            let colors = f.colors.as_ref().unwrap();
+            let keep: Vec<usize> = (0..f.points.len())
+                .filter(|&i| inside(&f.points[i]))
+                .collect();
+            octoquant::Frame {
+                colors: Some(keep.iter().map(|&i| colors[i]).collect()),
+                ..octoquant::Frame::new_f32(f.origin, keep.iter().map(|&i| f.points[i]).collect())
+            }
+        })
+        .collect();
+    let dir = common::scratch("color_scans_z_band");
+    let (fp, cp) = write_colored_frames(&dir, &by_hand);
+    let mut mapper = ColorMapper::new(
+        octoquant::MapperOptions {
+            resolution: 0.05,
+            filters: octoquant::filters::PointFilters {
+                z_min: Some(f64::from(lo)),
+                z_max: Some(f64::from(hi)),
+                ..Default::default()
+            },
+            ..octoquant::MapperOptions::default()
+        },
+        ColorMerge::Average,
+    )
+    .unwrap();
+    let mut dropped = 0;
+    for f in &frames {
+        dropped += mapper.insert(f).unwrap().dropped.z_band;
+    }
+    let total: usize = frames.iter().map(|f| f.points.len()).sum();
+    let kept: usize = by_hand.iter().map(|f| f.points.len()).sum();
+    assert!(
+        kept > total / 4 && dropped > total / 4,
+        "{kept} kept, {dropped} dropped of {total}"
+    );
+    let tree = mapper.into_tree();
+    assert!(
+        tree.num_colored_nodes() > 500,
+        "{}",
+        tree.num_colored_nodes()
+    );
+    let ours = color_ot(&tree);
+    let script = format!(
+        "tree {:.17e}\ncolorscan {} {} average\n",
+        0.05,
+        fp.display(),
+        cp.display()
+    );
+    let theirs = try_reference(&refprog, &script, &dir).expect("no delete here");
+    assert!(
+        ours == theirs,
+        ".ot differs: {}",
+        first_diff(&ours, &theirs)
+    );
+}
+
 /// PCL's textured table scene seen three times from three nearby origins (the first sighting
 /// gives no colour in octomap_server; the later ones merge into existing voxels).
 #[test]
