@@ -926,3 +926,45 @@ fn simulate_and_segment_name_their_options() {
         refused(&dir, &v, option, "s.png");
     }
 }
+
+/// `map --color` applies the point filters and reports what they dropped, as `map` does:
+/// the z band's count equals the points of the real PCL cloud above the band, counted here.
+#[test]
+fn map_color_reports_its_filters() {
+    let Some(pcd) = crate::common::data_file(
+        "pcd/pcl_table_scene_mug_stereo_textured/table_scene_mug_stereo_textured.pcd",
+    ) else {
+        return;
+    };
+    let frames = octoquant::formats::read_frames(&pcd, &Default::default()).unwrap();
+    let mut z: Vec<f32> = frames[0]
+        .points
+        .iter()
+        .map(|p| p.z)
+        .filter(|z| z.is_finite())
+        .collect();
+    z.sort_by(f32::total_cmp);
+    // the band's bound as the command line reads it (f64), the points widened as the filter does
+    let zmax = z[z.len() / 2].to_string();
+    let bound: f64 = zmax.parse().unwrap();
+    let above = z.iter().filter(|&&v| f64::from(v) > bound).count();
+    let dir = scratch("cli-color-filters");
+    let o = octoquant(&dir)
+        .args([
+            "map",
+            pcd.to_str().unwrap(),
+            "--color",
+            "--res",
+            "0.01",
+            "--json",
+            "-o",
+            "c.ot",
+        ])
+        .args(["--zmax", &zmax])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json_of(&o);
+    assert_eq!(j["dropped"]["z_band"], above, "{j}");
+    assert!(above > 1000, "{above}");
+}

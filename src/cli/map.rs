@@ -11,7 +11,9 @@ use octoquant::filters::{CropBox, GroundFilter, PointFilters, MAX_GROUND_ITERATI
 use octoquant::formats::{count_frames, frame_stream, FormatError, FrameStream, ReadOptions};
 use octoquant::octree::io::TreeFormat;
 use octoquant::output::{check_output, check_writable, remove_stale_temporaries, same_file};
-use octoquant::pipeline::{CheckpointOptions, InsertMode, MapStats, Mapper, MapperOptions};
+use octoquant::pipeline::{
+    CheckpointOptions, FrameStats, InsertMode, MapStats, Mapper, MapperOptions,
+};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
@@ -637,6 +639,30 @@ fn run_color(a: &Args) -> Result<()> {
 
 /// The summary of `map --color` and `map --stamped`: the common counts, then the tree type's
 /// own figures (`extra` in JSON, `tree_line` in text).
+/// The points a run dropped, by reason, as the summaries' JSON `dropped` object.
+fn dropped_json(t: &FrameStats) -> serde_json::Map<String, serde_json::Value> {
+    let mut dropped = serde_json::Map::new();
+    dropped.insert("non_finite".into(), t.non_finite.into());
+    dropped.insert("outside_map".into(), t.outside_map.into());
+    for (name, n) in t.dropped.named() {
+        dropped.insert(name.into(), n.into());
+    }
+    dropped
+}
+
+/// The text summaries' "filtered out" line: each filter's dropped count, `None` when no
+/// filter dropped anything.
+fn filtered_out(t: &FrameStats) -> Option<String> {
+    let filtered: Vec<String> = t
+        .dropped
+        .named()
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(name, n)| format!("{n} {name}"))
+        .collect();
+    (!filtered.is_empty()).then(|| filtered.join(", "))
+}
+
 fn typed_summary(
     a: &Args,
     stats: &MapStats,
@@ -653,6 +679,9 @@ fn typed_summary(
             "points": t.points,
             "non_finite": t.non_finite,
             "outside_map": t.outside_map,
+            "zero_points": t.zero,
+            "dropped": dropped_json(t),
+            "dropped_total": t.non_finite + t.outside_map + t.dropped.total(),
             "free_updates": t.free,
             "occupied_updates": t.occupied,
             "load_seconds": load_s,
@@ -673,6 +702,9 @@ fn typed_summary(
             t.non_finite,
             t.outside_map
         )?;
+        if let Some(line) = filtered_out(t) {
+            outln!("filtered out:    {line}")?;
+        }
         outln!("loading:         {load_s:.3} s")?;
         outln!("insertion:       {:.3} s", t.seconds)?;
         outln!("tree:            {tree_line}")?;
@@ -803,12 +835,6 @@ fn run_on_threads(a: &Args) -> Result<()> {
     };
     if a.json {
         let path = |p: &std::path::Path| p.to_string_lossy().into_owned();
-        let mut dropped = serde_json::Map::new();
-        dropped.insert("non_finite".into(), t.non_finite.into());
-        dropped.insert("outside_map".into(), t.outside_map.into());
-        for (name, n) in t.dropped.named() {
-            dropped.insert(name.into(), n.into());
-        }
         let bounds = match tree.metric_bounds() {
             Some((lo, hi)) => serde_json::json!({
                 "min": [lo.x, lo.y, lo.z],
@@ -822,7 +848,7 @@ fn run_on_threads(a: &Args) -> Result<()> {
             "non_finite": t.non_finite,
             "outside_map": t.outside_map,
             "zero_points": t.zero,
-            "dropped": dropped,
+            "dropped": dropped_json(t),
             "dropped_total": t.non_finite + t.outside_map + t.dropped.total(),
             "rays": t.rays,
             "heads_skipped": t.heads_skipped,
@@ -852,15 +878,8 @@ fn run_on_threads(a: &Args) -> Result<()> {
             t.non_finite,
             t.outside_map
         )?;
-        let filtered: Vec<String> = t
-            .dropped
-            .named()
-            .iter()
-            .filter(|(_, n)| *n > 0)
-            .map(|(name, n)| format!("{n} {name}"))
-            .collect();
-        if !filtered.is_empty() {
-            outln!("filtered out:    {}", filtered.join(", "))?;
+        if let Some(line) = filtered_out(t) {
+            outln!("filtered out:    {line}")?;
         }
         if t.zero > 0 {
             outln!(
