@@ -388,7 +388,8 @@ class ColorMapper:
     same bytes as ``octoquant map --color``. ``merge``: ``"average"`` (octomap_server's
     ``averageNodeColor``) or ``"integrate"`` (``integrateNodeColor``); ``max_range``:
     octomap_server's ``sensor_model/max_range`` (a farther point only clears its ray, cut
-    there, and the voxel where it is cut)."""
+    there, and the voxel where it is cut). The point filters of ``Mapper`` (keyword-only) drop
+    points with their colours first."""
 
     def __init__(
         self,
@@ -400,6 +401,17 @@ class ColorMapper:
         clamping_min: float = 0.1192,
         clamping_max: float = 0.971,
         occupancy_threshold: float = 0.5,
+        *,
+        drop_zero: bool = False,
+        min_range: Optional[float] = None,
+        crop_sensor: Optional[Sequence[float]] = None,
+        crop_world: Optional[Sequence[float]] = None,
+        zmin: Optional[float] = None,
+        zmax: Optional[float] = None,
+        ground: Optional[float] = None,
+        ground_angle: float = 0.15,
+        ground_iterations: int = 200,
+        ground_seed: int = 0,
     ) -> None: ...
     def insert(
         self,

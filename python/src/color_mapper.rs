@@ -4,7 +4,7 @@
 use crate::color_tree::PyColorOcTree;
 use crate::convert::{self, vec3_f32};
 use crate::engine::{self, Color, ColorMapper, ColorMerge, MapperOptions};
-use crate::mapper::stats_dict;
+use crate::mapper::{stats_dict, FilterArgs};
 use nalgebra::Point3;
 use numpy::PyReadonlyArray2;
 use pyo3::exceptions::PyValueError;
@@ -22,6 +22,9 @@ use pyo3::types::PyDict;
 /// (OctoMap's occupancy-weighted ``integrateNodeColor``). ``max_range``: octomap_server's
 /// ``sensor_model/max_range``: a farther point colours nothing and only clears its ray, cut at
 /// the range, and the voxel where it is cut. The sensor model is OctoMap's unless given.
+/// The point filters of :class:`Mapper` (keyword-only: ``drop_zero``, ``min_range``,
+/// ``crop_sensor``, ``crop_world``, ``zmin``, ``zmax``, ``ground`` ...) drop points with their
+/// colours before the insertion (the sensor crop box in the world's axes).
 #[pyclass(module = "octoquant", name = "ColorMapper")]
 pub struct PyColorMapper {
     /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
@@ -33,7 +36,9 @@ impl PyColorMapper {
     #[new]
     #[pyo3(signature = (
         resolution=0.1, merge="average", max_range=None, prob_hit=0.7, prob_miss=0.4,
-        clamping_min=0.1192, clamping_max=0.971, occupancy_threshold=0.5
+        clamping_min=0.1192, clamping_max=0.971, occupancy_threshold=0.5, *, drop_zero=false,
+        min_range=None, crop_sensor=None, crop_world=None, zmin=None, zmax=None, ground=None,
+        ground_angle=0.15, ground_iterations=200, ground_seed=0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn py_new(
@@ -45,7 +50,30 @@ impl PyColorMapper {
         clamping_min: f64,
         clamping_max: f64,
         occupancy_threshold: f64,
+        drop_zero: bool,
+        min_range: Option<f64>,
+        crop_sensor: Option<Vec<f64>>,
+        crop_world: Option<Vec<f64>>,
+        zmin: Option<f64>,
+        zmax: Option<f64>,
+        ground: Option<f64>,
+        ground_angle: f64,
+        ground_iterations: u32,
+        ground_seed: u64,
     ) -> PyResult<Self> {
+        let filters = FilterArgs {
+            drop_zero,
+            min_range,
+            crop_sensor,
+            crop_world,
+            zmin,
+            zmax,
+            ground,
+            ground_angle,
+            ground_iterations,
+            ground_seed,
+        }
+        .filters()?;
         let merge = match merge {
             "average" => ColorMerge::Average,
             "integrate" => ColorMerge::Integrate,
@@ -74,6 +102,7 @@ impl PyColorMapper {
             resolution,
             params,
             max_range,
+            filters,
             ..MapperOptions::default()
         };
         let mapper =

@@ -118,6 +118,48 @@ impl PyMapper {
     }
 }
 
+/// The point-filter keywords of ``Mapper`` and ``ColorMapper``, as given.
+pub(crate) struct FilterArgs {
+    pub drop_zero: bool,
+    pub min_range: Option<f64>,
+    pub crop_sensor: Option<Vec<f64>>,
+    pub crop_world: Option<Vec<f64>>,
+    pub zmin: Option<f64>,
+    pub zmax: Option<f64>,
+    pub ground: Option<f64>,
+    pub ground_angle: f64,
+    pub ground_iterations: u32,
+    pub ground_seed: u64,
+}
+
+impl FilterArgs {
+    /// The library's filters, checked (ValueError naming the keyword otherwise).
+    pub(crate) fn filters(self) -> PyResult<engine::PointFilters> {
+        let filter_err = |e: engine::FilterError| PyValueError::new_err(e.to_string());
+        let crop = |name: &str, v: Option<Vec<f64>>| {
+            v.map(|v| engine::CropBox::from_slice(name, &v))
+                .transpose()
+                .map_err(filter_err)
+        };
+        let filters = engine::PointFilters {
+            drop_zero: self.drop_zero,
+            min_range: self.min_range,
+            crop_sensor: crop("crop_sensor", self.crop_sensor)?,
+            crop_world: crop("crop_world", self.crop_world)?,
+            z_min: self.zmin,
+            z_max: self.zmax,
+            ground: self.ground.map(|distance| engine::GroundFilter {
+                distance,
+                angle: self.ground_angle,
+                iterations: self.ground_iterations,
+                seed: self.ground_seed,
+            }),
+        };
+        filters.validate().map_err(filter_err)?;
+        Ok(filters)
+    }
+}
+
 #[pymethods]
 impl PyMapper {
     #[new]
@@ -152,27 +194,19 @@ impl PyMapper {
         ground_iterations: u32,
         ground_seed: u64,
     ) -> PyResult<Self> {
-        let filter_err = |e: engine::FilterError| PyValueError::new_err(e.to_string());
-        let crop = |name: &str, v: Option<Vec<f64>>| {
-            v.map(|v| engine::CropBox::from_slice(name, &v))
-                .transpose()
-                .map_err(filter_err)
-        };
-        let filters = engine::PointFilters {
+        let filters = FilterArgs {
             drop_zero,
             min_range,
-            crop_sensor: crop("crop_sensor", crop_sensor)?,
-            crop_world: crop("crop_world", crop_world)?,
-            z_min: zmin,
-            z_max: zmax,
-            ground: ground.map(|distance| engine::GroundFilter {
-                distance,
-                angle: ground_angle,
-                iterations: ground_iterations,
-                seed: ground_seed,
-            }),
-        };
-        filters.validate().map_err(filter_err)?;
+            crop_sensor,
+            crop_world,
+            zmin,
+            zmax,
+            ground,
+            ground_angle,
+            ground_iterations,
+            ground_seed,
+        }
+        .filters()?;
         let params = engine::OccupancyParams::from_probabilities(
             prob_hit,
             prob_miss,

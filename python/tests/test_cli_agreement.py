@@ -93,12 +93,14 @@ def test_segment_matches_cli(cli, data_dir):
 
 
 @pytest.mark.parametrize(
-    "merge,max_range", [("average", None), ("integrate", None), ("average", 4.0)]
+    "merge,max_range,band",
+    [("average", None, None), ("integrate", None, None), ("average", 4.0, (0.0, 1.0))],
 )
-def test_color_mapper_matches_cli(cli, data_dir, tmp_path, merge, max_range):
+def test_color_mapper_matches_cli(cli, data_dir, tmp_path, merge, max_range, band):
     """octoquant.ColorMapper over read_frames(colors=True) writes the .ot that
     ``octoquant map --color`` writes from the same TUM RGB-D frames (the CLI's map is proven
-    byte-identical with liboctomap's ColorOcTree inserting as octomap_server does)."""
+    byte-identical with liboctomap's ColorOcTree inserting as octomap_server does), also with a
+    maximum range and a z band filter."""
     assoc = data_dir / "rgbd" / "tum_fr2_pioneer_slam2_subset" / "my_association.txt"
     if not assoc.is_file():
         _missing(str(assoc))
@@ -107,15 +109,24 @@ def test_color_mapper_matches_cli(cli, data_dir, tmp_path, merge, max_range):
     args += ["--res", "0.05", "-o", str(out), "-q"]
     if max_range is not None:
         args += ["--max-range", str(max_range)]
+    zmin, zmax = band if band else (None, None)
+    if band:
+        args += ["--zmin", str(zmin), "--zmax", str(zmax)]
     res = subprocess.run(args, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     frames = octoquant.read_frames(assoc, pixel_step=4, colors=True)
     assert len(frames) == 10
-    mapper = octoquant.ColorMapper(0.05, merge=merge, max_range=max_range)
+    mapper = octoquant.ColorMapper(0.05, merge=merge, max_range=max_range, zmin=zmin, zmax=zmax)
+    dropped = 0
     for points, origin, colors in frames:
         assert colors.dtype == np.uint8 and colors.shape == points.shape
         st = mapper.insert(points, colors, origin)
         assert st["points"] == len(points)
+        dropped += st["dropped"]["z_band"]
+        if band:
+            z = points[:, 2].astype(np.float64)
+            assert st["dropped"]["z_band"] == int(np.sum((z < zmin) | (z > zmax)))
+    assert (dropped > 10000) == bool(band), dropped
     assert mapper.frames == 10
     tree = mapper.tree
     assert tree.write() == out.read_bytes()
