@@ -333,20 +333,7 @@ impl VoxelBlocks {
             });
         }
         blk.idx = idx;
-        let vals = &self.palette.vals;
-        let i0 = idx[0];
-        let (uniform, max) = if idx == [i0; 8] && i0 != ABSENT_IDX {
-            (true, vals[i0 as usize])
-        } else {
-            let mut m = -f32::MAX;
-            for i in idx {
-                let v = vals[i as usize];
-                if v > m {
-                    m = v;
-                }
-            }
-            (false, m)
-        };
+        let (uniform, max) = self.palette.uniform_or_max(&idx);
         Some(GroupUpdate {
             created,
             applied,
@@ -418,20 +405,8 @@ impl VoxelBlocks {
     #[inline(always)]
     pub fn collapse_or_max(&self, b: u32) -> (bool, f32) {
         if let View::Narrow(arena, palette) = self.view() {
-            let idx = arena.blocks[b as usize].idx;
-            let i0 = idx[0];
-            if idx == [i0; 8] && i0 != ABSENT_IDX {
-                return (true, palette.vals[i0 as usize]);
-            }
             if !palette.neg_zero {
-                let mut m = -f32::MAX;
-                for i in idx {
-                    let v = palette.vals[i as usize];
-                    if v > m {
-                        m = v;
-                    }
-                }
-                return (false, m);
+                return palette.uniform_or_max(&arena.blocks[b as usize].idx);
             }
         }
         match self.uniform(b) {
@@ -465,7 +440,7 @@ impl VoxelBlocks {
             View::Narrow(arena, palette) => {
                 let mut fresh = Palette::new(palette.limit);
                 let mut remap = vec![ABSENT_IDX];
-                for &v in &palette.vals[1..] {
+                for &v in &palette.values()[1..] {
                     match fresh.intern(f(v)) {
                         Some(i) => remap.push(i),
                         None => {
