@@ -309,7 +309,7 @@ impl Walk {
             // which an update treats as new voxels)
             blk.vals[j] = 0.0;
             t.add_size(1);
-            lb = t.store.alloc_kids(node);
+            lb = t.store.alloc_voxel_kids(kb, j);
         } else if lb == NO_BLOCK {
             // a pruned node: its voxels' searches end here
             if self.add.exits_at(v) {

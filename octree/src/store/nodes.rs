@@ -215,6 +215,17 @@ impl NodeStore {
         b
     }
 
+    /// [`NodeStore::alloc_kids`] for the depth-15 node in slot `j` of inner block `kb`: a new
+    /// empty voxel block, without a dispatch on the node's depth.
+    #[inline(always)]
+    pub fn alloc_voxel_kids(&mut self, kb: u32, j: usize) -> u32 {
+        let b = self.voxels.alloc();
+        let kid = &mut self.inner.blocks[kb as usize].kids[j & 7];
+        debug_assert_eq!(*kid, NO_BLOCK);
+        *kid = b;
+        b
+    }
+
     /// Create child `i` of `n` with value `v`; returns the new child.
     #[inline]
     pub fn create_child(&mut self, n: NodeRef, i: usize, v: f32) -> NodeRef {
@@ -305,10 +316,7 @@ impl NodeStore {
         if cd == 16 {
             return self.voxels.uniform(b);
         }
-        let blk = &self.inner.blocks[b as usize];
-        let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
-        let v0 = blk.vals[0];
-        (leaves && present(v0) && blk.vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
+        inner_uniform(&self.inner.blocks[b as usize])
     }
 
     /// Set the value of a node at depth 0..=15 (cheaper than [`NodeStore::set_value`]).
@@ -509,4 +517,15 @@ impl NodeStore {
             fixed_bytes: std::mem::size_of::<Self>(),
         }
     }
+}
+
+/// The value of the eight children in `blk` when they exist, have no children and are equal
+/// under float `==` (child 0's value); `None` otherwise. The comparisons fold without
+/// short-circuit so they compile to a few vector compares; an absent child (NaN) never equals
+/// a present value.
+#[inline(always)]
+fn inner_uniform(blk: &InnerBlock) -> Option<f32> {
+    let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
+    let v0 = blk.vals[0];
+    (leaves && present(v0) && blk.vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
 }
