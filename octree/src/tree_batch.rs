@@ -276,8 +276,8 @@ impl Walk {
             applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
-            if !self.lazy {
-                t.refresh(cur);
+            if !self.lazy && t.store.refresh_branch(cur, kb) {
+                t.sub_size(8);
             }
             // the brick's node is refreshed; its ancestors wait until the walk leaves them
             self.dirty = BRICK_DEPTH;

@@ -362,6 +362,27 @@ impl NodeStore {
         Some(false)
     }
 
+    /// [`NodeStore::prune_or_refresh`] for a node `n` at depth 1..=14 whose child block `b`
+    /// (of inner nodes) is known: no look-up of the block, no dispatch on the depth. Returns
+    /// whether it pruned.
+    #[inline(always)]
+    pub fn refresh_branch(&mut self, n: NodeRef, b: u32) -> bool {
+        debug_assert!((1..15).contains(&n.depth));
+        debug_assert_eq!(self.kids(n), b);
+        let kids = &self.inner.blocks[b as usize];
+        let (pruned, v) = match inner_uniform(kids) {
+            Some(v0) => (true, v0),
+            None => (false, max_present(&kids.vals)),
+        };
+        let blk = &mut self.inner.blocks[n.block as usize];
+        blk.vals[n.slot as usize & 7] = v;
+        if pruned {
+            blk.kids[n.slot as usize & 7] = NO_BLOCK;
+            self.inner.release(b);
+        }
+        pruned
+    }
+
     /// [`NodeStore::prune_or_refresh`] for the depth-15 node in slot `j` of inner block `kb`,
     /// whose child block `lb` (depth 16) is known: the batched walk's step after updating
     /// voxels below it, without a look-up of the node or a dispatch on its depth. Returns
