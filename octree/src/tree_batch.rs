@@ -270,6 +270,25 @@ impl Walk {
         let mut applied = false;
         let mut rest = mask;
         while rest != 0 {
+            if !TRACK {
+                // the groups that need no more than memoized transitions, at once
+                let store = &mut t.store;
+                let g = store.voxels.update_groups(
+                    &mut store.inner.blocks[kb as usize],
+                    rest,
+                    &self.memo,
+                    &self.add,
+                    self.lazy,
+                );
+                t.add_size(g.added);
+                t.sub_size(g.removed);
+                applied |= g.applied;
+                rest = g.rest;
+                if rest == 0 {
+                    break;
+                }
+            }
+            // the next group voxel by voxel
             let j = rest.trailing_zeros() as usize / 8;
             let byte = (rest >> (8 * j)) as u8;
             rest &= !(0xff << (8 * j));

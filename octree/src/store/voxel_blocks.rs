@@ -9,7 +9,8 @@
 //! (`shrink_to_fit`) rebuilds the palette from the values in use and goes back to narrow
 //! storage when they fit again.
 
-use super::arena::Arena;
+use super::arena::{Arena, NO_BLOCK};
+use super::nodes::InnerBlock;
 use super::palette::{Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX};
 use super::slot::{max_present, present, ABSENT};
 
@@ -53,6 +54,20 @@ pub(crate) struct GroupUpdate {
     /// After the update (when applied): the largest present value (as
     /// [`VoxelBlocks::collapse_or_max`]).
     pub max: f32,
+}
+
+/// What [`VoxelBlocks::update_groups`] did below one depth-14 node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct GroupsUpdate {
+    /// Some voxel took its update (not OctoMap's early exit).
+    pub applied: bool,
+    /// Nodes created (depth-15 nodes and voxels).
+    pub added: usize,
+    /// Nodes removed by pruning depth-15 nodes.
+    pub removed: usize,
+    /// The groups not done (a mask as the one passed in): the first of them needs the
+    /// voxel-by-voxel path; 0 when all were done.
+    pub rest: u64,
 }
 
 /// The depth-16 blocks of a tree: narrow (palette indices) or, past the palette limit, wide.
@@ -306,40 +321,80 @@ impl VoxelBlocks {
             return None;
         }
         let blk = self.narrow.blocks.get_mut(b as usize)?;
-        let mut idx = blk.idx;
-        let mut created = 0;
-        let mut applied = false;
-        let mut rest = bits;
-        while rest != 0 {
-            let s = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let i = idx[s & 7];
-            let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
-            if n == UNKNOWN {
-                return None;
+        group_step(blk, &self.palette, bits, memo)
+    }
+
+    /// The batched walk's updates below a depth-14 node whose child block is `parent`: for
+    /// each group of eight bits of `mask` (byte `j` = the voxels below the depth-15 node in
+    /// slot `j`), in order, create the depth-15 node when absent, then
+    /// [`VoxelBlocks::update_group`] and, unless `lazy`, set the node to the max of its
+    /// voxels or prune it. A pruned depth-15 node whose value is at the clamp the update
+    /// pushes towards takes OctoMap's early exit (nothing changes).
+    ///
+    /// Stops before a group that needs more: a pruned node to expand, a transition not
+    /// memoized yet, wide storage or `-0.0` in the palette; [`GroupsUpdate::rest`] holds the
+    /// groups left (the first one's node may have been created meanwhile, as that path
+    /// would). The parent block is borrowed once for the whole brick, and nodes added and
+    /// removed are counted here instead of in the tree.
+    #[inline(always)]
+    pub fn update_groups(
+        &mut self,
+        parent: &mut InnerBlock,
+        mask: u64,
+        memo: &[u16],
+        add: &Adder,
+        lazy: bool,
+    ) -> GroupsUpdate {
+        let mut out = GroupsUpdate {
+            applied: false,
+            added: 0,
+            removed: 0,
+            rest: mask,
+        };
+        if self.palette.neg_zero || self.wide.is_some() {
+            return out;
+        }
+        while out.rest != 0 {
+            let j = out.rest.trailing_zeros() as usize / 8;
+            let bits = (out.rest >> (8 * j)) as u8;
+            let v = parent.vals[j & 7];
+            let mut lb = parent.kids[j & 7];
+            if !present(v) {
+                // a new node: every voxel below it is new
+                parent.vals[j & 7] = 0.0;
+                out.added += 1;
+                lb = self.narrow.alloc();
+                parent.kids[j & 7] = lb;
+            } else if lb == NO_BLOCK {
+                if !add.exits_at(v) {
+                    // a pruned node to expand: the caller's path
+                    return out;
+                }
+                // a pruned node at the clamp: its voxels' searches end here
+                out.rest &= !(0xff << (8 * j));
+                continue;
             }
-            if n != EXIT {
-                idx[s & 7] = n;
-                created += usize::from(i == ABSENT_IDX);
-                applied = true;
+            let Some(blk) = self.narrow.blocks.get_mut(lb as usize) else {
+                return out;
+            };
+            let Some(g) = group_step(blk, &self.palette, bits, memo) else {
+                return out;
+            };
+            out.rest &= !(0xff << (8 * j));
+            out.added += g.created;
+            if g.applied {
+                out.applied = true;
+                if !lazy {
+                    parent.vals[j & 7] = g.max;
+                    if g.uniform {
+                        parent.kids[j & 7] = NO_BLOCK;
+                        self.narrow.release(lb);
+                        out.removed += 8;
+                    }
+                }
             }
         }
-        if !applied {
-            return Some(GroupUpdate {
-                created: 0,
-                applied: false,
-                uniform: false,
-                max: 0.0,
-            });
-        }
-        blk.idx = idx;
-        let (uniform, max) = self.palette.uniform_or_max(&idx);
-        Some(GroupUpdate {
-            created,
-            applied,
-            uniform,
-            max,
-        })
+        out
     }
 
     /// [`VoxelBlocks::update`] without a memo entry, or on wide storage.
@@ -526,6 +581,45 @@ impl VoxelBlocks {
             wide: Some(wide),
         }
     }
+}
+
+/// [`VoxelBlocks::update_group`] on the narrow block `blk` (the palette holds no `-0.0`).
+#[inline(always)]
+fn group_step(blk: &mut NarrowBlock, palette: &Palette, bits: u8, memo: &[u16]) -> Option<GroupUpdate> {
+    let mut idx = blk.idx;
+    let mut created = 0;
+    let mut applied = false;
+    let mut rest = bits;
+    while rest != 0 {
+        let s = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let i = idx[s & 7];
+        let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
+        if n == UNKNOWN {
+            return None;
+        }
+        if n != EXIT {
+            idx[s & 7] = n;
+            created += usize::from(i == ABSENT_IDX);
+            applied = true;
+        }
+    }
+    if !applied {
+        return Some(GroupUpdate {
+            created: 0,
+            applied: false,
+            uniform: false,
+            max: 0.0,
+        });
+    }
+    blk.idx = idx;
+    let (uniform, max) = palette.uniform_or_max(&idx);
+    Some(GroupUpdate {
+        created,
+        applied,
+        uniform,
+        max,
+    })
 }
 
 /// `Some(v0)` when all eight values are present and equal to the first under `==`.
