@@ -199,26 +199,26 @@ impl Walk {
             t.store.root_val = Some(0.0);
             t.add_size(1);
         }
-        // read-only descent to the deepest existing node (OctoMap's `search`)
+        // read-only descent to the deepest existing node (OctoMap's `search`); `kids` is
+        // `cur`'s child block, read from the block that holds `cur`
         let path = &mut self.path;
         let mut d = if just_rooted { 0 } else { common };
         let mut cur = path[d];
+        let mut kids = t.store.kids(cur);
         let mut missing_child = false;
-        while d < BRICK_DEPTH {
-            let b = t.store.kids(cur);
-            if b == NO_BLOCK {
-                break;
-            }
+        while d < BRICK_DEPTH && kids != NO_BLOCK {
             let pos = child_at(code, d);
-            if !present(t.store.inner.blocks[b as usize].vals[pos]) {
+            let blk = &t.store.inner.blocks[kids as usize];
+            if !present(blk.vals[pos]) {
                 missing_child = true;
                 break;
             }
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,
-                block: b,
+                block: kids,
             };
+            kids = blk.kids[pos];
             d += 1;
             path[d] = cur;
         }
@@ -226,7 +226,7 @@ impl Walk {
         // the same early exit or none does
         if !missing_child
             && !just_rooted
-            && t.store.kids(cur) == NO_BLOCK
+            && kids == NO_BLOCK
             && self.add.exits_at(t.store.value(cur))
         {
             self.valid = d + 1;
@@ -237,27 +237,34 @@ impl Walk {
         let mut fresh = just_rooted;
         while d < BRICK_DEPTH {
             let pos = child_at(code, d);
-            let created = if t.store.kids(cur) == NO_BLOCK && !fresh {
-                t.store.expand_node(cur);
+            let created = if kids == NO_BLOCK && !fresh {
+                kids = t.store.expand_node(cur);
                 t.add_size(8);
                 false
             } else {
-                t.store.create_child_zero(cur, pos);
+                if kids == NO_BLOCK {
+                    kids = t.store.alloc_kids(cur);
+                }
+                let blk = &mut t.store.inner.blocks[kids as usize];
+                debug_assert!(!present(blk.vals[pos]) && blk.kids[pos] == NO_BLOCK);
+                blk.vals[pos] = 0.0;
                 t.add_size(1);
                 true
             };
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,
-                block: t.store.kids(cur),
+                block: kids,
             };
+            // a created or expanded child has no children
+            kids = NO_BLOCK;
             d += 1;
             path[d] = cur;
             fresh = created;
         }
         self.valid = BRICK_DEPTH + 1;
         // the brick's node: its child block holds the depth-15 nodes
-        let mut kb = t.store.kids(cur);
+        let mut kb = kids;
         if kb == NO_BLOCK {
             kb = if fresh {
                 t.store.alloc_kids(cur)

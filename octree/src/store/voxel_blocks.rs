@@ -585,7 +585,12 @@ impl VoxelBlocks {
 
 /// [`VoxelBlocks::update_group`] on the narrow block `blk` (the palette holds no `-0.0`).
 #[inline(always)]
-fn group_step(blk: &mut NarrowBlock, palette: &Palette, bits: u8, memo: &[u16]) -> Option<GroupUpdate> {
+fn group_step(
+    blk: &mut NarrowBlock,
+    palette: &Palette,
+    bits: u8,
+    memo: &[u16],
+) -> Option<GroupUpdate> {
     let mut idx = blk.idx;
     let mut created = 0;
     let mut applied = false;
