@@ -329,11 +329,12 @@ impl VoxelBlocks {
     /// slot `j`), in order, create the depth-15 node when absent, then
     /// [`VoxelBlocks::update_group`] and, unless `lazy`, set the node to the max of its
     /// voxels or prune it. A pruned depth-15 node whose value is at the clamp the update
-    /// pushes towards takes OctoMap's early exit (nothing changes).
+    /// pushes towards takes OctoMap's early exit (nothing changes); another one is expanded
+    /// first.
     ///
-    /// Stops before a group that needs more: a pruned node to expand, a transition not
-    /// memoized yet, wide storage or `-0.0` in the palette; [`GroupsUpdate::rest`] holds the
-    /// groups left (the first one's node may have been created meanwhile, as that path
+    /// Stops before a group that needs more: a transition not memoized yet, a full palette,
+    /// wide storage or `-0.0` in the palette; [`GroupsUpdate::rest`] holds the groups left
+    /// (the first one's node may have been created or expanded meanwhile, as that path
     /// would). The parent block is borrowed once for the whole brick, and nodes added and
     /// removed are counted here instead of in the tree.
     #[inline(always)]
@@ -366,13 +367,24 @@ impl VoxelBlocks {
                 lb = self.narrow.alloc();
                 parent.kids[j & 7] = lb;
             } else if lb == NO_BLOCK {
-                if !add.exits_at(v) {
-                    // a pruned node to expand: the caller's path
+                if add.exits_at(v) {
+                    // a pruned node at the clamp: its voxels' searches end here
+                    out.rest &= !(0xff << (8 * j));
+                    continue;
+                }
+                // a pruned node: expand it (`expandNode`), unless the palette is full (the
+                // caller's path widens the storage)
+                let Some(i) = self.palette.intern(v) else {
+                    return out;
+                };
+                lb = self.narrow.alloc();
+                self.narrow.blocks[lb as usize].idx = [i; 8];
+                parent.kids[j & 7] = lb;
+                out.added += 8;
+                if self.palette.neg_zero {
+                    // `v` was -0.0
                     return out;
                 }
-                // a pruned node at the clamp: its voxels' searches end here
-                out.rest &= !(0xff << (8 * j));
-                continue;
             }
             let Some(blk) = self.narrow.blocks.get_mut(lb as usize) else {
                 return out;
