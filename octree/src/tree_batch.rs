@@ -243,7 +243,7 @@ impl Walk {
                 false
             } else {
                 if kids == NO_BLOCK {
-                    kids = t.store.alloc_kids(cur);
+                    kids = t.store.alloc_inner_kids(cur);
                 }
                 let blk = &mut t.store.inner.blocks[kids as usize];
                 debug_assert!(!present(blk.vals[pos]) && blk.kids[pos] == NO_BLOCK);
@@ -267,7 +267,7 @@ impl Walk {
         let mut kb = kids;
         if kb == NO_BLOCK {
             kb = if fresh {
-                t.store.alloc_kids(cur)
+                t.store.alloc_inner_kids(cur)
             } else {
                 // a childless existing node that passed the early-exit test above
                 t.add_size(8);

@@ -215,6 +215,21 @@ impl NodeStore {
         b
     }
 
+    /// [`NodeStore::alloc_kids`] for a node `n` at depth 0..=14 (children in an inner block),
+    /// without a dispatch on the child depth.
+    #[inline(always)]
+    pub fn alloc_inner_kids(&mut self, n: NodeRef) -> u32 {
+        debug_assert!(n.depth < 15);
+        debug_assert_eq!(self.kids(n), NO_BLOCK);
+        let b = self.inner.alloc();
+        if n.depth == 0 {
+            self.root_kids = b;
+        } else {
+            self.inner.blocks[n.block as usize].kids[n.slot as usize & 7] = b;
+        }
+        b
+    }
+
     /// [`NodeStore::alloc_kids`] for the depth-15 node in slot `j` of inner block `kb`: a new
     /// empty voxel block, without a dispatch on the node's depth.
     #[inline(always)]
