@@ -606,19 +606,19 @@ fn group_step(
     let mut idx = blk.idx;
     let mut created = 0;
     let mut applied = false;
-    let mut rest = bits;
+    let mut rest = u32::from(bits);
     while rest != 0 {
         let s = rest.trailing_zeros() as usize;
         rest &= rest - 1;
         let i = idx[s & 7];
         let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
-        if n == UNKNOWN {
-            return None;
-        }
-        if n != EXIT {
+        // one test for both special entries, UNKNOWN (0) and EXIT (0xffff)
+        if n.wrapping_sub(1) < EXIT - 1 {
             idx[s & 7] = n;
             created += usize::from(i == ABSENT_IDX);
             applied = true;
+        } else if n == UNKNOWN {
+            return None;
         }
     }
     if !applied {
