@@ -182,7 +182,7 @@ impl Walk {
     }
 
     /// Update the voxels of `mask` in brick `code` (42 bits).
-    #[inline]
+    #[inline(always)]
     fn brick<const TRACK: bool>(&mut self, t: &mut OcTree, code: u64, mask: u64) {
         if mask == 0 {
             return;
