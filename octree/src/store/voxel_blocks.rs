@@ -366,6 +366,34 @@ impl VoxelBlocks {
                 out.added += 1;
                 lb = self.narrow.alloc();
                 parent.kids[j & 7] = lb;
+                let n0 = memo.first().copied().unwrap_or(UNKNOWN);
+                if n0 != UNKNOWN {
+                    // every selected voxel takes the transition of a new voxel (never OctoMap's
+                    // early exit), the others stay absent: the block's max is that voxel's
+                    // value, and the block is uniform when all eight are selected
+                    let mut idx = [ABSENT_IDX; 8];
+                    let mut sel = u32::from(bits);
+                    while sel != 0 {
+                        idx[sel.trailing_zeros() as usize & 7] = n0;
+                        sel &= sel - 1;
+                    }
+                    self.narrow.blocks[lb as usize].idx = idx;
+                    out.added += bits.count_ones() as usize;
+                    out.applied = true;
+                    out.rest &= !(0xff << (8 * j));
+                    if !lazy {
+                        let v0 = self.palette.vals[usize::from(n0)];
+                        if bits == 0xff {
+                            parent.vals[j & 7] = v0;
+                            parent.kids[j & 7] = NO_BLOCK;
+                            self.narrow.release(lb);
+                            out.removed += 8;
+                        } else {
+                            parent.vals[j & 7] = if v0 > -f32::MAX { v0 } else { -f32::MAX };
+                        }
+                    }
+                    continue;
+                }
             } else if lb == NO_BLOCK {
                 if add.exits_at(v) {
                     // a pruned node at the clamp: its voxels' searches end here
