@@ -330,7 +330,8 @@ impl VoxelBlocks {
     /// [`VoxelBlocks::update_group`] and, unless `lazy`, set the node to the max of its
     /// voxels or prune it. A pruned depth-15 node whose value is at the clamp the update
     /// pushes towards takes OctoMap's early exit (nothing changes); another one is expanded
-    /// first.
+    /// first. A new or just expanded node's block holds one value (absent, or the node's), so
+    /// its update and max need one memo look-up and no per-voxel loop.
     ///
     /// Stops before a group that needs more: a transition not memoized yet, a full palette,
     /// wide storage or `-0.0` in the palette; [`GroupsUpdate::rest`] holds the groups left
@@ -412,6 +413,40 @@ impl VoxelBlocks {
                 if self.palette.neg_zero {
                     // `v` was -0.0
                     return out;
+                }
+                let n = memo.get(usize::from(i)).copied().unwrap_or(UNKNOWN);
+                if n.wrapping_sub(1) < EXIT - 1 {
+                    // every selected voxel takes the transition of `v` (not the early exit:
+                    // `v` is not at that clamp), the others keep `v`: two values, so the max
+                    // is the larger, and the block is uniform when all eight are selected or
+                    // the transition keeps the index
+                    let mut idx = [i; 8];
+                    let mut sel = u32::from(bits);
+                    while sel != 0 {
+                        idx[sel.trailing_zeros() as usize & 7] = n;
+                        sel &= sel - 1;
+                    }
+                    self.narrow.blocks[lb as usize].idx = idx;
+                    out.applied = true;
+                    out.rest &= !(0xff << (8 * j));
+                    if !lazy {
+                        let vn = self.palette.vals[usize::from(n)];
+                        if bits == 0xff || n == i {
+                            parent.vals[j & 7] = vn;
+                            parent.kids[j & 7] = NO_BLOCK;
+                            self.narrow.release(lb);
+                            out.removed += 8;
+                        } else {
+                            let mut m = -f32::MAX;
+                            for x in [v, vn] {
+                                if x > m {
+                                    m = x;
+                                }
+                            }
+                            parent.vals[j & 7] = m;
+                        }
+                    }
+                    continue;
                 }
             }
             let Some(blk) = self.narrow.blocks.get_mut(lb as usize) else {
