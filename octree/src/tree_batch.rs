@@ -182,7 +182,7 @@ impl Walk {
     }
 
     /// Update the voxels of `mask` in brick `code` (42 bits).
-    #[inline]
+    #[inline(always)]
     fn brick<const TRACK: bool>(&mut self, t: &mut OcTree, code: u64, mask: u64) {
         if mask == 0 {
             return;
@@ -199,26 +199,26 @@ impl Walk {
             t.store.root_val = Some(0.0);
             t.add_size(1);
         }
-        // read-only descent to the deepest existing node (OctoMap's `search`)
+        // read-only descent to the deepest existing node (OctoMap's `search`); `kids` is
+        // `cur`'s child block, read from the block that holds `cur`
         let path = &mut self.path;
         let mut d = if just_rooted { 0 } else { common };
         let mut cur = path[d];
+        let mut kids = t.store.kids(cur);
         let mut missing_child = false;
-        while d < BRICK_DEPTH {
-            let b = t.store.kids(cur);
-            if b == NO_BLOCK {
-                break;
-            }
+        while d < BRICK_DEPTH && kids != NO_BLOCK {
             let pos = child_at(code, d);
-            if !present(t.store.inner.blocks[b as usize].vals[pos]) {
+            let blk = &t.store.inner.blocks[kids as usize];
+            if !present(blk.vals[pos]) {
                 missing_child = true;
                 break;
             }
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,
-                block: b,
+                block: kids,
             };
+            kids = blk.kids[pos];
             d += 1;
             path[d] = cur;
         }
@@ -226,7 +226,7 @@ impl Walk {
         // the same early exit or none does
         if !missing_child
             && !just_rooted
-            && t.store.kids(cur) == NO_BLOCK
+            && kids == NO_BLOCK
             && self.add.exits_at(t.store.value(cur))
         {
             self.valid = d + 1;
@@ -237,30 +237,37 @@ impl Walk {
         let mut fresh = just_rooted;
         while d < BRICK_DEPTH {
             let pos = child_at(code, d);
-            let created = if t.store.kids(cur) == NO_BLOCK && !fresh {
-                t.store.expand_node(cur);
+            let created = if kids == NO_BLOCK && !fresh {
+                kids = t.store.expand_node(cur);
                 t.add_size(8);
                 false
             } else {
-                t.store.create_child_zero(cur, pos);
+                if kids == NO_BLOCK {
+                    kids = t.store.alloc_inner_kids(cur);
+                }
+                let blk = &mut t.store.inner.blocks[kids as usize];
+                debug_assert!(!present(blk.vals[pos]) && blk.kids[pos] == NO_BLOCK);
+                blk.vals[pos] = 0.0;
                 t.add_size(1);
                 true
             };
             cur = NodeRef {
                 depth: d as u8 + 1,
                 slot: pos as u8,
-                block: t.store.kids(cur),
+                block: kids,
             };
+            // a created or expanded child has no children
+            kids = NO_BLOCK;
             d += 1;
             path[d] = cur;
             fresh = created;
         }
         self.valid = BRICK_DEPTH + 1;
         // the brick's node: its child block holds the depth-15 nodes
-        let mut kb = t.store.kids(cur);
+        let mut kb = kids;
         if kb == NO_BLOCK {
             kb = if fresh {
-                t.store.alloc_kids(cur)
+                t.store.alloc_inner_kids(cur)
             } else {
                 // a childless existing node that passed the early-exit test above
                 t.add_size(8);
@@ -270,14 +277,33 @@ impl Walk {
         let mut applied = false;
         let mut rest = mask;
         while rest != 0 {
+            if !TRACK {
+                // the groups that need no more than memoized transitions, at once
+                let store = &mut t.store;
+                let g = store.voxels.update_groups(
+                    &mut store.inner.blocks[kb as usize],
+                    rest,
+                    &self.memo,
+                    &self.add,
+                    self.lazy,
+                );
+                t.add_size(g.added);
+                t.sub_size(g.removed);
+                applied |= g.applied;
+                rest = g.rest;
+                if rest == 0 {
+                    break;
+                }
+            }
+            // the next group voxel by voxel
             let j = rest.trailing_zeros() as usize / 8;
             let byte = (rest >> (8 * j)) as u8;
             rest &= !(0xff << (8 * j));
             applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
-            if !self.lazy {
-                t.refresh(cur);
+            if !self.lazy && t.store.refresh_branch(cur, kb) {
+                t.sub_size(8);
             }
             // the brick's node is refreshed; its ancestors wait until the walk leaves them
             self.dirty = BRICK_DEPTH;
@@ -309,7 +335,7 @@ impl Walk {
             // which an update treats as new voxels)
             blk.vals[j] = 0.0;
             t.add_size(1);
-            lb = t.store.alloc_kids(node);
+            lb = t.store.alloc_voxel_kids(kb, j);
         } else if lb == NO_BLOCK {
             // a pruned node: its voxels' searches end here
             if self.add.exits_at(v) {

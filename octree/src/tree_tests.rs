@@ -131,6 +131,136 @@ proptest! {
     }
 }
 
+/// Operations for the batched-walk test: a batch over a box of keys, or over its keys in a
+/// scattered order (hit or miss, lazy or not), repeated to drive voxels to the clamps and
+/// prune them; one voxel set to a value (`-0.0` among them); a compaction, which rebuilds the
+/// palette (and may make wide storage narrow again).
+#[derive(Debug, Clone)]
+enum WalkOp {
+    Batch([u16; 6], bool, bool, bool, u8),
+    Set(Key, usize),
+    Shrink,
+}
+
+fn walk_op() -> impl Strategy<Value = WalkOp> {
+    prop_oneof![
+        8 => (
+            prop::array::uniform6(0u16..6),
+            any::<bool>(),
+            any::<bool>(),
+            any::<bool>(),
+            1u8..8,
+        )
+            .prop_map(|(b, h, l, s, r)| WalkOp::Batch(b, h, l, s, r)),
+        2 => (key(), 0usize..VALS.len()).prop_map(|(k, v)| WalkOp::Set(k, v)),
+        3 => Just(WalkOp::Shrink),
+    ]
+}
+
+/// The keys of the box `b` (a corner and an extent per axis, in [`key`]'s region), in Morton
+/// order or scattered.
+fn box_keys(b: [u16; 6], sorted: bool) -> Vec<Key> {
+    let mut ks = Vec::new();
+    for x in b[0]..6.min(b[0] + b[3] + 1) {
+        for y in b[1]..6.min(b[1] + b[4] + 1) {
+            for z in b[2]..6.min(b[2] + b[5] + 1) {
+                ks.push(Key::new(32764 + x, 32764 + y, 32764 + z));
+            }
+        }
+    }
+    if sorted {
+        ks.sort_by_key(|k| k.morton());
+    } else {
+        ks.sort_by_key(|k| k.morton().wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    }
+    ks
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// The batched walk (`update_keys`) against one `update_node` per key, both with a palette
+    /// of only `limit` values: the walk's group loop stops for a full palette, wide storage
+    /// and `-0.0` and hands the group to its voxel-by-voxel path, before or after creating
+    /// or expanding the group's node. Same `.ot` bytes and size after every operation.
+    #[test]
+    fn batched_walk_with_a_small_palette_equals_single_updates(
+        limit in 1usize..16,
+        ops in prop::collection::vec(walk_op(), 1..40),
+    ) {
+        let mut walk = OcTree::new(0.1).unwrap();
+        let mut single = OcTree::new(0.1).unwrap();
+        walk.store.set_palette_limit(limit);
+        single.store.set_palette_limit(limit);
+        for op in &ops {
+            match op {
+                WalkOp::Batch(b, hit, lazy, sorted, reps) => {
+                    let ks = box_keys(*b, *sorted);
+                    let u = if *hit { Update::Hit } else { Update::Miss };
+                    let inner = InnerNodes::from_lazy(*lazy);
+                    for _ in 0..*reps {
+                        walk.update_keys(&ks, u, inner);
+                        for k in &ks {
+                            single.update_node(*k, u, inner);
+                        }
+                    }
+                }
+                WalkOp::Set(k, v) => {
+                    for t in [&mut walk, &mut single] {
+                        t.set_node_value(*k, VALS[*v], InnerNodes::Refresh).unwrap();
+                    }
+                }
+                WalkOp::Shrink => {
+                    walk.shrink_to_fit();
+                    single.shrink_to_fit();
+                }
+            }
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            write_ot(&walk, &mut a).unwrap();
+            write_ot(&single, &mut b).unwrap();
+            prop_assert!(a == b, ".ot bytes differ after {:?}", op);
+            prop_assert_eq!(walk.size(), single.size());
+        }
+    }
+}
+
+/// The batched walk expands a pruned depth-15 node whose value the palette no longer holds
+/// (compaction keeps only voxel values) while the palette is full: the expansion switches to
+/// wide storage, as one `update_node` does, and the voxel takes its update.
+#[test]
+fn batched_walk_expands_a_node_whose_value_a_full_palette_lacks() {
+    let group: Vec<Key> = (0..8u16)
+        .map(|i| Key::new(32768 + (i & 1), 32768 + (i >> 1 & 1), 32768 + (i >> 2)))
+        .collect();
+    let build = || {
+        let mut t = OcTree::new(0.1).unwrap();
+        for _ in 0..10 {
+            t.update_keys(&group, Update::Hit, InnerNodes::Refresh);
+        }
+        for (i, v) in [0.5, -0.3, 1.1].into_iter().enumerate() {
+            let k = Key::new(32780 + 4 * i as u16, 32768, 32768);
+            t.set_node_value(k, v, InnerNodes::Refresh).unwrap();
+        }
+        // absent, 0.0 and the three values: full, without the pruned node's clamp value
+        t.store.set_palette_limit(4);
+        assert!(!t.store.voxels.is_wide());
+        assert_eq!(t.search(group[0], 16).map(|n| n.depth), Some(15));
+        t
+    };
+    let mut walk = build();
+    let mut single = build();
+    walk.update_keys(&group[..3], Update::Miss, InnerNodes::Refresh);
+    for k in &group[..3] {
+        single.update_node(*k, Update::Miss, InnerNodes::Refresh);
+    }
+    assert!(walk.store.voxels.is_wide());
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    write_ot(&walk, &mut a).unwrap();
+    write_ot(&single, &mut b).unwrap();
+    assert!(a == b);
+    assert_eq!(walk.size(), single.size());
+}
+
 /// Past the real palette limit: 70 000 distinct voxel values force the wide fallback;
 /// every value reads back, updates keep working, `.ot` round-trips, and after
 /// `to_max_likelihood` compaction returns to narrow storage and less memory.

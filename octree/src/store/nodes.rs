@@ -215,6 +215,32 @@ impl NodeStore {
         b
     }
 
+    /// [`NodeStore::alloc_kids`] for a node `n` at depth 0..=14 (children in an inner block),
+    /// without a dispatch on the child depth.
+    #[inline(always)]
+    pub fn alloc_inner_kids(&mut self, n: NodeRef) -> u32 {
+        debug_assert!(n.depth < 15);
+        debug_assert_eq!(self.kids(n), NO_BLOCK);
+        let b = self.inner.alloc();
+        if n.depth == 0 {
+            self.root_kids = b;
+        } else {
+            self.inner.blocks[n.block as usize].kids[n.slot as usize & 7] = b;
+        }
+        b
+    }
+
+    /// [`NodeStore::alloc_kids`] for the depth-15 node in slot `j` of inner block `kb`: a new
+    /// empty voxel block, without a dispatch on the node's depth.
+    #[inline(always)]
+    pub fn alloc_voxel_kids(&mut self, kb: u32, j: usize) -> u32 {
+        let b = self.voxels.alloc();
+        let kid = &mut self.inner.blocks[kb as usize].kids[j & 7];
+        debug_assert_eq!(*kid, NO_BLOCK);
+        *kid = b;
+        b
+    }
+
     /// Create child `i` of `n` with value `v`; returns the new child.
     #[inline]
     pub fn create_child(&mut self, n: NodeRef, i: usize, v: f32) -> NodeRef {
@@ -305,10 +331,7 @@ impl NodeStore {
         if cd == 16 {
             return self.voxels.uniform(b);
         }
-        let blk = &self.inner.blocks[b as usize];
-        let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
-        let v0 = blk.vals[0];
-        (leaves && present(v0) && blk.vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
+        inner_uniform(&self.inner.blocks[b as usize])
     }
 
     /// Set the value of a node at depth 0..=15 (cheaper than [`NodeStore::set_value`]).
@@ -352,6 +375,27 @@ impl NodeStore {
         let m = max_present(&self.inner.blocks[b as usize].vals);
         self.set_branch_value(n, m);
         Some(false)
+    }
+
+    /// [`NodeStore::prune_or_refresh`] for a node `n` at depth 1..=14 whose child block `b`
+    /// (of inner nodes) is known: no look-up of the block, no dispatch on the depth. Returns
+    /// whether it pruned.
+    #[inline(always)]
+    pub fn refresh_branch(&mut self, n: NodeRef, b: u32) -> bool {
+        debug_assert!((1..15).contains(&n.depth));
+        debug_assert_eq!(self.kids(n), b);
+        let kids = &self.inner.blocks[b as usize];
+        let (pruned, v) = match inner_uniform(kids) {
+            Some(v0) => (true, v0),
+            None => (false, max_present(&kids.vals)),
+        };
+        let blk = &mut self.inner.blocks[n.block as usize];
+        blk.vals[n.slot as usize & 7] = v;
+        if pruned {
+            blk.kids[n.slot as usize & 7] = NO_BLOCK;
+            self.inner.release(b);
+        }
+        pruned
     }
 
     /// [`NodeStore::prune_or_refresh`] for the depth-15 node in slot `j` of inner block `kb`,
@@ -509,4 +553,15 @@ impl NodeStore {
             fixed_bytes: std::mem::size_of::<Self>(),
         }
     }
+}
+
+/// The value of the eight children in `blk` when they exist, have no children and are equal
+/// under float `==` (child 0's value); `None` otherwise. The comparisons fold without
+/// short-circuit so they compile to a few vector compares; an absent child (NaN) never equals
+/// a present value.
+#[inline(always)]
+fn inner_uniform(blk: &InnerBlock) -> Option<f32> {
+    let leaves = blk.kids.iter().fold(NO_BLOCK, |a, &k| a & k) == NO_BLOCK;
+    let v0 = blk.vals[0];
+    (leaves && present(v0) && blk.vals.iter().fold(true, |a, &v| a & (v == v0))).then_some(v0)
 }

@@ -93,10 +93,14 @@ struct Memo {
 /// The distinct voxel values of a tree, each once, with a hash index and the update memos.
 #[derive(Clone)]
 pub(crate) struct Palette {
-    /// Index -> value; index 0 is the absent NaN, index 1 is `0.0`.
+    /// Index -> value; index 0 is the absent NaN, index 1 is `0.0`. Padded with the absent NaN
+    /// past the `count` values to a power-of-two length, so that the bitwise OR of indices in
+    /// use is an index too ([`Palette::max_of`]).
     pub(super) vals: Vec<f32>,
-    /// Open addressing over `vals[1..]` by bit pattern: slots hold an index or
-    /// [`EMPTY_SLOT`]; the length is a power of two at least twice `vals.len()`.
+    /// The values in `vals`, the absent NaN included.
+    count: usize,
+    /// Open addressing over `vals[1..count]` by bit pattern: slots hold an index or
+    /// [`EMPTY_SLOT`]; the length is a power of two at least twice `count`.
     table: Vec<u16>,
     /// Whether some value is `-0.0` (which equals `+0.0` under `==` with another index).
     pub(super) neg_zero: bool,
@@ -112,7 +116,8 @@ impl Palette {
     /// A palette holding only the absent NaN and `0.0`, taking at most `limit` values.
     pub(super) fn new(limit: usize) -> Self {
         let mut p = Palette {
-            vals: vec![ABSENT],
+            vals: vec![ABSENT; 2],
+            count: 1,
             table: vec![EMPTY_SLOT; 16],
             neg_zero: false,
             memos: Default::default(),
@@ -126,7 +131,50 @@ impl Palette {
 
     /// Number of distinct values.
     pub(super) fn len(&self) -> usize {
-        self.vals.len() - 1
+        self.count - 1
+    }
+
+    /// Index -> value for the indices in use (index 0, the absent NaN, included).
+    pub(super) fn values(&self) -> &[f32] {
+        &self.vals[..self.count]
+    }
+
+    /// For a block of eight indices: `(true, v)` when all eight are the same present index,
+    /// of value `v`; else `(false, m)` with `m` the largest present value (`-f32::MAX` when
+    /// none), first in child order among equal values, as
+    /// [`max_present`](super::slot::max_present) of their values. Equal indices are equal
+    /// values only without `-0.0` in the palette ([`Palette::neg_zero`]), which the caller
+    /// checks.
+    ///
+    /// The block is read as two `u64`s. Every index in use lies below `vals.len()`, a power of
+    /// two, and so does their bitwise OR `o`; every index is `i & o`, so one bounds check (of
+    /// `..=o`) serves all eight look-ups.
+    #[inline(always)]
+    pub(super) fn uniform_or_max(&self, idx: &[u16; 8]) -> (bool, f32) {
+        let word = |k: usize| {
+            u64::from(idx[4 * k])
+                | (u64::from(idx[4 * k + 1]) << 16)
+                | (u64::from(idx[4 * k + 2]) << 32)
+                | (u64::from(idx[4 * k + 3]) << 48)
+        };
+        let (lo, hi) = (word(0), word(1));
+        let o = lo | hi;
+        let o = o | (o >> 32);
+        let o = ((o | (o >> 16)) & 0xffff) as usize;
+        let vals = &self.vals[..=o];
+        if lo == hi && lo == lo.rotate_left(16) && lo & 0xffff != u64::from(ABSENT_IDX) {
+            return (true, vals[lo as usize & o]);
+        }
+        let mut m = -f32::MAX;
+        for w in [lo, hi] {
+            for k in 0..4 {
+                let v = vals[(w >> (16 * k)) as usize & o];
+                if v > m {
+                    m = v;
+                }
+            }
+        }
+        (false, m)
     }
 
     #[inline]
@@ -150,13 +198,17 @@ impl Palette {
             }
             s = (s + 1) & mask;
         }
-        if self.vals.len() > self.limit {
+        if self.count > self.limit {
             return None;
         }
-        let i = self.vals.len() as u16;
-        self.vals.push(v);
+        let i = self.count as u16;
+        if self.count == self.vals.len() {
+            self.vals.resize(2 * self.count, ABSENT);
+        }
+        self.vals[self.count] = v;
+        self.count += 1;
         self.neg_zero |= bits == (-0.0f32).to_bits();
-        if 2 * self.vals.len() > self.table.len() {
+        if 2 * self.count > self.table.len() {
             self.rehash(2 * self.table.len());
         } else {
             self.table[s] = i;
@@ -167,7 +219,7 @@ impl Palette {
     fn rehash(&mut self, len: usize) {
         self.table = vec![EMPTY_SLOT; len];
         let mask = len - 1;
-        for (i, v) in self.vals.iter().enumerate().skip(1) {
+        for (i, v) in self.vals[..self.count].iter().enumerate().skip(1) {
             let mut s = self.slot_of(v.to_bits());
             while self.table[s] != EMPTY_SLOT {
                 s = (s + 1) & mask;

@@ -9,7 +9,8 @@
 //! (`shrink_to_fit`) rebuilds the palette from the values in use and goes back to narrow
 //! storage when they fit again.
 
-use super::arena::Arena;
+use super::arena::{Arena, NO_BLOCK};
+use super::nodes::InnerBlock;
 use super::palette::{Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX};
 use super::slot::{max_present, present, ABSENT};
 
@@ -53,6 +54,20 @@ pub(crate) struct GroupUpdate {
     /// After the update (when applied): the largest present value (as
     /// [`VoxelBlocks::collapse_or_max`]).
     pub max: f32,
+}
+
+/// What [`VoxelBlocks::update_groups`] did below one depth-14 node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct GroupsUpdate {
+    /// Some voxel took its update (not OctoMap's early exit).
+    pub applied: bool,
+    /// Nodes created (depth-15 nodes and voxels).
+    pub added: usize,
+    /// Nodes removed by pruning depth-15 nodes.
+    pub removed: usize,
+    /// The groups not done (a mask as the one passed in): the first of them needs the
+    /// voxel-by-voxel path; 0 when all were done.
+    pub rest: u64,
 }
 
 /// The depth-16 blocks of a tree: narrow (palette indices) or, past the palette limit, wide.
@@ -306,53 +321,155 @@ impl VoxelBlocks {
             return None;
         }
         let blk = self.narrow.blocks.get_mut(b as usize)?;
-        let mut idx = blk.idx;
-        let mut created = 0;
-        let mut applied = false;
-        let mut rest = bits;
-        while rest != 0 {
-            let s = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let i = idx[s & 7];
-            let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
-            if n == UNKNOWN {
-                return None;
-            }
-            if n != EXIT {
-                idx[s & 7] = n;
-                created += usize::from(i == ABSENT_IDX);
-                applied = true;
-            }
+        group_step(blk, &self.palette, bits, memo)
+    }
+
+    /// The batched walk's updates below a depth-14 node whose child block is `parent`: for
+    /// each group of eight bits of `mask` (byte `j` = the voxels below the depth-15 node in
+    /// slot `j`), in order, create the depth-15 node when absent, then
+    /// [`VoxelBlocks::update_group`] and, unless `lazy`, set the node to the max of its
+    /// voxels or prune it. A pruned depth-15 node whose value is at the clamp the update
+    /// pushes towards takes OctoMap's early exit (nothing changes); another one is expanded
+    /// first. A new or just expanded node's block holds one value (absent, or the node's), so
+    /// its update and max need one memo look-up and no per-voxel loop.
+    ///
+    /// Stops before a group that needs more: a transition not memoized yet, a full palette,
+    /// wide storage or `-0.0` in the palette; [`GroupsUpdate::rest`] holds the groups left
+    /// (the first one's node may have been created or expanded meanwhile, as that path
+    /// would). The parent block is borrowed once for the whole brick, and nodes added and
+    /// removed are counted here instead of in the tree.
+    #[inline(always)]
+    pub fn update_groups(
+        &mut self,
+        parent: &mut InnerBlock,
+        mask: u64,
+        memo: &[u16],
+        add: &Adder,
+        lazy: bool,
+    ) -> GroupsUpdate {
+        let mut out = GroupsUpdate {
+            applied: false,
+            added: 0,
+            removed: 0,
+            rest: mask,
+        };
+        if self.palette.neg_zero || self.wide.is_some() {
+            return out;
         }
-        if !applied {
-            return Some(GroupUpdate {
-                created: 0,
-                applied: false,
-                uniform: false,
-                max: 0.0,
-            });
-        }
-        blk.idx = idx;
-        let vals = &self.palette.vals;
-        let i0 = idx[0];
-        let (uniform, max) = if idx == [i0; 8] && i0 != ABSENT_IDX {
-            (true, vals[i0 as usize])
-        } else {
-            let mut m = -f32::MAX;
-            for i in idx {
-                let v = vals[i as usize];
-                if v > m {
-                    m = v;
+        while out.rest != 0 {
+            let j = out.rest.trailing_zeros() as usize / 8;
+            let bits = (out.rest >> (8 * j)) as u8;
+            let v = parent.vals[j & 7];
+            let mut lb = parent.kids[j & 7];
+            if !present(v) {
+                // a new node: every voxel below it is new
+                parent.vals[j & 7] = 0.0;
+                out.added += 1;
+                lb = self.narrow.alloc();
+                parent.kids[j & 7] = lb;
+                let n0 = memo.first().copied().unwrap_or(UNKNOWN);
+                if n0 != UNKNOWN {
+                    // every selected voxel takes the transition of a new voxel (never OctoMap's
+                    // early exit), the others stay absent: the block's max is that voxel's
+                    // value, and the block is uniform when all eight are selected
+                    let mut idx = [ABSENT_IDX; 8];
+                    let mut sel = u32::from(bits);
+                    while sel != 0 {
+                        idx[sel.trailing_zeros() as usize & 7] = n0;
+                        sel &= sel - 1;
+                    }
+                    self.narrow.blocks[lb as usize].idx = idx;
+                    out.added += bits.count_ones() as usize;
+                    out.applied = true;
+                    out.rest &= !(0xff << (8 * j));
+                    if !lazy {
+                        let v0 = self.palette.vals[usize::from(n0)];
+                        if bits == 0xff {
+                            parent.vals[j & 7] = v0;
+                            parent.kids[j & 7] = NO_BLOCK;
+                            self.narrow.release(lb);
+                            out.removed += 8;
+                        } else {
+                            parent.vals[j & 7] = if v0 > -f32::MAX { v0 } else { -f32::MAX };
+                        }
+                    }
+                    continue;
+                }
+            } else if lb == NO_BLOCK {
+                if add.exits_at(v) {
+                    // a pruned node at the clamp: its voxels' searches end here
+                    out.rest &= !(0xff << (8 * j));
+                    continue;
+                }
+                // a pruned node: expand it (`expandNode`), unless the palette is full (the
+                // caller's path widens the storage)
+                let Some(i) = self.palette.intern(v) else {
+                    return out;
+                };
+                lb = self.narrow.alloc();
+                self.narrow.blocks[lb as usize].idx = [i; 8];
+                parent.kids[j & 7] = lb;
+                out.added += 8;
+                if self.palette.neg_zero {
+                    // `v` was -0.0
+                    return out;
+                }
+                let n = memo.get(usize::from(i)).copied().unwrap_or(UNKNOWN);
+                if n.wrapping_sub(1) < EXIT - 1 {
+                    // every selected voxel takes the transition of `v` (not the early exit:
+                    // `v` is not at that clamp), the others keep `v`: two values, so the max
+                    // is the larger, and the block is uniform when all eight are selected or
+                    // the transition keeps the index
+                    let mut idx = [i; 8];
+                    let mut sel = u32::from(bits);
+                    while sel != 0 {
+                        idx[sel.trailing_zeros() as usize & 7] = n;
+                        sel &= sel - 1;
+                    }
+                    self.narrow.blocks[lb as usize].idx = idx;
+                    out.applied = true;
+                    out.rest &= !(0xff << (8 * j));
+                    if !lazy {
+                        let vn = self.palette.vals[usize::from(n)];
+                        if bits == 0xff || n == i {
+                            parent.vals[j & 7] = vn;
+                            parent.kids[j & 7] = NO_BLOCK;
+                            self.narrow.release(lb);
+                            out.removed += 8;
+                        } else {
+                            let mut m = -f32::MAX;
+                            for x in [v, vn] {
+                                if x > m {
+                                    m = x;
+                                }
+                            }
+                            parent.vals[j & 7] = m;
+                        }
+                    }
+                    continue;
                 }
             }
-            (false, m)
-        };
-        Some(GroupUpdate {
-            created,
-            applied,
-            uniform,
-            max,
-        })
+            let Some(blk) = self.narrow.blocks.get_mut(lb as usize) else {
+                return out;
+            };
+            let Some(g) = group_step(blk, &self.palette, bits, memo) else {
+                return out;
+            };
+            out.rest &= !(0xff << (8 * j));
+            out.added += g.created;
+            if g.applied {
+                out.applied = true;
+                if !lazy {
+                    parent.vals[j & 7] = g.max;
+                    if g.uniform {
+                        parent.kids[j & 7] = NO_BLOCK;
+                        self.narrow.release(lb);
+                        out.removed += 8;
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// [`VoxelBlocks::update`] without a memo entry, or on wide storage.
@@ -418,20 +535,8 @@ impl VoxelBlocks {
     #[inline(always)]
     pub fn collapse_or_max(&self, b: u32) -> (bool, f32) {
         if let View::Narrow(arena, palette) = self.view() {
-            let idx = arena.blocks[b as usize].idx;
-            let i0 = idx[0];
-            if idx == [i0; 8] && i0 != ABSENT_IDX {
-                return (true, palette.vals[i0 as usize]);
-            }
             if !palette.neg_zero {
-                let mut m = -f32::MAX;
-                for i in idx {
-                    let v = palette.vals[i as usize];
-                    if v > m {
-                        m = v;
-                    }
-                }
-                return (false, m);
+                return palette.uniform_or_max(&arena.blocks[b as usize].idx);
             }
         }
         match self.uniform(b) {
@@ -465,7 +570,7 @@ impl VoxelBlocks {
             View::Narrow(arena, palette) => {
                 let mut fresh = Palette::new(palette.limit);
                 let mut remap = vec![ABSENT_IDX];
-                for &v in &palette.vals[1..] {
+                for &v in &palette.values()[1..] {
                     match fresh.intern(f(v)) {
                         Some(i) => remap.push(i),
                         None => {
@@ -551,6 +656,50 @@ impl VoxelBlocks {
             wide: Some(wide),
         }
     }
+}
+
+/// [`VoxelBlocks::update_group`] on the narrow block `blk` (the palette holds no `-0.0`).
+#[inline(always)]
+fn group_step(
+    blk: &mut NarrowBlock,
+    palette: &Palette,
+    bits: u8,
+    memo: &[u16],
+) -> Option<GroupUpdate> {
+    let mut idx = blk.idx;
+    let mut created = 0;
+    let mut applied = false;
+    let mut rest = u32::from(bits);
+    while rest != 0 {
+        let s = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let i = idx[s & 7];
+        let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
+        // one test for both special entries, UNKNOWN (0) and EXIT (0xffff)
+        if n.wrapping_sub(1) < EXIT - 1 {
+            idx[s & 7] = n;
+            created += usize::from(i == ABSENT_IDX);
+            applied = true;
+        } else if n == UNKNOWN {
+            return None;
+        }
+    }
+    if !applied {
+        return Some(GroupUpdate {
+            created: 0,
+            applied: false,
+            uniform: false,
+            max: 0.0,
+        });
+    }
+    blk.idx = idx;
+    let (uniform, max) = palette.uniform_or_max(&idx);
+    Some(GroupUpdate {
+        created,
+        applied,
+        uniform,
+        max,
+    })
 }
 
 /// `Some(v0)` when all eight values are present and equal to the first under `==`.

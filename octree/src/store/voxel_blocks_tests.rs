@@ -62,7 +62,7 @@ fn check(l: &VoxelBlocks, m: &Model) -> Result<(), TestCaseError> {
         prop_assert_eq!(palette.vals[1].to_bits(), 0);
         // the hash index finds every value at its own index
         let mut p = palette.clone();
-        for (i, v) in palette.vals.iter().enumerate().skip(1) {
+        for (i, v) in palette.values().iter().enumerate().skip(1) {
             prop_assert_eq!(p.intern(*v), Some(i as u16));
         }
     }
