@@ -371,16 +371,14 @@ fn ouster_in_chunks(src: &Path, dst: &Path, rounds: u32, summary: bool) {
     std::fs::write(dst, w.into_inner().into_inner()).unwrap_or_else(|e| panic!("{e}"));
 }
 
-/// Bytes read (`rchar`) by skipping `k` clouds of `path`, not counting the opening (whose
-/// first pass reads the transforms).
+/// Bytes read (`rchar`) by skipping `k` clouds of `path` and reading the next one, not
+/// counting the opening (whose first pass reads the transforms).
 fn bytes_to_skip(path: &Path, k: usize) -> Option<u64> {
     let mut s = frame_stream(path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let before = bytes_read_by_this_thread()?;
     assert_eq!(s.skip_frames(k).ok(), Some(k));
-    let read = bytes_read_by_this_thread()? - before;
-    // and the next frame still comes
     assert!(matches!(s.next(), Some(Ok(_))));
-    Some(read)
+    Some(bytes_read_by_this_thread()? - before)
 }
 
 /// Skips in several steps, between frames read, land where one skip does.
@@ -440,8 +438,9 @@ fn mcap_slices_are_the_whole_read_after_any_skip() {
     assert_eq!(bits(&from_plain), bits(&whole));
 }
 
-/// A skip of most clouds of a file with chunk and message indexes reads only the chunks of
-/// the clouds after it (and the message indexes before them), not the chunks it passes.
+/// A skip of most clouds of a file with chunk and message indexes, then the read of the
+/// next, reads only that cloud's chunk (and the message indexes before it), not the chunks
+/// it passes.
 #[test]
 fn an_indexed_mcap_file_skips_chunks_without_reading_them() {
     let Some(path) = common::data_file(OUSTER) else {
@@ -455,7 +454,7 @@ fn an_indexed_mcap_file_skips_chunks_without_reading_them() {
         common::skip::<()>("/proc/thread-self/io (per-thread I/O accounting)");
         return;
     };
-    eprintln!("skip 15 of 16 clouds: {read} bytes read of {size}");
+    eprintln!("skip 15 of 16 clouds and read the last: {read} bytes read of {size}");
     // the last cloud's chunk is about 1/16 of the file
     assert!(
         read < size / 8,
@@ -465,7 +464,7 @@ fn an_indexed_mcap_file_skips_chunks_without_reading_them() {
     let plain = dir.join("no_summary.mcap");
     ouster_in_chunks(&path, &plain, 8, false);
     let read = bytes_to_skip(&plain, 15).unwrap_or(0);
-    eprintln!("skip 15 of 16 clouds, no summary: {read} bytes read");
+    eprintln!("skip 15 of 16 clouds and read the last, no summary: {read} bytes read");
     assert!(
         read > size / 2,
         "{read} bytes read to skip 15 clouds of {size}"
@@ -522,6 +521,18 @@ fn lying_indexes_and_damaged_chunks_before_a_slice() {
         );
     }
     check_steps(&lying, &whole);
+    // a message index record that is not one (its opcode changed: a linear read passes it
+    // as an unknown record): the indexes are not used
+    let mut odd = bytes.clone();
+    let at = cloud_chunks[4].message_index_offsets[&cloud_channel] as usize;
+    odd[at] = 0x7f;
+    let unusable = dir.join("unusable.mcap");
+    std::fs::write(&unusable, &odd).unwrap_or_else(|e| panic!("{e}"));
+    for k in [0, 4, 5, 11] {
+        let (passed, rest) = after_skip(&unusable, &ReadOptions::default(), k);
+        assert_eq!(passed, k, "skip {k}");
+        assert_eq!(bits(&rest), bits(&whole[k..]), "unusable index, skip {k}");
+    }
     // cloud 1's chunk damaged inside its compressed data: the file fails when opened, so
     // alike whether cloud 1 is skipped or read, with an error naming it
     let mut bad = bytes.clone();
