@@ -465,10 +465,20 @@ fn record_overrun(records: &[u8]) -> Option<usize> {
     None
 }
 
-/// Whether the summary section (from the footer's `summary_start` to the footer) holds a
-/// chunk record. Walks records as the crate does; a length running past the footer ends the
-/// walk (the crate stops there too).
-fn summary_has_chunk(path: &Path, input: &mut impl Input, len: u64) -> Result<bool, FormatError> {
+/// Whether the summary section (from the footer's `summary_start` to the footer record)
+/// holds a record the `mcap` crate's summary reader cannot be trusted with: a chunk (it
+/// descends into it, reaching the unchecked subtraction `record_overrun` guards against) or
+/// an attachment (its `parse_record` slices the body unchecked: a panic on a short one).
+/// Neither belongs there. Walks records as the crate does, up to the footer record or the
+/// end of the file.
+fn summary_has_foreign_record(
+    path: &Path,
+    input: &mut impl Input,
+    len: u64,
+) -> Result<bool, FormatError> {
+    const OP_FOOTER: u8 = 0x02;
+    const OP_CHUNK: u8 = 0x06;
+    const OP_ATTACHMENT: u8 = 0x09;
     // footer: opcode 0x02, u64 length, summary_start, summary_offset_start, CRC; then magic
     let Some(footer) = len.checked_sub(8 + 29) else {
         return Ok(false);
@@ -483,16 +493,18 @@ fn summary_has_chunk(path: &Path, input: &mut impl Input, len: u64) -> Result<bo
     if pos == 0 {
         return Ok(false);
     }
-    while pos < footer {
+    while pos < len {
         let head = read_at(path, input, pos, 9)?;
         let (Some(&op), Some(rec_len)) = (head.first(), u64_of(&head, 1)) else {
             return Ok(false);
         };
-        if op == 0x06 {
-            return Ok(true);
+        match op {
+            OP_FOOTER => return Ok(false),
+            OP_CHUNK | OP_ATTACHMENT => return Ok(true),
+            _ => {}
         }
         match (pos + 9).checked_add(rec_len) {
-            Some(end) if end <= footer => pos = end,
+            Some(end) if end <= len => pos = end,
             _ => return Ok(false),
         }
     }
@@ -540,9 +552,10 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
     };
     let len = file_len(path, &mut input)?;
     // A chunk in the summary section (where none belongs) would reach the crate's unchecked
-    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above:
-    // such a file is read linearly instead.
-    let summary = if summary_has_chunk(path, &mut input, len)? {
+    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above,
+    // an attachment its unchecked slicing (see `Messages`): such a file is read linearly
+    // instead.
+    let summary = if summary_has_foreign_record(path, &mut input, len)? {
         None
     } else {
         read_summary(path, &mut input, len).ok().flatten()
@@ -570,7 +583,7 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
 pub fn announced_clouds(path: &Path, options: &McapOptions) -> Option<usize> {
     let mut input = open_file(path).ok()?;
     let len = file_len(path, &mut input).ok()?;
-    if summary_has_chunk(path, &mut input, len).ok()? {
+    if summary_has_foreign_record(path, &mut input, len).ok()? {
         return None;
     }
     let summary = read_summary(path, &mut input, len).ok()??;
@@ -803,7 +816,7 @@ impl ChunkIndexes {
         known: &Definitions,
     ) -> Option<ChunkIndexes> {
         let len = file_len(path, input).ok()?;
-        if summary_has_chunk(path, input, len).ok()? {
+        if summary_has_foreign_record(path, input, len).ok()? {
             return None;
         }
         let summary = read_summary(path, input, len).ok()??;
@@ -1269,6 +1282,21 @@ mod tests {
             );
             let _ = topics_of(path, Cursor::new(&bytes));
         }
+        // the same record in the summary section (found by the `mcap` fuzz target on the
+        // `mcap-skip` branch: the crate's summary reader parses every record there with
+        // `parse_record`): the summary is not used, the file is read linearly
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        let summary_start = f.len() as u64;
+        f.extend_from_slice(&short_attachment());
+        f.push(0x02);
+        f.extend_from_slice(&20u64.to_le_bytes());
+        f.extend_from_slice(&summary_start.to_le_bytes());
+        f.extend_from_slice(&0u64.to_le_bytes());
+        f.extend_from_slice(&0u32.to_le_bytes());
+        f.extend_from_slice(b"\x89MCAP0\r\n");
+        let len = f.len() as u64;
+        assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), len).unwrap());
+        let _ = topics_of(path, Cursor::new(&f));
         // the record itself is what the crate refuses to slice: check the test builds it
         let r = short_attachment();
         assert!(std::panic::catch_unwind(|| ::mcap::parse_record(0x09, &r[9..])).is_err());
@@ -1322,7 +1350,7 @@ mod tests {
         f.extend_from_slice(&0u64.to_le_bytes());
         f.extend_from_slice(&0u32.to_le_bytes());
         f.extend_from_slice(b"\x89MCAP0\r\n");
-        assert!(summary_has_chunk(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
+        assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
         let e = topics_of(path, Cursor::new(&f)).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
 
