@@ -300,12 +300,253 @@ fn tum_associations_skip_rows_without_decoding_their_images() {
     assert_eq!(bits(&rest), bits(&original));
 }
 
+const OUSTER: &str = "mcap/pointcloudset_ouster_os1/test.mcap";
+
+/// The chunk index records of an MCAP file's summary section (0 without a summary).
+fn chunk_count(bytes: &[u8]) -> usize {
+    ::mcap::Summary::read(bytes)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .map_or(0, |s| s.chunk_indexes.len())
+}
+
+/// The real recording's messages written `rounds` times over, in zstd chunks of at most
+/// 64 KiB (each 6 MB cloud takes a chunk of its own; the small messages share theirs), with
+/// or without the summary section and its indexes. Round `r` shifts every log time by `r`
+/// seconds and each cloud's `header.stamp` by `r` seconds (bytes 4..8 of a ROS 1
+/// PointCloud2: after `header.seq`), so that no two clouds give the same frame.
+fn ouster_in_chunks(src: &Path, dst: &Path, rounds: u32, summary: bool) {
+    let bytes = std::fs::read(src).unwrap_or_else(|e| panic!("{e}"));
+    let mut opts = ::mcap::WriteOptions::new()
+        .compression(Some(::mcap::Compression::Zstd))
+        .chunk_size(Some(64 << 10));
+    if !summary {
+        opts = opts
+            .emit_summary_records(false)
+            .emit_summary_offsets(false)
+            .emit_statistics(false)
+            .emit_message_indexes(false)
+            .emit_chunk_indexes(false);
+    }
+    let mut w = opts
+        .create(std::io::Cursor::new(Vec::new()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut channels = std::collections::BTreeMap::new();
+    for r in 0..rounds {
+        for m in ::mcap::MessageStream::new(&bytes).unwrap_or_else(|e| panic!("{e}")) {
+            let m = m.unwrap_or_else(|e| panic!("{e}"));
+            let ch = &m.channel;
+            let id = match channels.get(&ch.id) {
+                Some(&id) => id,
+                None => {
+                    let sid = match &ch.schema {
+                        Some(s) => w
+                            .add_schema(&s.name, &s.encoding, &s.data)
+                            .unwrap_or_else(|e| panic!("{e}")),
+                        None => 0,
+                    };
+                    let id = w
+                        .add_channel(sid, &ch.topic, &ch.message_encoding, &ch.metadata)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    channels.insert(ch.id, id);
+                    id
+                }
+            };
+            let mut data = m.data.into_owned();
+            if ch.topic == "/os1_cloud_node/points" {
+                let sec = u32::from_le_bytes([data[4], data[5], data[6], data[7]]);
+                data[4..8].copy_from_slice(&(sec + r).to_le_bytes());
+            }
+            let shift = u64::from(r) * 1_000_000_000;
+            let header = ::mcap::records::MessageHeader {
+                channel_id: id,
+                sequence: m.sequence,
+                log_time: m.log_time + shift,
+                publish_time: m.publish_time + shift,
+            };
+            w.write_to_known_channel(&header, &data)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+    w.finish().unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(dst, w.into_inner().into_inner()).unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Bytes read (`rchar`) by skipping `k` clouds of `path` and reading the next one, not
+/// counting the opening (whose first pass reads the transforms).
+fn bytes_to_skip(path: &Path, k: usize) -> Option<u64> {
+    let mut s = frame_stream(path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let before = bytes_read_by_this_thread()?;
+    assert_eq!(s.skip_frames(k).ok(), Some(k));
+    assert!(matches!(s.next(), Some(Ok(_))));
+    Some(bytes_read_by_this_thread()? - before)
+}
+
+/// Skips in several steps, between frames read, land where one skip does.
+fn check_steps(path: &Path, whole: &[Frame]) {
+    let mut s = frame_stream(path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut got = Vec::new();
+    assert_eq!(s.skip_frames(3).ok(), Some(3));
+    assert_eq!(s.skip_frames(0).ok(), Some(0));
+    got.push(s.next().and_then(Result::ok));
+    assert_eq!(s.skip_frames(4).ok(), Some(4));
+    got.push(s.next().and_then(Result::ok));
+    got.push(s.next().and_then(Result::ok));
+    assert_eq!(s.skip_frames(1).ok(), Some(1));
+    let got: Vec<Frame> = got
+        .into_iter()
+        .map(|f| f.unwrap_or_else(|| panic!("a frame missing after a skip")))
+        .collect();
+    let want = [whole[3].clone(), whole[8].clone(), whole[9].clone()];
+    assert_eq!(bits(&got), bits(&want), "{}", path.display());
+    let rest: Vec<Frame> = s
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(bits(&rest), bits(&whole[11..]), "{}", path.display());
+}
+
 #[test]
 fn mcap_slices_are_the_whole_read_after_any_skip() {
-    let Some(path) = common::data_file("mcap/pointcloudset_ouster_os1/test.mcap") else {
+    let Some(path) = common::data_file(OUSTER) else {
         return;
     };
     check_slices(&path, &ReadOptions::default(), &[0, 1, 2, 3, 50]);
+    let real = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+    // the recording has 2 chunks (and 2 clouds): too few to skip chunks over, so the same
+    // messages are written again, 8 rounds in chunks of at most 64 KiB
+    let chunks = chunk_count(&real);
+    assert!(chunks >= 1, "{chunks} chunk indexes");
+    let dir = common::scratch("frame_slices_mcap");
+    let indexed = dir.join("indexed.mcap");
+    let plain = dir.join("no_summary.mcap");
+    ouster_in_chunks(&path, &indexed, 8, true);
+    ouster_in_chunks(&path, &plain, 8, false);
+    let bytes = std::fs::read(&indexed).unwrap_or_else(|e| panic!("{e}"));
+    assert!(chunk_count(&bytes) > 16, "{} chunks", chunk_count(&bytes));
+    assert_eq!(chunk_count(&std::fs::read(&plain).unwrap_or_default()), 0);
+    let ks = [0, 1, 2, 3, 7, 8, 14, 15, 16, 17, 100];
+    let whole: Vec<Frame> = frame_stream(&indexed, &ReadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(whole.len(), 16);
+    for p in [&indexed, &plain] {
+        check_slices(p, &ReadOptions::default(), &ks);
+        check_steps(p, &whole);
+    }
+    // the same frames with or without the indexes
+    let (_, from_plain) = after_skip(&plain, &ReadOptions::default(), 0);
+    assert_eq!(bits(&from_plain), bits(&whole));
+}
+
+/// A skip of most clouds of a file with chunk and message indexes, then the read of the
+/// next, reads only that cloud's chunk (and the message indexes before it), not the chunks
+/// it passes.
+#[test]
+fn an_indexed_mcap_file_skips_chunks_without_reading_them() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let dir = common::scratch("frame_slices_mcap_bytes");
+    let indexed = dir.join("indexed.mcap");
+    ouster_in_chunks(&path, &indexed, 8, true);
+    let size = std::fs::metadata(&indexed).map_or(0, |m| m.len());
+    let Some(read) = bytes_to_skip(&indexed, 15) else {
+        common::skip::<()>("/proc/thread-self/io (per-thread I/O accounting)");
+        return;
+    };
+    eprintln!("skip 15 of 16 clouds and read the last: {read} bytes read of {size}");
+    // the last cloud's chunk is about 1/16 of the file
+    assert!(
+        read < size / 8,
+        "{read} bytes read to skip 15 clouds of {size}"
+    );
+    // without the indexes the chunks are read (and decompressed) to find the clouds
+    let plain = dir.join("no_summary.mcap");
+    ouster_in_chunks(&path, &plain, 8, false);
+    let read = bytes_to_skip(&plain, 15).unwrap_or(0);
+    eprintln!("skip 15 of 16 clouds and read the last, no summary: {read} bytes read");
+    assert!(
+        read > size / 2,
+        "{read} bytes read to skip 15 clouds of {size}"
+    );
+}
+
+/// Message indexes that lie (the records of one chunk's cloud claim no message) or a chunk
+/// damaged before the slice: a skip gives the whole read's frames or the whole read's
+/// error, never other frames.
+#[test]
+fn lying_indexes_and_damaged_chunks_before_a_slice() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let dir = common::scratch("frame_slices_mcap_lies");
+    let indexed = dir.join("indexed.mcap");
+    ouster_in_chunks(&path, &indexed, 6, true);
+    let whole: Vec<Frame> = frame_stream(&indexed, &ReadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .collect::<Result<_, _>>()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let bytes = std::fs::read(&indexed).unwrap_or_else(|e| panic!("{e}"));
+    let summary = ::mcap::Summary::read(&bytes)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .unwrap_or_else(|| panic!("no summary"));
+    let cloud_channel = summary
+        .channels
+        .values()
+        .find(|c| c.topic == "/os1_cloud_node/points")
+        .map(|c| c.id)
+        .unwrap_or_else(|| panic!("no cloud channel"));
+    let mut cloud_chunks: Vec<_> = summary
+        .chunk_indexes
+        .iter()
+        .filter(|c| c.message_index_offsets.contains_key(&cloud_channel))
+        .collect();
+    cloud_chunks.sort_by_key(|c| c.chunk_start_offset);
+    assert_eq!(cloud_chunks.len(), whole.len());
+    // the message index of cloud 2's chunk says it has none (its entry array emptied; the
+    // record keeps its length, trailing bytes being allowed)
+    let mut lie = bytes.clone();
+    let at = cloud_chunks[2].message_index_offsets[&cloud_channel] as usize;
+    assert_eq!(lie[at], 0x07);
+    lie[at + 11..at + 15].copy_from_slice(&0u32.to_le_bytes());
+    let lying = dir.join("lying.mcap");
+    std::fs::write(&lying, &lie).unwrap_or_else(|e| panic!("{e}"));
+    for k in [0, 1, 2, 3, 5, 6, 11, 12, 13] {
+        let (passed, rest) = after_skip(&lying, &ReadOptions::default(), k);
+        assert_eq!(passed, k.min(12), "skip {k}");
+        assert_eq!(
+            bits(&rest),
+            bits(&whole[k.min(12)..]),
+            "lying index, skip {k}"
+        );
+    }
+    check_steps(&lying, &whole);
+    // a message index record that is not one (its opcode changed: a linear read passes it
+    // as an unknown record): the indexes are not used
+    let mut odd = bytes.clone();
+    let at = cloud_chunks[4].message_index_offsets[&cloud_channel] as usize;
+    odd[at] = 0x7f;
+    let unusable = dir.join("unusable.mcap");
+    std::fs::write(&unusable, &odd).unwrap_or_else(|e| panic!("{e}"));
+    for k in [0, 4, 5, 11] {
+        let (passed, rest) = after_skip(&unusable, &ReadOptions::default(), k);
+        assert_eq!(passed, k, "skip {k}");
+        assert_eq!(bits(&rest), bits(&whole[k..]), "unusable index, skip {k}");
+    }
+    // cloud 1's chunk damaged inside its compressed data: the file fails when opened, so
+    // alike whether cloud 1 is skipped or read, with an error naming it
+    let mut bad = bytes.clone();
+    let c = cloud_chunks[1];
+    let mid = (c.chunk_start_offset + c.chunk_length / 2) as usize;
+    for b in &mut bad[mid..mid + 64] {
+        *b ^= 0x5a;
+    }
+    let damaged = dir.join("damaged.mcap");
+    std::fs::write(&damaged, &bad).unwrap_or_else(|e| panic!("{e}"));
+    let e = frame_stream(&damaged, &ReadOptions::default())
+        .err()
+        .unwrap_or_else(|| panic!("a damaged chunk read without an error"));
+    assert!(e.to_string().contains("damaged.mcap"), "{e}");
 }
 
 #[test]

@@ -765,3 +765,118 @@ fn truncated_files_are_errors() {
         }
     }
 }
+
+/// One item of a frame stream, comparable: the frame's bits or the error's text.
+type Item = Result<(Vec<u32>, Option<u64>), String>;
+
+/// The items of `path`'s frame stream after skipping `k` (the skip's error as the only item
+/// when it fails), or the opening error.
+fn items_after_skip(path: &Path, k: usize) -> Result<Vec<Item>, String> {
+    use octoquant::formats::{frame_stream, ReadOptions};
+    let mut s = frame_stream(path, &ReadOptions::default()).map_err(|e| e.to_string())?;
+    if let Err(e) = s.skip_frames(k) {
+        return Ok(vec![Err(e.to_string())]);
+    }
+    Ok(s.map(|r| {
+        r.map(|f| frame_bits(std::slice::from_ref(&f)).remove(0))
+            .map_err(|e| e.to_string())
+    })
+    .collect())
+}
+
+/// A file of 40 small clouds in many small zstd chunks with their indexes, each byte of it
+/// changed in turn (every 5th): opening, skipping and reading never panic, errors name the
+/// file, and the items after a skip of `k` are the whole read's items `k..` (as far as the
+/// whole read goes without an error: a cloud that fails to decode is not decoded when
+/// skipped).
+#[test]
+fn damaged_indexed_files_skip_like_they_read() {
+    let dir = common::scratch("mcap_damaged_skips");
+    let src = dir.join("src.mcap");
+    let mut msgs = Vec::new();
+    for i in 0..40 {
+        let v = f64::from(i);
+        msgs.push(Msg {
+            topic: "/cloud",
+            schema: "sensor_msgs/msg/PointCloud2",
+            encoding: "cdr",
+            data: cloud_message(false, false, &[[v, 1.0, 2.0]; 6], &["x", "y", "z"]),
+        });
+        if i % 3 == 0 {
+            msgs.push(Msg {
+                topic: "/status",
+                schema: "std_msgs/msg/String",
+                encoding: "cdr",
+                data: vec![0, 1, 0, 0, 1, 0, 0, 0, 0],
+            });
+        }
+    }
+    write_mcap(&src, &msgs);
+    // the same messages again in chunks of about two messages
+    let bytes = std::fs::read(&src).unwrap();
+    let mut w = ::mcap::WriteOptions::new()
+        .compression(Some(::mcap::Compression::Zstd))
+        .chunk_size(Some(300))
+        .create(Cursor::new(Vec::new()))
+        .unwrap();
+    let mut channels: BTreeMap<u16, u16> = BTreeMap::new();
+    for m in ::mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let ch = &m.channel;
+        let id = match channels.get(&ch.id) {
+            Some(&id) => id,
+            None => {
+                let s = ch.schema.as_ref().unwrap();
+                let sid = w.add_schema(&s.name, &s.encoding, &s.data).unwrap();
+                let id = w
+                    .add_channel(sid, &ch.topic, &ch.message_encoding, &ch.metadata)
+                    .unwrap();
+                channels.insert(ch.id, id);
+                id
+            }
+        };
+        let header = ::mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: m.sequence,
+            log_time: m.log_time,
+            publish_time: m.publish_time,
+        };
+        w.write_to_known_channel(&header, &m.data).unwrap();
+    }
+    w.finish().unwrap();
+    let bytes = w.into_inner().into_inner();
+    let chunks = ::mcap::Summary::read(&bytes)
+        .unwrap()
+        .map_or(0, |s| s.chunk_indexes.len());
+    assert!(chunks > 20, "{chunks} chunks");
+    let cut = dir.join("cut.mcap");
+    let ks = [1, 7, 20, 39, 41];
+    for at in (8..bytes.len()).step_by(5) {
+        let mut b = bytes.clone();
+        b[at] ^= 0xa5;
+        std::fs::write(&cut, &b).unwrap();
+        let whole = match items_after_skip(&cut, 0) {
+            Ok(items) => items,
+            Err(e) => {
+                assert!(e.contains("cut.mcap"), "byte {at}: {e}");
+                for k in ks {
+                    assert_eq!(items_after_skip(&cut, k), Err(e.clone()), "byte {at}");
+                }
+                continue;
+            }
+        };
+        let good = whole.iter().take_while(|i| i.is_ok()).count();
+        for item in &whole {
+            if let Err(e) = item {
+                assert!(e.contains("cut.mcap"), "byte {at}: {e}");
+            }
+        }
+        for k in ks {
+            let got = items_after_skip(&cut, k).unwrap_or_else(|e| panic!("byte {at}: {e}"));
+            if k <= good {
+                let start = k.min(whole.len());
+                assert_eq!(got, whole[start..], "byte {at} skip {k}");
+            }
+        }
+    }
+}

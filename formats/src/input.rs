@@ -245,7 +245,10 @@ impl FrameStream {
     /// passed (fewer at the end of the input): `.frames` and `.graph` files read only the
     /// frames' headers and seek over their points when stored uncompressed; VTK sequences and
     /// TUM associations skip their rows without opening the scan or image files; MCAP files
-    /// find the skipped clouds' messages without decoding them; other inputs (text, single
+    /// find the skipped clouds' messages without decoding them, and pass the chunks before
+    /// the first cloud kept without reading them when the file's chunk and message indexes
+    /// place it (the first pass over the file, when the stream is made, still reads every
+    /// chunk for the transforms); other inputs (text, single
     /// scans: parsed whole when the stream is made) drop frames already in memory. That makes
     /// frames `k..` of an input cost about what those frames cost (a distributed build's
     /// slice). An error met on the way ends the stream; an error inside a frame that is

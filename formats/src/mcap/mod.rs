@@ -26,7 +26,10 @@
 //! [`McapOptions::sensor_pose`] maps the fixed frame to the world.
 //!
 //! The file is read by seeking, one chunk in memory at a time ([`mcap_frames`] yields one
-//! cloud at a time after a first pass that collects the transforms); chunks may be
+//! cloud at a time after a first pass that collects the transforms; its
+//! [`McapFrames::skip_clouds`] passes whole chunks unread where the summary's chunk indexes
+//! and the message index records place the clouds, and checks the clouds read after such a
+//! jump against what the first pass saw of them); chunks may be
 //! uncompressed or zstd-compressed (lz4 is not built in). A compressed chunk whose declared
 //! size passes the [`DecompressionLimit`](crate::DecompressionLimit) is refused before it is
 //! allocated, and a tf chain is composed over at most 256 links, so the work per cloud is

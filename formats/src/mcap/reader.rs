@@ -6,7 +6,10 @@
 //! summary is read by seeking to the footer, and messages come from the `mcap` crate's
 //! sans-io reader fed from the file, which holds one chunk (compressed and decompressed) at a
 //! time. A first pass keeps only the tf messages (the pose of a cloud may depend on
-//! transforms logged after it); the second decodes and poses the clouds as they come.
+//! transforms logged after it); the second decodes and poses the clouds as they come, and
+//! skips clouds by jumping over whole chunks where the summary's chunk indexes and the
+//! message index records place them ([`McapFrames::skip_clouds`]), checking the clouds it
+//! reads after a jump against what the first pass saw.
 
 use super::cdr::{DecodeError, Encoding};
 use super::pointcloud2::{decode_point_cloud2, CloudStats, PointCloud2, CLOUD_SCHEMAS};
@@ -130,14 +133,51 @@ fn read_into(
 struct Messages<R> {
     path: PathBuf,
     input: R,
+    /// The input's length.
+    len: u64,
+    /// The record length limit (see above).
+    limit: usize,
     /// Bytes of the input not yet handed to the reader.
     left: u64,
     reader: ::mcap::sans_io::LinearReader,
     channels: ::mcap::read::ChannelAccumulator<'static>,
+    /// When set, the first definition of each schema and channel read, in file order (what a
+    /// reader that jumps over chunks needs to know of the channels defined in them).
+    definitions: Option<Definitions>,
     /// After the data end record: the summary, whose records are not messages.
     past_data_end: bool,
     done: bool,
     index: usize,
+}
+
+/// The schema and channel records of a file, each id's first in file order.
+#[derive(Default)]
+struct Definitions {
+    records: Vec<Definition>,
+    seen: std::collections::BTreeSet<(bool, u16)>,
+}
+
+enum Definition {
+    Schema(::mcap::records::SchemaHeader, Vec<u8>),
+    Channel(::mcap::records::Channel),
+}
+
+impl Definitions {
+    /// Keep `d()` when it is the first record of its kind with id `id`.
+    fn add(&mut self, channel: bool, id: u16, d: impl FnOnce() -> Definition) {
+        if self.seen.insert((channel, id)) {
+            self.records.push(d());
+        }
+    }
+}
+
+fn linear_reader(limit: usize, at_start: bool) -> ::mcap::sans_io::LinearReader {
+    ::mcap::sans_io::LinearReader::new_with_options(
+        ::mcap::sans_io::LinearReaderOptions::default()
+            .with_record_length_limit(limit)
+            .with_emit_chunks(false)
+            .with_skip_start_magic(!at_start),
+    )
 }
 
 impl<R: Input> Messages<R> {
@@ -148,21 +188,51 @@ impl<R: Input> Messages<R> {
         input
             .seek(SeekFrom::Start(0))
             .map_err(|e| FormatError::io(path, Location::File, e))?;
-        let reader = ::mcap::sans_io::LinearReader::new_with_options(
-            ::mcap::sans_io::LinearReaderOptions::default()
-                .with_record_length_limit(limit)
-                .with_emit_chunks(false),
-        );
         Ok(Messages {
             path: path.to_path_buf(),
             input,
+            len,
+            limit,
             left: len,
-            reader,
+            reader: linear_reader(limit, true),
             channels: ::mcap::read::ChannelAccumulator::default(),
+            definitions: None,
             past_data_end: false,
             done: false,
             index: 0,
         })
+    }
+
+    /// Go on reading at the top-level record at byte `at` (a chunk) as if every record before
+    /// it had been read: the message there is message number `index` of the file, and the
+    /// schemas and channels are `known` (those of the whole file, which a valid file defines
+    /// before their messages). The caller checks that the messages that follow are those of
+    /// a linear read.
+    fn jump(&mut self, at: u64, index: usize, known: &Definitions) -> Result<(), FormatError> {
+        let path = &self.path;
+        let Some(left) = self.len.checked_sub(at) else {
+            return Err(FormatError::syntax(
+                path,
+                Location::Byte(at),
+                "a chunk index points past the end of the file",
+            ));
+        };
+        let mut channels = ::mcap::read::ChannelAccumulator::default();
+        for d in &known.records {
+            match d {
+                Definition::Schema(h, data) => channels.add_schema_from_slice(h.clone(), data),
+                Definition::Channel(c) => channels.add_channel(c.clone()),
+            }
+            .map_err(|e| mcap_err(path, e))?;
+        }
+        seek_to(path, &mut self.input, at)?;
+        self.left = left;
+        self.reader = linear_reader(self.limit, false);
+        self.channels = channels;
+        self.past_data_end = false;
+        self.done = false;
+        self.index = index;
+        Ok(())
     }
 
     /// The next message with its index, or `None` after the last (or after an error).
@@ -215,11 +285,22 @@ impl<R: Input> Messages<R> {
                 continue;
             }
             match ::mcap::parse_record(opcode, data).map_err(err)? {
-                Record::Schema { header, data } => self
-                    .channels
-                    .add_schema_from_slice(header, &data)
-                    .map_err(err)?,
-                Record::Channel(channel) => self.channels.add_channel(channel).map_err(err)?,
+                Record::Schema { header, data } => {
+                    if let Some(d) = &mut self.definitions {
+                        d.add(false, header.id, || {
+                            Definition::Schema(header.clone(), data.to_vec())
+                        });
+                    }
+                    self.channels
+                        .add_schema_from_slice(header, &data)
+                        .map_err(err)?
+                }
+                Record::Channel(channel) => {
+                    if let Some(d) = &mut self.definitions {
+                        d.add(true, channel.id, || Definition::Channel(channel.clone()));
+                    }
+                    self.channels.add_channel(channel).map_err(err)?
+                }
                 Record::Message { header, data } => {
                     let Some(channel) = self.channels.get(header.channel_id) else {
                         return Err(err(::mcap::McapError::UnknownChannel(
@@ -384,10 +465,20 @@ fn record_overrun(records: &[u8]) -> Option<usize> {
     None
 }
 
-/// Whether the summary section (from the footer's `summary_start` to the footer) holds a
-/// chunk record. Walks records as the crate does; a length running past the footer ends the
-/// walk (the crate stops there too).
-fn summary_has_chunk(path: &Path, input: &mut impl Input, len: u64) -> Result<bool, FormatError> {
+/// Whether the summary section (from the footer's `summary_start` to the footer record)
+/// holds a record the `mcap` crate's summary reader cannot be trusted with: a chunk (it
+/// descends into it, reaching the unchecked subtraction `record_overrun` guards against) or
+/// an attachment (its `parse_record` slices the body unchecked: a panic on a short one).
+/// Neither belongs there. Walks records as the crate does, up to the footer record or the
+/// end of the file.
+fn summary_has_foreign_record(
+    path: &Path,
+    input: &mut impl Input,
+    len: u64,
+) -> Result<bool, FormatError> {
+    const OP_FOOTER: u8 = 0x02;
+    const OP_CHUNK: u8 = 0x06;
+    const OP_ATTACHMENT: u8 = 0x09;
     // footer: opcode 0x02, u64 length, summary_start, summary_offset_start, CRC; then magic
     let Some(footer) = len.checked_sub(8 + 29) else {
         return Ok(false);
@@ -402,16 +493,18 @@ fn summary_has_chunk(path: &Path, input: &mut impl Input, len: u64) -> Result<bo
     if pos == 0 {
         return Ok(false);
     }
-    while pos < footer {
+    while pos < len {
         let head = read_at(path, input, pos, 9)?;
         let (Some(&op), Some(rec_len)) = (head.first(), u64_of(&head, 1)) else {
             return Ok(false);
         };
-        if op == 0x06 {
-            return Ok(true);
+        match op {
+            OP_FOOTER => return Ok(false),
+            OP_CHUNK | OP_ATTACHMENT => return Ok(true),
+            _ => {}
         }
         match (pos + 9).checked_add(rec_len) {
-            Some(end) if end <= footer => pos = end,
+            Some(end) if end <= len => pos = end,
             _ => return Ok(false),
         }
     }
@@ -459,9 +552,10 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
     };
     let len = file_len(path, &mut input)?;
     // A chunk in the summary section (where none belongs) would reach the crate's unchecked
-    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above:
-    // such a file is read linearly instead.
-    let summary = if summary_has_chunk(path, &mut input, len)? {
+    // chunk-record subtraction (see `record_overrun`) outside the records pre-checked above,
+    // an attachment its unchecked slicing (see `Messages`): such a file is read linearly
+    // instead.
+    let summary = if summary_has_foreign_record(path, &mut input, len)? {
         None
     } else {
         read_summary(path, &mut input, len).ok().flatten()
@@ -489,7 +583,7 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
 pub fn announced_clouds(path: &Path, options: &McapOptions) -> Option<usize> {
     let mut input = open_file(path).ok()?;
     let len = file_len(path, &mut input).ok()?;
-    if summary_has_chunk(path, &mut input, len).ok()? {
+    if summary_has_foreign_record(path, &mut input, len).ok()? {
         return None;
     }
     let summary = read_summary(path, &mut input, len).ok()??;
@@ -617,16 +711,22 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
 
     let mut tf = TfTree::default();
     let mut total = 0usize;
-    for_each_message(path, open_file(path)?, |index, m| {
+    let mut marks = Vec::new();
+    let mut first = Messages::new(path, open_file(path)?)?;
+    first.definitions = Some(Definitions::default());
+    while let Some((index, m)) = first.next_message()? {
         let ch = &m.channel;
         let schema = ch.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
         let is_cloud = ch.topic == topic;
         let is_tf = TF_SCHEMAS.contains(&schema) && (ch.topic == "/tf" || ch.topic == "/tf_static");
         if !is_cloud && !is_tf {
-            return Ok(());
+            continue;
         }
         total += usize::from(is_cloud);
         let encoding = message_encoding(path, ch)?;
+        if is_cloud {
+            marks.push(CloudMark::of(index, &m));
+        }
         if is_tf {
             for t in
                 decode_tf_message(&m.data, encoding).map_err(|e| bad_message(path, index, ch, e))?
@@ -634,8 +734,11 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
                 tf.add(t, m.log_time, ch.topic == "/tf_static");
             }
         }
-        Ok(())
-    })?;
+    }
+    let definitions = first.definitions.take().unwrap_or_default();
+    drop(first);
+    let mut input = open_file(path)?;
+    let chunks = ChunkIndexes::of(path, &mut input, &topic, &definitions);
     Ok(McapFrames {
         path: path.to_path_buf(),
         topic,
@@ -643,11 +746,210 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         colors: options.colors,
         world: options.sensor_pose.unwrap_or_else(Isometry3::identity),
         tf,
-        messages: Messages::new(path, open_file(path)?)?,
+        messages: Messages::new(path, input)?,
         clouds: 0,
         total,
         done: false,
+        marks,
+        definitions,
+        chunks,
+        jumped: false,
     })
+}
+
+/// What the first pass saw of one cloud message: its number among the file's messages, log
+/// time, length and CRC-32. A read that jumped over chunks checks each cloud it finds after
+/// the jump against these, so that wrong indexes cannot change what it yields.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct CloudMark {
+    index: usize,
+    log_time: u64,
+    len: usize,
+    crc: u32,
+}
+
+impl CloudMark {
+    fn of(index: usize, m: &::mcap::Message<'_>) -> CloudMark {
+        CloudMark {
+            index,
+            log_time: m.log_time,
+            len: m.data.len(),
+            crc: crc32fast::hash(&m.data),
+        }
+    }
+}
+
+/// One chunk as the summary's chunk index describes it.
+#[derive(Debug, Clone)]
+struct IndexedChunk {
+    /// The chunk record's offset (its opcode) and length (opcode and length field included).
+    start: u64,
+    len: u64,
+    /// Offsets of its message index records, by channel, and their total length.
+    message_indexes: BTreeMap<u16, u64>,
+    message_index_len: u64,
+    /// Length of its records decompressed.
+    uncompressed: u64,
+}
+
+/// The chunks of a file in file order, from its summary's chunk indexes, and what their
+/// message index records say they hold (read on demand, [`ChunkIndexes::counts`]).
+struct ChunkIndexes {
+    chunks: Vec<IndexedChunk>,
+    /// The channels of the topic.
+    topic_channels: std::collections::BTreeSet<u16>,
+    /// Per chunk read so far: (messages, clouds) its message indexes list; `None` once one
+    /// of them is unreadable or inconsistent (the indexes are then not used).
+    counts: Option<Vec<(usize, usize)>>,
+    /// The file, unbuffered: the message index records are read at their exact length.
+    file: Option<File>,
+}
+
+impl ChunkIndexes {
+    /// The chunk indexes of the file's summary when it has some, in file order, each chunk
+    /// after the end of the one before it and before the summary; `None` otherwise (no
+    /// summary, no chunk index, a chunk in the summary, overlapping chunks...).
+    fn of(
+        path: &Path,
+        input: &mut BufReader<File>,
+        topic: &str,
+        known: &Definitions,
+    ) -> Option<ChunkIndexes> {
+        let len = file_len(path, input).ok()?;
+        if summary_has_foreign_record(path, input, len).ok()? {
+            return None;
+        }
+        let summary = read_summary(path, input, len).ok()??;
+        let mut chunks: Vec<IndexedChunk> = summary
+            .chunk_indexes
+            .iter()
+            .map(|c| IndexedChunk {
+                start: c.chunk_start_offset,
+                len: c.chunk_length,
+                message_indexes: c.message_index_offsets.clone(),
+                message_index_len: c.message_index_length,
+                uncompressed: c.uncompressed_size,
+            })
+            .collect();
+        chunks.sort_by_key(|c| c.start);
+        let mut end = 8u64; // the leading magic
+        for c in &chunks {
+            let c_end = c.start.checked_add(c.len)?;
+            if c.start < end || c.len < 9 || c_end > len {
+                return None;
+            }
+            end = c_end;
+        }
+        if chunks.is_empty() {
+            return None;
+        }
+        let topic_channels = known
+            .records
+            .iter()
+            .filter_map(|d| match d {
+                Definition::Channel(c) if c.topic == topic => Some(c.id),
+                _ => None,
+            })
+            .collect();
+        Some(ChunkIndexes {
+            chunks,
+            topic_channels,
+            counts: Some(Vec::new()),
+            file: File::open(path).ok(),
+        })
+    }
+
+    /// The chunk holding cloud number `cloud` by the indexes: its offset, and the messages
+    /// and clouds before it; `None` when the indexes do not say (or not consistently).
+    fn chunk_of_cloud(&mut self, cloud: usize) -> Option<(u64, usize, usize)> {
+        let (mut messages, mut clouds) = (0usize, 0usize);
+        for k in 0..self.chunks.len() {
+            let (m, c) = self.counts(k)?;
+            if clouds.checked_add(c)? > cloud {
+                return Some((self.chunks[k].start, messages, clouds));
+            }
+            messages = messages.checked_add(m)?;
+            clouds += c;
+        }
+        None
+    }
+
+    /// The (messages, clouds) of chunk `k` by its message index records, read once.
+    fn counts(&mut self, k: usize) -> Option<(usize, usize)> {
+        let known = self.counts.as_ref()?;
+        if let Some(&c) = known.get(k) {
+            return Some(c);
+        }
+        debug_assert_eq!(known.len(), k);
+        let c = self.read_counts(k);
+        match (c, self.counts.as_mut()) {
+            (Some(c), Some(v)) => {
+                v.push(c);
+                Some(c)
+            }
+            _ => {
+                self.counts = None;
+                None
+            }
+        }
+    }
+
+    /// Chunk `k`'s record header, and its message index records: each where the chunk
+    /// index says, a message index (opcode 0x07) of the channel it is listed for, its entries
+    /// (16 bytes each) inside the record and pointing inside the decompressed chunk.
+    fn read_counts(&mut self, k: usize) -> Option<(usize, usize)> {
+        let chunk = self.chunks.get(k)?;
+        let file = self.file.as_mut()?;
+        let mut head = [0u8; 9];
+        file.seek(SeekFrom::Start(chunk.start)).ok()?;
+        file.read_exact(&mut head).ok()?;
+        if head[0] != 0x06 || u64::from_le_bytes(head[1..].try_into().ok()?) != chunk.len - 9 {
+            return None;
+        }
+        let (Some(&first), Some(&last)) = (
+            chunk.message_indexes.values().min(),
+            chunk.message_indexes.values().max(),
+        ) else {
+            return Some((0, 0));
+        };
+        let block_end = first.checked_add(chunk.message_index_len)?;
+        if first < chunk.start + chunk.len || last >= block_end {
+            return None;
+        }
+        // bounded by the file: the chunk index checks kept every chunk inside it
+        let file_len = file.seek(SeekFrom::End(0)).ok()?;
+        if block_end > file_len {
+            return None;
+        }
+        let mut block = vec![0u8; usize::try_from(chunk.message_index_len).ok()?];
+        file.seek(SeekFrom::Start(first)).ok()?;
+        file.read_exact(&mut block).ok()?;
+        let (mut messages, mut clouds) = (0usize, 0usize);
+        for (&channel, &at) in &chunk.message_indexes {
+            let rec = block.get(usize::try_from(at - first).ok()?..)?;
+            let rec_len =
+                usize::try_from(u64::from_le_bytes(rec.get(1..9)?.try_into().ok()?)).ok()?;
+            let body = rec.get(9..9usize.checked_add(rec_len)?)?;
+            if rec[0] != 0x07 || u16::from_le_bytes(body.get(..2)?.try_into().ok()?) != channel {
+                return None;
+            }
+            let n = usize::try_from(u32::from_le_bytes(body.get(2..6)?.try_into().ok()?)).ok()?;
+            let entries = body.get(6..6usize.checked_add(n)?)?;
+            if n % 16 != 0 {
+                return None;
+            }
+            for e in entries.chunks_exact(16) {
+                if u64::from_le_bytes(e[8..].try_into().ok()?) >= chunk.uncompressed {
+                    return None;
+                }
+            }
+            messages = messages.checked_add(n / 16)?;
+            if self.topic_channels.contains(&channel) {
+                clouds += n / 16;
+            }
+        }
+        Some((messages, clouds))
+    }
 }
 
 fn message_encoding(path: &Path, ch: &::mcap::Channel) -> Result<Encoding, FormatError> {
@@ -680,11 +982,20 @@ pub struct McapFrames {
     world: Isometry3<f64>,
     tf: TfTree,
     messages: Messages<BufReader<File>>,
-    /// Clouds yielded so far.
+    /// Clouds yielded or skipped so far.
     clouds: usize,
     /// Messages on the topic, counted by the first pass: one frame each, unless one fails.
     total: usize,
     done: bool,
+    /// What the first pass saw of each cloud.
+    marks: Vec<CloudMark>,
+    /// The file's schemas and channels, from the first pass.
+    definitions: Definitions,
+    /// The summary's chunk indexes, when the file has them.
+    chunks: Option<ChunkIndexes>,
+    /// Whether `messages` jumped over chunks: the clouds read since are checked against
+    /// `marks`, and the file is read again from its start at the first difference.
+    jumped: bool,
 }
 
 impl std::fmt::Debug for McapFrames {
@@ -724,17 +1035,101 @@ impl McapFrames {
         }
     }
 
+    /// The next message on the topic as [`Self::next_topic_message`] gives it; after a jump
+    /// over chunks, checked against the first pass's mark of the cloud it should be, and on
+    /// any difference (or error, or early end) the file is read again linearly from its
+    /// start to the same cloud: a jump can save reading, never change what comes out.
+    fn next_cloud_message(
+        &mut self,
+    ) -> Result<Option<(usize, ::mcap::Message<'static>)>, FormatError> {
+        loop {
+            let r = self.next_topic_message();
+            if !self.jumped {
+                return r;
+            }
+            match r {
+                Ok(Some((i, m))) if self.marks.get(self.clouds) == Some(&CloudMark::of(i, &m)) => {
+                    return Ok(Some((i, m)))
+                }
+                Ok(None) if self.clouds >= self.total => return Ok(None),
+                _ => self.read_again()?,
+            }
+        }
+    }
+
+    /// Start the file again from its start (no jump) and pass the clouds passed so far.
+    fn read_again(&mut self) -> Result<(), FormatError> {
+        self.chunks = None;
+        self.jumped = false;
+        self.messages = Messages::new(&self.path, open_file(&self.path)?)?;
+        let target = std::mem::take(&mut self.clouds);
+        while self.clouds < target {
+            match self.next_topic_message()? {
+                Some(_) => self.clouds += 1,
+                None => {
+                    return Err(FormatError::syntax(
+                        &self.path,
+                        Location::File,
+                        format!(
+                            "the file changed while it was read: it has {} clouds on {:?} now, \
+                             {} before",
+                            self.clouds, self.topic, self.total
+                        ),
+                    ))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Move the reader to the chunk holding cloud `cloud` when the file's chunk and message
+    /// indexes place it in a chunk after the reader (whose last cloud read is in a chunk
+    /// before it); nothing otherwise.
+    fn jump_to_cloud(&mut self, cloud: usize) -> Result<(), FormatError> {
+        let Some(chunks) = self.chunks.as_mut() else {
+            return Ok(());
+        };
+        let Some((at, messages, clouds)) = chunks.chunk_of_cloud(cloud) else {
+            return Ok(());
+        };
+        if clouds <= self.clouds || cloud >= self.total {
+            return Ok(());
+        }
+        match self.messages.jump(at, messages, &self.definitions) {
+            Ok(()) => {
+                self.clouds = clouds;
+                self.jumped = true;
+                Ok(())
+            }
+            // the reader may be anywhere now: read again from the start
+            Err(_) => self.read_again(),
+        }
+    }
+
     /// Pass over the next `n` clouds of the topic without decoding them (the transforms were
     /// all read by the first pass, so the clouds after them come out the same); returns how
-    /// many were passed, fewer after the last. The chunks holding them are still read.
+    /// many were passed, fewer after the last.
+    ///
+    /// When the file's summary has chunk indexes and its message index records say which
+    /// chunk holds the first cloud after the skip, the chunks before that one are passed
+    /// without being read (their message index records are read instead), and the clouds
+    /// read after that are checked against what the first pass saw of them; otherwise, or
+    /// at a difference, the chunks are read up to that cloud.
     pub fn skip_clouds(&mut self, n: usize) -> Result<usize, FormatError> {
-        let mut passed = 0;
-        while passed < n && !self.done {
-            match self.next_topic_message() {
-                Ok(Some(_)) => {
-                    self.clouds += 1;
-                    passed += 1;
-                }
+        let start = self.clouds;
+        let target = start.saturating_add(n).min(self.total);
+        if n > 0 && !self.done && target > 0 {
+            // land in the chunk of the first cloud after the skip (or of the last cloud)
+            let landing = target.min(self.total - 1);
+            if let Err(e) = self.jump_to_cloud(landing) {
+                self.done = true;
+                return Err(e);
+            }
+        }
+        let goal = start.saturating_add(n);
+        while self.clouds < goal && !self.done {
+            match self.next_cloud_message() {
+                Ok(Some(_)) => self.clouds += 1,
                 Ok(None) => self.done = true,
                 Err(e) => {
                     self.done = true;
@@ -742,12 +1137,12 @@ impl McapFrames {
                 }
             }
         }
-        Ok(passed)
+        Ok(self.clouds.saturating_sub(start))
     }
 
     /// The next cloud of the topic, decoded and posed, or `None` after the last.
     fn next_cloud(&mut self) -> Result<Option<(Frame, CloudStats)>, FormatError> {
-        let Some((index, m)) = self.next_topic_message()? else {
+        let Some((index, m)) = self.next_cloud_message()? else {
             return Ok(None);
         };
         let path = self.path.as_path();
@@ -887,6 +1282,21 @@ mod tests {
             );
             let _ = topics_of(path, Cursor::new(&bytes));
         }
+        // the same record in the summary section (found by the `mcap` fuzz target on the
+        // `mcap-skip` branch: the crate's summary reader parses every record there with
+        // `parse_record`): the summary is not used, the file is read linearly
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        let summary_start = f.len() as u64;
+        f.extend_from_slice(&short_attachment());
+        f.push(0x02);
+        f.extend_from_slice(&20u64.to_le_bytes());
+        f.extend_from_slice(&summary_start.to_le_bytes());
+        f.extend_from_slice(&0u64.to_le_bytes());
+        f.extend_from_slice(&0u32.to_le_bytes());
+        f.extend_from_slice(b"\x89MCAP0\r\n");
+        let len = f.len() as u64;
+        assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), len).unwrap());
+        let _ = topics_of(path, Cursor::new(&f));
         // the record itself is what the crate refuses to slice: check the test builds it
         let r = short_attachment();
         assert!(std::panic::catch_unwind(|| ::mcap::parse_record(0x09, &r[9..])).is_err());
@@ -940,7 +1350,7 @@ mod tests {
         f.extend_from_slice(&0u64.to_le_bytes());
         f.extend_from_slice(&0u32.to_le_bytes());
         f.extend_from_slice(b"\x89MCAP0\r\n");
-        assert!(summary_has_chunk(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
+        assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
         let e = topics_of(path, Cursor::new(&f)).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
 

@@ -798,11 +798,23 @@ struct Msg {
 }
 
 fn mcap_file(profile: &str, messages: &[Msg], compression: Option<mcap::Compression>) -> Vec<u8> {
-    let mut w = mcap::WriteOptions::new()
+    mcap_file_in_chunks(profile, messages, compression, None)
+}
+
+/// [`mcap_file`] with chunks of at most `chunk_size` bytes (the writer's default: `None`).
+fn mcap_file_in_chunks(
+    profile: &str,
+    messages: &[Msg],
+    compression: Option<mcap::Compression>,
+    chunk_size: Option<u64>,
+) -> Vec<u8> {
+    let mut opts = mcap::WriteOptions::new()
         .profile(profile)
-        .compression(compression)
-        .create(Cursor::new(Vec::new()))
-        .unwrap();
+        .compression(compression);
+    if chunk_size.is_some() {
+        opts = opts.chunk_size(chunk_size);
+    }
+    let mut w = opts.create(Cursor::new(Vec::new())).unwrap();
     let mut channels: BTreeMap<&str, u16> = BTreeMap::new();
     for (i, m) in messages.iter().enumerate() {
         let id = match channels.get(m.topic) {
@@ -900,6 +912,22 @@ fn mcap(s: &mut Seeds) {
         "mcap",
         "ros2-be-plain.mcap",
         &mcap_file("ros2", &ros2(true), None),
+    );
+    // several small chunks with their indexes: a slice jumps over the first ones
+    let mut chunked = ros2(false);
+    for i in 0..4u64 {
+        chunked.push(Msg {
+            topic: "/cloud",
+            schema: "sensor_msgs/msg/PointCloud2",
+            encoding: "cdr",
+            data: cloud_message(true, false, "lidar", &pts[..1 + i as usize % 2]),
+            log_time: 50 + 10 * i,
+        });
+    }
+    s.put(
+        "mcap",
+        "ros2-zstd-chunks.mcap",
+        &mcap_file_in_chunks("ros2", &chunked, Some(mcap::Compression::Zstd), Some(200)),
     );
     let ros1 = vec![
         Msg {
