@@ -372,13 +372,7 @@ impl VoxelBlocks {
                     // every selected voxel takes the transition of a new voxel (never OctoMap's
                     // early exit), the others stay absent: the block's max is that voxel's
                     // value, and the block is uniform when all eight are selected
-                    let mut idx = [ABSENT_IDX; 8];
-                    let mut sel = u32::from(bits);
-                    while sel != 0 {
-                        idx[sel.trailing_zeros() as usize & 7] = n0;
-                        sel &= sel - 1;
-                    }
-                    self.narrow.blocks[lb as usize].idx = idx;
+                    self.narrow.blocks[lb as usize].idx = selected_to([ABSENT_IDX; 8], bits, n0);
                     out.added += bits.count_ones() as usize;
                     out.applied = true;
                     out.rest &= !(0xff << (8 * j));
@@ -420,13 +414,7 @@ impl VoxelBlocks {
                     // `v` is not at that clamp), the others keep `v`: two values, so the max
                     // is the larger, and the block is uniform when all eight are selected or
                     // the transition keeps the index
-                    let mut idx = [i; 8];
-                    let mut sel = u32::from(bits);
-                    while sel != 0 {
-                        idx[sel.trailing_zeros() as usize & 7] = n;
-                        sel &= sel - 1;
-                    }
-                    self.narrow.blocks[lb as usize].idx = idx;
+                    self.narrow.blocks[lb as usize].idx = selected_to([i; 8], bits, n);
                     out.applied = true;
                     out.rest &= !(0xff << (8 * j));
                     if !lazy {
@@ -712,3 +700,14 @@ fn uniform_vals(vals: &[f32; 8]) -> Option<f32> {
 #[cfg(test)]
 #[path = "voxel_blocks_tests.rs"]
 mod tests;
+
+/// `idx` with the slots selected by `bits` (bit `k`: slot `k`) set to `to`.
+#[inline(always)]
+fn selected_to(mut idx: [u16; 8], bits: u8, to: u16) -> [u16; 8] {
+    let mut sel = u32::from(bits);
+    while sel != 0 {
+        idx[sel.trailing_zeros() as usize & 7] = to;
+        sel &= sel - 1;
+    }
+    idx
+}
