@@ -3,6 +3,7 @@
 //!
 //! - [`slot`]: a node's value slot, its log-odds or the absent marker of a missing child.
 //! - [`arena`]: a pool of blocks with a free list.
+//! - [`inner_block`]: the block of eight inner nodes.
 //! - [`palette`]: the distinct depth-16 values and the memoized voxel updates over them.
 //! - [`voxel_blocks`]: the depth-16 blocks, as palette indices or, past its limit, as values.
 //! - [`nodes`]: [`NodeStore`], the tree's nodes over inner and voxel blocks, and [`NodeRef`].
@@ -12,6 +13,7 @@
 //! use only the layers listed above them.
 
 mod arena;
+mod inner_block;
 mod memory;
 mod nodes;
 mod palette;

@@ -8,23 +8,11 @@
 //! costs 4-8 bytes per node, against OctoMap's ~27.
 
 use super::arena::{Arena, NO_BLOCK};
+use super::inner_block::{InnerBlock, EMPTY_INNER};
 use super::memory::MemoryUsage;
 use super::palette::{Adder, PALETTE_LIMIT};
 use super::slot::{max_present, present, ABSENT};
 use super::voxel_blocks::{Outcome, VoxelBlocks};
-
-/// Eight children at depths 1..=15: their log-odds and their own child blocks.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-pub(crate) struct InnerBlock {
-    pub vals: [f32; 8],
-    pub kids: [u32; 8],
-}
-
-const EMPTY_INNER: InnerBlock = InnerBlock {
-    vals: [ABSENT; 8],
-    kids: [NO_BLOCK; 8],
-};
 
 /// Both arenas and the root.
 #[derive(Clone)]

@@ -10,7 +10,7 @@
 //! storage when they fit again.
 
 use super::arena::{Arena, NO_BLOCK};
-use super::nodes::InnerBlock;
+use super::inner_block::InnerBlock;
 use super::palette::{Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX};
 use super::slot::{max_present, present, ABSENT};
 
