@@ -577,23 +577,29 @@ fn check_colored_scans_with(
     }
 }
 
-/// Four TUM RGB-D frames (every second pixel) with the colours of their registered RGB images.
-#[test]
-fn tum_rgbd_colored_scans_match_octomap_server() {
-    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
-    else {
-        return;
-    };
+/// The first four TUM RGB-D frames (every second pixel) with the colours of their registered
+/// RGB images; `None` without the data.
+fn tum_colored_frames() -> Option<Vec<octoquant::Frame>> {
+    let assoc = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")?;
     let mut options = octoquant::formats::ReadOptions {
         colors: true,
         ..octoquant::formats::ReadOptions::default()
     };
     options.tum.pixel_step = 2;
-    let frames: Vec<octoquant::Frame> = octoquant::formats::frame_stream(&assoc, &options)
+    let frames = octoquant::formats::frame_stream(&assoc, &options)
         .unwrap()
         .take(4)
         .collect::<Result<_, _>>()
         .unwrap();
+    Some(frames)
+}
+
+/// Four TUM RGB-D frames (every second pixel) with the colours of their registered RGB images.
+#[test]
+fn tum_rgbd_colored_scans_match_octomap_server() {
+    let Some(frames) = tum_colored_frames() else {
+        return;
+    };
     check_colored_scans("color_scans_tum", &frames, 0.05, 4.0);
 }
 
@@ -602,23 +608,12 @@ fn tum_rgbd_colored_scans_match_octomap_server() {
 #[test]
 fn tum_rgbd_colored_scans_with_a_z_band_match_octomap_server_on_the_band() {
     use octoquant::color_map::{ColorMapper, ColorMerge};
-    let Some(assoc) = common::data_file("rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt")
-    else {
+    let Some(frames) = tum_colored_frames() else {
         return;
     };
     let Some(refprog) = common::reference_program() else {
         return;
     };
-    let mut options = octoquant::formats::ReadOptions {
-        colors: true,
-        ..octoquant::formats::ReadOptions::default()
-    };
-    options.tum.pixel_step = 2;
-    let frames: Vec<octoquant::Frame> = octoquant::formats::frame_stream(&assoc, &options)
-        .unwrap()
-        .take(4)
-        .collect::<Result<_, _>>()
-        .unwrap();
     // the band between the quartiles of the heights
     let mut z: Vec<f32> = frames
         .iter()
