@@ -471,6 +471,39 @@ fn an_indexed_mcap_file_skips_chunks_without_reading_them() {
     );
 }
 
+/// Opening an MCAP file reads it about once: its first pass (transforms, cloud records)
+/// must read every chunk, but the check of the chunk headers before it reads only the
+/// headers, and the stream the frames come from checks them again without reading the
+/// chunks' bodies either. Reading every frame after it reads the file once more.
+#[test]
+fn opening_an_mcap_file_reads_it_about_once() {
+    let Some(path) = common::data_file(OUSTER) else {
+        return;
+    };
+    let dir = common::scratch("frame_slices_mcap_open");
+    let indexed = dir.join("indexed.mcap");
+    ouster_in_chunks(&path, &indexed, 8, true);
+    let size = std::fs::metadata(&indexed).map_or(0, |m| m.len());
+    let Some(before) = bytes_read_by_this_thread() else {
+        common::skip::<()>("/proc/thread-self/io (per-thread I/O accounting)");
+        return;
+    };
+    let s = frame_stream(&indexed, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let opened = bytes_read_by_this_thread().unwrap_or(0) - before;
+    let frames = s.count();
+    let read = bytes_read_by_this_thread().unwrap_or(0) - before;
+    eprintln!("{frames} frames: opening read {opened} bytes, the whole read {read}, of {size}");
+    assert_eq!(frames, 16);
+    assert!(
+        opened < size + size / 10,
+        "opening read {opened} bytes of a {size}-byte file"
+    );
+    assert!(
+        read < 2 * size + size / 5,
+        "opening and reading every frame read {read} bytes of a {size}-byte file"
+    );
+}
+
 /// Message indexes that lie (the records of one chunk's cloud claim no message) or a chunk
 /// damaged before the slice: a skip gives the whole read's frames or the whole read's
 /// error, never other frames.

@@ -766,6 +766,76 @@ fn truncated_files_are_errors() {
     }
 }
 
+/// The top-level chunk records of an MCAP file: each one's offset and end. Walks the
+/// records (opcode, `u64` length, content) after the 8-byte magic up to the footer.
+fn chunks_of(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut pos = 8;
+    let mut chunks = Vec::new();
+    while bytes[pos] != 0x02 {
+        let end =
+            pos + 9 + u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap()) as usize;
+        if bytes[pos] == 0x06 {
+            chunks.push((pos, end));
+        }
+        pos = end;
+    }
+    chunks
+}
+
+/// A chunk whose records no longer match the CRC-32 its header states is refused before any
+/// of its messages is used, naming the file and the chunk's end: a byte changed in an
+/// uncompressed chunk's point data, and a damaged CRC field of the real recording's zstd
+/// chunk. Undone, the same change reads as the recording.
+#[test]
+fn chunks_whose_crc_does_not_match_are_refused() {
+    use octoquant::formats::{frame_stream, ReadOptions};
+    let Some(src) = common::data_file(OUSTER) else {
+        return;
+    };
+    let dir = common::scratch("mcap_chunk_crc");
+    let plain = dir.join("uncompressed.mcap");
+    rewrite(&src, &plain, Layout::UncompressedChunks);
+    let whole = frame_bits(&read_mcap(&src, &McapOptions::default()).unwrap().0);
+    assert_eq!(whole.len(), 2);
+    let real = std::fs::read(&src).unwrap();
+    let mut cases: Vec<(&str, Vec<u8>, usize, usize, u8)> = Vec::new();
+    // the last chunk of the uncompressed file holds the last cloud: change one byte in the
+    // middle of its records (point data), keeping the CRC field
+    let mut bytes = std::fs::read(&plain).unwrap();
+    let &(start, end) = chunks_of(&bytes).last().unwrap();
+    let at = (start + end) / 2;
+    bytes[at] ^= 0x10;
+    cases.push(("uncompressed.mcap", bytes, end, at, 0x10));
+    // the real recording's second chunk with its CRC field changed (chunk content: start
+    // time, end time, uncompressed size, then the CRC)
+    let mut bytes = real.clone();
+    let chunks = chunks_of(&bytes);
+    assert_eq!(chunks.len(), 2);
+    let (start, end) = chunks[1];
+    bytes[start + 9 + 24] ^= 0x01;
+    cases.push(("zstd.mcap", bytes, end, start + 9 + 24, 0x01));
+    for (name, bytes, end, at, flip) in cases {
+        let path = dir.join(format!("damaged-{name}"));
+        std::fs::write(&path, &bytes).unwrap();
+        let e = read_mcap(&path, &McapOptions::default())
+            .map(|_| ())
+            .expect_err(name)
+            .to_string();
+        assert!(e.contains(&format!("damaged-{name}")), "{e}");
+        assert!(e.contains("CRC-32"), "{e}");
+        assert!(e.contains(&format!("byte {end}")), "{name}: {e}");
+        // the stream's first pass reads every chunk: it refuses the file when opening it
+        let opened = frame_stream(&path, &ReadOptions::default()).map(|_| ());
+        assert_eq!(opened.map_err(|e| e.to_string()), Err(e), "{name}");
+        // the undamaged file reads as the recording
+        let mut fixed = bytes;
+        fixed[at] ^= flip;
+        std::fs::write(&path, &fixed).unwrap();
+        let frames = read_mcap(&path, &McapOptions::default()).unwrap().0;
+        assert_eq!(frame_bits(&frames), whole, "{name}");
+    }
+}
+
 /// One item of a frame stream, comparable: the frame's bits or the error's text.
 type Item = Result<(Vec<u32>, Option<u64>), String>;
 

@@ -62,9 +62,16 @@ fn mcap_err(path: &Path, e: ::mcap::McapError) -> FormatError {
 trait Input: Read + Seek {}
 impl<T: Read + Seek> Input for T {}
 
+/// Bytes read ahead by the file's buffer. Small, because the header check
+/// ([`check_chunk_sizes`]) and the chunk jumps seek from record to record: each seek past the
+/// buffer refills it, and a larger buffer would pull in most of every chunk skipped (with
+/// 64 KiB it read the file a second time). Records and chunks of this size or more are
+/// read straight into the reader's own buffer.
+const READ_BUFFER: usize = 1 << 12;
+
 fn open_file(path: &Path) -> Result<BufReader<File>, FormatError> {
     File::open(path)
-        .map(|f| BufReader::with_capacity(1 << 16, f))
+        .map(|f| BufReader::with_capacity(READ_BUFFER, f))
         .map_err(|e| FormatError::io(path, Location::File, e))
 }
 
@@ -171,20 +178,33 @@ impl Definitions {
     }
 }
 
+/// The crate's record reader under the record length `limit`, at the start of a file or (a
+/// jump) at a top-level record. A chunk whose header states the CRC-32 of its records
+/// (nonzero) is checked against it before any of its records is handed on, so a damaged
+/// chunk gives no message: a bit flipped in an uncompressed chunk, or in a compressed one
+/// that its codec does not notice, would otherwise change a point without a word.
 fn linear_reader(limit: usize, at_start: bool) -> ::mcap::sans_io::LinearReader {
     ::mcap::sans_io::LinearReader::new_with_options(
         ::mcap::sans_io::LinearReaderOptions::default()
             .with_record_length_limit(limit)
             .with_emit_chunks(false)
+            .with_prevalidate_chunk_crcs(true)
             .with_skip_start_magic(!at_start),
     )
 }
 
 impl<R: Input> Messages<R> {
+    /// Check the chunk headers of `input`, then read its messages from the start.
     fn new(path: &Path, mut input: R) -> Result<Self, FormatError> {
         let len = file_len(path, &mut input)?;
         let largest_chunk = check_chunk_sizes(path, &mut input, len)?;
         let limit = usize::try_from(largest_chunk.max(len)).unwrap_or(usize::MAX);
+        Self::checked(path, input, len, limit)
+    }
+
+    /// Read the messages of `input` from the start, its chunk headers already checked by
+    /// another reader of the same file (of length `len`), which found the limit `limit`.
+    fn checked(path: &Path, mut input: R, len: u64, limit: usize) -> Result<Self, FormatError> {
         input
             .seek(SeekFrom::Start(0))
             .map_err(|e| FormatError::io(path, Location::File, e))?;
@@ -255,6 +275,21 @@ impl<R: Input> Messages<R> {
         let path = &self.path;
         let err = |e| mcap_err(path, e);
         while let Some(event) = self.reader.next_event() {
+            let event = match event {
+                Err(::mcap::McapError::BadChunkCrc { saved, calculated }) => {
+                    // the chunk was the last record handed to the reader
+                    let end = self.len - self.left;
+                    return Err(FormatError::syntax(
+                        path,
+                        Location::Byte(end),
+                        format!(
+                            "the chunk that ends at this byte is damaged: its records' CRC-32 \
+                             is {calculated:08x}, its header says {saved:08x}"
+                        ),
+                    ));
+                }
+                e => e,
+            };
             let (opcode, data) = match event.map_err(err)? {
                 LinearReadEvent::ReadRequest(need) => {
                     // never more than the input still holds: a length field cannot make
@@ -736,6 +771,8 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         }
     }
     let definitions = first.definitions.take().unwrap_or_default();
+    // the stream reads the same file: its chunk headers are checked
+    let (first_len, first_limit) = (first.len, first.limit);
     drop(first);
     let mut input = open_file(path)?;
     let chunks = ChunkIndexes::of(path, &mut input, &topic, &definitions);
@@ -746,7 +783,7 @@ pub fn mcap_frames(path: &Path, options: &McapOptions) -> Result<McapFrames, For
         colors: options.colors,
         world: options.sensor_pose.unwrap_or_else(Isometry3::identity),
         tf,
-        messages: Messages::new(path, input)?,
+        messages: Messages::checked(path, input, first_len, first_limit)?,
         clouds: 0,
         total,
         done: false,
@@ -1061,7 +1098,8 @@ impl McapFrames {
     fn read_again(&mut self) -> Result<(), FormatError> {
         self.chunks = None;
         self.jumped = false;
-        self.messages = Messages::new(&self.path, open_file(&self.path)?)?;
+        let (len, limit) = (self.messages.len, self.messages.limit);
+        self.messages = Messages::checked(&self.path, open_file(&self.path)?, len, limit)?;
         let target = std::mem::take(&mut self.clouds);
         while self.clouds < target {
             match self.next_topic_message()? {

@@ -798,19 +798,24 @@ struct Msg {
 }
 
 fn mcap_file(profile: &str, messages: &[Msg], compression: Option<mcap::Compression>) -> Vec<u8> {
-    mcap_file_in_chunks(profile, messages, compression, None)
+    mcap_file_in_chunks(profile, messages, compression, None, true)
 }
 
-/// [`mcap_file`] with chunks of at most `chunk_size` bytes (the writer's default: `None`).
+/// [`mcap_file`] with chunks of at most `chunk_size` bytes (the writer's default: `None`),
+/// with or without the chunks' CRC-32 (0 in the header: not checked). The reader refuses a
+/// chunk whose records do not match its CRC, so a mutation inside a chunk that has one
+/// stops there: the seeds without CRCs let the fuzzer reach the records' parsing.
 fn mcap_file_in_chunks(
     profile: &str,
     messages: &[Msg],
     compression: Option<mcap::Compression>,
     chunk_size: Option<u64>,
+    crcs: bool,
 ) -> Vec<u8> {
     let mut opts = mcap::WriteOptions::new()
         .profile(profile)
-        .compression(compression);
+        .compression(compression)
+        .calculate_chunk_crcs(crcs);
     if chunk_size.is_some() {
         opts = opts.chunk_size(chunk_size);
     }
@@ -924,10 +929,15 @@ fn mcap(s: &mut Seeds) {
             log_time: 50 + 10 * i,
         });
     }
+    for (name, crcs) in [("ros2-zstd-chunks.mcap", true), ("ros2-zstd-chunks-no-crc.mcap", false)] {
+        let zstd = Some(mcap::Compression::Zstd);
+        let file = mcap_file_in_chunks("ros2", &chunked, zstd, Some(200), crcs);
+        s.put("mcap", name, &file);
+    }
     s.put(
         "mcap",
-        "ros2-zstd-chunks.mcap",
-        &mcap_file_in_chunks("ros2", &chunked, Some(mcap::Compression::Zstd), Some(200)),
+        "ros2-be-plain-no-crc.mcap",
+        &mcap_file_in_chunks("ros2", &ros2(true), None, None, false),
     );
     let ros1 = vec![
         Msg {
