@@ -116,6 +116,24 @@ def test_stamped_mapper_filters_and_range_match_cli(cli, tum, tmp_path):
     assert mapper.tree.write() == want
 
 
+def test_degrade_outdated_nodes_matches_cli(cli, tum, tmp_path):
+    """``OcTreeStamped.degradeOutdatedNodes`` against the CLI's ``--degrade-older-than``, with
+    the clock set by the frames' times: the frames' whole seconds run from 1311877813 to
+    1311877824, so with a 10 s threshold the CLI's degrade after each frame finds a stale leaf
+    only after the last one (824 - 813 > 10; 823 - 813 is not). The map of every frame without
+    degrading, then ``degradeOutdatedNodes(10, now=1311877824)``, is then the CLI's map byte for
+    byte, and differs from the map without degrading."""
+    assoc, frames, stamps = tum
+    seconds = [math.floor(s) for s in stamps]
+    assert seconds[0] == 1311877813 and seconds[-1] == 1311877824
+    assert seconds[-2] - seconds[0] <= 10 < seconds[-1] - seconds[0]
+    want = cli_map(cli, assoc, tmp_path / "degraded.ot", "--degrade-older-than", "10")
+    tree = stamped_map(frames, stamps).tree
+    assert tree.write() != want
+    tree.degradeOutdatedNodes(10, now=seconds[-1])
+    assert tree.write() == want
+
+
 def test_degrade_outdated_nodes_matches_naive_expectation(tum):
     """``degradeOutdatedNodes(thres, now=...)`` on the map of the TUM frames: every occupied leaf
     whose stamp is more than ``thres`` seconds before ``now`` gets exactly one miss (clamped at
