@@ -64,6 +64,9 @@ class iterator_base:
         """No children, or at the iterator's depth limit."""
     def getColor(self) -> tuple[int, int, int]:
         """The node's colour (a ColorOcTree's iterators; TypeError on an OcTree's)."""
+    def getTimestamp(self) -> int:
+        """The node's time stamp in seconds (an OcTreeStamped's iterators; TypeError on the
+        others')."""
     def __len__(self) -> int:
         """Nodes left, the current one included."""
 
@@ -426,6 +429,156 @@ class ColorMapper:
     @property
     def frames(self) -> int:
         """Scans inserted so far."""
+
+class OcTreeNodeStamped:
+    """A node of an OcTreeStamped as it was when it was looked up (a snapshot)."""
+
+    def getValue(self) -> float:
+        """The node's log-odds."""
+    def getLogOdds(self) -> float:
+        """The node's log-odds."""
+    def getOccupancy(self) -> float:
+        """The occupancy probability ``1 - 1/(1 + exp(log_odds))``."""
+    def hasChildren(self) -> bool:
+        """Whether the node had children."""
+    def getDepth(self) -> int:
+        """The node's depth (16 = voxel)."""
+    def getKey(self) -> OcTreeKey:
+        """The node's key at its depth."""
+    def getTimestamp(self) -> int:
+        """Whole seconds of the node's last update (OctoMap's ``getTimestamp``); 0 if never
+        stamped, e.g. in a tree read from a file."""
+
+class OcTreeStamped:
+    """OctoMap's OcTreeStamped: occupancy plus the time (whole seconds) of each node's last
+    update, built by octoquant.
+
+    ``OcTreeStamped(resolution)`` is an empty tree; ``OcTreeStamped(filename)`` reads a ``.ot``
+    file of type OcTreeStamped (or the bytes ``write()`` returned). OctoMap reads the clock
+    inside each stamping call; here each also takes ``now=`` (seconds) to stamp with a given
+    time. ``.ot`` files hold no stamps (as OctoMap's): a tree read back has every stamp 0.
+    """
+
+    def __init__(self, arg: Union[float, StrOrBytesPath]) -> None: ...
+    @staticmethod
+    def read(filename: Union[StrOrBytesPath, bytes]) -> OcTreeStamped:
+        """A tree from an OcTreeStamped ``.ot`` file or bytes (OSError, ValueError on failure,
+        also for another tree type or a ``.bt``)."""
+    @overload
+    def write(self) -> bytes: ...
+    @overload
+    def write(self, filename: StrOrBytesPath) -> bool: ...
+    def getTreeType(self) -> bytes: ...
+    def getResolution(self) -> float: ...
+    def size(self) -> int: ...
+    def getNumLeafNodes(self) -> int: ...
+    def clear(self) -> None: ...
+    def getLastUpdateTime(self) -> int:
+        """The root's stamp: the time of the last eager update anywhere; 0 when empty."""
+    def updateNode(
+        self,
+        value: Union[OcTreeKey, NDArray[Any]],
+        update: Union[bool, float],
+        lazy_eval: bool = ...,
+        *,
+        now: Optional[int] = None,
+    ) -> Optional[OcTreeNodeStamped]:
+        """One observation at ``now`` (default the system clock): stamps the voxel, and the
+        inner nodes on its way unless lazy; None outside the map."""
+    def search(
+        self, value: Union[OcTreeKey, NDArray[Any]], depth: int = ...
+    ) -> Optional[OcTreeNodeStamped]: ...
+    def getRoot(self) -> Optional[OcTreeNodeStamped]: ...
+    def degradeOutdatedNodes(self, time_thres: int, *, now: Optional[int] = None) -> None:
+        """One miss for every occupied leaf stamped more than ``time_thres`` s before ``now``
+        (default the system clock); stamps and inner nodes stay."""
+    def isNodeOccupied(self, node: Union[OcTreeNodeStamped, OcTreeNode, iterator_base]) -> bool: ...
+    def updateInnerOccupancy(self, *, now: Optional[int] = None) -> None:
+        """Inner nodes to the max of their children, stamped ``now``."""
+    def toMaxLikelihood(self) -> None: ...
+    def prune(self) -> None:
+        """Collapse eight leaves with equal log-odds and equal stamps."""
+    def expand(self) -> None: ...
+    def deleteNode(
+        self, value: Union[OcTreeKey, NDArray[Any]], depth: int = ..., *, now: Optional[int] = None
+    ) -> bool: ...
+    def castRay(
+        self,
+        origin: Vec3,
+        direction: Vec3,
+        end: NDArray[np.floating[Any]],
+        ignoreUnknownCells: bool = False,
+        maxRange: float = -1.0,
+    ) -> bool:
+        """True when an occupied voxel is hit; ``end`` receives where the ray stopped."""
+    def cast_rays(
+        self,
+        origins: Union[Vec3, Points],
+        directions: Points,
+        ignore_unknown: bool = False,
+        max_range: Optional[float] = None,
+    ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+        """Many casts: (hit (N,), ends (N, 3), NaN where no cast was possible)."""
+    def begin_tree(self, maxDepth: int = 0) -> tree_iterator:
+        """Every node, inner ones too; ``getTimestamp()`` gives each one's stamp."""
+    def begin_leafs(self, maxDepth: int = 0) -> leaf_iterator: ...
+    def begin_leafs_bbx(self, bbx_min: Vec3, bbx_max: Vec3, maxDepth: int = 0) -> leaf_bbx_iterator: ...
+    def end_tree(self) -> tree_iterator: ...
+    def end_leafs(self) -> leaf_iterator: ...
+    def end_leafs_bbx(self) -> leaf_bbx_iterator: ...
+
+class StampedMapper:
+    """Scans into an ``OcTreeStamped`` as OctoMap's ``insertPointCloud`` puts them into one,
+    every voxel and inner node an update reaches stamped with the scan's whole second: the same
+    bytes as ``octoquant map --stamped``. ``degrade_older_than``: after each scan, one miss for
+    every occupied leaf not updated for more than that many seconds (``degradeOutdatedNodes``,
+    the CLI's ``--degrade-older-than``). ``mode``: as ``Mapper``'s but ``"simple"``; ``lazy``
+    is refused (ValueError). The point filters of ``Mapper`` (keyword-only) drop points
+    first."""
+
+    def __init__(
+        self,
+        resolution: float = 0.1,
+        degrade_older_than: Optional[int] = None,
+        mode: Literal["exact", "discretize", "quantized", "quantized+bresenham"] = "exact",
+        max_range: Optional[float] = None,
+        lazy: bool = False,
+        prob_hit: float = 0.7,
+        prob_miss: float = 0.4,
+        clamping_min: float = 0.1192,
+        clamping_max: float = 0.971,
+        occupancy_threshold: float = 0.5,
+        *,
+        drop_zero: bool = False,
+        min_range: Optional[float] = None,
+        crop_sensor: Optional[Sequence[float]] = None,
+        crop_world: Optional[Sequence[float]] = None,
+        zmin: Optional[float] = None,
+        zmax: Optional[float] = None,
+        ground: Optional[float] = None,
+        ground_angle: float = 0.15,
+        ground_iterations: int = 200,
+        ground_seed: int = 0,
+    ) -> None: ...
+    def insert(
+        self,
+        points: Points,
+        origin: Optional[Vec3] = None,
+        stamp: Optional[float] = None,
+    ) -> dict[str, Any]:
+        """Insert one scan (world points (N, 3), sensor origin) at time ``stamp`` (seconds,
+        floored; default the system clock). Its statistics, with ``"stamp"`` the second used;
+        ValueError for a time outside 0 ..= 2**32 - 1 s."""
+    @property
+    def tree(self) -> OcTreeStamped:
+        """A copy of the map so far, stamps included."""
+    @property
+    def frames(self) -> int:
+        """Scans inserted so far."""
+    @property
+    def resolution(self) -> float: ...
+    @property
+    def degrade_older_than(self) -> Optional[int]: ...
 
 class Mapper:
     """Builds a map from frames with octoquant's pipeline (see the module README)."""

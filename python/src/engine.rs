@@ -14,10 +14,11 @@ pub use octoquant::color_map::{ColorMapper, ColorMerge};
 pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::grid::{GridError, GridOptions, OccupancyGrid, UnknownCells};
 pub use octoquant::octree::{
-    logodds, probability, Color, ColorOcTree, InnerNodes, Key, KeyConverter, NodeInfo, NodeItem,
-    OcTree, OccupancyParams, OctreeError, Update, TREE_DEPTH,
+    logodds, now_seconds, probability, Color, ColorOcTree, InnerNodes, Key, KeyConverter, NodeInfo,
+    NodeItem, OcTree, OccupancyParams, OctreeError, StampedOcTree, Update, TREE_DEPTH,
 };
 pub use octoquant::pipeline::{FrameCaster, FrameStats, InsertMode, Mapper, MapperOptions};
+pub use octoquant::stamped_map::StampedMapper;
 pub use octoquant::tiled::{cast_frames, default_tile_depth};
 pub use octoquant::tiles::{
     apply_tile_updates, join_dir, write_index, write_tile, Tile, TileError, TileIndex, TileUpdates,
@@ -237,6 +238,20 @@ pub fn read_color_ot(bytes: &[u8]) -> Result<ColorOcTree, OctreeError> {
 pub fn write_color_ot(tree: &ColorOcTree) -> std::io::Result<Vec<u8>> {
     let mut out = Vec::new();
     io::write_color_ot(tree, &mut out)?;
+    Ok(out)
+}
+
+/// A `StampedOcTree` from `.ot` bytes of type `OcTreeStamped` (every stamp 0: OctoMap does
+/// not save stamps).
+pub fn read_stamped_ot(bytes: &[u8]) -> Result<StampedOcTree, OctreeError> {
+    io::read_stamped_ot(bytes)
+}
+
+/// `.ot` bytes of a `StampedOcTree` (OctoMap's `OcTreeStamped::write`): every node's log-odds
+/// under `id OcTreeStamped`, no stamps.
+pub fn write_stamped_ot(tree: &StampedOcTree) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    io::write_stamped_ot(tree, &mut out)?;
     Ok(out)
 }
 

@@ -22,6 +22,9 @@ pub struct IteratorBase {
     /// The nodes' colours, parallel to `items`, for a ColorOcTree's iterators; `None` for a
     /// plain OcTree's (whose `getColor` is a TypeError, as in octomap-python).
     colors: Option<Arc<Vec<Color>>>,
+    /// The nodes' time stamps, parallel to `items`, for an OcTreeStamped's iterators; `None`
+    /// for the other trees' (whose `getTimestamp` is a TypeError).
+    stamps: Option<Arc<Vec<u32>>>,
     pos: usize,
     conv: Arc<KeyConverter>,
     max_depth: u8,
@@ -33,6 +36,7 @@ impl IteratorBase {
         IteratorBase {
             items: Arc::new(items),
             colors: None,
+            stamps: None,
             pos: 0,
             conv: Arc::new(conv),
             max_depth,
@@ -53,11 +57,27 @@ impl IteratorBase {
         }
     }
 
+    /// An iterator over an OcTreeStamped's `items` with their time `stamps` (same length,
+    /// same order).
+    pub fn with_stamps(
+        items: Vec<NodeItem>,
+        stamps: Vec<u32>,
+        conv: KeyConverter,
+        max_depth: u8,
+    ) -> Self {
+        debug_assert_eq!(items.len(), stamps.len());
+        IteratorBase {
+            stamps: Some(Arc::new(stamps)),
+            ..Self::new(items, conv, max_depth)
+        }
+    }
+
     /// A copy positioned on the same node.
     fn at_current(&self) -> Self {
         IteratorBase {
             items: self.items.clone(),
             colors: self.colors.clone(),
+            stamps: self.stamps.clone(),
             pos: self.pos,
             conv: self.conv.clone(),
             max_depth: self.max_depth,
@@ -180,6 +200,23 @@ impl IteratorBase {
         self.current()?;
         let c = colors[self.pos];
         Ok((c.r, c.g, c.b))
+    }
+
+    /// Time stamp of the current node (OctoMap's ``OcTreeNodeStamped::getTimestamp``: whole
+    /// seconds of its last update, 0 if never stamped). Only an OcTreeStamped's iterators have
+    /// stamps; the other trees' raise TypeError.
+    #[pyo3(name = "getTimestamp")]
+    fn get_timestamp(&self) -> PyResult<u32> {
+        let Some(stamps) = &self.stamps else {
+            return Err(PyTypeError::new_err(
+                "getTimestamp() is only available on OcTreeStamped iterators",
+            ));
+        };
+        self.current()?;
+        stamps
+            .get(self.pos)
+            .copied()
+            .ok_or_else(|| NullPointerException::new_err("the iterator is past the last node"))
     }
 
     /// Whether the current node is a leaf (no children, or at the iterator's depth limit).

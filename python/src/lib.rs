@@ -3,7 +3,8 @@
 //!
 //! Layout: [`engine`] is the only file that names the octoquant library's paths and free
 //! functions; [`convert`] checks and converts Python arguments; [`tree`], [`color_tree`],
-//! [`node`], [`iter`], [`mapper`] and [`color_mapper`] are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
+//! [`stamped_tree`], [`node`], [`iter`], [`mapper`], [`color_mapper`] and [`stamped_mapper`]
+//! are the Python classes; [`cloud`] and [`bbx`] hold the array queries and the
 //! bounding-box insertion they call; [`density`] and [`segment`] wrap the density reducer and
 //! the 1-D DBSCAN / laser-line segmentation; [`tiles`] the pieces of the exact tiled build
 //! that `octoquant.distributed` runs on Dask.
@@ -21,6 +22,8 @@ mod iter;
 mod mapper;
 mod node;
 mod segment;
+mod stamped_mapper;
+mod stamped_tree;
 mod tiles;
 mod tree;
 
@@ -260,6 +263,9 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<color_tree::PyColorNode>()?;
     m.add_class::<mapper::PyMapper>()?;
     m.add_class::<color_mapper::PyColorMapper>()?;
+    m.add_class::<stamped_tree::PyStampedOcTree>()?;
+    m.add_class::<stamped_tree::PyStampedNode>()?;
+    m.add_class::<stamped_mapper::PyStampedMapper>()?;
     m.add_class::<node::PyKey>()?;
     m.add_class::<node::PyNode>()?;
     m.add_class::<iter::IteratorBase>()?;

@@ -34,7 +34,8 @@ pub struct PyMapper {
     pool: Option<rayon::ThreadPool>,
 }
 
-fn mode(name: &str) -> PyResult<InsertMode> {
+/// The insertion mode named `name` (ValueError listing the names otherwise).
+pub(crate) fn mode(name: &str) -> PyResult<InsertMode> {
     engine::INSERT_MODES
         .into_iter()
         .find(|m| m.name() == name)

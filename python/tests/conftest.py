@@ -58,3 +58,17 @@ def geb079(data_dir):
     if not path.is_file():
         _missing(str(path))
     return path
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """The octoquant CLI binary: OCTOQUANT_BIN, or the workspace's target/release or
+    target/debug build (``cargo test --workspace`` builds it, as .ci/run does before the
+    Python tests)."""
+    candidates = [os.environ.get("OCTOQUANT_BIN")] + [
+        str(REPO / "target" / kind / "octoquant") for kind in ("release", "debug")
+    ]
+    for c in candidates:
+        if c and Path(c).is_file() and os.access(c, os.X_OK):
+            return c
+    _missing("the octoquant binary (cargo build, or set OCTOQUANT_BIN)")

@@ -3,11 +3,10 @@
 
 The binary is OCTOQUANT_BIN, or the workspace's target/release or target/debug build (``cargo
 test --workspace`` builds it, as .ci/run does before the Python tests); without one these tests
-skip, except under CI=true.
+skip, except under CI=true (the ``cli`` fixture is in conftest.py).
 """
 
 import json
-import os
 import subprocess
 from pathlib import Path
 
@@ -15,18 +14,7 @@ import numpy as np
 import pytest
 
 import octoquant
-from conftest import REPO, _missing
-
-
-@pytest.fixture(scope="module")
-def cli():
-    candidates = [os.environ.get("OCTOQUANT_BIN")] + [
-        str(REPO / "target" / kind / "octoquant") for kind in ("release", "debug")
-    ]
-    for c in candidates:
-        if c and Path(c).is_file() and os.access(c, os.X_OK):
-            return c
-    _missing("the octoquant binary (cargo build, or set OCTOQUANT_BIN)")
+from conftest import _missing
 
 
 def read_binary_ply(path):

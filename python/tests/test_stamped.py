@@ -1,0 +1,349 @@
+"""``octoquant.OcTreeStamped`` and ``octoquant.StampedMapper`` (OctoMap's ``OcTreeStamped``).
+
+octomap-python has no ``OcTreeStamped``, so the reference is the CLI: ``octoquant map
+--stamped`` writes the ``.ot`` that liboctomap's ``OcTreeStamped`` writes with its clock set to
+each frame's second (tests/stamped_diff.rs proves that against the C++ library). The clock is
+controlled through the frames' own time stamps: the TUM RGB-D association's depth images are
+named by their time, the CLI stamps each frame with its whole second, and the Python side is
+given the same times as ``insert(..., stamp=...)``. The binary is found as in
+test_cli_agreement.py (the ``cli`` fixture in conftest.py).
+"""
+
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import octoquant
+from conftest import _missing
+
+TUM = "rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt"
+
+
+@pytest.fixture(scope="module")
+def tum(data_dir):
+    """The TUM RGB-D association, its frames (every 4th pixel) and each frame's time stamp."""
+    assoc = data_dir / TUM
+    if not assoc.is_file():
+        _missing(str(assoc))
+    frames = octoquant.read_frames(assoc, pixel_step=4)
+    # the reader takes the rows whose depth image (second column) exists; a frame's stamp is
+    # that image's name, <seconds>.png
+    stamps = []
+    for line in assoc.read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            depth = assoc.parent / line.split()[1]
+            if depth.is_file():
+                stamps.append(float(depth.stem))
+    assert len(frames) == len(stamps) == 10
+    return assoc, frames, stamps
+
+
+def cli_map(cli, assoc, out, *extra):
+    args = [cli, "map", str(assoc), "--pixel-step", "4", "--res", "0.1", "--stamped"]
+    args += [*extra, "-q", "-o", str(out)]
+    res = subprocess.run(args, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    return out.read_bytes()
+
+
+def stamped_map(frames, stamps, **kwargs):
+    mapper = octoquant.StampedMapper(0.1, **kwargs)
+    for (points, origin), stamp in zip(frames, stamps):
+        st = mapper.insert(points, origin, stamp=stamp)
+        assert st["stamp"] == math.floor(stamp)
+        assert st["points"] == len(points)
+    assert mapper.frames == len(frames)
+    return mapper
+
+
+def leaves(tree):
+    """Every leaf as (key, depth, log-odds, stamp), in iteration order."""
+    return [
+        (tuple(it.getKey()), it.getDepth(), it.getValue(), it.getTimestamp())
+        for it in tree.begin_leafs()
+    ]
+
+
+def test_stamped_mapper_matches_cli(cli, tum, tmp_path):
+    """StampedMapper over read_frames with the frames' own times writes the .ot that ``octoquant
+    map --stamped`` writes from the same TUM frames, without and with ``--degrade-older-than``
+    (the frames are 1-2 s apart, so a 1 s threshold degrades after most frames); and the stamps
+    shape the map: a plain Mapper prunes more, and degrading changes the bytes."""
+    assoc, frames, stamps = tum
+    kept = cli_map(cli, assoc, tmp_path / "kept.ot")
+    degraded = cli_map(cli, assoc, tmp_path / "degraded.ot", "--degrade-older-than", "1")
+    assert kept != degraded
+
+    mapper = stamped_map(frames, stamps)
+    tree = mapper.tree
+    assert tree.write() == kept
+    assert tree.getTreeType() == b"OcTreeStamped"
+    assert tree.getLastUpdateTime() == math.floor(stamps[-1]) == 1311877824
+    assert mapper.degrade_older_than is None
+    # several seconds in the map, and equal leaves kept apart by their stamps
+    assert len({s for *_, s in leaves(tree)}) >= 5
+    plain = octoquant.Mapper(0.1)
+    for points, origin in frames:
+        plain.insert(points, origin)
+    assert plain.tree.getNumLeafNodes() < tree.getNumLeafNodes()
+
+    mapper = stamped_map(frames, stamps, degrade_older_than=1)
+    assert mapper.degrade_older_than == 1
+    assert mapper.tree.write() == degraded
+
+
+def test_stamped_mapper_filters_and_range_match_cli(cli, tum, tmp_path):
+    """The sensor model, maximum range and point filters reach the stamped map as the CLI's
+    options do: same .ot bytes with --max-range, a z band and --degrade-older-than 2."""
+    assoc, frames, stamps = tum
+    want = cli_map(
+        cli,
+        assoc,
+        tmp_path / "banded.ot",
+        *("--max-range", "4", "--zmin", "0", "--zmax", "1", "--degrade-older-than", "2"),
+    )
+    mapper = octoquant.StampedMapper(0.1, degrade_older_than=2, max_range=4.0, zmin=0.0, zmax=1.0)
+    dropped = 0
+    for (points, origin), stamp in zip(frames, stamps):
+        st = mapper.insert(points, origin, stamp)
+        z = points[:, 2].astype(np.float64)
+        assert st["dropped"]["z_band"] == int(np.sum((z < 0.0) | (z > 1.0)))
+        dropped += st["dropped"]["z_band"]
+    assert dropped > 10000, dropped
+    assert mapper.tree.write() == want
+
+
+def test_degrade_outdated_nodes_matches_cli(cli, tum, tmp_path):
+    """``OcTreeStamped.degradeOutdatedNodes`` against the CLI's ``--degrade-older-than``, with
+    the clock set by the frames' times: the frames' whole seconds run from 1311877813 to
+    1311877824, so with a 10 s threshold the CLI's degrade after each frame finds a stale leaf
+    only after the last one (824 - 813 > 10; 823 - 813 is not). The map of every frame without
+    degrading, then ``degradeOutdatedNodes(10, now=1311877824)``, is then the CLI's map byte for
+    byte, and differs from the map without degrading."""
+    assoc, frames, stamps = tum
+    seconds = [math.floor(s) for s in stamps]
+    assert seconds[0] == 1311877813 and seconds[-1] == 1311877824
+    assert seconds[-2] - seconds[0] <= 10 < seconds[-1] - seconds[0]
+    want = cli_map(cli, assoc, tmp_path / "degraded.ot", "--degrade-older-than", "10")
+    tree = stamped_map(frames, stamps).tree
+    assert tree.write() != want
+    tree.degradeOutdatedNodes(10, now=seconds[-1])
+    assert tree.write() == want
+
+
+def test_degrade_outdated_nodes_matches_naive_expectation(tum):
+    """``degradeOutdatedNodes(thres, now=...)`` on the map of the TUM frames: every occupied leaf
+    whose stamp is more than ``thres`` seconds before ``now`` gets exactly one miss (clamped at
+    the lower bound), computed here in float32 from the leaves' stamps; every other leaf, every
+    inner node and every stamp stays as it was."""
+    _, frames, stamps = tum
+    tree = stamped_map(frames, stamps).tree
+    model = octoquant.OcTree(0.1)  # the same default sensor model, for its log-odds
+    miss = np.float32(model.getProbMissLog())
+    clamp_min = np.float32(model.getClampingThresMinLog())
+    threshold = np.float32(model.getOccupancyThresLog())
+    now = math.floor(stamps[-1])
+    thres = 3
+    before = leaves(tree)
+    inner_before = [(tuple(n.getKey()), n.getDepth(), n.getValue()) for n in tree.begin_tree()
+                    if not n.isLeaf()]
+    expected = []
+    for key, depth, value, stamp in before:
+        v = np.float32(value)
+        if v >= threshold and now - stamp > thres:
+            v = max(np.float32(v + miss), clamp_min)
+        expected.append((key, depth, float(v), stamp))
+    stale = sum(1 for b, e in zip(before, expected) if b != e)
+    fresh_occupied = sum(
+        1 for _, _, v, s in before if np.float32(v) >= threshold and now - s <= thres
+    )
+    assert stale > 100 and fresh_occupied > 100, (stale, fresh_occupied)
+
+    tree.degradeOutdatedNodes(thres, now=now)
+    assert leaves(tree) == expected
+    inner_after = [(tuple(n.getKey()), n.getDepth(), n.getValue()) for n in tree.begin_tree()
+                   if not n.isLeaf()]
+    assert inner_after == inner_before
+    assert tree.getLastUpdateTime() == now
+
+
+def test_written_tree_reads_back(tum, tmp_path):
+    """write() to a file and to bytes, read back through ``OcTreeStamped.read``, the
+    constructor and bytes: the same .ot bytes, nodes and log-odds, every stamp 0 (the format
+    holds none, as in OctoMap)."""
+    _, frames, stamps = tum
+    tree = stamped_map(frames[:4], stamps[:4]).tree
+    data = tree.write()
+    path = tmp_path / "stamped.ot"
+    assert tree.write(str(path)) is True
+    assert path.read_bytes() == data
+    for back in (
+        octoquant.OcTreeStamped.read(path),
+        octoquant.OcTreeStamped.read(str(path)),
+        octoquant.OcTreeStamped(str(path)),
+        octoquant.OcTreeStamped.read(data),
+    ):
+        assert back.write() == data
+        assert back.size() == tree.size() > 1000
+        assert back.getResolution() == tree.getResolution()
+        assert back.getLastUpdateTime() == 0
+        got = leaves(back)
+        assert [g[:3] for g in got] == [w[:3] for w in leaves(tree)]
+        assert {g[3] for g in got} == {0}
+        assert all(n.getTimestamp() == 0 for n in back.begin_tree())
+
+
+def test_node_stamps_follow_octomap_rules(tum):
+    """On the map of the TUM frames: an eager update stamps the voxel and the root, a lazy one
+    only the voxel; ``search`` and the iterators give the same stamps; eight equal leaves with
+    different stamps are not pruned, with equal stamps they are; ``updateInnerOccupancy`` stamps
+    the inner nodes."""
+    _, frames, stamps = tum
+    tree = stamped_map(frames[:3], stamps[:3]).tree
+    last = math.floor(stamps[2])
+    assert tree.getLastUpdateTime() == last
+    assert tree.getRoot().getTimestamp() == last
+    occupied = [it for it in tree.begin_leafs() if tree.isNodeOccupied(it) and it.getDepth() == 16]
+    assert len(occupied) > 100
+    for it in occupied[:50]:
+        assert tree.search(it.getKey()).getTimestamp() == it.getTimestamp() > 0
+
+    key = occupied[0].getKey()
+    node = tree.updateNode(key, False, now=last + 100)
+    assert node.getTimestamp() == last + 100 == tree.search(key).getTimestamp()
+    assert tree.getLastUpdateTime() == last + 100
+    other = occupied[1].getKey()
+    tree.updateNode(other, False, True, now=last + 200)  # lazy: the voxel only
+    assert tree.search(other).getTimestamp() == last + 200
+    assert tree.getLastUpdateTime() == last + 100
+
+    # eight voxels of one fresh depth-15 node, far from the scans
+    base = octoquant.OcTreeKey(1000, 1000, 1000)
+    octant = [octoquant.OcTreeKey(base[0] + (i & 1), base[1] + (i >> 1 & 1), base[2] + (i >> 2 & 1))
+              for i in range(8)]
+    for i, k in enumerate(octant):
+        for _ in range(6):  # reach the upper clamp
+            tree.updateNode(k, True, now=last + 300 + (i == 7))
+    assert tree.search(octant[0]).getDepth() == 16  # kept apart by the last stamp
+    size = tree.size()
+    for _ in range(6):
+        tree.updateNode(octant[7], True, now=last + 300)  # at the clamp: no change, no stamp
+    assert tree.search(octant[7]).getTimestamp() == last + 301
+    tree.updateNode(octant[7], False, now=last + 300)
+    for _ in range(6):
+        tree.updateNode(octant[7], True, now=last + 300)
+    pruned = tree.search(octant[0])
+    assert pruned.getDepth() == 15 and pruned.getTimestamp() == last + 300
+    assert tree.size() == size - 8
+
+    tree.updateInnerOccupancy(now=last + 400)
+    assert tree.getLastUpdateTime() == last + 400
+    assert all(n.getTimestamp() == last + 400 for n in tree.begin_tree() if not n.isLeaf())
+
+
+def test_non_finite_points_are_skipped(tum):
+    """NaN and inf rows are counted and skipped: the map is the one without them."""
+    _, frames, stamps = tum
+    points, origin = frames[0]
+    dirty = np.concatenate([points, [[np.nan, 0, 0], [np.inf, 1, 1], [0, -np.inf, 2]]])
+    clean = octoquant.StampedMapper(0.1)
+    clean.insert(points, origin, stamps[0])
+    m = octoquant.StampedMapper(0.1)
+    st = m.insert(dirty.astype(np.float64), origin, stamps[0])
+    assert st["non_finite"] == 3 and st["points"] == len(points) + 3
+    assert m.tree.write() == clean.tree.write()
+
+
+@pytest.mark.parametrize(
+    "bad,exc,msg",
+    [
+        (np.zeros((5, 4)), ValueError, r"shape \(N, 3\)"),
+        (np.zeros(3), ValueError, r"shape \(N, 3\)"),
+        (np.zeros((5, 3), dtype=np.int64), TypeError, "float32 or float64"),
+        ("points", TypeError, r"\(N, 3\) float array"),
+    ],
+)
+def test_bad_points_are_refused(bad, exc, msg):
+    m = octoquant.StampedMapper(0.1)
+    with pytest.raises(exc, match=msg):
+        m.insert(bad, np.zeros(3), 100.0)
+    assert m.frames == 0
+
+
+def test_refusals(data_dir, geb079, tmp_path):
+    """Bad arguments and files raise Python exceptions, never crash, and change nothing."""
+    for bad in (float("nan"), 0.0, -0.1, float("inf")):
+        with pytest.raises(ValueError, match="resolution"):
+            octoquant.OcTreeStamped(bad)
+        with pytest.raises(ValueError, match="resolution"):
+            octoquant.StampedMapper(bad)
+    with pytest.raises(ValueError, match="eager"):
+        octoquant.StampedMapper(0.1, lazy=True)
+    with pytest.raises(ValueError, match="per-frame voxel sets"):
+        octoquant.StampedMapper(0.1, mode="simple")
+    with pytest.raises(ValueError, match="unknown mode"):
+        octoquant.StampedMapper(0.1, mode="fast")
+    with pytest.raises(ValueError, match="degrade_older_than"):
+        octoquant.StampedMapper(0.1, degrade_older_than=-1)
+    with pytest.raises(ValueError, match="max_range"):
+        octoquant.StampedMapper(0.1, max_range=float("nan"))
+    with pytest.raises(ValueError, match="hit probability 1.5"):
+        octoquant.StampedMapper(0.1, prob_hit=1.5)
+    with pytest.raises(ValueError, match="crop_sensor"):
+        octoquant.StampedMapper(0.1, crop_sensor=[1.0, 2.0])
+
+    m = octoquant.StampedMapper(0.1)
+    pts = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="3 elements"):
+        m.insert(pts, np.zeros(4), 100.0)
+    for stamp in (-1.0, float("nan"), float("inf"), 2.0**32):
+        with pytest.raises(ValueError, match="time stamp"):
+            m.insert(pts, np.zeros(3), stamp)
+    with pytest.raises(TypeError):
+        m.insert(pts, np.zeros(3), "noon")
+    assert m.frames == 0 and m.tree.size() == 0
+    m.insert(pts, np.zeros(3), 2.0**32 - 0.5)  # the last second OctoMap can store
+    assert m.tree.getLastUpdateTime() == 2**32 - 1
+
+    t = m.tree
+    with pytest.raises(ValueError, match="time_thres"):
+        t.degradeOutdatedNodes(-1)
+    with pytest.raises(ValueError, match="now"):
+        t.degradeOutdatedNodes(1, now=2**32)
+    with pytest.raises(ValueError, match="now"):
+        t.updateNode(np.array([1.0, 0.0, 0.0]), True, now=-5)
+    with pytest.raises(ValueError, match="between 0 and 16"):
+        t.search(np.zeros(3), 17)
+    with pytest.raises(TypeError, match="update"):
+        t.updateNode(np.zeros(3), "yes")
+    assert t.updateNode(np.array([1e9, 0.0, 0.0]), True, now=1) is None  # outside the map
+    assert t.getLastUpdateTime() == 2**32 - 1
+    with pytest.raises(TypeError, match="OcTreeStamped"):
+        next(iter(octoquant.OcTree(geb079).begin_leafs())).getTimestamp()
+
+    # files of other tree types, a .bt, garbage, a missing file
+    plain = tmp_path / "plain.ot"
+    octoquant.OcTree(geb079).write(str(plain))
+    color = octoquant.ColorOcTree(0.1)
+    color.updateNode(np.array([1.0, 0.0, 0.0]), True)
+    colored = tmp_path / "color.ot"
+    color.write(str(colored))
+    garbage = tmp_path / "garbage.ot"
+    garbage.write_bytes(b"# Octomap OcTree file\nid OcTreeStamped\nsize 12\nres 0.1\ndata\nxx")
+    for path, msg in (
+        (plain, 'plain.ot: the file holds a tree of type "OcTree", not the OcTreeStamped'),
+        (colored, 'type "ColorOcTree"'),
+        (geb079, "geb079.bt: invalid .ot data"),
+        (garbage, "garbage.ot"),
+    ):
+        with pytest.raises(ValueError, match=msg):
+            octoquant.OcTreeStamped.read(path)
+        with pytest.raises(ValueError, match=msg):
+            octoquant.OcTreeStamped(str(path))
+    with pytest.raises(ValueError, match='type "OcTree"'):
+        octoquant.OcTreeStamped.read(plain.read_bytes())
+    with pytest.raises(FileNotFoundError, match="nope.ot"):
+        octoquant.OcTreeStamped.read(tmp_path / "nope.ot")
