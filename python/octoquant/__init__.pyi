@@ -651,6 +651,7 @@ def read_frames(
     first: int = 0,
     count: Optional[int] = None,
     colors: Literal[True],
+    stamps: Literal[False] = False,
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8]]]: ...
 @overload
 def read_frames(
@@ -670,6 +671,47 @@ def read_frames(
     first: int = 0,
     count: Optional[int] = None,
     colors: Literal[False] = False,
+    stamps: Literal[True],
+) -> list[tuple[NDArray[np.float32], NDArray[np.float32], Optional[float]]]: ...
+@overload
+def read_frames(
+    path: StrOrBytesPath,
+    format: Optional[
+        Literal["graph", "frames", "text", "vtk", "vtk-seq", "pcd", "tum-png", "tum", "mcap", "ply"]
+    ] = None,
+    *,
+    points_global: bool = False,
+    topic: Optional[str] = None,
+    fixed_frame: Optional[str] = None,
+    pixel_step: int = 1,
+    trajectory: Optional[StrOrBytesPath] = None,
+    depth_scale: Optional[float] = None,
+    intrinsics: Optional[tuple[float, float, float, float]] = None,
+    viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
+    first: int = 0,
+    count: Optional[int] = None,
+    colors: Literal[True],
+    stamps: Literal[True],
+) -> list[tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8], Optional[float]]]: ...
+@overload
+def read_frames(
+    path: StrOrBytesPath,
+    format: Optional[
+        Literal["graph", "frames", "text", "vtk", "vtk-seq", "pcd", "tum-png", "tum", "mcap", "ply"]
+    ] = None,
+    *,
+    points_global: bool = False,
+    topic: Optional[str] = None,
+    fixed_frame: Optional[str] = None,
+    pixel_step: int = 1,
+    trajectory: Optional[StrOrBytesPath] = None,
+    depth_scale: Optional[float] = None,
+    intrinsics: Optional[tuple[float, float, float, float]] = None,
+    viewpoint: Optional[Literal["origin", "apply", "ignore"]] = None,
+    first: int = 0,
+    count: Optional[int] = None,
+    colors: Literal[False] = False,
+    stamps: Literal[False] = False,
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
     """Frames ``[(points (N, 3) float32, origin (3,) float32), ...]`` from any input the CLI
     reads, with the reader options of ``octoquant map`` as keywords: ``format`` (``--format``),
@@ -681,7 +723,10 @@ def read_frames(
     ``count``: only frames ``first .. first + count`` (all from ``first`` without a count),
     read no further than needed; an input with fewer frames raises ``ValueError``. ``colors``:
     also each frame's (N, 3) uint8 RGB colours, ``[(points, origin, colors), ...]`` (PCD, PLY,
-    TUM with RGB images, PointCloud2; a frame without colours raises ``ValueError``). Bad
+    TUM with RGB images, PointCloud2; a frame without colours raises ``ValueError``).
+    ``stamps``: also each frame's time in seconds (``None`` where the input has none) as the
+    last element (a TUM depth image's name, an MCAP cloud's header stamp, a VTK sequence scan's
+    time: what ``map --stamped`` and :class:`StampedMapper` stamp a frame with). Bad
     options and files raise ``ValueError`` naming the file; a missing path
     ``FileNotFoundError``."""
 

@@ -62,11 +62,15 @@ type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 /// ``colors``: also return each frame's colours, ``[(points, origin, colors), ...]`` with
 /// ``colors`` a uint8 (N, 3) RGB array (PCD ``rgb``/``rgba``, PLY ``red green blue``, TUM RGB
 /// images, PointCloud2 ``rgb``/``rgba``; what :class:`ColorMapper` takes); a frame without
-/// colours raises ValueError. Releases the GIL while reading.
+/// colours raises ValueError. ``stamps``: also return each frame's time in seconds (a float,
+/// or None where the input has none), as the last element of its tuple: the file name of a
+/// TUM depth image, an MCAP cloud's header stamp, a VTK sequence scan's time (what
+/// ``octoquant map --stamped`` stamps a frame with, and :class:`StampedMapper` takes).
+/// Releases the GIL while reading.
 #[pyfunction]
 #[pyo3(signature = (path, format=None, *, points_global=false, topic=None, fixed_frame=None,
     pixel_step=1, trajectory=None, depth_scale=None, intrinsics=None, viewpoint=None,
-    first=0, count=None, colors=false))]
+    first=0, count=None, colors=false, stamps=false))]
 #[allow(clippy::too_many_arguments)]
 fn read_frames<'py>(
     py: Python<'py>,
@@ -83,6 +87,7 @@ fn read_frames<'py>(
     first: i64,
     count: Option<i64>,
     colors: bool,
+    stamps: bool,
 ) -> PyResult<Vec<Bound<'py, PyTuple>>> {
     use pyo3::exceptions::PyValueError;
     let p = existing_path(path)?;
@@ -124,28 +129,29 @@ fn read_frames<'py>(
             PyArray2::from_owned_array(py, pts),
             PyArray1::from_slice(py, &[f.origin.x, f.origin.y, f.origin.z]),
         );
-        if !colors {
-            out.push(PyTuple::new(py, [pts.into_any(), origin.into_any()])?);
-            continue;
+        let mut items = vec![pts.into_any(), origin.into_any()];
+        if colors {
+            let rgb = match &f.colors {
+                Some(c) if c.len() == n => c,
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                        "{}: frame {} has no colours (coloured inputs: PCD rgb/rgba, PLY \
+                         red/green/blue, a TUM association with its RGB images, PointCloud2 \
+                         rgb/rgba)",
+                        p.display(),
+                        first + i
+                    )))
+                }
+            };
+            let flat: Vec<u8> = rgb.iter().flat_map(|c| c.to_array()).collect();
+            let rgb =
+                Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+            items.push(PyArray2::from_owned_array(py, rgb).into_any());
         }
-        let rgb = match &f.colors {
-            Some(c) if c.len() == n => c,
-            _ => {
-                return Err(PyValueError::new_err(format!(
-                    "{}: frame {} has no colours (coloured inputs: PCD rgb/rgba, PLY \
-                     red/green/blue, a TUM association with its RGB images, PointCloud2 rgb/rgba)",
-                    p.display(),
-                    first + i
-                )))
-            }
-        };
-        let flat: Vec<u8> = rgb.iter().flat_map(|c| c.to_array()).collect();
-        let rgb = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
-        let rgb = PyArray2::from_owned_array(py, rgb);
-        out.push(PyTuple::new(
-            py,
-            [pts.into_any(), origin.into_any(), rgb.into_any()],
-        )?);
+        if stamps {
+            items.push(f.stamp.into_pyobject(py)?.into_any());
+        }
+        out.push(PyTuple::new(py, items)?);
     }
     Ok(out)
 }

@@ -63,6 +63,52 @@ def test_tum_pixel_step_and_depth_scale(data_dir):
             octoquant.read_frames(assoc, **bad)
 
 
+def test_frame_stamps(data_dir):
+    """``stamps=True`` appends each frame's time: a TUM depth image's name, a VTK sequence
+    scan's time (its file name, cloud_<seconds>_<nanoseconds>.vtk, as the trajectory rows),
+    an MCAP cloud's header stamp; None for a single PCD cloud. The points are those read
+    without stamps."""
+    assoc = need(data_dir / "rgbd" / "tum_fr2_pioneer_slam2_subset" / "my_association.txt")
+    plain = octoquant.read_frames(assoc, pixel_step=8)
+    stamped = octoquant.read_frames(assoc, pixel_step=8, stamps=True)
+    names = []
+    for line in assoc.read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            depth = assoc.parent / line.split()[1]
+            if depth.is_file():
+                names.append(float(depth.stem))
+    assert [t for _, _, t in stamped] == names
+    for (p, o), (q, r, _) in zip(plain, stamped):
+        np.testing.assert_array_equal(p, q)
+        np.testing.assert_array_equal(o, r)
+    # with colours too: the colours third, the stamp last
+    both = octoquant.read_frames(assoc, pixel_step=8, colors=True, stamps=True, count=2)
+    assert [len(f) for f in both] == [4, 4]
+    assert both[0][2].dtype == np.uint8 and both[0][2].shape == both[0][0].shape
+    assert [f[3] for f in both] == names[:2]
+    # a slice has its own frames' stamps
+    part = octoquant.read_frames(assoc, pixel_step=8, first=3, count=2, stamps=True)
+    assert [t for *_, t in part] == names[3:5]
+
+    norlab = need(data_dir / "lidar3d" / "norlab_icp_mapper_example")
+    scans = sorted((norlab / "scans").glob("*.vtk"))[:3]
+    want = [int(f.stem.split("_")[1]) + int(f.stem.split("_")[2]) * 1e-9 for f in scans]
+    got = [t for *_, t in octoquant.read_frames(norlab, count=3, stamps=True)]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6)
+
+    bag = need(data_dir / "mcap" / "pointcloudset_ouster_os1" / "test.mcap")
+    clouds = octoquant.read_frames(bag, stamps=True)
+    times = [t for *_, t in clouds]
+    # two clouds of a 10 Hz lidar, stamped in 2020 or later
+    assert all(isinstance(t, float) and t > 1.5e9 for t in times), times
+    assert 0.05 < times[1] - times[0] < 0.5, times
+
+    table = "pcl_table_scene_mug_stereo_textured"
+    pcd = need(data_dir / "pcd" / table / "table_scene_mug_stereo_textured.pcd")
+    ((_, _, t),) = octoquant.read_frames(pcd, stamps=True)
+    assert t is None
+
+
 def test_graph_points_global(data_dir):
     graph = need(data_dir / "octomap_reference" / "spherical_scan.graph")
     local = octoquant.read_frames(graph)

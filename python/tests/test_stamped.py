@@ -28,16 +28,19 @@ def tum(data_dir):
     assoc = data_dir / TUM
     if not assoc.is_file():
         _missing(str(assoc))
-    frames = octoquant.read_frames(assoc, pixel_step=4)
+    read = octoquant.read_frames(assoc, pixel_step=4, stamps=True)
+    frames = [(points, origin) for points, origin, _ in read]
+    stamps = [stamp for _, _, stamp in read]
     # the reader takes the rows whose depth image (second column) exists; a frame's stamp is
     # that image's name, <seconds>.png
-    stamps = []
+    names = []
     for line in assoc.read_text().splitlines():
         if line.strip() and not line.startswith("#"):
             depth = assoc.parent / line.split()[1]
             if depth.is_file():
-                stamps.append(float(depth.stem))
-    assert len(frames) == len(stamps) == 10
+                names.append(float(depth.stem))
+    assert stamps == names
+    assert len(frames) == 10
     return assoc, frames, stamps
 
 
