@@ -301,6 +301,14 @@ impl ColorOcTree {
         self.base.expand();
     }
 
+    /// [`Self::expand`], unless it would add more than `max_nodes` nodes
+    /// ([`OcTree::expansion_nodes`](crate::OcTree::expansion_nodes) of the occupancy tree):
+    /// then [`OctreeError::ExpansionTooLarge`] and the tree is unchanged. Returns the nodes
+    /// added.
+    pub fn try_expand(&mut self, max_nodes: u64) -> Result<u64, OctreeError> {
+        self.base.try_expand(max_nodes)
+    }
+
     /// Set every node to the clamp its occupancy points to (OctoMap's `toMaxLikelihood()`);
     /// colours are untouched.
     pub fn to_max_likelihood(&mut self) {

@@ -53,6 +53,15 @@ pub enum OctreeError {
         /// The value.
         value: f32,
     },
+    /// [`OcTree::try_expand`](crate::OcTree::try_expand) was asked to expand a tree into more
+    /// nodes than its limit.
+    #[error("expanding the tree would add {nodes} nodes, more than the limit of {limit}")]
+    ExpansionTooLarge {
+        /// The nodes the expansion would add.
+        nodes: u64,
+        /// The limit it was given.
+        limit: u64,
+    },
     /// An operation that this tree's configuration does not support.
     #[error("unsupported: {what}")]
     Unsupported {

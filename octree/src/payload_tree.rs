@@ -218,6 +218,14 @@ impl<P: NodePayload> PayloadTree<P> {
         count
     }
 
+    /// [`PayloadTree::expand`] unless it would add more than `max_nodes` nodes (as
+    /// [`OcTree::try_expand`]); the nodes added.
+    pub(crate) fn try_expand(&mut self, max_nodes: u64) -> Result<u64, OctreeError> {
+        let nodes = crate::tree_prune::check_expansion(self.tree.expansion_nodes(), max_nodes)?;
+        self.expand();
+        Ok(nodes)
+    }
+
     /// Give every leaf above depth 16 eight children, recursively (OctoMap's `expand()`);
     /// each child takes its parent's occupancy and payload.
     pub(crate) fn expand(&mut self) {

@@ -1,8 +1,28 @@
 //! Whole-tree passes: prune, expand, max-likelihood conversion and inner-node refresh.
 
+use crate::error::OctreeError;
 use crate::key::TREE_DEPTH;
 use crate::store::NodeRef;
 use crate::tree::OcTree;
+
+/// The nodes below a leaf at `depth` once it is expanded down to depth 16:
+/// `8 + 8^2 + ... + 8^(16 - depth)`.
+fn subtree_below(depth: u8) -> u64 {
+    (1..=u32::from(TREE_DEPTH.saturating_sub(depth)))
+        .map(|k| 8u64.pow(k))
+        .sum()
+}
+
+/// `nodes` when an expansion of that many nodes is within `max_nodes`, else the error.
+pub(crate) fn check_expansion(nodes: u64, max_nodes: u64) -> Result<u64, OctreeError> {
+    if nodes > max_nodes {
+        return Err(OctreeError::ExpansionTooLarge {
+            nodes,
+            limit: max_nodes,
+        });
+    }
+    Ok(nodes)
+}
 
 impl OcTree {
     /// Collapse every node whose eight children are equal leaves, level by level from depth 15
@@ -48,8 +68,28 @@ impl OcTree {
         count
     }
 
+    /// How many nodes [`OcTree::expand`] would add: each leaf at depth `d < 16` becomes a
+    /// full subtree of `8 + 8^2 + ... + 8^(16-d)` nodes (a childless root alone: about
+    /// 3.2e14). The expansion allocates them all, so a tree from elsewhere (a file, a merge, a
+    /// deletion that left a coarse leaf) is worth this check first; see
+    /// [`OcTree::try_expand`]. Saturates at `u64::MAX`.
+    pub fn expansion_nodes(&self) -> u64 {
+        self.leaves()
+            .fold(0u64, |n, leaf| n.saturating_add(subtree_below(leaf.depth)))
+    }
+
+    /// [`OcTree::expand`], unless it would add more than `max_nodes` nodes: then
+    /// [`OctreeError::ExpansionTooLarge`] and the tree is unchanged. Returns the nodes added.
+    pub fn try_expand(&mut self, max_nodes: u64) -> Result<u64, OctreeError> {
+        let nodes = check_expansion(self.expansion_nodes(), max_nodes)?;
+        self.expand();
+        Ok(nodes)
+    }
+
     /// Give every leaf above depth 16 its eight children, recursively, so every known voxel
-    /// is a depth-16 node (OctoMap's `expand()`). Memory grows by up to 8^(16-depth) per leaf.
+    /// is a depth-16 node (OctoMap's `expand()`). Memory grows by up to 8^(16-depth) per leaf
+    /// ([`OcTree::expansion_nodes`] says how many nodes; [`OcTree::try_expand`] refuses past
+    /// a limit).
     pub fn expand(&mut self) {
         if !self.is_empty() {
             self.expand_recurs(NodeRef::ROOT);

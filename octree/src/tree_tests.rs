@@ -69,11 +69,13 @@ proptest! {
         let mut model_valid = true;
         let mut lazy_ok = false;
         for op in ops {
-            // expanding a shallow leaf (a root left childless by deletes) would build
-            // 8^16 voxels
-            if matches!(op, TreeOp::Expand) && normal.leaves().any(|l| l.depth < 13) {
-                continue;
-            }
+            // what expanding adds, from OctoMap's rule (a leaf at depth d becomes a full
+            // subtree down to 16: (8^(17-d) - 8) / 7 nodes); a shallow leaf (a root left
+            // childless by deletes) would build 8^16 voxels, which `try_expand` refuses
+            let naive_expansion: u64 = normal
+                .leaves()
+                .map(|l| (8u64.pow(17 - u32::from(l.depth)) - 8) / 7)
+                .sum();
             for t in [&mut small, &mut normal] {
                 match &op {
                     TreeOp::Update(k, h) => {
@@ -87,7 +89,24 @@ proptest! {
                         t.delete_node(*k, *d);
                     }
                     TreeOp::Prune => t.prune(),
-                    TreeOp::Expand => t.expand(),
+                    TreeOp::Expand => {
+                        const LIMIT: u64 = 1 << 16;
+                        let before = t.size();
+                        prop_assert_eq!(t.expansion_nodes(), naive_expansion);
+                        match t.try_expand(LIMIT) {
+                            Ok(n) => {
+                                prop_assert!(naive_expansion <= LIMIT);
+                                prop_assert_eq!(n, naive_expansion);
+                                prop_assert_eq!(t.size() as u64, before as u64 + n);
+                            }
+                            Err(OctreeError::ExpansionTooLarge { nodes, limit }) => {
+                                prop_assert!(naive_expansion > LIMIT);
+                                prop_assert_eq!((nodes, limit), (naive_expansion, LIMIT));
+                                prop_assert_eq!(t.size(), before);
+                            }
+                            Err(e) => return Err(TestCaseError::fail(e.to_string())),
+                        }
+                    }
                     TreeOp::MaxLikelihood => t.to_max_likelihood(),
                     TreeOp::Shrink => t.shrink_to_fit(),
                 }

@@ -376,9 +376,15 @@ impl PyStampedOcTree {
 
     /// Expand every pruned node down to voxels; children take the parent's log-odds and
     /// stamp.
-    fn expand(&mut self, py: Python<'_>) {
+    /// An expansion that could not fit raises MemoryError before allocating anything
+    /// (``max_nodes``: the most nodes it may add; as ``OcTree.expand``).
+    #[pyo3(signature = (max_nodes=None))]
+    fn expand(&mut self, py: Python<'_>, max_nodes: Option<u64>) -> PyResult<()> {
+        let limit = crate::tree::expansion_limit(py, max_nodes)?;
         let tree = &mut self.tree;
-        py.detach(|| tree.expand());
+        py.detach(|| tree.try_expand(limit))
+            .map(drop)
+            .map_err(crate::tree::expansion_error)
     }
 
     /// Delete the node at ``depth`` (0 = 16) holding ``value`` with its subtree

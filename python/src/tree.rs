@@ -470,10 +470,17 @@ impl PyOcTree {
         py.detach(|| tree.prune());
     }
 
-    /// Expand every pruned node down to voxels (OctoMap's ``expand``).
-    fn expand(&mut self, py: Python<'_>) {
+    /// Expand every pruned node down to voxels (OctoMap's ``expand``). An expansion that
+    /// could not fit (a coarse leaf, e.g. a root left childless by deletes, becomes up to 8^16
+    /// voxels) raises MemoryError before allocating anything; ``max_nodes`` sets the most
+    /// nodes it may add (default: what the machine's physical memory could hold at all).
+    #[pyo3(signature = (max_nodes=None))]
+    fn expand(&mut self, py: Python<'_>, max_nodes: Option<u64>) -> PyResult<()> {
+        let limit = expansion_limit(py, max_nodes)?;
         let tree = &mut self.tree;
-        py.detach(|| tree.expand());
+        py.detach(|| tree.try_expand(limit))
+            .map(drop)
+            .map_err(expansion_error)
     }
 
     /// Fuse ``other`` (a map built separately) into this tree: each leaf of ``other`` is applied
@@ -1564,3 +1571,42 @@ fn grid_options(
 
 /// What `grid` returns: cells (height, width), origin (x, y), cell size.
 type GridArrays<'py> = (Bound<'py, PyArray2<i8>>, (f64, f64), f64);
+
+/// The fewest bytes a node added by an expansion takes (a voxel: two bytes of a block of
+/// palette indices; inner nodes and colour or stamp side tables take more): the default
+/// limit of ``expand()`` refuses only expansions that could not fit at all.
+const EXPANSION_MIN_BYTES_PER_NODE: u64 = 2;
+
+/// The arenas address 2^32 blocks of eight nodes: no tree holds more nodes than this.
+const MAX_TREE_NODES: u64 = 1 << 35;
+
+/// The most nodes ``expand()`` may add: `max_nodes` when given, else what the machine's
+/// physical memory (``os.sysconf``) could hold at [`EXPANSION_MIN_BYTES_PER_NODE`] each, and
+/// never more than a tree can address.
+pub(crate) fn expansion_limit(py: Python<'_>, max_nodes: Option<u64>) -> PyResult<u64> {
+    if let Some(n) = max_nodes {
+        return Ok(n);
+    }
+    let sysconf = |name: &str| -> Option<u64> {
+        let os = py.import("os").ok()?;
+        os.call_method1("sysconf", (name,)).ok()?.extract().ok()
+    };
+    let memory = sysconf("SC_PHYS_PAGES")
+        .zip(sysconf("SC_PAGE_SIZE"))
+        .map(|(pages, size)| pages.saturating_mul(size));
+    Ok(memory.map_or(MAX_TREE_NODES, |m| {
+        (m / EXPANSION_MIN_BYTES_PER_NODE).min(MAX_TREE_NODES)
+    }))
+}
+
+/// ``expand()``'s refusal as a Python MemoryError (any other error as ValueError).
+pub(crate) fn expansion_error(e: engine::OctreeError) -> PyErr {
+    match e {
+        engine::OctreeError::ExpansionTooLarge { nodes, limit } => PyMemoryError::new_err(format!(
+            "expand() would add {nodes} nodes (at least {:.1} GiB), more than the limit of \
+                 {limit} nodes; nothing was expanded (pass max_nodes= to set the limit)",
+            (nodes as f64) * EXPANSION_MIN_BYTES_PER_NODE as f64 / f64::from(1u32 << 30)
+        )),
+        e => PyValueError::new_err(format!("expand(): {e}")),
+    }
+}

@@ -136,3 +136,42 @@ def test_surgery_errors():
     root = t.getRoot()
     assert root is not None and root.getDepth() == 0
     assert not t.isNodeCollapsible(root)
+
+
+def naive_expansion(tree):
+    """The nodes OctoMap's expand() adds: a leaf at depth d becomes a full subtree down to
+    depth 16, 8 + 8^2 + ... + 8^(16-d) = (8^(17-d) - 8) / 7 nodes."""
+    return sum((8 ** (17 - it.getDepth()) - 8) // 7 for it in tree.begin_leafs())
+
+
+def test_expand_spreads_leaves_and_refuses_past_its_limit(scan_trees_small):
+    """expand() on a real map (octomap-python has no expand to compare with): every leaf
+    becomes its voxels, each with the leaf's value, and the size grows by OctoMap's count;
+    with a limit below that count it raises MemoryError and changes nothing."""
+    _, b = scan_trees_small
+    before, want = b.size(), naive_expansion(b)
+    assert want > 0
+    original = b.write()
+    leaves = [(it.getDepth(), it.getValue()) for it in b.begin_leafs()]
+    with pytest.raises(MemoryError, match=f"would add {want} nodes"):
+        b.expand(max_nodes=want - 1)
+    assert b.size() == before and b.write() == original
+    b.expand(max_nodes=want)
+    assert b.size() == before + want
+    voxels = [(it.getDepth(), it.getValue()) for it in b.begin_leafs()]
+    # pre-order: each old leaf's voxels come in its place, 8^(16-d) of them
+    spread = [(16, v) for d, v in leaves for _ in range(8 ** (16 - d))]
+    assert voxels == spread
+
+
+@pytest.mark.parametrize("cls", ["OcTree", "ColorOcTree", "OcTreeStamped"])
+def test_expand_of_a_childless_root_is_refused(cls):
+    """A root left childless by a delete would expand into 8^16 voxels: MemoryError naming
+    the count, before anything is allocated, whatever the tree type."""
+    t = getattr(octoquant, cls)(0.1)
+    t.updateNode([0.05, 0.05, 0.05], True)
+    assert t.deleteNode([0.05, 0.05, 0.05], 1)
+    assert t.size() == 1
+    with pytest.raises(MemoryError, match=f"would add {(8**17 - 8) // 7} nodes"):
+        t.expand()
+    assert t.size() == 1
