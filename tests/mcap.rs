@@ -593,9 +593,8 @@ const LAYOUTS: [Layout; 4] = [
 /// Every message of `src` read whole into memory by the `mcap` crate's own reader, then
 /// written again in `layout` (same schemas, channels, times and bytes).
 fn rewrite(src: &Path, dst: &Path, layout: Layout) {
-    let bytes = std::fs::read(src).unwrap();
-    let mut opts = ::mcap::WriteOptions::new();
-    opts = match layout {
+    let opts = ::mcap::WriteOptions::new();
+    let opts = match layout {
         Layout::SmallZstdChunks => opts
             .compression(Some(::mcap::Compression::Zstd))
             .chunk_size(Some(64 << 10)),
@@ -609,9 +608,16 @@ fn rewrite(src: &Path, dst: &Path, layout: Layout) {
             .emit_message_indexes(false)
             .emit_chunk_indexes(false),
     };
+    let bytes = std::fs::read(src).unwrap();
+    std::fs::write(dst, rewritten(&bytes, opts)).unwrap();
+}
+
+/// Every message of the MCAP file `bytes`, read whole by the `mcap` crate's own reader,
+/// written again with `opts` (same schemas, channels, times and bytes).
+fn rewritten(bytes: &[u8], opts: ::mcap::WriteOptions) -> Vec<u8> {
     let mut w = opts.create(Cursor::new(Vec::new())).unwrap();
     let mut channels: BTreeMap<u16, u16> = BTreeMap::new();
-    for m in ::mcap::MessageStream::new(&bytes).unwrap() {
+    for m in ::mcap::MessageStream::new(bytes).unwrap() {
         let m = m.unwrap();
         let ch = &m.channel;
         let id = match channels.get(&ch.id) {
@@ -637,7 +643,7 @@ fn rewrite(src: &Path, dst: &Path, layout: Layout) {
         w.write_to_known_channel(&header, &m.data).unwrap();
     }
     w.finish().unwrap();
-    std::fs::write(dst, w.into_inner().into_inner()).unwrap();
+    w.into_inner().into_inner()
 }
 
 /// The frames' bits, for exact comparison (NaN included).
@@ -883,38 +889,10 @@ fn damaged_indexed_files_skip_like_they_read() {
     }
     write_mcap(&src, &msgs);
     // the same messages again in chunks of about two messages
-    let bytes = std::fs::read(&src).unwrap();
-    let mut w = ::mcap::WriteOptions::new()
+    let opts = ::mcap::WriteOptions::new()
         .compression(Some(::mcap::Compression::Zstd))
-        .chunk_size(Some(300))
-        .create(Cursor::new(Vec::new()))
-        .unwrap();
-    let mut channels: BTreeMap<u16, u16> = BTreeMap::new();
-    for m in ::mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        let ch = &m.channel;
-        let id = match channels.get(&ch.id) {
-            Some(&id) => id,
-            None => {
-                let s = ch.schema.as_ref().unwrap();
-                let sid = w.add_schema(&s.name, &s.encoding, &s.data).unwrap();
-                let id = w
-                    .add_channel(sid, &ch.topic, &ch.message_encoding, &ch.metadata)
-                    .unwrap();
-                channels.insert(ch.id, id);
-                id
-            }
-        };
-        let header = ::mcap::records::MessageHeader {
-            channel_id: id,
-            sequence: m.sequence,
-            log_time: m.log_time,
-            publish_time: m.publish_time,
-        };
-        w.write_to_known_channel(&header, &m.data).unwrap();
-    }
-    w.finish().unwrap();
-    let bytes = w.into_inner().into_inner();
+        .chunk_size(Some(300));
+    let bytes = rewritten(&std::fs::read(&src).unwrap(), opts);
     let chunks = ::mcap::Summary::read(&bytes)
         .unwrap()
         .map_or(0, |s| s.chunk_indexes.len());
