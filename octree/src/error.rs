@@ -93,9 +93,10 @@ pub enum OctreeError {
         /// What is wrong.
         message: String,
     },
-    /// The file holds a tree type other than `OcTree` (for example `OcTreeStamped`, or a
-    /// `ColorOcTree`, which [`crate::io::read_color_ot`] reads).
-    #[error("unsupported tree type {id:?} (OcTree readers take OcTree only; ColorOcTree files have their own reader)")]
+    /// The file holds a tree type other than `OcTree` (for example a `ColorOcTree`, which
+    /// [`crate::io::read_color_ot`] reads, or an `OcTreeStamped`, which
+    /// [`crate::io::read_stamped_ot`] reads).
+    #[error("unsupported tree type {id:?} (OcTree readers take OcTree only; ColorOcTree and OcTreeStamped files have their own readers)")]
     UnsupportedTreeType {
         /// The id from the file header.
         id: String,
