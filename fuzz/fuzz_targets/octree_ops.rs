@@ -248,16 +248,29 @@ fuzz_target!(|input: Input| {
                 strict = false;
             }
             Op::Expand => {
-                // expand() gives every leaf all its voxels (documented: up to 8^(16-depth)
-                // each); a root left as a leaf would mean 2^48. Only expand small trees: 4096
-                // voxels cover every expansion of the 16^3 block the near keys live in, and
-                // keep each later step's whole-tree check cheap.
-                let voxels: u64 = tree.leaves().map(|l| u64::from(l.width()).pow(3)).sum();
-                if voxels > 1 << 12 {
-                    continue;
+                // expand() gives every leaf all its voxels and the inner nodes above them:
+                // (8^(17-d) - 8) / 7 nodes below a leaf at depth d; a root left as a leaf
+                // would mean 2^48 voxels. try_expand refuses past its limit and leaves the
+                // tree as it was; 8192 nodes cover every expansion of the 16^3 block the
+                // near keys live in, and keep each later step's whole-tree check cheap.
+                const LIMIT: u64 = 1 << 13;
+                let naive: u64 = tree
+                    .leaves()
+                    .map(|l| (8u64.pow(17 - u32::from(l.depth)) - 8) / 7)
+                    .sum();
+                let before = tree.size() as u64;
+                assert_eq!(tree.expansion_nodes(), naive);
+                match tree.try_expand(LIMIT) {
+                    Ok(n) => {
+                        assert!(naive <= LIMIT && n == naive);
+                        assert_eq!(tree.size() as u64, before + n);
+                        strict = false;
+                    }
+                    Err(_) => {
+                        assert!(naive > LIMIT);
+                        assert_eq!(tree.size() as u64, before);
+                    }
                 }
-                tree.expand();
-                strict = false;
             }
             Op::UpdateInnerOccupancy => {
                 tree.update_inner_occupancy();
