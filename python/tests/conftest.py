@@ -72,3 +72,16 @@ def cli():
         if c and Path(c).is_file() and os.access(c, os.X_OK):
             return c
     _missing("the octoquant binary (cargo build, or set OCTOQUANT_BIN)")
+
+
+def tum_depth_stamps(assoc):
+    """Each frame's time in a TUM association, read independently of octoquant: the rows
+    whose depth image (second column) exists, each stamped with that image's name,
+    <seconds>.png."""
+    stamps = []
+    for line in assoc.read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            depth = assoc.parent / line.split()[1]
+            if depth.is_file():
+                stamps.append(float(depth.stem))
+    return stamps

@@ -11,13 +11,12 @@ import os
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import octoquant
-from conftest import REPO, _missing
+from conftest import _missing
 
 try:
     import distributed
@@ -32,17 +31,6 @@ def dask():
     if distributed is None:
         _missing("Dask distributed (pip install 'dask[distributed]')")
     return distributed
-
-
-@pytest.fixture(scope="module")
-def cli():
-    candidates = [os.environ.get("OCTOQUANT_BIN")] + [
-        str(REPO / "target" / kind / "octoquant") for kind in ("release", "debug")
-    ]
-    for c in candidates:
-        if c and Path(c).is_file() and os.access(c, os.X_OK):
-            return c
-    _missing("the octoquant binary (cargo build, or set OCTOQUANT_BIN)")
 
 
 @pytest.fixture(scope="module")

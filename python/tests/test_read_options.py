@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import octoquant
+from conftest import tum_depth_stamps
 
 OUSTER_TOPIC = "/os1_cloud_node/points"
 
@@ -71,12 +72,7 @@ def test_frame_stamps(data_dir):
     assoc = need(data_dir / "rgbd" / "tum_fr2_pioneer_slam2_subset" / "my_association.txt")
     plain = octoquant.read_frames(assoc, pixel_step=8)
     stamped = octoquant.read_frames(assoc, pixel_step=8, stamps=True)
-    names = []
-    for line in assoc.read_text().splitlines():
-        if line.strip() and not line.startswith("#"):
-            depth = assoc.parent / line.split()[1]
-            if depth.is_file():
-                names.append(float(depth.stem))
+    names = tum_depth_stamps(assoc)
     assert [t for _, _, t in stamped] == names
     for (p, o), (q, r, _) in zip(plain, stamped):
         np.testing.assert_array_equal(p, q)

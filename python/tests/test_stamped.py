@@ -11,13 +11,12 @@ test_cli_agreement.py (the ``cli`` fixture in conftest.py).
 
 import math
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import octoquant
-from conftest import _missing
+from conftest import _missing, tum_depth_stamps
 
 TUM = "rgbd/tum_fr2_pioneer_slam2_subset/my_association.txt"
 
@@ -31,15 +30,7 @@ def tum(data_dir):
     read = octoquant.read_frames(assoc, pixel_step=4, stamps=True)
     frames = [(points, origin) for points, origin, _ in read]
     stamps = [stamp for _, _, stamp in read]
-    # the reader takes the rows whose depth image (second column) exists; a frame's stamp is
-    # that image's name, <seconds>.png
-    names = []
-    for line in assoc.read_text().splitlines():
-        if line.strip() and not line.startswith("#"):
-            depth = assoc.parent / line.split()[1]
-            if depth.is_file():
-                names.append(float(depth.stem))
-    assert stamps == names
+    assert stamps == tum_depth_stamps(assoc)
     assert len(frames) == 10
     return assoc, frames, stamps
 
