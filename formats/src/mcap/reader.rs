@@ -597,7 +597,11 @@ fn topics_of(path: &Path, mut input: impl Input) -> Result<Vec<TopicInfo>, Forma
     };
     match summary {
         Some(summary) if !summary.channels.is_empty() => {
-            for c in summary.channels.values() {
+            // by channel id: the summary's map iterates in a random order, and of two
+            // channels on one topic the first added is the one listed
+            let mut channels: Vec<_> = summary.channels.iter().collect();
+            channels.sort_unstable_by_key(|(id, _)| **id);
+            for (_, c) in channels {
                 add(c);
             }
         }
@@ -1423,5 +1427,37 @@ mod tests {
         let mut two = ok.clone();
         two.extend_from_slice(&body);
         assert_eq!(record_overrun(&two), Some(ok.len()));
+    }
+
+    /// Two channels on one topic, the first without a schema: the topic is listed with the
+    /// first channel's (none), every time, although the summary's channel map iterates in a
+    /// random order (found by the fuzz target: one file's "no PointCloud2 topic" error named
+    /// `/imu ()` in one opening and `/imu (sensor_msgs/Imu)` in the next).
+    #[test]
+    fn topics_from_a_summary_are_listed_in_channel_order() {
+        let mut w = ::mcap::WriteOptions::new()
+            .create(Cursor::new(Vec::new()))
+            .unwrap();
+        let meta = std::collections::BTreeMap::new();
+        let bare = w.add_channel(0, "/imu", "cdr", &meta).unwrap();
+        let sid = w.add_schema("sensor_msgs/msg/Imu", "ros2msg", b"").unwrap();
+        let typed = w.add_channel(sid, "/imu", "cdr", &meta).unwrap();
+        for (i, channel_id) in [bare, typed].into_iter().enumerate() {
+            let header = ::mcap::records::MessageHeader {
+                channel_id,
+                sequence: i as u32,
+                log_time: i as u64,
+                publish_time: i as u64,
+            };
+            w.write_to_known_channel(&header, &[1, 2, 3]).unwrap();
+        }
+        w.finish().unwrap();
+        let bytes = w.into_inner().into_inner();
+        let path = Path::new("two-channels.mcap");
+        for _ in 0..32 {
+            let topics = topics_of(path, Cursor::new(&bytes)).unwrap();
+            assert_eq!(topics.len(), 1);
+            assert_eq!(topics[0].schema, "", "{topics:?}");
+        }
     }
 }
