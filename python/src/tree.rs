@@ -1581,11 +1581,11 @@ const EXPANSION_MIN_BYTES_PER_NODE: u64 = 2;
 const MAX_TREE_NODES: u64 = 1 << 35;
 
 /// The most nodes ``expand()`` may add: `max_nodes` when given, else what the machine's
-/// physical memory (``os.sysconf``) could hold at [`EXPANSION_MIN_BYTES_PER_NODE`] each, and
+/// physical memory (``os.sysconf``) could hold at [`EXPANSION_MIN_BYTES_PER_NODE`] each;
 /// never more than a tree can address.
 pub(crate) fn expansion_limit(py: Python<'_>, max_nodes: Option<u64>) -> PyResult<u64> {
     if let Some(n) = max_nodes {
-        return Ok(n);
+        return Ok(n.min(MAX_TREE_NODES));
     }
     let sysconf = |name: &str| -> Option<u64> {
         let os = py.import("os").ok()?;

@@ -174,4 +174,7 @@ def test_expand_of_a_childless_root_is_refused(cls):
     assert t.size() == 1
     with pytest.raises(MemoryError, match=f"would add {(8**17 - 8) // 7} nodes"):
         t.expand()
+    # a limit beyond what a tree can address (2^32 blocks of 8 nodes) is that bound
+    with pytest.raises(MemoryError, match=f"limit of {2**35} nodes"):
+        t.expand(max_nodes=10**15)
     assert t.size() == 1
