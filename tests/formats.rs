@@ -130,6 +130,69 @@ fn graph_from_frames_with_global_option_gives_the_frames_back() {
     assert_frames_bit_identical(&back, &frames_in);
 }
 
+/// Every field of a frame by its bits: origin, points, stamp, colours, camera and pixels.
+fn frame_bits(f: &Frame) -> String {
+    let pts: Vec<[u32; 3]> = f.points.iter().map(bits).collect();
+    let cam = f.camera.as_ref().map(|c| {
+        let k = &c.camera;
+        let m: Vec<u64> = k.rotation.matrix().iter().map(|v| v.to_bits()).collect();
+        let intrinsics = [k.fx, k.fy, k.cx, k.cy].map(f64::to_bits);
+        (k.width, k.height, intrinsics, m, &c.pixels)
+    });
+    format!(
+        "{:?} {pts:?} {:?} {:?} {cam:?}",
+        bits(&f.origin),
+        f.stamp.map(f64::to_bits),
+        f.colors
+    )
+}
+
+/// Real frames that carry more than points (TUM's depth camera, stamps and registered colours;
+/// norlab's scan times) come back from a `.frames` file as they went in, bit for bit; read
+/// without colours, the colours alone are dropped.
+#[test]
+fn frames_files_keep_stamps_colours_and_cameras_of_real_frames() {
+    let (Some(assoc), Some(norlab)) = (
+        common::data_file(&format!("{TUM}/my_association.txt")),
+        common::data_file(NORLAB),
+    ) else {
+        return;
+    };
+    let coloured = ReadOptions {
+        colors: true,
+        ..ReadOptions::default()
+    };
+    let tum = read_frames(&assoc, &coloured).unwrap_or_else(|e| panic!("{e}"));
+    let lidar: Vec<Frame> = read(&norlab).into_iter().take(3).collect();
+    assert!(tum
+        .iter()
+        .all(|f| f.camera.is_some() && f.colors.is_some() && f.stamp.is_some()));
+    assert!(lidar
+        .iter()
+        .all(|f| f.stamp.is_some() && f.camera.is_none()));
+    let dir = common::scratch("formats_frames_v2");
+    for (name, frames) in [("tum", &tum), ("norlab", &lidar)] {
+        let path = dir.join(format!("{name}.frames"));
+        frames::write_frames_file(&path, frames).unwrap_or_else(|e| panic!("{e}"));
+        let back = read_frames(&path, &coloured).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back.len(), frames.len(), "{name}");
+        for (i, (a, b)) in frames.iter().zip(&back).enumerate() {
+            assert!(frame_bits(a) == frame_bits(b), "{name} frame {i} differs");
+        }
+        let plain = read(&path);
+        for (i, (a, b)) in frames.iter().zip(&plain).enumerate() {
+            let a = Frame {
+                colors: None,
+                ..a.clone()
+            };
+            assert!(
+                frame_bits(&a) == frame_bits(b),
+                "{name} frame {i} without colours"
+            );
+        }
+    }
+}
+
 #[test]
 fn frames_writer_round_trips_the_reference_files() {
     let dir = common::scratch("formats_frames_round_trip");

@@ -531,6 +531,21 @@ fn stamped_cli_map_with_frame_times_matches_octomap() {
     );
     let cli = std::fs::read(dir.join("cli.ot")).unwrap();
     assert!(cli == ours, "{}", first_diff(&cli, &ours));
+    // the frames saved as one .frames file keep their stamps: the same map from it
+    octoquant::formats::frames::write_frames_file(&dir.join("all.frames"), &frames).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(&dir)
+        .args(["map", "all.frames", "--res", "0.1", "--stamped"])
+        .args(["--degrade-older-than", "1", "-q", "-o", "frames.ot"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let saved = std::fs::read(dir.join("frames.ot")).unwrap();
+    assert!(saved == ours, "{}", first_diff(&saved, &ours));
     // the stamps matter: without degrading the map differs
     let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
         .current_dir(&dir)

@@ -161,7 +161,8 @@ pub struct ReadOptions {
     /// read fails as a decompression bomb; see [`source::DecompressionLimit`].
     pub decompression: source::DecompressionLimit,
     /// Read the points' colours where the input carries them (PCD `rgb`/`rgba`, PLY
-    /// `red green blue`, a TUM association's RGB images, PointCloud2 `rgb`/`rgba`) into
+    /// `red green blue`, a TUM association's RGB images, PointCloud2 `rgb`/`rgba`, colours
+    /// stored in a version 2 `.frames` file) into
     /// [`Frame::colors`]. Off by default: a colourless read never decodes a colour.
     pub colors: bool,
 }
@@ -379,7 +380,9 @@ fn frame_source(path: &Path, options: &ReadOptions) -> Result<Source, FormatErro
     };
     match format {
         InputFormat::Graph => Ok(Box::new(graph::graph_file_stream(path, &options.graph)?)),
-        InputFormat::Frames => Ok(Box::new(frames::frames_file_stream(path)?)),
+        InputFormat::Frames => Ok(Box::new(
+            frames::frames_file_stream(path)?.with_colors(options.colors),
+        )),
         InputFormat::Text => all(text::read_text(path)),
         InputFormat::Vtk => all(vtk::read_vtk(path)),
         InputFormat::VtkSequence if options.vtk_identity_poses => {

@@ -10,7 +10,7 @@
 //! | module | input | frames |
 //! |---|---|---|
 //! | [`graph`] | OctoMap ScanGraph `.graph` (read and write) | one per node, OctoMap's exact `f32` transform |
-//! | [`frames`] | `.frames`, the exchange format with the C++ reference program (read and write) | as stored |
+//! | [`frames`] | `.frames`, the exchange format with the C++ reference program, which also keeps stamps, colours and depth cameras (read and write) | as stored |
 //! | [`text`] | `x y z` lists (`.dat`, `.txt`), OctoMap `NODE` logs (`.log`), `origin` frames | see the module |
 //! | [`vtk`] | legacy ASCII `.vtk`; a scan directory + trajectory `.csv` | one per scan, in time order |
 //! | [`tum`] | TUM depth `.png`; an association file with poses | one per depth image |
@@ -54,6 +54,7 @@ pub use frame::Frame;
 pub use graph::GraphOptions;
 pub use input::{count_frames, frame_stream, read_frames, FrameStream, InputFormat, ReadOptions};
 pub use octoquant_octree::Color;
+pub use octoquant_raycast::PinholeCamera;
 pub use pcd::{PcdOptions, ViewpointUse};
 pub use source::DecompressionLimit;
 pub use tum::{CameraIntrinsics, TumOptions};

@@ -3,7 +3,8 @@
 //! distributed build. `--scene builtin` gives the frames `map` maps without inputs (the
 //! terrestrial scanner and the LiDAR in the small building); `--scene city` a seeded city
 //! (blocks of buildings, streets, trees, parked cars) driven by a car-mounted spinning LiDAR,
-//! one frame per metre of route.
+//! one frame per metre of route. The `.frames` file keeps each frame's scan time, so
+//! `map --stamped` of it stamps the scans as the simulation timed them.
 
 use super::vocab::SceneArg;
 use super::{json_path, print_json};

@@ -10,8 +10,10 @@
 //   memory BYTES                the grid's own memory use at the end
 //   voxels OCCUPIED FREE        voxel counts at the end
 //
-// frames file (little-endian): "OCTFRAME", u32 version 1, u32 count, per frame f32 origin[3],
-// u32 n, n x f32[3].
+// frames file (little-endian): "OCTFRAME", u32 version (1 or 2), u32 count, per frame f32
+// origin[3], u32 n, [version 2: u32 flags, f64 stamp if flags & 1], n x f32[3], [n x u8 rgb
+// if flags & 2], [u32 w, u32 h, 13 x f64, n x u32 pixels if flags & 4]; only the origin and
+// points are used (octoquant's formats/src/frames.rs defines the layout).
 
 #include <bonxai_map/probabilistic_map.hpp>
 
@@ -49,7 +51,8 @@ static std::vector<Frame> read_frames(const std::string& path) {
   char magic[8];
   in.read(magic, 8);
   if (!in || std::memcmp(magic, "OCTFRAME", 8) != 0) die(path + ": not a frames file");
-  if (get<uint32_t>(in, path, "version") != 1) die(path + ": unsupported frames version");
+  const uint32_t version = get<uint32_t>(in, path, "version");
+  if (version != 1 && version != 2) die(path + ": unsupported frames version");
   const uint32_t count = get<uint32_t>(in, path, "frame count");
   std::vector<Frame> frames;
   for (uint32_t f = 0; f < count; ++f) {
@@ -58,9 +61,21 @@ static std::vector<Frame> read_frames(const std::string& path) {
     for (float& v : o) v = get<float>(in, path, "origin");
     fr.origin = Eigen::Vector3d(o[0], o[1], o[2]);
     const uint32_t n = get<uint32_t>(in, path, "point count");
+    const uint32_t flags = version >= 2 ? get<uint32_t>(in, path, "flags") : 0;
+    if (flags & ~7u) die(path + ": unknown frame flags");
+    if (flags & 1) get<double>(in, path, "stamp");
     std::vector<float> raw(static_cast<size_t>(n) * 3);
     in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size() * 4));
     if (!in) die(path + ": truncated in frame " + std::to_string(f));
+    // colours and camera: not used here
+    const uint64_t extra =
+        ((flags & 2) ? 3ull * n : 0) + ((flags & 4) ? 8 + 13 * 8 + 4ull * n : 0);
+    if (extra) {
+      in.ignore(static_cast<std::streamsize>(extra));
+      if (in.gcount() != static_cast<std::streamsize>(extra)) {
+        die(path + ": truncated in frame " + std::to_string(f));
+      }
+    }
     fr.points.reserve(n);
     for (uint32_t i = 0; i < n; ++i) {
       fr.points.emplace_back(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);

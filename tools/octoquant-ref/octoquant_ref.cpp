@@ -57,8 +57,10 @@
 //                                     pre-order, children 0..7, KX KY KZ the smallest voxel key
 //   insert ... stamps START STEP      frame I is inserted at time START + I * STEP
 //
-// Binary files are little-endian. frames: "OCTFRAME", u32 version 1, u32 count, per frame
-// f32 origin[3], u32 n, n x f32[3]. Coloured points (points): u32 n, n x (f32[3], u8 r g b,
+// Binary files are little-endian. frames: "OCTFRAME", u32 version (1 or 2), u32 count, per
+// frame f32 origin[3], u32 n, [version 2: u32 flags, f64 stamp if flags & 1], n x f32[3],
+// [n x u8 rgb if flags & 2], [u32 w, u32 h, 13 x f64, n x u32 pixels if flags & 4]; only
+// the origin and points are used (octoquant's formats/src/frames.rs defines the layout). Coloured points (points): u32 n, n x (f32[3], u8 r g b,
 // u8 padding). Frame colours (colorscan): u32 frame count, per frame u32 n, n x u8 r g b.
 
 #include <octomap/octomap.h>
@@ -156,7 +158,7 @@ static std::vector<Frame> read_frames(const std::string& path) {
   in.read(magic, 8);
   if (!in || std::memcmp(magic, "OCTFRAME", 8) != 0) die(path + ": not a frames file");
   uint32_t version = get<uint32_t>(in, "version");
-  if (version != 1) die(path + ": unsupported frames version");
+  if (version != 1 && version != 2) die(path + ": unsupported frames version");
   uint32_t count = get<uint32_t>(in, "frame count");
   std::vector<Frame> frames;
   for (uint32_t f = 0; f < count; ++f) {
@@ -165,11 +167,20 @@ static std::vector<Frame> read_frames(const std::string& path) {
     for (float& v : o) v = get<float>(in, "origin");
     fr.origin = point3d(o[0], o[1], o[2]);
     uint32_t n = get<uint32_t>(in, "point count");
+    uint32_t flags = version >= 2 ? get<uint32_t>(in, "flags") : 0;
+    if (flags & ~7u) die(path + ": unknown frame flags");
+    if (flags & 1) get<double>(in, "stamp");
     fr.cloud.reserve(n);
     for (uint32_t i = 0; i < n; ++i) {
       float p[3];
       for (float& v : p) v = get<float>(in, "point");
       fr.cloud.push_back(p[0], p[1], p[2]);
+    }
+    // colours and camera: not used here
+    uint64_t extra = ((flags & 2) ? 3ull * n : 0) + ((flags & 4) ? 8 + 13 * 8 + 4ull * n : 0);
+    if (extra) {
+      in.ignore(static_cast<std::streamsize>(extra));
+      if (in.gcount() != static_cast<std::streamsize>(extra)) die(path + ": truncated frame");
     }
     frames.push_back(std::move(fr));
   }

@@ -5,8 +5,9 @@
 //! `cargo run --manifest-path fuzz/Cargo.toml -p octoquant-fuzz-seeds [-- OUT_DIR]`
 //! (OUT_DIR defaults to `fuzz/seeds`).
 
-use nalgebra::Point3;
-use octoquant_formats::frame::Frame;
+use nalgebra::{Point3, Rotation3};
+use octoquant_formats::frame::{CameraPixels, Frame};
+use octoquant_formats::PinholeCamera;
 use octoquant_formats::frames::write_frames;
 use octoquant_formats::graph::{graph_from_frames, write_graph};
 use octoquant_formats::mcap::datatype;
@@ -626,6 +627,27 @@ fn graph_and_frames(s: &mut Seeds) {
         write_frames(&mut f, &frames).unwrap();
         s.put("frames", &format!("{n}-frames.frames"), &f);
     }
+    // version 2: stamps, colours and a depth camera (one frame with all, one with a stamp)
+    let mut full = frames_of(2);
+    let n = full[0].points.len();
+    full[0].stamp = Some(1.5);
+    full[0].colors = Some((0..n).map(|k| Color::new(k as u8, 9, 200)).collect());
+    full[0].camera = Some(CameraPixels {
+        camera: PinholeCamera {
+            width: 8,
+            height: 6,
+            fx: 4.0,
+            fy: 4.5,
+            cx: 3.5,
+            cy: 2.5,
+            rotation: Rotation3::from_euler_angles(0.1, 0.2, 0.3),
+        },
+        pixels: (0..n as u32).map(|k| k * 5 % 48).collect(),
+    });
+    full[1].stamp = Some(2.0);
+    let mut f = Vec::new();
+    write_frames(&mut f, &full).unwrap();
+    s.put("frames", "v2-stamps-colours-camera.frames", &f);
 }
 
 // ---- text, CARMEN, TUM ---------------------------------------------------------------
