@@ -118,6 +118,31 @@ fn map_without_inputs_writes_into_a_new_directory() {
     assert!(o.contains("octoquant-demo/map.bt"), "{o}");
 }
 
+/// `simulate --scene builtin --carve-misses` saves the frames `map` maps without inputs, scan
+/// times included: the stamped map of the saved file is the built-in one, byte for byte
+/// (with the times lost, the saved file's map would be stamped with the clock).
+#[test]
+fn simulated_frames_keep_their_scan_times() {
+    let dir = scratch("cli-simulate-stamps");
+    let run = |args: &[&str]| {
+        let o = octoquant(&dir).args(args).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run(&[
+        "simulate",
+        "--scene",
+        "builtin",
+        "--carve-misses",
+        "-o",
+        "s.frames",
+    ]);
+    let stamped = ["--stamped", "--res", "0.5", "-q", "-o"];
+    run(&[&["map", "s.frames"][..], &stamped, &["saved.ot"]].concat());
+    run(&[&["map"][..], &stamped, &["builtin.ot"]].concat());
+    let saved = std::fs::read(dir.join("saved.ot")).unwrap();
+    assert!(saved == std::fs::read(dir.join("builtin.ot")).unwrap());
+}
+
 /// A file name JSON printed with `format!` would break: quotes, a backslash, a tab, a newline,
 /// a bell (which Rust's `{:?}` writes as `\u{7}`, not JSON) and a byte that is not UTF-8
 /// (printed lossily, as U+FFFD, as the text output does).

@@ -1,7 +1,7 @@
 //! `octoquant simulate --scene city --frames N --seed S -o OUT.frames`: scan a built-in scene
 //! with its simulated sensors and write the frames, as input for `map`, `bench` or a
-//! distributed build. `--scene builtin` gives the frames `map` maps without inputs (the
-//! terrestrial scanner and the LiDAR in the small building); `--scene city` a seeded city
+//! distributed build. `--scene builtin --carve-misses` gives the frames `map` maps without
+//! inputs (the terrestrial scanner and the LiDAR in the small building); `--scene city` a seeded city
 //! (blocks of buildings, streets, trees, parked cars) driven by a car-mounted spinning LiDAR,
 //! one frame per metre of route. The `.frames` file keeps each frame's scan time, so
 //! `map --stamped` of it stamps the scans as the simulation timed them.
