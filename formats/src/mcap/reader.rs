@@ -1290,6 +1290,21 @@ mod tests {
         f
     }
 
+    /// A file of magic, then `records` as its summary section (no data section), then a
+    /// footer pointing at them and the closing magic.
+    fn summary_only(records: &[u8]) -> Vec<u8> {
+        let mut f = b"\x89MCAP0\r\n".to_vec();
+        let summary_start = f.len() as u64;
+        f.extend_from_slice(records);
+        f.push(0x02);
+        f.extend_from_slice(&20u64.to_le_bytes());
+        f.extend_from_slice(&summary_start.to_le_bytes());
+        f.extend_from_slice(&0u64.to_le_bytes());
+        f.extend_from_slice(&0u32.to_le_bytes());
+        f.extend_from_slice(b"\x89MCAP0\r\n");
+        f
+    }
+
     /// An attachment record whose body is shorter than its own fields say: 16 bytes of times,
     /// two empty strings and a data length (32 bytes), then only 2 of the 4 CRC bytes.
     fn short_attachment() -> Vec<u8> {
@@ -1327,15 +1342,7 @@ mod tests {
         // the same record in the summary section (found by the `mcap` fuzz target on the
         // `mcap-skip` branch: the crate's summary reader parses every record there with
         // `parse_record`): the summary is not used, the file is read linearly
-        let mut f = b"\x89MCAP0\r\n".to_vec();
-        let summary_start = f.len() as u64;
-        f.extend_from_slice(&short_attachment());
-        f.push(0x02);
-        f.extend_from_slice(&20u64.to_le_bytes());
-        f.extend_from_slice(&summary_start.to_le_bytes());
-        f.extend_from_slice(&0u64.to_le_bytes());
-        f.extend_from_slice(&0u32.to_le_bytes());
-        f.extend_from_slice(b"\x89MCAP0\r\n");
+        let f = summary_only(&short_attachment());
         let len = f.len() as u64;
         assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), len).unwrap());
         let _ = topics_of(path, Cursor::new(&f));
@@ -1381,17 +1388,8 @@ mod tests {
 
         // the same chunk in the summary section (found by the fuzz target after the fix
         // above: `Summary::read` walks that section with the same unchecked subtraction)
-        let mut f = b"\x89MCAP0\r\n".to_vec();
-        let summary_start = f.len() as u64;
         let in_summary = file_with_chunk(&body, &[]);
-        f.extend_from_slice(&in_summary[8..]);
-        f.extend_from_slice(&[0u8; 200]);
-        f.push(0x02);
-        f.extend_from_slice(&20u64.to_le_bytes());
-        f.extend_from_slice(&summary_start.to_le_bytes());
-        f.extend_from_slice(&0u64.to_le_bytes());
-        f.extend_from_slice(&0u32.to_le_bytes());
-        f.extend_from_slice(b"\x89MCAP0\r\n");
+        let f = summary_only(&[&in_summary[8..], &[0u8; 200][..]].concat());
         assert!(summary_has_foreign_record(path, &mut Cursor::new(&f), f.len() as u64).unwrap());
         let e = topics_of(path, Cursor::new(&f)).unwrap_err().to_string();
         assert!(e.contains("runs past the chunk's end"), "{e}");
