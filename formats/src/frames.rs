@@ -157,7 +157,8 @@ fn read_frame(
     Ok(frame)
 }
 
-/// Frame `i` passed over: its header and stamp read, the rest skipped.
+/// Frame `i` passed over: its header, stamp and camera read, its points, colours and pixels
+/// skipped.
 fn skip_frame(s: &mut impl Runs, version: u32, i: u32) -> Result<(), FormatError> {
     let h = frame_header(s, version, i)?;
     let n = u64::from(h.n);
@@ -169,7 +170,8 @@ fn skip_frame(s: &mut impl Runs, version: u32, i: u32) -> Result<(), FormatError
         s.pass(n * 3, &format!("{n} colours of frame {i}"))?;
     }
     if h.flags & HAS_CAMERA != 0 {
-        s.pass(CAMERA_BYTES, &format!("camera of frame {i}"))?;
+        // read and checked, so that a slice fails where reading the frames would
+        read_camera(s, i)?;
         s.pass(n * 4, &format!("{n} pixels of frame {i}"))?;
     }
     Ok(())
@@ -300,7 +302,7 @@ impl FramesStream {
     }
 
     /// Pass over the next `n` frames (fewer when the file announces fewer), returning how
-    /// many were passed: only each frame's header (and stamp) is read, and an uncompressed
+    /// many were passed: only each frame's header (and stamp and camera) is read, and an uncompressed
     /// file seeks over the rest, so reading frames `k..` of a large file costs about as much
     /// as those frames (a distributed build's slice). A frame cut short by the end of the
     /// file is the truncation error reading it gives, and ends the stream.
@@ -614,6 +616,31 @@ mod tests {
         let mut v3 = good.clone();
         v3[8] = 3;
         assert!(refusal(&v3).contains("version 3"));
+    }
+
+    /// Found by the `frames` fuzz target: passing over a frame skipped its camera unchecked,
+    /// so a slice of a file with a bad camera failed later than reading it (or not at all).
+    #[test]
+    fn passing_over_a_frame_checks_its_camera_as_reading_does() {
+        let mut bytes = written(&[full_frame(2), full_frame(1)]);
+        // frame 0's rotation scaled: the camera starts after the header, stamp, points and
+        // colours
+        let m00 = 16 + 20 + 8 + 24 + 6 + 40;
+        bytes[m00..m00 + 8].copy_from_slice(&2.0f64.to_le_bytes());
+        let dir = std::env::temp_dir().join(format!("oq-frames-skip-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.join("bad-camera.frames");
+        std::fs::write(&path, &bytes).unwrap_or_else(|e| panic!("{e}"));
+        let open = || frames_file_stream(&path).unwrap_or_else(|e| panic!("{e}"));
+        let read = open().next().and_then(Result::err).map(|e| e.to_string());
+        let skipped = open().skip_frames(1).err().map(|e| e.to_string());
+        assert!(
+            read.as_deref()
+                .is_some_and(|e| e.contains("not a rotation")),
+            "{read:?}"
+        );
+        assert_eq!(skipped, read);
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
