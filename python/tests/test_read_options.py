@@ -1,6 +1,8 @@
 """octoquant.read_frames' reader options (those of ``octoquant map``) on the shared data: each
 option checked against a relation it must satisfy, not a hard-coded answer."""
 
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -103,6 +105,22 @@ def test_frame_stamps(data_dir):
     pcd = need(data_dir / "pcd" / table / "table_scene_mug_stereo_textured.pcd")
     ((_, _, t),) = octoquant.read_frames(pcd, stamps=True)
     assert t is None
+
+
+def test_saved_frames_keep_their_stamps(cli, tmp_path):
+    """A ``.frames`` file keeps each frame's time: the simulated city LiDAR (10 Hz) stamps
+    frame ``i`` at ``i / 10`` s, and reading the file back gives those times, after the same
+    points as a read without stamps."""
+    path = tmp_path / "city.frames"
+    args = ["simulate", "--scene", "city", "--frames", "3", "--columns", "64", "-o", str(path)]
+    subprocess.run([cli, *args], check=True, capture_output=True)
+    stamped = octoquant.read_frames(path, stamps=True)
+    assert [t for *_, t in stamped] == [i / 10.0 for i in range(3)]
+    for (p, o), (q, r, _) in zip(octoquant.read_frames(path), stamped):
+        np.testing.assert_array_equal(p, q)
+        np.testing.assert_array_equal(o, r)
+    # a slice has its own frames' stamps
+    assert [t for *_, t in octoquant.read_frames(path, first=1, stamps=True)] == [0.1, 0.2]
 
 
 def test_graph_points_global(data_dir):
