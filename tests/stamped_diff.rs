@@ -506,66 +506,31 @@ fn stamped_cli_map_with_frame_times_matches_octomap() {
     assert!(ours == rot, ".ot differs: {}", first_diff(&ours, &rot));
     assert_eq!(tree.last_update_time(), 1_311_877_824);
 
-    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
-        .current_dir(&dir)
-        .args([
-            "map",
-            assoc.to_str().unwrap(),
-            "--pixel-step",
-            "4",
-            "--res",
-            "0.1",
-            "--stamped",
-            "--degrade-older-than",
-            "1",
-            "-q",
-            "-o",
-            "cli.ot",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let cli = std::fs::read(dir.join("cli.ot")).unwrap();
+    // `octoquant map ARGS`, which must succeed, then the map it wrote to OUT
+    let map = |args: &[&str], out: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+            .current_dir(&dir)
+            .arg("map")
+            .args(args)
+            .args(["-q", "-o", out])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(dir.join(out)).unwrap()
+    };
+    let tum = [assoc.to_str().unwrap(), "--pixel-step", "4", "--res", "0.1"];
+    let degrade = ["--stamped", "--degrade-older-than", "1"];
+    let cli = map(&[&tum[..], &degrade].concat(), "cli.ot");
     assert!(cli == ours, "{}", first_diff(&cli, &ours));
     // the frames saved as one .frames file keep their stamps: the same map from it
     octoquant::formats::frames::write_frames_file(&dir.join("all.frames"), &frames).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
-        .current_dir(&dir)
-        .args(["map", "all.frames", "--res", "0.1", "--stamped"])
-        .args(["--degrade-older-than", "1", "-q", "-o", "frames.ot"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let saved = map(
+        &[&["all.frames", "--res", "0.1"][..], &degrade].concat(),
+        "frames.ot",
     );
-    let saved = std::fs::read(dir.join("frames.ot")).unwrap();
     assert!(saved == ours, "{}", first_diff(&saved, &ours));
     // the stamps matter: without degrading the map differs
-    let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
-        .current_dir(&dir)
-        .args([
-            "map",
-            assoc.to_str().unwrap(),
-            "--pixel-step",
-            "4",
-            "--res",
-            "0.1",
-        ])
-        .args(["--stamped", "-q", "-o", "plain.ot"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(std::fs::read(dir.join("plain.ot")).unwrap() != cli);
+    assert!(map(&[&tum[..], &["--stamped"]].concat(), "plain.ot") != cli);
     let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
         .current_dir(&dir)
         .args(["map", assoc.to_str().unwrap(), "--stamped", "-o", "s.bt"])
