@@ -732,10 +732,10 @@ def read_frames(
     ``count``: only frames ``first .. first + count`` (all from ``first`` without a count),
     read no further than needed; an input with fewer frames raises ``ValueError``. ``colors``:
     also each frame's (N, 3) uint8 RGB colours, ``[(points, origin, colors), ...]`` (PCD, PLY,
-    TUM with RGB images, PointCloud2; a frame without colours raises ``ValueError``).
-    ``stamps``: also each frame's time in seconds (``None`` where the input has none) as the
-    last element (a TUM depth image's name, an MCAP cloud's header stamp, a VTK sequence scan's
-    time: what ``map --stamped`` and :class:`StampedMapper` stamp a frame with). Bad
+    TUM with RGB images, PointCloud2, ``.frames`` files that store them; a frame without
+    colours raises ``ValueError``). ``stamps``: also each frame's time in seconds (``None``
+    where the input has none) as the last element (a TUM depth image's name, an MCAP cloud's
+    header stamp, a VTK sequence scan's time, a ``.frames`` file's stored time: what ``map --stamped`` and :class:`StampedMapper` stamp a frame with). Bad
     options and files raise ``ValueError`` naming the file; a missing path
     ``FileNotFoundError``."""
 

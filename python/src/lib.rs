@@ -61,10 +61,11 @@ type FrameArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 /// associations skip their files); an input with fewer frames raises ValueError.
 /// ``colors``: also return each frame's colours, ``[(points, origin, colors), ...]`` with
 /// ``colors`` a uint8 (N, 3) RGB array (PCD ``rgb``/``rgba``, PLY ``red green blue``, TUM RGB
-/// images, PointCloud2 ``rgb``/``rgba``; what :class:`ColorMapper` takes); a frame without
-/// colours raises ValueError. ``stamps``: also return each frame's time in seconds (a float,
-/// or None where the input has none), as the last element of its tuple: the file name of a
-/// TUM depth image, an MCAP cloud's header stamp, a VTK sequence scan's time (what
+/// images, PointCloud2 ``rgb``/``rgba``, ``.frames`` files that store them; what
+/// :class:`ColorMapper` takes); a frame without colours raises ValueError. ``stamps``: also
+/// return each frame's time in seconds (a float, or None where the input has none), as the
+/// last element of its tuple: the file name of a TUM depth image, an MCAP cloud's header
+/// stamp, a VTK sequence scan's time, a ``.frames`` file's stored time (what
 /// ``octoquant map --stamped`` stamps a frame with, and :class:`StampedMapper` takes).
 /// Releases the GIL while reading.
 #[pyfunction]
