@@ -837,6 +837,24 @@ mod sensor_frame_tests {
         }
     }
 
+    /// The shared transform itself: every point `pose * p` in `f64` narrowed once, the
+    /// origin the translation, stamp and colours kept, the given origin not used.
+    #[test]
+    fn world_frame_is_the_pose_applied_in_f64() {
+        let c = case();
+        let world = super::sensor_frame_to_world(&c.local, &c.pose);
+        let want: Vec<Point3<f32>> = c
+            .local
+            .points
+            .iter()
+            .map(|p| (c.pose * p.cast::<f64>()).cast::<f32>())
+            .collect();
+        assert_eq!(world.points, want);
+        assert_eq!(world.origin, c.kept_world.origin);
+        assert_eq!(world.stamp, c.local.stamp);
+        assert_eq!(world.colors, c.local.colors);
+    }
+
     #[test]
     fn color_mapper_sensor_frame_is_the_naive_world_frame() {
         let c = case();
