@@ -37,8 +37,8 @@
 
 use crate::filters::PointFilters;
 use crate::keyset_order::KeySetOrder;
-use crate::pipeline::{FrameStats, InsertMode, MapperOptions};
-use nalgebra::UnitQuaternion;
+use crate::pipeline::{sensor_frame_to_world, FrameStats, InsertMode, MapperOptions};
+use nalgebra::{Isometry3, UnitQuaternion};
 use octoquant_formats::Frame;
 use octoquant_octree::{Color, ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
 use octoquant_raycast::{compute_ray_keys_f32, max_range_end_f32, KeyRay};
@@ -166,7 +166,37 @@ impl ColorMapper {
     /// Insert one coloured frame (world coordinates); errors, changing nothing, when the frame
     /// has no colours or not one per point.
     pub fn insert(&mut self, frame: &Frame) -> Result<FrameStats, ColorMapError> {
-        let index = self.frames;
+        self.insert_oriented(frame, &UnitQuaternion::identity())
+    }
+
+    /// [`ColorMapper::insert`] for a coloured frame measured in the sensor frame: `frame`'s
+    /// points, with their colours, are moved into the world by the sensor `pose` (sensor to
+    /// world) exactly as [`crate::Mapper::insert_sensor_frame_f32`] moves them (`pose * p` in
+    /// `f64`, narrowed once to `f32`; the origin is the pose's translation, `frame.origin` is
+    /// not used), and the [`crate::filters::PointFilters::crop_sensor`] box is taken in the
+    /// pose's axes, so that a robot's scans and poses go in as they come. Errors as `insert`.
+    pub fn insert_sensor_frame_f32(
+        &mut self,
+        frame: &Frame,
+        pose: &Isometry3<f64>,
+    ) -> Result<FrameStats, ColorMapError> {
+        self.insert_oriented(&sensor_frame_to_world(frame, pose), &pose.rotation)
+    }
+
+    /// Whether [`ColorMapper::insert`] takes `frame`: `Ok` when it has one colour per point
+    /// (and, with filters, no more points than their index channel holds), the error `insert`
+    /// would give otherwise, naming the frame `index`. Lets a caller check a batch of frames
+    /// before inserting any.
+    pub fn check(&self, frame: &Frame, index: usize) -> Result<(), ColorMapError> {
+        self.checked_colors(frame, index).map(|_| ())
+    }
+
+    /// The frame's colours, checked as [`ColorMapper::check`] does.
+    fn checked_colors<'f>(
+        &self,
+        frame: &'f Frame,
+        index: usize,
+    ) -> Result<&'f [Color], ColorMapError> {
         let colors = frame
             .colors
             .as_deref()
@@ -178,6 +208,21 @@ impl ColorMapper {
                 points: frame.points.len(),
             });
         }
+        if self.filters.is_active() {
+            point_index_count(frame, index)?;
+        }
+        Ok(colors)
+    }
+
+    /// Insert a coloured world-coordinate frame whose sensor has the orientation `rotation`
+    /// (sensor to world; the crop box's axes).
+    fn insert_oriented(
+        &mut self,
+        frame: &Frame,
+        rotation: &UnitQuaternion<f64>,
+    ) -> Result<FrameStats, ColorMapError> {
+        let index = self.frames;
+        let colors = self.checked_colors(frame, index)?;
         let start = Instant::now();
         let mut st = FrameStats {
             points: frame.points.len(),
@@ -189,17 +234,12 @@ impl ColorMapper {
         // in the filters' pixel channel
         let filtered;
         let (points, colors) = if self.filters.is_active() {
-            let Ok(n) = u32::try_from(frame.points.len()) else {
-                return Err(ColorMapError::TooManyPoints {
-                    frame: index,
-                    points: frame.points.len(),
-                });
-            };
+            let n = point_index_count(frame, index)?;
             let (mut kept, mut kept_index) = (Vec::new(), Vec::new());
             let index: Vec<u32> = (0..n).collect();
             let c = self.filters.apply(
                 &origin,
-                &UnitQuaternion::identity(),
+                rotation,
                 &frame.points,
                 Some(&index),
                 &mut kept,
@@ -286,6 +326,15 @@ impl ColorMapper {
     pub fn into_tree(self) -> ColorOcTree {
         self.tree
     }
+}
+
+/// The frame's point count as the filters' `u32` index channel holds it
+/// ([`ColorMapError::TooManyPoints`] beyond).
+fn point_index_count(frame: &Frame, index: usize) -> Result<u32, ColorMapError> {
+    u32::try_from(frame.points.len()).map_err(|_| ColorMapError::TooManyPoints {
+        frame: index,
+        points: frame.points.len(),
+    })
 }
 
 #[cfg(test)]

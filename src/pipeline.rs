@@ -215,10 +215,7 @@ impl Mapper {
         points: impl Iterator<Item = Point3<f64>>,
         pose: &Isometry3<f64>,
     ) -> FrameStats {
-        let frame = Frame::new_f32(
-            Point3::from(pose.translation.vector.cast::<f32>()),
-            points.map(|p| (pose * p).cast::<f32>()).collect(),
-        );
+        let frame = sensor_points_to_world(points, pose);
         self.insert_oriented(&frame, &pose.rotation)
     }
 
@@ -598,16 +595,57 @@ impl FrameCaster {
     /// world's axes, as in [`Mapper::insert`]): its voxel sets and statistics
     /// (`tree_seconds` is 0, `seconds` the ray stage's).
     pub fn cast(&mut self, frame: &Frame) -> (&ScanUpdate, FrameStats) {
+        self.cast_oriented(frame, &UnitQuaternion::identity())
+    }
+
+    /// [`FrameCaster::cast`] for a frame whose sensor orientation is known (`rotation`, sensor
+    /// to world): the sensor-frame crop box is then applied in the sensor's own axes, as
+    /// [`Mapper::insert_sensor_frame_f32`] applies it.
+    pub(crate) fn cast_oriented(
+        &mut self,
+        frame: &Frame,
+        rotation: &UnitQuaternion<f64>,
+    ) -> (&ScanUpdate, FrameStats) {
         let mut st = prepare(
             &self.conv,
             &self.options,
             frame,
-            &UnitQuaternion::identity(),
+            rotation,
             &mut self.update,
             &mut self.centres,
         );
         st.seconds = st.ray_seconds;
         (&self.update, st)
+    }
+}
+
+/// Sensor-frame `points` moved into the world by the sensor `pose` (sensor to world): each
+/// `pose * p` computed in `f64` and narrowed once with `as f32` into the frame's storage, the
+/// origin the pose's translation narrowed the same way. The one definition of a sensor frame's
+/// world coordinates, so that every mapper's sensor-frame insertion ([`Mapper`]'s,
+/// [`crate::color_map::ColorMapper`]'s, [`crate::stamped_map::StampedMapper`]'s) builds the
+/// same frame from the same points and pose. No stamp, colours or camera.
+pub(crate) fn sensor_points_to_world(
+    points: impl Iterator<Item = Point3<f64>>,
+    pose: &Isometry3<f64>,
+) -> Frame {
+    Frame::new_f32(
+        Point3::from(pose.translation.vector.cast::<f32>()),
+        points.map(|p| (pose * p).cast::<f32>()).collect(),
+    )
+}
+
+/// A frame whose `f32` points are in the sensor frame, moved into the world by `pose` as
+/// [`sensor_points_to_world`] moves them (each point widened to `f64`, exactly), keeping its
+/// time stamp and colours. Its `origin` is not used (the sensor is at the pose's translation),
+/// nor its depth camera's pixel grid, whose orientation the pose would change (the result has
+/// none, as [`Mapper::insert_sensor_frame_f32`]'s frames have none: the same map, walked
+/// without the grid's shortcut).
+pub(crate) fn sensor_frame_to_world(frame: &Frame, pose: &Isometry3<f64>) -> Frame {
+    Frame {
+        stamp: frame.stamp,
+        colors: frame.colors.clone(),
+        ..sensor_points_to_world(frame.points.iter().map(|p| p.cast::<f64>()), pose)
     }
 }
 
@@ -722,4 +760,148 @@ fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
     let start = Instant::now();
     apply_update(tree, update, &ApplyOptions { lazy });
     start.elapsed().as_secs_f64()
+}
+
+/// The coloured and stamped mappers' sensor-frame insertions against their naive definition:
+/// the points outside the crop box in the sensor's own axes, moved into the world by
+/// `pose * p` in `f64` narrowed once, inserted from the pose's translation.
+#[cfg(test)]
+mod sensor_frame_tests {
+    use crate::color_map::{ColorMapper, ColorMerge};
+    use crate::filters::{CropBox, PointFilters};
+    use crate::stamped_map::StampedMapper;
+    use crate::{Frame, MapperOptions};
+    use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+    use octoquant_octree::io::{write_color_ot, write_stamped_ot};
+    use octoquant_octree::Color;
+
+    /// A turned and moved pose; a coloured, stamped cloud around the sensor in its own frame;
+    /// a crop box (in the sensor's axes) that holds part of it; and the naive world frame of
+    /// the points the box keeps, with their colours and the same stamp.
+    struct Case {
+        pose: Isometry3<f64>,
+        local: Frame,
+        filters: PointFilters,
+        kept_world: Frame,
+    }
+
+    fn case() -> Case {
+        let pose = Isometry3::from_parts(
+            Translation3::new(1.0, -2.0, 0.5),
+            UnitQuaternion::from_euler_angles(0.3, -0.2, 1.9),
+        );
+        let points: Vec<Point3<f32>> = (0..3000)
+            .map(|i| {
+                let (a, b) = (i as f32 * 0.0137, i as f32 * 0.291);
+                let r = 1.0 + (i % 13) as f32 * 0.4;
+                Point3::new(r * a.cos() * b.cos(), r * a.sin() * b.cos(), r * b.sin())
+            })
+            .collect();
+        let colors: Vec<Color> = (0..points.len())
+            .map(|i| Color::new(i as u8, (i / 256) as u8, 7))
+            .collect();
+        let crop = CropBox::from_slice("crop_sensor", &[-1.0, -3.0, -0.5, 4.0, 0.5, 2.0]).unwrap();
+        let (kept, kept_colors): (Vec<Point3<f32>>, Vec<Color>) = points
+            .iter()
+            .zip(&colors)
+            .filter(|(p, _)| !crop.contains(&p.cast::<f64>()))
+            .map(|(p, c)| ((pose * p.cast::<f64>()).cast::<f32>(), *c))
+            .unzip();
+        assert!(kept.len() + 200 < points.len() && kept.len() > 1000);
+        let stamp = Some(1000.5);
+        Case {
+            pose,
+            local: Frame {
+                stamp,
+                colors: Some(colors),
+                // not used: the pose's translation is the origin
+                ..Frame::new_f32(Point3::new(9.0, 9.0, 9.0), points)
+            },
+            filters: PointFilters {
+                crop_sensor: Some(crop),
+                ..PointFilters::default()
+            },
+            kept_world: Frame {
+                stamp,
+                colors: Some(kept_colors),
+                ..Frame::new_f32(pose.translation.vector.cast::<f32>().into(), kept)
+            },
+        }
+    }
+
+    fn options(filters: PointFilters) -> MapperOptions {
+        MapperOptions {
+            resolution: 0.2,
+            filters,
+            ..MapperOptions::default()
+        }
+    }
+
+    /// The shared transform itself: every point `pose * p` in `f64` narrowed once, the
+    /// origin the translation, stamp and colours kept, the given origin not used.
+    #[test]
+    fn world_frame_is_the_pose_applied_in_f64() {
+        let c = case();
+        let world = super::sensor_frame_to_world(&c.local, &c.pose);
+        let want: Vec<Point3<f32>> = c
+            .local
+            .points
+            .iter()
+            .map(|p| (c.pose * p.cast::<f64>()).cast::<f32>())
+            .collect();
+        assert_eq!(world.points, want);
+        assert_eq!(world.origin, c.kept_world.origin);
+        assert_eq!(world.stamp, c.local.stamp);
+        assert_eq!(world.colors, c.local.colors);
+    }
+
+    #[test]
+    fn color_mapper_sensor_frame_is_the_naive_world_frame() {
+        let c = case();
+        let mut m = ColorMapper::new(options(c.filters), ColorMerge::Average).unwrap();
+        let mut naive =
+            ColorMapper::new(options(PointFilters::default()), ColorMerge::Average).unwrap();
+        // twice: the second sighting colours the voxels
+        for _ in 0..2 {
+            let st = m.insert_sensor_frame_f32(&c.local, &c.pose).unwrap();
+            assert_eq!(
+                st.dropped.crop_sensor,
+                c.local.points.len() - c.kept_world.points.len()
+            );
+            naive.insert(&c.kept_world).unwrap();
+        }
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        write_color_ot(m.tree(), &mut a).unwrap();
+        write_color_ot(naive.tree(), &mut b).unwrap();
+        assert_eq!(a, b);
+        // a frame without colours is refused, changing nothing
+        let bare = Frame::new_f32(Point3::origin(), c.local.points.clone());
+        assert!(m.insert_sensor_frame_f32(&bare, &c.pose).is_err());
+        assert_eq!(m.frames(), 2);
+    }
+
+    #[test]
+    fn stamped_mapper_sensor_frame_is_the_naive_world_frame() {
+        let c = case();
+        let mut m = StampedMapper::new(options(c.filters), None).unwrap();
+        let mut naive = StampedMapper::new(options(PointFilters::default()), None).unwrap();
+        let st = m.insert_sensor_frame_f32(&c.local, &c.pose).unwrap();
+        assert_eq!(
+            st.dropped.crop_sensor,
+            c.local.points.len() - c.kept_world.points.len()
+        );
+        naive.insert(&c.kept_world).unwrap();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        write_stamped_ot(m.tree(), &mut a).unwrap();
+        write_stamped_ot(naive.tree(), &mut b).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(m.tree().last_update_time(), 1000);
+        // a time OctoMap cannot store is refused, changing nothing
+        let late = Frame {
+            stamp: Some(-1.0),
+            ..c.local.clone()
+        };
+        assert!(m.insert_sensor_frame_f32(&late, &c.pose).is_err());
+        assert_eq!(m.frames(), 1);
+    }
 }

@@ -13,7 +13,8 @@
 //! and discretize mode give OctoMap's sets (the differential test checks the `.ot` bytes
 //! against liboctomap's `OcTreeStamped` with the same clock).
 
-use crate::pipeline::{CasterError, FrameCaster, FrameStats, MapperOptions};
+use crate::pipeline::{sensor_frame_to_world, CasterError, FrameCaster, FrameStats, MapperOptions};
+use nalgebra::{Isometry3, UnitQuaternion};
 use octoquant_formats::Frame;
 use octoquant_octree::{now_seconds, InnerNodes, OctreeError, StampedOcTree};
 use std::time::Instant;
@@ -96,9 +97,33 @@ impl StampedMapper {
     /// Insert one frame (world coordinates) at its time; errors, changing nothing, on a time
     /// stamp OctoMap cannot store.
     pub fn insert(&mut self, frame: &Frame) -> Result<FrameStats, StampedMapError> {
+        self.insert_oriented(frame, &UnitQuaternion::identity())
+    }
+
+    /// [`StampedMapper::insert`] for a frame measured in the sensor frame: `frame`'s points
+    /// are moved into the world by the sensor `pose` (sensor to world) exactly as
+    /// [`crate::Mapper::insert_sensor_frame_f32`] moves them (`pose * p` in `f64`, narrowed
+    /// once to `f32`; the origin is the pose's translation, `frame.origin` is not used), and
+    /// the [`crate::filters::PointFilters::crop_sensor`] box is taken in the pose's axes, so
+    /// that a robot's scans and poses go in as they come. The frame keeps its time stamp.
+    pub fn insert_sensor_frame_f32(
+        &mut self,
+        frame: &Frame,
+        pose: &Isometry3<f64>,
+    ) -> Result<FrameStats, StampedMapError> {
+        self.insert_oriented(&sensor_frame_to_world(frame, pose), &pose.rotation)
+    }
+
+    /// Insert a world-coordinate frame whose sensor has the orientation `rotation` (sensor to
+    /// world; the crop box's axes).
+    fn insert_oriented(
+        &mut self,
+        frame: &Frame,
+        rotation: &UnitQuaternion<f64>,
+    ) -> Result<FrameStats, StampedMapError> {
         let now = Self::frame_time(frame, self.frames)?;
         let start = Instant::now();
-        let (update, mut st) = self.caster.cast(frame);
+        let (update, mut st) = self.caster.cast_oriented(frame, rotation);
         let tree_start = Instant::now();
         self.tree.insert_update_at(
             update.free().iter().copied(),

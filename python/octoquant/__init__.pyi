@@ -11,6 +11,8 @@ StrOrBytesPath = Union[str, bytes, "os.PathLike[str]", "os.PathLike[bytes]"]
 Vec3 = Union[NDArray[np.floating[Any]], NDArray[np.integer[Any]], Sequence[float]]
 Points = Union[NDArray[np.float32], NDArray[np.float64], Sequence[Sequence[float]]]
 KeyLike = Union["OcTreeKey", Sequence[int]]
+# a sensor pose (sensor to world): a 4x4 homogeneous matrix, or (translation, quaternion (x, y, z, w))
+Pose = Union[NDArray[np.floating[Any]], Sequence[Sequence[float]], tuple[Vec3, Sequence[float]]]
 
 class NullPointerException(Exception):
     """A node or iterator that stands for nothing (unknown space, or past the end)."""
@@ -427,8 +429,18 @@ class ColorMapper:
         points: Points,
         colors: NDArray[np.uint8],
         origin: Optional[Vec3] = None,
+        pose: Optional[Pose] = None,
     ) -> dict[str, Any]:
-        """Insert one scan: world points (N, 3), uint8 RGB colours (N, 3), sensor origin."""
+        """Insert one scan: points (N, 3), uint8 RGB colours (N, 3), and either the sensor
+        ``origin`` (world points) or its ``pose`` (sensor-frame points, moved as
+        ``Mapper.insert`` moves them; ``crop_sensor`` in the pose's axes); not both
+        (ValueError)."""
+    def insert_frames(
+        self, frames: Sequence[tuple[Points, NDArray[np.uint8], Optional[Vec3]]]
+    ) -> list[dict[str, Any]]:
+        """Insert scans ``(points, colors, origin)`` in order, the same map as one ``insert``
+        each; the statistics of each. All are checked first: a bad one raises (naming
+        ``frames[i]``) and nothing is inserted."""
     @property
     def tree(self) -> ColorOcTree:
         """A copy of the map so far."""
@@ -574,10 +586,18 @@ class StampedMapper:
         points: Points,
         origin: Optional[Vec3] = None,
         stamp: Optional[float] = None,
+        pose: Optional[Pose] = None,
     ) -> dict[str, Any]:
-        """Insert one scan (world points (N, 3), sensor origin) at time ``stamp`` (seconds,
-        floored; default the system clock). Its statistics, with ``"stamp"`` the second used;
-        ValueError for a time outside 0 ..= 2**32 - 1 s."""
+        """Insert one scan (world points (N, 3) and sensor ``origin``, or sensor-frame points
+        and the sensor ``pose``, moved as ``Mapper.insert`` moves them; not both) at time
+        ``stamp`` (seconds, floored; default the system clock). Its statistics, with
+        ``"stamp"`` the second used; ValueError for a time outside 0 ..= 2**32 - 1 s."""
+    def insert_frames(
+        self, frames: Sequence[tuple[Points, Optional[Vec3], Optional[float]]]
+    ) -> list[dict[str, Any]]:
+        """Insert scans ``(points, origin, stamp)`` in order (stamp None: the clock), the same
+        map as one ``insert`` each; the statistics of each, with ``"stamp"``. All are checked
+        first: a bad one raises (naming ``frames[i]``) and nothing is inserted."""
     @property
     def tree(self) -> OcTreeStamped:
         """A copy of the map so far, stamps included."""
@@ -627,11 +647,12 @@ class Mapper:
         self,
         points: Points,
         origin: Optional[Vec3] = None,
-        pose: Union[None, NDArray[np.floating[Any]], Sequence[Sequence[float]], tuple[Vec3, Sequence[float]]] = None,
+        pose: Optional[Pose] = None,
     ) -> dict[str, Any]:
         """Insert one frame (world points + origin, or sensor points + pose); its statistics."""
     def insert_frames(self, frames: Sequence[tuple[Points, Vec3]]) -> list[dict[str, Any]]:
-        """Insert frames in order, pipelined; the statistics of each."""
+        """Insert frames in order, pipelined; the statistics of each. All are read first: a
+        bad one raises (naming ``frames[i]``) and nothing is inserted."""
     @property
     def tree(self) -> OcTree:
         """A copy of the map so far."""

@@ -2,9 +2,9 @@
 //! server inserts them (the library's `color_map::ColorMapper`), for NumPy frames.
 
 use crate::color_tree::PyColorOcTree;
-use crate::convert::{self, vec3_f32};
+use crate::convert;
 use crate::engine::{self, Color, ColorMapper, ColorMerge, MapperOptions};
-use crate::mapper::{stats_dict, FilterArgs};
+use crate::mapper::{origin_or_zero, read_frames, stats_dict, FilterArgs, Placement};
 use nalgebra::Point3;
 use numpy::PyReadonlyArray2;
 use pyo3::exceptions::PyValueError;
@@ -24,7 +24,8 @@ use pyo3::types::PyDict;
 /// the range, and the voxel where it is cut. The sensor model is OctoMap's unless given.
 /// The point filters of :class:`Mapper` (keyword-only: ``drop_zero``, ``min_range``,
 /// ``crop_sensor``, ``crop_world``, ``zmin``, ``zmax``, ``ground`` ...) drop points with their
-/// colours before the insertion (the sensor crop box in the world's axes).
+/// colours before the insertion (the sensor crop box in the world's axes, in the pose's when
+/// inserted with ``pose``).
 #[pyclass(module = "octoquant", name = "ColorMapper")]
 pub struct PyColorMapper {
     /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
@@ -112,39 +113,64 @@ impl PyColorMapper {
         })
     }
 
-    /// Insert one coloured scan: ``points`` (N, 3) in the world frame, ``colors`` (N, 3)
-    /// ``uint8`` RGB, one per point, ``origin`` the sensor position (default 0). Returns the
-    /// scan's statistics. Releases the GIL.
-    #[pyo3(signature = (points, colors, origin=None))]
+    /// Insert one coloured scan: ``points`` (N, 3), ``colors`` (N, 3) ``uint8`` RGB, one per
+    /// point, and either ``origin`` (the sensor position, points in the world frame; default 0)
+    /// or ``pose`` (points in the sensor frame; a 4x4 matrix or (translation, quaternion (x, y,
+    /// z, w)), as :meth:`Mapper.insert` takes it: the same world points, and the
+    /// ``crop_sensor`` box in the pose's axes). Returns the scan's statistics. Releases the GIL.
+    #[pyo3(signature = (points, colors, origin=None, pose=None))]
     fn insert<'py>(
         &mut self,
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
         colors: &Bound<'py, PyAny>,
         origin: Option<&Bound<'py, PyAny>>,
+        pose: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let pts = convert::points_f32(points, "points")?;
-        let colors = rgb_rows(colors)?;
-        if colors.len() != pts.len() {
-            return Err(PyValueError::new_err(format!(
-                "{} colours for {} points: give one per point",
-                colors.len(),
-                pts.len()
-            )));
-        }
-        let origin = match origin {
-            Some(o) => vec3_f32(o, "origin")?,
-            None => Point3::origin(),
-        };
-        let frame = engine::Frame {
-            colors: Some(colors),
-            ..engine::Frame::new_f32(origin, pts)
-        };
+        let place = Placement::from_args(origin, pose)?;
+        let frame = coloured_frame(points, colors, place.frame_origin())?;
         let mapper = &mut self.mapper;
         let st = py
-            .detach(|| mapper.insert(&frame))
+            .detach(|| match place {
+                Placement::Origin(_) => mapper.insert(&frame),
+                Placement::Pose(iso) => mapper.insert_sensor_frame_f32(&frame, &iso),
+            })
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         stats_dict(py, &st)
+    }
+
+    /// Insert coloured scans ``[(points, colors, origin), ...]`` in order (``origin`` may be
+    /// None: 0): the same map as one :meth:`insert` per scan. Returns the statistics of each.
+    /// Every scan is read and checked before any is inserted: a bad one raises, naming it
+    /// (``frames[i]: ...``), and the map is unchanged. Releases the GIL while inserting.
+    fn insert_frames<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: &Bound<'py, PyAny>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let first = self.mapper.frames();
+        let list = read_frames(frames, |i, item| {
+            let (pts, colors, origin): (
+                Bound<'py, PyAny>,
+                Bound<'py, PyAny>,
+                Option<Bound<'py, PyAny>>,
+            ) = item.extract()?;
+            let frame = coloured_frame(&pts, &colors, origin_or_zero(origin.as_ref())?)?;
+            self.mapper
+                .check(&frame, first + i)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            Ok(frame)
+        })?;
+        let mapper = &mut self.mapper;
+        // checked above: no insertion fails
+        let stats = py
+            .detach(|| {
+                list.iter()
+                    .map(|f| mapper.insert(f))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        stats.iter().map(|s| stats_dict(py, s)).collect()
     }
 
     /// A copy of the map so far.
@@ -166,6 +192,28 @@ impl PyColorMapper {
             self.mapper.frames()
         )
     }
+}
+
+/// A coloured frame from an ``insert``'s arguments: the points, one colour per point
+/// (ValueError otherwise), the origin given.
+fn coloured_frame(
+    points: &Bound<'_, PyAny>,
+    colors: &Bound<'_, PyAny>,
+    origin: Point3<f32>,
+) -> PyResult<engine::Frame> {
+    let pts = convert::points_f32(points, "points")?;
+    let colors = rgb_rows(colors)?;
+    if colors.len() != pts.len() {
+        return Err(PyValueError::new_err(format!(
+            "{} colours for {} points: give one per point",
+            colors.len(),
+            pts.len()
+        )));
+    }
+    Ok(engine::Frame {
+        colors: Some(colors),
+        ..engine::Frame::new_f32(origin, pts)
+    })
 }
 
 /// An (N, 3) ``uint8`` array as colours.

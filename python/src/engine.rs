@@ -18,7 +18,7 @@ pub use octoquant::octree::{
     NodeItem, OcTree, OccupancyParams, OctreeError, StampedOcTree, Update, TREE_DEPTH,
 };
 pub use octoquant::pipeline::{FrameCaster, FrameStats, InsertMode, Mapper, MapperOptions};
-pub use octoquant::stamped_map::StampedMapper;
+pub use octoquant::stamped_map::{StampedMapError, StampedMapper};
 pub use octoquant::tiled::{cast_frames, default_tile_depth};
 pub use octoquant::tiles::{
     apply_tile_updates, join_dir, write_index, write_tile, Tile, TileError, TileIndex, TileUpdates,

@@ -68,7 +68,8 @@ pub(crate) fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound
 }
 
 /// A pose: a 4x4 homogeneous matrix, or (translation (3,), quaternion (x, y, z, w)).
-fn pose(obj: &Bound<'_, PyAny>) -> PyResult<Isometry3<f64>> {
+/// Shared by the ``pose=`` of every mapper's ``insert``.
+pub(crate) fn pose(obj: &Bound<'_, PyAny>) -> PyResult<Isometry3<f64>> {
     if let Ok((t, q)) = obj.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>)>() {
         let t = vec3(&t, "pose translation")?;
         let q: Vec<f64> = q
@@ -107,6 +108,65 @@ fn pose(obj: &Bound<'_, PyAny>) -> PyResult<Isometry3<f64>> {
         Translation3::new(m[0][3], m[1][3], m[2][3]),
         rot,
     ))
+}
+
+/// Where an ``insert``'s points are given: in the world, seen from a sensor position, or in
+/// the sensor's own frame, with the sensor's pose. The ``origin=`` / ``pose=`` pair of every
+/// mapper's ``insert``, read in one place so that they all take and refuse the same things.
+pub(crate) enum Placement {
+    /// Points in the world frame; the sensor position (default 0).
+    Origin(Point3<f32>),
+    /// Points in the sensor frame; the sensor pose (sensor to world).
+    Pose(Isometry3<f64>),
+}
+
+impl Placement {
+    /// The ``origin`` and ``pose`` keywords, at most one of them given (ValueError otherwise,
+    /// and for an invalid origin or pose).
+    pub(crate) fn from_args(
+        origin: Option<&Bound<'_, PyAny>>,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        match (origin, pose) {
+            (Some(_), Some(_)) => Err(PyValueError::new_err("give origin or pose, not both")),
+            (None, Some(p)) => Ok(Placement::Pose(self::pose(p)?)),
+            (o, None) => Ok(Placement::Origin(origin_or_zero(o)?)),
+        }
+    }
+
+    /// The origin to build the frame with: the sensor position, or 0 for sensor-frame points
+    /// (whose origin the pose's translation replaces when they are inserted).
+    pub(crate) fn frame_origin(&self) -> Point3<f32> {
+        match self {
+            Placement::Origin(o) => *o,
+            Placement::Pose(_) => Point3::origin(),
+        }
+    }
+}
+
+/// An ``origin`` argument: 3 numbers, or None for the world's origin.
+pub(crate) fn origin_or_zero(origin: Option<&Bound<'_, PyAny>>) -> PyResult<Point3<f32>> {
+    origin.map_or_else(|| Ok(Point3::origin()), |o| vec3_f32(o, "origin"))
+}
+
+/// The frames of an ``insert_frames`` call, each read by `read` (given its position in the
+/// list), all read before any is inserted: an error names the frame (``frames[i]: ...``, the
+/// exception type kept, the original as its cause) and leaves the map as it was.
+pub(crate) fn read_frames<'py, T>(
+    frames: &Bound<'py, PyAny>,
+    mut read: impl FnMut(usize, Bound<'py, PyAny>) -> PyResult<T>,
+) -> PyResult<Vec<T>> {
+    let py = frames.py();
+    let mut out = Vec::new();
+    for (i, item) in frames.try_iter()?.enumerate() {
+        let frame = item.and_then(|item| read(i, item)).map_err(|e| {
+            let named = PyErr::from_type(e.get_type(py), format!("frames[{i}]: {}", e.value(py)));
+            named.set_cause(py, Some(e));
+            named
+        })?;
+        out.push(frame);
+    }
+    Ok(out)
 }
 
 impl PyMapper {
@@ -279,19 +339,9 @@ impl PyMapper {
         pose: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let pts = convert::points_f32(points, "points")?;
-        let st = match (origin, pose) {
-            (Some(_), Some(_)) => {
-                return Err(PyValueError::new_err("give origin or pose, not both"));
-            }
-            (_, Some(p)) => {
-                let iso = self::pose(p)?;
-                self.run(py, move |m| m.insert_sensor_frame_f32(&pts, &iso))
-            }
-            (o, None) => {
-                let origin = match o {
-                    Some(o) => vec3_f32(o, "origin")?,
-                    None => Point3::origin(),
-                };
+        let st = match Placement::from_args(origin, pose)? {
+            Placement::Pose(iso) => self.run(py, move |m| m.insert_sensor_frame_f32(&pts, &iso)),
+            Placement::Origin(origin) => {
                 let frame = engine::Frame::new_f32(origin, pts);
                 self.run(py, move |m| m.insert(&frame))
             }
@@ -301,20 +351,20 @@ impl PyMapper {
 
     /// Insert frames ``[(points, origin), ...]`` in order, pipelined over the threads (the
     /// next frame's rays are cast while this one updates the tree; same map as one
-    /// ``insert`` per frame). Returns the statistics of each.
+    /// ``insert`` per frame). Returns the statistics of each. Every frame is read before any
+    /// is inserted: a bad one raises, naming it (``frames[i]: ...``), and the map is unchanged.
     fn insert_frames<'py>(
         &mut self,
         py: Python<'py>,
         frames: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let mut list = Vec::new();
-        for item in frames.try_iter()? {
-            let (pts, origin): (Bound<'py, PyAny>, Bound<'py, PyAny>) = item?.extract()?;
-            list.push(engine::Frame::new_f32(
+        let list = read_frames(frames, |_, item| {
+            let (pts, origin): (Bound<'py, PyAny>, Bound<'py, PyAny>) = item.extract()?;
+            Ok(engine::Frame::new_f32(
                 vec3_f32(&origin, "origin")?,
                 convert::points_f32(&pts, "points")?,
-            ));
-        }
+            ))
+        })?;
         let stats = self.run(py, move |m| m.insert_frames(&list));
         stats.iter().map(|s| stats_dict(py, s)).collect()
     }

@@ -2,11 +2,10 @@
 //! optionally forgetting obstacles not seen for a while (the library's
 //! `stamped_map::StampedMapper`, what `octoquant map --stamped` runs), for NumPy frames.
 
-use crate::convert::{self, vec3_f32};
-use crate::engine::{self, MapperOptions, StampedMapper};
-use crate::mapper::{self, stats_dict, FilterArgs};
+use crate::convert;
+use crate::engine::{self, MapperOptions, StampedMapError, StampedMapper};
+use crate::mapper::{self, origin_or_zero, read_frames, stats_dict, FilterArgs, Placement};
 use crate::stamped_tree::{seconds, PyStampedOcTree};
-use nalgebra::Point3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -24,7 +23,8 @@ use pyo3::types::PyDict;
 /// refused (ValueError): stamped maps are built with eager updates. The sensor model is
 /// OctoMap's unless given. The point filters of :class:`Mapper` (keyword-only: ``drop_zero``,
 /// ``min_range``, ``crop_sensor``, ``crop_world``, ``zmin``, ``zmax``, ``ground`` ...) drop
-/// points before the insertion (the sensor crop box in the world's axes).
+/// points before the insertion (the sensor crop box in the world's axes, in the pose's when
+/// inserted with ``pose``).
 #[pyclass(module = "octoquant", name = "StampedMapper")]
 pub struct PyStampedMapper {
     /// Boxed: the tree inside is 64-byte aligned, more than Python's allocator guarantees.
@@ -111,41 +111,91 @@ impl PyStampedMapper {
         })
     }
 
-    /// Insert one scan: ``points`` (N, 3) in the world frame (float32 or float64; NaN/inf
-    /// points are skipped and counted), ``origin`` the sensor position (default 0), ``stamp``
-    /// the scan's time in seconds (a float, e.g. a ROS or TUM time stamp; stamped with its
-    /// whole seconds, as the CLI stamps a frame; default: the system clock, as OctoMap's
-    /// ``time(NULL)``). Returns the scan's statistics, with ``"stamp"``: the whole second
-    /// used. A time OctoMap cannot store (negative, NaN, 2^32 s or later) raises ValueError
-    /// and changes nothing. Releases the GIL.
-    #[pyo3(signature = (points, origin=None, stamp=None))]
+    /// Insert one scan: ``points`` (N, 3) (float32 or float64; NaN/inf points are skipped and
+    /// counted), either ``origin`` (the sensor position, points in the world frame; default 0)
+    /// or ``pose`` (points in the sensor frame; a 4x4 matrix or (translation, quaternion (x, y,
+    /// z, w)), as :meth:`Mapper.insert` takes it: the same world points, and the
+    /// ``crop_sensor`` box in the pose's axes), ``stamp`` the scan's time in seconds (a float,
+    /// e.g. a ROS or TUM time stamp; stamped with its whole seconds, as the CLI stamps a frame;
+    /// default: the system clock, as OctoMap's ``time(NULL)``). Returns the scan's statistics,
+    /// with ``"stamp"``: the whole second used. A time OctoMap cannot store (negative, NaN,
+    /// 2^32 s or later) raises ValueError and changes nothing. Releases the GIL.
+    #[pyo3(signature = (points, origin=None, stamp=None, pose=None))]
     fn insert<'py>(
         &mut self,
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
         origin: Option<&Bound<'py, PyAny>>,
         stamp: Option<f64>,
+        pose: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let pts = convert::points_f32(points, "points")?;
-        let origin = match origin {
-            Some(o) => vec3_f32(o, "origin")?,
-            None => Point3::origin(),
-        };
+        let place = Placement::from_args(origin, pose)?;
         let mut frame = engine::Frame {
             stamp,
-            ..engine::Frame::new_f32(origin, pts)
+            ..engine::Frame::new_f32(place.frame_origin(), pts)
         };
-        let now = StampedMapper::frame_time(&frame, self.mapper.frames())
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        // the clock read once: the statistics tell the time the scan was stamped with
-        frame.stamp = Some(stamp.unwrap_or(f64::from(now)));
+        let now = stamp_frame(&mut frame, self.mapper.frames()).map_err(stamp_error)?;
         let mapper = &mut self.mapper;
         let st = py
-            .detach(|| mapper.insert(&frame))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            .detach(|| match place {
+                Placement::Origin(_) => mapper.insert(&frame),
+                Placement::Pose(iso) => mapper.insert_sensor_frame_f32(&frame, &iso),
+            })
+            .map_err(stamp_error)?;
         let d = stats_dict(py, &st)?;
         d.set_item("stamp", now)?;
         Ok(d)
+    }
+
+    /// Insert scans ``[(points, origin, stamp), ...]`` in order (``origin`` may be None: 0;
+    /// ``stamp`` None: the system clock when the scan is inserted, as :meth:`insert`): the same
+    /// map as one :meth:`insert` per scan. Returns the statistics of each, with ``"stamp"``.
+    /// Every scan is read and its time checked before any is inserted: a bad one raises,
+    /// naming it (``frames[i]: ...``), and the map is unchanged. Releases the GIL while
+    /// inserting.
+    fn insert_frames<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: &Bound<'py, PyAny>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let first = self.mapper.frames();
+        let mut list = read_frames(frames, |i, item| {
+            let (pts, origin, stamp): (Bound<'py, PyAny>, Option<Bound<'py, PyAny>>, Option<f64>) =
+                item.extract()?;
+            let frame = engine::Frame {
+                stamp,
+                ..engine::Frame::new_f32(
+                    origin_or_zero(origin.as_ref())?,
+                    convert::points_f32(&pts, "points")?,
+                )
+            };
+            if stamp.is_some() {
+                // the clock is read when the scan goes in; a given time is checked now
+                StampedMapper::frame_time(&frame, first + i).map_err(stamp_error)?;
+            }
+            Ok(frame)
+        })?;
+        let mapper = &mut self.mapper;
+        // checked above: no insertion fails
+        let stats = py
+            .detach(|| {
+                list.iter_mut()
+                    .map(|f| {
+                        let now = stamp_frame(f, mapper.frames())?;
+                        Ok((mapper.insert(f)?, now))
+                    })
+                    .collect::<Result<Vec<_>, StampedMapError>>()
+            })
+            .map_err(stamp_error)?;
+        stats
+            .iter()
+            .map(|(st, now)| {
+                let d = stats_dict(py, st)?;
+                d.set_item("stamp", now)?;
+                Ok(d)
+            })
+            .collect()
     }
 
     /// A copy of the map so far (an ``OcTreeStamped``, stamps included).
@@ -181,4 +231,18 @@ impl PyStampedMapper {
             self.mapper.frames()
         )
     }
+}
+
+/// The second `frame` is stamped with ([`StampedMapper::frame_time`], the clock read once
+/// when it has no stamp), written into it as its stamp so that the insertion uses the second
+/// returned (the statistics tell the time the scan was stamped with).
+fn stamp_frame(frame: &mut engine::Frame, index: usize) -> Result<u32, StampedMapError> {
+    let now = StampedMapper::frame_time(frame, index)?;
+    frame.stamp = Some(frame.stamp.unwrap_or(f64::from(now)));
+    Ok(now)
+}
+
+/// A stamped insertion's refusal as a Python exception.
+fn stamp_error(e: StampedMapError) -> PyErr {
+    PyValueError::new_err(e.to_string())
 }
