@@ -458,10 +458,10 @@ type Skips<'a> = Option<(&'a SkipPlan, &'a [u32])>;
 /// OctoMap's `computeUpdate` loop body (no bounding box) for every finite point of `points`:
 /// its ray, cut at `max_range` when it is longer (and then without an occupied end), and its
 /// end point's voxel; non-finite points are counted. With `skips`, DDA rays through pixels
-/// that other rays cover start where [`SkipPlan::cap`] and their set-ups allow.
+/// that other rays cover start where [`SkipPlan::cap`] and their set-ups allow. The points
+/// from `clear_from` on only clear: their rays are cast, their end voxels not marked.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn add_points(
     conv: &KeyConverter,
     points: &[Point3<f32>],
