@@ -11,11 +11,11 @@ use crate::checkpoint::{
 use crate::filters::{count_zero_f32, PointFilters};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
-use octoquant_octree::{KeyConverter, OcTree, OctreeError};
+use octoquant_octree::{InnerNodes, KeyConverter, OcTree, OctreeError, Update};
 use octoquant_quantize::{quantize_endpoints, QuantizeStats};
 use octoquant_raycast::{
-    apply_update, compute_discrete_update_f32, compute_update_clearing_f32, discretize_f32,
-    ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
+    apply_update, compute_discrete_update_f32, compute_ray_keys_f32, compute_update_clearing_f32,
+    discretize_f32, ApplyOptions, KeyRay, PixelGrid, RayModel, ScanStats, ScanUpdate,
 };
 use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
@@ -126,23 +126,35 @@ impl Mapper {
             let filtered = filter_frame(&self.options.filters, frame, rotation, &mut st);
             let kept: &[Point3<f32>] = filtered.as_ref().map_or(&frame.points, |(p, _)| p);
             st.reduced = kept.len();
-            let points = match self.options.reduce {
-                Some(cell) => reduce(kept, cell, &mut st),
-                None => kept.to_vec(),
+            let (points, clearing) = match self.options.reduce {
+                Some(cell) => per_part(kept, st.clearing, |part| reduce(part, cell, &mut st)),
+                None => (kept.to_vec(), st.clearing),
             };
+            st.reduced = points.len();
+            let (hits, ground) = points.split_at(points.len() - clearing);
+            let lazy = self.options.lazy;
             let s = octoquant_raycast::insert_point_cloud_rays_f32(
                 &mut self.tree,
-                &points,
+                hits,
                 &frame.origin,
-                &ApplyOptions {
-                    lazy: self.options.lazy,
-                },
+                &ApplyOptions { lazy },
             );
             st.non_finite += s.non_finite;
             st.outside_map = s.outside_map;
             st.rays = s.rays;
             st.free = s.free;
             st.occupied = s.occupied;
+            // then the ground points kept to clear: each ray's misses, ray by ray, no hit
+            let conv = self.tree.converter().clone();
+            let mut ray = KeyRay::new();
+            for p in ground {
+                if compute_ray_keys_f32(&conv, &frame.origin, p, &mut ray) {
+                    let inner = InnerNodes::from_lazy(lazy);
+                    self.tree.update_keys(ray.keys(), Update::Miss, inner);
+                    st.rays += 1;
+                    st.free += ray.len();
+                }
+            }
             st.seconds = start.elapsed().as_secs_f64();
             self.account(self.digest(frame), &st);
             return st;

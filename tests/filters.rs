@@ -1019,3 +1019,56 @@ fn clearing_ground_points_only_add_free_space_in_every_mode() {
         );
     }
 }
+
+/// `simple` mode (OctoMap's `insertPointCloudRays`, ray by ray) with the ground kept to clear:
+/// the hits' rays as OctoMap inserts them, then each ground point's ray as misses one key at a
+/// time (no hit), in order. One norlab frame, every 8th point.
+#[test]
+fn clearing_ground_points_in_simple_mode_are_rays_of_misses() {
+    use octoquant::octree::{InnerNodes, Update};
+    use octoquant::raycast::{compute_ray_keys_f32, insert_point_cloud_rays_f32, KeyRay};
+    let Some(input) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let f = octoquant::formats::frame_stream(&input, &Default::default())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap();
+    let frame = Frame::new_f32(f.origin, f.points.into_iter().step_by(8).collect());
+    let filters = PointFilters {
+        ground: Some(GroundFilter {
+            clear: true,
+            ..GroundFilter::with_distance(0.1)
+        }),
+        ..PointFilters::default()
+    };
+    let options = MapperOptions {
+        resolution: 0.2,
+        mode: InsertMode::Simple,
+        filters,
+        ..MapperOptions::default()
+    };
+    let mut m = Mapper::new(options.clone()).unwrap();
+    let st = m.insert(&frame);
+    let mut ours = m.into_tree();
+    // the naive insertion of the library's split
+    let (mut kept, mut px) = (Vec::new(), Vec::new());
+    let id = UnitQuaternion::identity();
+    let c = filters.apply(&frame.origin, &id, &frame.points, None, &mut kept, &mut px);
+    assert!(c.clearing > 1000 && st.clearing == c.clearing);
+    let (hits, ground) = kept.split_at(kept.len() - c.clearing);
+    let mut naive = octoquant::OcTree::with_params(0.2, options.params).unwrap();
+    let apply = octoquant::raycast::ApplyOptions { lazy: false };
+    insert_point_cloud_rays_f32(&mut naive, hits, &frame.origin, &apply);
+    let conv = naive.converter().clone();
+    let mut ray = KeyRay::new();
+    for p in ground {
+        if compute_ray_keys_f32(&conv, &frame.origin, p, &mut ray) {
+            for k in ray.keys() {
+                naive.update_node(*k, Update::Miss, InnerNodes::Refresh);
+            }
+        }
+    }
+    assert!(bt(&mut ours) == bt(&mut naive));
+}
