@@ -248,15 +248,28 @@ impl ColorMapper {
             st.non_finite = c.non_finite;
             st.zero = c.zero;
             st.dropped = c.dropped;
+            st.clearing = c.clearing;
             let kept_colors: Vec<Color> = kept_index.iter().map(|&i| colors[i as usize]).collect();
             filtered = (kept, kept_colors);
             (&filtered.0[..], &filtered.1[..])
         } else {
             (&frame.points[..], colors)
         };
-        // octomap_server's loop over the points: key sets, and each end point's colour into
-        // its node as the tree is now
+        // octomap_server's loops over the points: key sets, and each end point's colour into
+        // its node as the tree is now; first the ground points kept to clear space (the
+        // filters put them last), whose rays only clear (cut at the maximum range)
         let (mut free, mut occupied) = (KeySetOrder::new(), KeySetOrder::new());
+        let (points, ground) = points.split_at(points.len() - st.clearing);
+        for p in ground {
+            st.rays += 1;
+            let end = max_range_end_f32(&origin, p, self.max_range).unwrap_or(*p);
+            if compute_ray_keys_f32(&self.conv, &origin, &end, &mut self.ray) {
+                free.insert_range(self.ray.keys());
+            }
+            if self.conv.point_to_key(&end.cast::<f64>()).is_none() {
+                st.outside_map += 1;
+            }
+        }
         for (p, &c) in points.iter().zip(colors) {
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 st.non_finite += 1;

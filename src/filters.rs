@@ -43,8 +43,11 @@
 //!   of the world's z axis that pass **below the sensor origin**, so that a ceiling or a table
 //!   top seen from below is never taken for the ground.
 //! - octomap_server inserts ground points as free space (their rays clear, their end voxel is
-//!   not marked occupied). octoquant **drops** them: the space above the ground is cleared by
-//!   the other rays only. This keeps every insertion mode's ray stage unchanged.
+//!   not marked occupied). octoquant **drops** them by default (the space above the ground is
+//!   then cleared by the other rays only), and inserts them as octomap_server does with
+//!   [`GroundFilter::clear`] (`--ground-clears`): each kept ground point's ray is cast as any
+//!   other's (cut at the maximum range as any other's), and only its end voxel is left alone;
+//!   occupied still wins over free within the frame.
 //! - octomap_server does not drop zero points itself (PCL's pass-through removes only NaNs);
 //!   octoquant counts them always and drops them on request. (The MCAP reader already skips
 //!   `(0, 0, 0)` points of PointCloud2 messages when it reads them.)
@@ -159,16 +162,21 @@ pub struct GroundFilter {
     pub iterations: u32,
     /// Seed of the sample generator.
     pub seed: u64,
+    /// Insert the ground points as octomap_server does, as free space (their rays clear, their
+    /// end voxels are not marked occupied), instead of dropping them.
+    pub clear: bool,
 }
 
 impl GroundFilter {
-    /// octomap_server's angle and iteration count with the given distance, seed 0.
+    /// octomap_server's angle and iteration count with the given distance, seed 0, ground
+    /// points dropped.
     pub fn with_distance(distance: f64) -> Self {
         GroundFilter {
             distance,
             angle: 0.15,
             iterations: 200,
             seed: 0,
+            clear: false,
         }
     }
 
@@ -277,6 +285,9 @@ pub struct FilterCounts {
     pub zero: usize,
     /// Points dropped by each filter.
     pub dropped: DroppedPoints,
+    /// Ground points kept to clear space only ([`GroundFilter::clear`]): the last this many
+    /// points appended to the output.
+    pub clearing: usize,
 }
 
 /// A plane `normal · p + offset = 0`, `normal` of unit length with `normal.z >= 0`.
@@ -361,7 +372,8 @@ impl PointFilters {
 
     /// Filter one frame: the points of `points` (world) that every filter keeps are appended
     /// to `out` in their order, and, when `pixels` (one per point) is given, their pixels to
-    /// `out_pixels`. `origin` is the sensor origin (world) and `rotation` the sensor's
+    /// `out_pixels`. With [`GroundFilter::clear`], the ground points follow the others (each
+    /// part in its order), and [`FilterCounts::clearing`] says how many they are. `origin` is the sensor origin (world) and `rotation` the sensor's
     /// orientation (identity when unknown). Never panics; NaN settings drop nothing or
     /// everything but stay counted.
     pub fn apply(
@@ -428,9 +440,17 @@ impl PointFilters {
             if let Some(plane) = fit_ground_plane(&kept, &o, g) {
                 let mut w = start;
                 let mut wp = start_px;
+                let (mut ground, mut ground_px) = (Vec::new(), Vec::new());
                 for (r, q) in kept.iter().enumerate() {
                     if plane.distance(q).abs() <= g.distance {
-                        c.dropped.ground += 1;
+                        if g.clear {
+                            ground.push(out[start + r]);
+                            if pixels.is_some() {
+                                ground_px.push(out_pixels[start_px + r]);
+                            }
+                        } else {
+                            c.dropped.ground += 1;
+                        }
                         continue;
                     }
                     out[w] = out[start + r];
@@ -441,8 +461,11 @@ impl PointFilters {
                     }
                 }
                 out.truncate(w);
+                out.extend_from_slice(&ground);
+                c.clearing = ground.len();
                 if pixels.is_some() {
                     out_pixels.truncate(wp);
+                    out_pixels.extend_from_slice(&ground_px);
                 }
             }
         }

@@ -25,6 +25,10 @@ pub struct FrameStats {
     /// Points dropped by the
     /// [`MapperOptions::filters`](crate::pipeline::MapperOptions::filters), by reason.
     pub dropped: DroppedPoints,
+    /// Ground points kept to clear space only
+    /// ([`GroundFilter::clear`](crate::filters::GroundFilter::clear)): their rays clear, their
+    /// end voxels are not marked occupied. Counted before the density reduction.
+    pub clearing: usize,
     /// Points left after the filters and density reduction (equal to `points` without them).
     pub reduced: usize,
     /// Rays cast (after quantization).
@@ -63,6 +67,7 @@ impl MapStats {
         t.outside_map += st.outside_map;
         t.zero += st.zero;
         t.dropped.add(&st.dropped);
+        t.clearing += st.clearing;
         t.reduced += st.reduced;
         t.rays += st.rays;
         t.heads_skipped += st.heads_skipped;

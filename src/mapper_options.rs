@@ -141,7 +141,12 @@ pub(crate) fn options_to_settings(o: &MapperOptions) -> Vec<(&'static str, Strin
         (
             "ground",
             f.ground.map_or("none".into(), |g| {
-                format!("{:?} {:?} {} {}", g.distance, g.angle, g.iterations, g.seed)
+                // " clear" only when set, so that a dropping filter reads as before
+                let clear = if g.clear { " clear" } else { "" };
+                format!(
+                    "{:?} {:?} {} {}{clear}",
+                    g.distance, g.angle, g.iterations, g.seed
+                )
             }),
         ),
     ]
@@ -246,16 +251,29 @@ pub(crate) fn set_option(o: &mut MapperOptions, key: &str, v: &str) -> Result<bo
                 None
             } else {
                 let mut it = v.split(' ');
-                let (Some(d), Some(a), Some(i), Some(s), None) =
-                    (it.next(), it.next(), it.next(), it.next(), it.next())
-                else {
-                    return Err(format!("{v:?} is not: distance angle iterations seed"));
+                let (Some(d), Some(a), Some(i), Some(s), clear, None) = (
+                    it.next(),
+                    it.next(),
+                    it.next(),
+                    it.next(),
+                    it.next(),
+                    it.next(),
+                ) else {
+                    return Err(format!(
+                        "{v:?} is not: distance angle iterations seed [clear]"
+                    ));
+                };
+                let clear = match clear {
+                    None => false,
+                    Some("clear") => true,
+                    Some(w) => return Err(format!("{w:?} is not \"clear\" in ground {v:?}")),
                 };
                 Some(GroundFilter {
                     distance: parse_num(d)?,
                     angle: parse_num(a)?,
                     iterations: parse_num(i)?,
                     seed: parse_num(s)?,
+                    clear,
                 })
             }
         }
@@ -292,6 +310,7 @@ mod tests {
                     angle: 0.2,
                     iterations: 77,
                     seed: u64::MAX,
+                    clear: true,
                 }),
             },
             ..MapperOptions::default()

@@ -11,11 +11,11 @@ use crate::checkpoint::{
 use crate::filters::{count_zero_f32, PointFilters};
 use crate::frame::Frame;
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
-use octoquant_octree::{KeyConverter, OcTree, OctreeError};
-use octoquant_quantize::quantize_endpoints;
+use octoquant_octree::{InnerNodes, KeyConverter, OcTree, OctreeError, Update};
+use octoquant_quantize::{quantize_endpoints, QuantizeStats};
 use octoquant_raycast::{
-    apply_update, compute_discrete_update_f32, compute_update_f32, compute_update_grid_f32,
-    compute_update_with_f32, ApplyOptions, PixelGrid, RayModel, ScanStats, ScanUpdate,
+    apply_update, compute_discrete_update_f32, compute_ray_keys_f32, compute_update_clearing_f32,
+    discretize_f32, ApplyOptions, KeyRay, PixelGrid, RayModel, ScanStats, ScanUpdate,
 };
 use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
@@ -126,23 +126,35 @@ impl Mapper {
             let filtered = filter_frame(&self.options.filters, frame, rotation, &mut st);
             let kept: &[Point3<f32>] = filtered.as_ref().map_or(&frame.points, |(p, _)| p);
             st.reduced = kept.len();
-            let points = match self.options.reduce {
-                Some(cell) => reduce(kept, cell, &mut st),
-                None => kept.to_vec(),
+            let (points, clearing) = match self.options.reduce {
+                Some(cell) => per_part(kept, st.clearing, |part| reduce(part, cell, &mut st)),
+                None => (kept.to_vec(), st.clearing),
             };
+            st.reduced = points.len();
+            let (hits, ground) = points.split_at(points.len() - clearing);
+            let lazy = self.options.lazy;
             let s = octoquant_raycast::insert_point_cloud_rays_f32(
                 &mut self.tree,
-                &points,
+                hits,
                 &frame.origin,
-                &ApplyOptions {
-                    lazy: self.options.lazy,
-                },
+                &ApplyOptions { lazy },
             );
             st.non_finite += s.non_finite;
             st.outside_map = s.outside_map;
             st.rays = s.rays;
             st.free = s.free;
             st.occupied = s.occupied;
+            // then the ground points kept to clear: each ray's misses, ray by ray, no hit
+            let conv = self.tree.converter().clone();
+            let mut ray = KeyRay::new();
+            for p in ground {
+                if compute_ray_keys_f32(&conv, &frame.origin, p, &mut ray) {
+                    let inner = InnerNodes::from_lazy(lazy);
+                    self.tree.update_keys(ray.keys(), Update::Miss, inner);
+                    st.rays += 1;
+                    st.free += ray.len();
+                }
+            }
             st.seconds = start.elapsed().as_secs_f64();
             self.account(self.digest(frame), &st);
             return st;
@@ -688,7 +700,26 @@ fn filter_frame(
     st.non_finite += c.non_finite;
     st.zero = c.zero;
     st.dropped = c.dropped;
+    st.clearing = c.clearing;
     Some((points, pixels))
+}
+
+/// `points` made from a frame's hits (`points[..len - clearing]`) and clearing points (the
+/// last `clearing`) by `f` on each part apart, the clearing ones last again: the points and
+/// how many of them clear. One call of `f` when nothing clears.
+fn per_part(
+    points: &[Point3<f32>],
+    clearing: usize,
+    mut f: impl FnMut(&[Point3<f32>]) -> Vec<Point3<f32>>,
+) -> (Vec<Point3<f32>>, usize) {
+    let (hits, ground) = points.split_at(points.len() - clearing);
+    let mut out = f(hits);
+    if clearing == 0 {
+        return (out, 0);
+    }
+    let ground = f(ground);
+    out.extend_from_slice(&ground);
+    (out, ground.len())
 }
 
 /// Everything of a frame's insertion except the tree: filters, reduction, quantization and
@@ -713,32 +744,60 @@ fn prepare(
     });
     let reduced;
     let mut points: &[Point3<f32>] = filtered.as_ref().map_or(&frame.points, |(p, _)| p);
+    // the last `clearing` points (ground points kept to clear space) mark nothing occupied;
+    // the reduction and quantization keep them apart from the hits
+    let mut clearing = st.clearing;
     st.reduced = points.len();
     if let Some(cell) = options.reduce {
-        reduced = reduce(points, cell, &mut st);
+        (reduced, clearing) = per_part(points, clearing, |part| reduce(part, cell, &mut st));
         points = &reduced;
+        st.reduced = points.len();
     }
     let origin = frame.origin;
     let max_range = options.max_range;
     let scan: ScanStats = match options.mode {
-        InsertMode::Exact | InsertMode::Simple => match &grid {
+        InsertMode::Exact | InsertMode::Simple => {
             // a reduced frame has lost the pixel order
-            Some(grid) if options.reduce.is_none() => {
-                compute_update_grid_f32(conv, points, grid, &origin, max_range, update)
-            }
-            _ => compute_update_f32(conv, points, &origin, max_range, update),
-        },
-        InsertMode::Discretize => {
+            let grid = grid.as_ref().filter(|_| options.reduce.is_none());
+            let dda = RayModel::Dda;
+            compute_update_clearing_f32(
+                conv, points, clearing, grid, &origin, max_range, dda, update,
+            )
+        }
+        InsertMode::Discretize if clearing == 0 => {
             compute_discrete_update_f32(conv, points, &origin, max_range, update)
         }
+        InsertMode::Discretize => {
+            // each part discretized apart (the filters left only finite points)
+            let (centres, clearing) = per_part(points, clearing, |part| {
+                let mut c = Vec::new();
+                discretize_f32(conv, part, &mut c);
+                c
+            });
+            let dda = RayModel::Dda;
+            let mut s = compute_update_clearing_f32(
+                conv, &centres, clearing, None, &origin, max_range, dda, update,
+            );
+            s.points = points.len();
+            s
+        }
         InsertMode::Quantized | InsertMode::QuantizedBresenham => {
-            let q = quantize_endpoints(conv, points, &options.quantize, centres);
+            let mut q = QuantizeStats::default();
+            let (c, clearing) = per_part(points, clearing, |part| {
+                let s = quantize_endpoints(conv, part, &options.quantize, centres);
+                q.points += s.points;
+                q.non_finite += s.non_finite;
+                std::mem::take(centres)
+            });
+            *centres = c;
             let model = if options.mode == InsertMode::Quantized {
                 RayModel::Dda
             } else {
                 RayModel::Bresenham
             };
-            let mut s = compute_update_with_f32(conv, centres, &origin, max_range, model, update);
+            let mut s = compute_update_clearing_f32(
+                conv, centres, clearing, None, &origin, max_range, model, update,
+            );
             s.points = q.points;
             s.non_finite += q.non_finite;
             s

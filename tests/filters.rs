@@ -799,3 +799,276 @@ fn cli_filters_and_json() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--zmin"), "{err}");
 }
+
+/// Run a reference-program script (`script` or `color-script` `mode`) in `dir`; it must
+/// succeed.
+fn run_reference(mode: &str, script: &str, dir: &Path) {
+    let Some(refprog) = common::reference_program() else {
+        return;
+    };
+    let sp = dir.join(format!("{mode}.txt"));
+    std::fs::write(&sp, script).unwrap();
+    let out = Command::new(refprog)
+        .current_dir(dir)
+        .arg(mode)
+        .arg(&sp)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "reference program: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// `octoquant map ARGS` in `dir`, which must succeed; the bytes of the map it wrote to `out`.
+fn map_cli(dir: &Path, args: &[&str], out: &str) -> Vec<u8> {
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(dir)
+        .arg("map")
+        .args(args)
+        .args(["-q", "-o", out])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::read(dir.join(out)).unwrap()
+}
+
+/// `--ground D --ground-clears` inserts the ground points as octomap_server does, as free
+/// space: their rays clear, their end voxels stay as they were. On norlab's LiDAR (2 frames,
+/// every 8th point, synthetic colours) the library's filter splits each frame into its hits and
+/// its ground, and the reference program inserts both with liboctomap: `computeUpdate` of the
+/// hits, the ground rays added to its free keys (`insertPointCloud`'s steps), and, for `--color`,
+/// octomap_server's colour `insertScan` with the ground loop first. The `.bt` and the colour
+/// `.ot` are byte-identical to `map`'s, with and without a maximum range that cuts ground rays;
+/// and dropping the ground instead gives another map.
+#[test]
+fn clearing_ground_points_match_octomap_server() {
+    let (Some(_), Some(input)) = (
+        common::reference_program(),
+        common::data_file("lidar3d/norlab_icp_mapper_example"),
+    ) else {
+        return;
+    };
+    let all = octoquant::formats::read_frames(&input, &Default::default()).unwrap();
+    let frames: Vec<Frame> = all
+        .into_iter()
+        .take(2)
+        .map(|f| {
+            let points: Vec<Point3<f32>> = f.points.into_iter().step_by(8).collect();
+            let colors = (0..points.len())
+                .map(|i| octoquant::octree::Color::new(i as u8, (i >> 8) as u8, 99))
+                .collect();
+            Frame {
+                colors: Some(colors),
+                ..Frame::new_f32(f.origin, points)
+            }
+        })
+        .collect();
+    let dir = scratch("filters_ground_clears");
+    octoquant::formats::frames::write_frames_file(&dir.join("all.frames"), &frames).unwrap();
+    // the library's split: hits first, then the ground points (with their colours)
+    let filters = PointFilters {
+        ground: Some(GroundFilter {
+            clear: true,
+            ..GroundFilter::with_distance(0.1)
+        }),
+        ..PointFilters::default()
+    };
+    let (mut hits, mut ground, mut hit_colors) = (Vec::new(), Vec::new(), Vec::new());
+    hit_colors.extend_from_slice(&(frames.len() as u32).to_le_bytes());
+    for f in &frames {
+        let index: Vec<u32> = (0..f.points.len() as u32).collect();
+        let (mut out, mut kept) = (Vec::new(), Vec::new());
+        let id = UnitQuaternion::identity();
+        let c = filters.apply(&f.origin, &id, &f.points, Some(&index), &mut out, &mut kept);
+        assert_eq!(c.dropped.ground, 0);
+        assert!(
+            c.clearing * 10 > f.points.len(),
+            "{} ground points",
+            c.clearing
+        );
+        let split = out.len() - c.clearing;
+        hits.push(Frame::new_f32(f.origin, out[..split].to_vec()));
+        ground.push(Frame::new_f32(f.origin, out[split..].to_vec()));
+        let colors = f.colors.as_ref().unwrap();
+        hit_colors.extend_from_slice(&(split as u32).to_le_bytes());
+        for &i in &kept[..split] {
+            hit_colors.extend_from_slice(&colors[i as usize].to_array());
+        }
+    }
+    octoquant::formats::frames::write_frames_file(&dir.join("hits.frames"), &hits).unwrap();
+    octoquant::formats::frames::write_frames_file(&dir.join("ground.frames"), &ground).unwrap();
+    std::fs::write(dir.join("hits.colors"), &hit_colors).unwrap();
+    let res = "0.2";
+    for range in [None, Some("15")] {
+        let mut args = vec![
+            "all.frames",
+            "--res",
+            res,
+            "--ground",
+            "0.1",
+            "--ground-clears",
+        ];
+        args.extend(range.iter().flat_map(|r| ["--max-range", *r]));
+        let ours = map_cli(&dir, &args, "ours.bt");
+        let maxrange = range.map_or(String::new(), |r| format!(" maxrange {r}"));
+        run_reference(
+            "script",
+            &format!(
+                "tree {res}\ninsert hits.frames{maxrange} ground ground.frames\nwrite_bt ref.bt\n"
+            ),
+            &dir,
+        );
+        let theirs = std::fs::read(dir.join("ref.bt")).unwrap();
+        assert!(
+            ours == theirs,
+            "max range {range:?}: {}",
+            common::first_diff(&ours, &theirs)
+        );
+        // dropping the ground is another map
+        let drop_args: Vec<&str> = args
+            .iter()
+            .copied()
+            .filter(|a| *a != "--ground-clears")
+            .collect();
+        let dropped = map_cli(&dir, &drop_args, "drop.bt");
+        assert!(dropped != ours);
+
+        args.push("--color");
+        let ours = map_cli(&dir, &args, "ours.ot");
+        let r = range.unwrap_or("-1");
+        run_reference(
+            "color-script",
+            &format!("tree {res}\ncolorscan hits.frames hits.colors average {r} ground.frames\nwrite_ot ref.ot\n"),
+            &dir,
+        );
+        let theirs = std::fs::read(dir.join("ref.ot")).unwrap();
+        assert!(
+            ours == theirs,
+            "colour, max range {range:?}: {}",
+            common::first_diff(&ours, &theirs)
+        );
+    }
+}
+
+/// In every insertion mode, a frame whose ground points clear space: the map that drops them
+/// instead holds nothing the clearing map does not (each of its leaves' voxels has the same
+/// log-odds there), their occupied voxels are the same, and the clearing map knows more of the
+/// space (the ground rays' voxels). One norlab frame, every 8th point.
+#[test]
+fn clearing_ground_points_only_add_free_space_in_every_mode() {
+    let Some(input) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let f = octoquant::formats::frame_stream(&input, &Default::default())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap();
+    let frame = Frame::new_f32(f.origin, f.points.into_iter().step_by(8).collect());
+    let known_volume = |t: &octoquant::OcTree| -> f64 {
+        t.leaves().map(|l| 8f64.powi(16 - i32::from(l.depth))).sum()
+    };
+    for mode in [
+        InsertMode::Exact,
+        InsertMode::Discretize,
+        InsertMode::Quantized,
+        InsertMode::QuantizedBresenham,
+    ] {
+        let map = |clear: bool| {
+            let options = MapperOptions {
+                resolution: 0.2,
+                mode,
+                filters: PointFilters {
+                    ground: Some(GroundFilter {
+                        clear,
+                        ..GroundFilter::with_distance(0.1)
+                    }),
+                    ..PointFilters::default()
+                },
+                ..MapperOptions::default()
+            };
+            let mut m = Mapper::new(options).unwrap();
+            let st = m.insert(&frame);
+            (m.into_tree(), st)
+        };
+        let (dropping, sd) = map(false);
+        let (clearing, sc) = map(true);
+        assert!(
+            sd.dropped.ground > 1000 && sc.dropped.ground == 0,
+            "{mode:?}"
+        );
+        assert_eq!(sc.clearing, sd.dropped.ground, "{mode:?}");
+        assert_eq!(sc.occupied, sd.occupied, "{mode:?}");
+        assert!(sc.free > sd.free, "{mode:?}");
+        let same = |from: &octoquant::OcTree, to: &octoquant::OcTree, only_occupied: bool| {
+            for l in from.leaves() {
+                if only_occupied && l.value <= 0.0 {
+                    continue;
+                }
+                let there = to.search(l.key, 16).map(|n| n.value);
+                assert_eq!(there, Some(l.value), "{mode:?} at {:?}", l.key);
+            }
+        };
+        same(&dropping, &clearing, false);
+        same(&clearing, &dropping, true);
+        assert!(
+            known_volume(&clearing) > known_volume(&dropping) * 1.01,
+            "{mode:?}"
+        );
+    }
+}
+
+/// `simple` mode (OctoMap's `insertPointCloudRays`, ray by ray) with the ground kept to clear:
+/// the hits' rays as OctoMap inserts them, then each ground point's ray as misses one key at a
+/// time (no hit), in order. One norlab frame, every 8th point.
+#[test]
+fn clearing_ground_points_in_simple_mode_are_rays_of_misses() {
+    use octoquant::octree::{InnerNodes, Update};
+    use octoquant::raycast::{compute_ray_keys_f32, insert_point_cloud_rays_f32, KeyRay};
+    let Some(input) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+        return;
+    };
+    let f = octoquant::formats::frame_stream(&input, &Default::default())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap();
+    let frame = Frame::new_f32(f.origin, f.points.into_iter().step_by(8).collect());
+    let filters = PointFilters {
+        ground: Some(GroundFilter {
+            clear: true,
+            ..GroundFilter::with_distance(0.1)
+        }),
+        ..PointFilters::default()
+    };
+    let options = MapperOptions {
+        resolution: 0.2,
+        mode: InsertMode::Simple,
+        filters,
+        ..MapperOptions::default()
+    };
+    let mut m = Mapper::new(options.clone()).unwrap();
+    let st = m.insert(&frame);
+    let mut ours = m.into_tree();
+    // the naive insertion of the library's split
+    let (mut kept, mut px) = (Vec::new(), Vec::new());
+    let id = UnitQuaternion::identity();
+    let c = filters.apply(&frame.origin, &id, &frame.points, None, &mut kept, &mut px);
+    assert!(c.clearing > 1000 && st.clearing == c.clearing);
+    let (hits, ground) = kept.split_at(kept.len() - c.clearing);
+    let mut naive = octoquant::OcTree::with_params(0.2, options.params).unwrap();
+    let apply = octoquant::raycast::ApplyOptions { lazy: false };
+    insert_point_cloud_rays_f32(&mut naive, hits, &frame.origin, &apply);
+    let conv = naive.converter().clone();
+    let mut ray = KeyRay::new();
+    for p in ground {
+        if compute_ray_keys_f32(&conv, &frame.origin, p, &mut ray) {
+            for k in ray.keys() {
+                naive.update_node(*k, Update::Miss, InnerNodes::Refresh);
+            }
+        }
+    }
+    assert!(bt(&mut ours) == bt(&mut naive));
+}

@@ -423,6 +423,7 @@ class ColorMapper:
         ground_angle: float = 0.15,
         ground_iterations: int = 200,
         ground_seed: int = 0,
+        ground_clears: bool = False,
     ) -> None: ...
     def insert(
         self,
@@ -580,6 +581,7 @@ class StampedMapper:
         ground_angle: float = 0.15,
         ground_iterations: int = 200,
         ground_seed: int = 0,
+        ground_clears: bool = False,
     ) -> None: ...
     def insert(
         self,
@@ -636,6 +638,7 @@ class Mapper:
         ground_angle: float = 0.15,
         ground_iterations: int = 200,
         ground_seed: int = 0,
+        ground_clears: bool = False,
     ) -> None:
         """Point filters are keyword-only and off by default (the map is then OctoMap's):
         ``drop_zero`` points exactly at the sensor origin, ``min_range`` metres,

@@ -39,7 +39,7 @@ impl PyColorMapper {
         resolution=0.1, merge="average", max_range=None, prob_hit=0.7, prob_miss=0.4,
         clamping_min=0.1192, clamping_max=0.971, occupancy_threshold=0.5, *, drop_zero=false,
         min_range=None, crop_sensor=None, crop_world=None, zmin=None, zmax=None, ground=None,
-        ground_angle=0.15, ground_iterations=200, ground_seed=0
+        ground_angle=0.15, ground_iterations=200, ground_seed=0, ground_clears=false
     ))]
     #[allow(clippy::too_many_arguments)]
     fn py_new(
@@ -61,6 +61,7 @@ impl PyColorMapper {
         ground_angle: f64,
         ground_iterations: u32,
         ground_seed: u64,
+        ground_clears: bool,
     ) -> PyResult<Self> {
         let filters = FilterArgs {
             drop_zero,
@@ -73,6 +74,7 @@ impl PyColorMapper {
             ground_angle,
             ground_iterations,
             ground_seed,
+            ground_clears,
         }
         .filters()?;
         let merge = match merge {

@@ -25,7 +25,9 @@ use pyo3::types::PyDict;
 /// ``(xmin, ymin, zmin, xmax, ymax, zmax)``, in the pose's axes when inserted with ``pose``,
 /// the world's otherwise), ``crop_world`` (keep only points inside this world box), ``zmin`` /
 /// ``zmax`` (world height band), ``ground`` (drop the RANSAC ground plane's points within this
-/// distance; ``ground_angle``, ``ground_iterations``, ``ground_seed``). The statistics count
+/// distance; ``ground_angle``, ``ground_iterations``, ``ground_seed``; ``ground_clears=True``
+/// inserts them as octomap_server does, as free space: their rays clear, their end voxels
+/// are left alone). The statistics count
 /// ``zero`` points and the points each filter ``dropped``.
 #[pyclass(module = "octoquant", name = "Mapper")]
 pub struct PyMapper {
@@ -59,6 +61,7 @@ pub(crate) fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound
         dropped.set_item(name, n)?;
     }
     d.set_item("dropped", dropped)?;
+    d.set_item("ground_clearing", s.clearing)?;
     d.set_item("reduced", s.reduced)?;
     d.set_item("rays", s.rays)?;
     d.set_item("free", s.free)?;
@@ -191,6 +194,7 @@ pub(crate) struct FilterArgs {
     pub ground_angle: f64,
     pub ground_iterations: u32,
     pub ground_seed: u64,
+    pub ground_clears: bool,
 }
 
 impl FilterArgs {
@@ -214,6 +218,7 @@ impl FilterArgs {
                 angle: self.ground_angle,
                 iterations: self.ground_iterations,
                 seed: self.ground_seed,
+                clear: self.ground_clears,
             }),
         };
         filters.validate().map_err(filter_err)?;
@@ -229,7 +234,7 @@ impl PyMapper {
         prob_hit=0.7, prob_miss=0.4, clamping_min=0.1192, clamping_max=0.971,
         occupancy_threshold=0.5, *, drop_zero=false, min_range=None, crop_sensor=None,
         crop_world=None, zmin=None, zmax=None, ground=None, ground_angle=0.15,
-        ground_iterations=200, ground_seed=0
+        ground_iterations=200, ground_seed=0, ground_clears=false
     ))]
     #[allow(clippy::too_many_arguments)]
     fn py_new(
@@ -254,6 +259,7 @@ impl PyMapper {
         ground_angle: f64,
         ground_iterations: u32,
         ground_seed: u64,
+        ground_clears: bool,
     ) -> PyResult<Self> {
         let filters = FilterArgs {
             drop_zero,
@@ -266,6 +272,7 @@ impl PyMapper {
             ground_angle,
             ground_iterations,
             ground_seed,
+            ground_clears,
         }
         .filters()?;
         let params = engine::OccupancyParams::from_probabilities(

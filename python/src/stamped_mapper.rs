@@ -40,7 +40,7 @@ impl PyStampedMapper {
         prob_hit=0.7, prob_miss=0.4, clamping_min=0.1192, clamping_max=0.971,
         occupancy_threshold=0.5, *, drop_zero=false, min_range=None, crop_sensor=None,
         crop_world=None, zmin=None, zmax=None, ground=None, ground_angle=0.15,
-        ground_iterations=200, ground_seed=0
+        ground_iterations=200, ground_seed=0, ground_clears=false
     ))]
     #[allow(clippy::too_many_arguments)]
     fn py_new(
@@ -64,6 +64,7 @@ impl PyStampedMapper {
         ground_angle: f64,
         ground_iterations: u32,
         ground_seed: u64,
+        ground_clears: bool,
     ) -> PyResult<Self> {
         let filters = FilterArgs {
             drop_zero,
@@ -76,6 +77,7 @@ impl PyStampedMapper {
             ground_angle,
             ground_iterations,
             ground_seed,
+            ground_clears,
         }
         .filters()?;
         let degrade_older_than = degrade_older_than

@@ -1,5 +1,7 @@
 """The Mapper's point filters (keyword arguments) against naive NumPy definitions."""
 
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -101,3 +103,35 @@ def test_invalid_filters_are_errors_naming_the_option(kwargs):
         octoquant.Mapper(0.1, **kwargs)
     name = next(iter(kwargs)).replace("zmin", "z_min")
     assert name in str(e.value)
+
+
+def test_ground_clears_inserts_the_ground_as_free_space(cli, tmp_path):
+    """``ground_clears=True``: the ground points' rays clear, their end voxels are not marked
+    occupied (octomap_server's insertion); the same bytes as ``octoquant map --ground-clears``
+    on the same points, and dropping them instead leaves their voxels unknown."""
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-8, 8, size=(5000, 2))
+    ground = np.column_stack([xy, np.full(5000, -1.5) + rng.uniform(-0.01, 0.01, 5000)])
+    wall = np.column_stack([np.full(2000, 6.0), rng.uniform(-8, 8, 2000), rng.uniform(-1.3, 2, 2000)])
+    pts = np.vstack([ground, wall]).astype(np.float32)
+    maps = {}
+    for clears in (False, True):
+        m = octoquant.Mapper(0.2, ground=0.05, ground_seed=3, ground_clears=clears)
+        st = m.insert(pts, origin=(0, 0, 0))
+        assert st["dropped"]["ground"] == (0 if clears else 5000)
+        assert st["ground_clearing"] == (5000 if clears else 0)
+        maps[clears] = m.tree
+    # the ground's end voxels: never occupied, and mostly free when cleared (rays of other
+    # ground points cross them); mostly unknown when dropped (no other ray reaches them)
+    cleared = [maps[True].search(p) for p in ground[:500]]
+    assert not any(n is not None and maps[True].isNodeOccupied(n) for n in cleared)
+    assert sum(n is not None for n in cleared) > 400
+    assert sum(maps[False].search(p) is None for p in ground[:500]) > 400
+    assert maps[True].getNumLeafNodes() > maps[False].getNumLeafNodes()
+    # the CLI on the same float32 points (a text list, sensor at 0)
+    path = tmp_path / "pts.txt"
+    np.savetxt(path, pts, fmt="%.9g")
+    out = tmp_path / "cli.bt"
+    args = ["map", str(path), "--res", "0.2", "--ground", "0.05", "--ground-seed", "3"]
+    subprocess.run([cli, *args, "--ground-clears", "-q", "-o", str(out)], check=True, capture_output=True)
+    assert out.read_bytes() == maps[True].to_bytes("bt")

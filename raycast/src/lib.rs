@@ -122,6 +122,6 @@ pub use octoquant_octree::Brick;
 pub use pixel_grid::{PinholeCamera, PixelGrid};
 pub use stats::ScanStats;
 pub use update::{
-    compute_discrete_update_f32, compute_update_f32, compute_update_grid_f32,
-    compute_update_with_f32, max_range_end_f32, RayModel, ScanUpdate,
+    compute_discrete_update_f32, compute_update_clearing_f32, compute_update_f32,
+    compute_update_grid_f32, compute_update_with_f32, max_range_end_f32, RayModel, ScanUpdate,
 };

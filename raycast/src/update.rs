@@ -458,12 +458,14 @@ type Skips<'a> = Option<(&'a SkipPlan, &'a [u32])>;
 /// OctoMap's `computeUpdate` loop body (no bounding box) for every finite point of `points`:
 /// its ray, cut at `max_range` when it is longer (and then without an occupied end), and its
 /// end point's voxel; non-finite points are counted. With `skips`, DDA rays through pixels
-/// that other rays cover start where [`SkipPlan::cap`] and their set-ups allow.
+/// that other rays cover start where [`SkipPlan::cap`] and their set-ups allow. The points
+/// from `clear_from` on only clear: their rays are cast, their end voxels not marked.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_points(
     conv: &KeyConverter,
     points: &[Point3<f32>],
+    clear_from: usize,
     skips: Skips<'_>,
     origin: &Point3<f32>,
     origin_key: Option<(Key, u64)>,
@@ -488,7 +490,8 @@ fn add_points(
         }
         let (end, end_key) = match beyond_range(origin, diff, max_range) {
             None => {
-                if let Some((_, code)) = hit {
+                // points from `clear_from` on only clear their rays
+                if let Some((_, code)) = hit.filter(|_| i < clear_from) {
                     occ_set.insert(code);
                 }
                 (*p, hit)
@@ -671,7 +674,40 @@ pub fn compute_update_with_f32(
     model: RayModel,
     out: &mut ScanUpdate,
 ) -> ScanStats {
-    compute(conv, points, None, origin, max_range, model, out)
+    compute(
+        conv,
+        points,
+        points.len(),
+        None,
+        origin,
+        max_range,
+        model,
+        out,
+    )
+}
+
+/// [`compute_update_with_f32`] (or, with a `grid` and [`RayModel::Dda`],
+/// [`compute_update_grid_f32`]) for a scan whose last `clearing` points only clear space:
+/// their rays' voxels become free as every ray's, but their end voxels are not marked
+/// occupied (octomap_server's ground points, which it inserts as free space). The other
+/// points are hits as always, and occupied still wins over free. With `clearing` 0 this is
+/// the plain update.
+#[allow(clippy::too_many_arguments)]
+pub fn compute_update_clearing_f32(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    clearing: usize,
+    grid: Option<&PixelGrid<'_>>,
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    model: RayModel,
+    out: &mut ScanUpdate,
+) -> ScanStats {
+    let grid = grid.filter(|_| model == RayModel::Dda);
+    let clear_from = points.len().saturating_sub(clearing);
+    compute(
+        conv, points, clear_from, grid, origin, max_range, model, out,
+    )
 }
 
 /// [`compute_update_f32`] for the points of a depth image: the same key sets, bit for bit, found
@@ -692,6 +728,7 @@ pub fn compute_update_grid_f32(
     compute(
         conv,
         points,
+        points.len(),
         Some(grid),
         origin,
         max_range,
@@ -700,9 +737,11 @@ pub fn compute_update_grid_f32(
     )
 }
 
+#[allow(clippy::too_many_arguments)]
 fn compute(
     conv: &KeyConverter,
     points: &[Point3<f32>],
+    clear_from: usize,
     grid: Option<&PixelGrid<'_>>,
     origin: &Point3<f32>,
     max_range: Option<f64>,
@@ -758,6 +797,7 @@ fn compute(
                 add_points(
                     conv,
                     pts,
+                    clear_from.saturating_sub(at),
                     block_skips,
                     origin,
                     origin_key,
@@ -801,6 +841,7 @@ fn compute(
     add_points(
         conv,
         points,
+        clear_from,
         skips,
         origin,
         origin_key,

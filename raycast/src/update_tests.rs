@@ -15,17 +15,29 @@ fn naive_update(
     origin: &Point3<f32>,
     max_range: f64,
 ) -> (HashSet<Key>, HashSet<Key>) {
+    naive_clearing_update(c, points, points.len(), origin, max_range)
+}
+
+/// [`naive_update`] where the points from `clear_from` on mark no end voxel occupied
+/// (octomap_server's ground points: their rays only clear).
+fn naive_clearing_update(
+    c: &KeyConverter,
+    points: &[Point3<f32>],
+    clear_from: usize,
+    origin: &Point3<f32>,
+    max_range: f64,
+) -> (HashSet<Key>, HashSet<Key>) {
     let mut free = HashSet::new();
     let mut occ = HashSet::new();
     let mut ray = KeyRay::new();
-    for p in points {
+    for (i, p) in points.iter().enumerate() {
         let d = p - origin;
         let dist = ((d.x * d.x + d.y * d.y + d.z * d.z) as f64).sqrt();
         if max_range < 0.0 || dist <= max_range {
             if compute_ray_keys_f32(c, origin, p, &mut ray) {
                 free.extend(ray.iter().copied());
             }
-            if let Some(k) = key_of(c, p) {
+            if let Some(k) = key_of(c, p).filter(|_| i < clear_from) {
                 occ.insert(k);
             }
         } else {
@@ -226,6 +238,87 @@ proptest! {
         let oc: HashSet<Key> = out.occupied().iter().copied().collect();
         prop_assert_eq!(f, free);
         prop_assert_eq!(oc, occ);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Points that only clear: their rays' voxels are free, their end voxels not occupied
+    /// (unless a hit's), against the naive sets; and with no clearing points the update is
+    /// the plain one.
+    #[test]
+    fn clearing_points_free_their_rays_and_occupy_nothing(
+        res in prop::sample::select(vec![0.05, 0.25]),
+        pts in prop::collection::vec(point_strategy(), 0..200),
+        o in prop::array::uniform3(-0.5f32..0.5),
+        max_range in prop::sample::select(vec![-1.0, 0.7, 100.0]),
+        clearing_share in 0.0f64..=1.0,
+    ) {
+        let c = conv(res);
+        let origin = Point3::from(o);
+        let m = if max_range < 0.0 { None } else { Some(max_range) };
+        let clearing = (pts.len() as f64 * clearing_share) as usize;
+        let mut out = ScanUpdate::new();
+        compute_update_clearing_f32(&c, &pts, clearing, None, &origin, m, RayModel::Dda, &mut out);
+        let (free, occ) = naive_clearing_update(&c, &pts, pts.len() - clearing, &origin, max_range);
+        prop_assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
+        prop_assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
+        if clearing == 0 {
+            let mut plain = ScanUpdate::new();
+            compute_update_f32(&c, &pts, &origin, m, &mut plain);
+            prop_assert_eq!(out.free(), plain.free());
+            prop_assert_eq!(out.occupied(), plain.occupied());
+        }
+    }
+}
+
+/// A frame large enough to be split across threads in blocks: the clearing points are found
+/// by their index in the whole frame, whichever block holds them.
+#[test]
+fn clearing_points_split_across_threads() {
+    let c = conv(0.1);
+    let origin = Point3::new(0.05f32, -0.02, 0.3);
+    // a deterministic spray of points around the origin, 3 m at most
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 / (1u64 << 24) as f32) * 6.0 - 3.0
+    };
+    let pts: Vec<Point3<f32>> = (0..3 * PARALLEL_MIN_POINTS + 77)
+        .map(|_| Point3::new(next(), next(), next()))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for clearing in [0, 1, PARALLEL_BLOCK + 3, pts.len() / 2, pts.len()] {
+        let mut out = ScanUpdate::new();
+        pool.install(|| {
+            compute_update_clearing_f32(
+                &c,
+                &pts,
+                clearing,
+                None,
+                &origin,
+                None,
+                RayModel::Dda,
+                &mut out,
+            )
+        });
+        let (free, occ) = naive_clearing_update(&c, &pts, pts.len() - clearing, &origin, -1.0);
+        assert_eq!(
+            out.free().iter().copied().collect::<HashSet<_>>(),
+            free,
+            "{clearing}"
+        );
+        assert_eq!(
+            out.occupied().iter().copied().collect::<HashSet<_>>(),
+            occ,
+            "{clearing}"
+        );
     }
 }
 

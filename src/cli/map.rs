@@ -118,7 +118,7 @@ pub struct Args {
             "identity_poses", "pcd_viewpoint", "res", "max_range", "discretize", "mode", "ray",
             "lazy", "sensor_model", "clamping", "sensor", "reduce", "output", "ot", "drop_zero", "min_range",
             "crop_sensor", "crop_world", "zmin", "zmax", "ground", "ground_angle",
-            "ground_iterations", "ground_seed", "color", "color_merge", "stamped",
+            "ground_iterations", "ground_seed", "ground_clears", "color", "color_merge", "stamped",
             "degrade_older_than",
         ]
     )]
@@ -159,9 +159,14 @@ struct FilterArgs {
     zmax: Option<f64>,
     /// Drop each frame's dominant ground plane (points within D metres of it), found by a
     /// seeded RANSAC among near-horizontal planes below the sensor (octomap_server's
-    /// filter_ground, whose ground_filter/distance is 0.04). Ground rays do not clear space.
+    /// filter_ground, whose ground_filter/distance is 0.04). Ground rays do not clear space
+    /// unless --ground-clears.
     #[arg(long, value_name = "D", allow_negative_numbers = true)]
     ground: Option<f64>,
+    /// Insert the ground points as octomap_server does, as free space: their rays clear (cut
+    /// at --max-range as any other), their end voxels are not marked occupied.
+    #[arg(long, requires = "ground")]
+    ground_clears: bool,
     /// Largest angle between the ground's normal and the z axis, radians.
     #[arg(
         long,
@@ -213,6 +218,7 @@ impl FilterArgs {
                     angle: self.ground_angle,
                     iterations: self.ground_iterations,
                     seed: self.ground_seed,
+                    clear: self.ground_clears,
                 };
                 if !(1..=MAX_GROUND_ITERATIONS).contains(&g.iterations) {
                     bail!(
@@ -637,8 +643,6 @@ fn run_color(a: &Args) -> Result<()> {
     typed_summary(a, &stats, load_s, tree_figures, extra, &line, &plan.output)
 }
 
-/// The summary of `map --color` and `map --stamped`: the common counts, then the tree type's
-/// own figures (`extra` in JSON, `tree_line` in text).
 /// The points a run dropped, by reason, as the summaries' JSON `dropped` object.
 fn dropped_json(t: &FrameStats) -> serde_json::Map<String, serde_json::Value> {
     let mut dropped = serde_json::Map::new();
@@ -650,19 +654,24 @@ fn dropped_json(t: &FrameStats) -> serde_json::Map<String, serde_json::Value> {
     dropped
 }
 
-/// The text summaries' "filtered out" line: each filter's dropped count, `None` when no
-/// filter dropped anything.
+/// The text summaries' "filtered out" line: each filter's dropped count, and the ground
+/// points kept to clear space only; `None` when no filter dropped or set aside anything.
 fn filtered_out(t: &FrameStats) -> Option<String> {
-    let filtered: Vec<String> = t
+    let mut filtered: Vec<String> = t
         .dropped
         .named()
         .iter()
         .filter(|(_, n)| *n > 0)
         .map(|(name, n)| format!("{n} {name}"))
         .collect();
+    if t.clearing > 0 {
+        filtered.push(format!("{} ground points only cleared space", t.clearing));
+    }
     (!filtered.is_empty()).then(|| filtered.join(", "))
 }
 
+/// The summary of `map --color` and `map --stamped`: the common counts, then the tree type's
+/// own figures (`extra` in JSON, `tree_line` in text).
 fn typed_summary(
     a: &Args,
     stats: &MapStats,
@@ -682,6 +691,7 @@ fn typed_summary(
             "zero_points": t.zero,
             "dropped": dropped_json(t),
             "dropped_total": t.non_finite + t.outside_map + t.dropped.total(),
+            "ground_clearing": t.clearing,
             "free_updates": t.free,
             "occupied_updates": t.occupied,
             "load_seconds": load_s,
@@ -850,6 +860,7 @@ fn run_on_threads(a: &Args) -> Result<()> {
             "zero_points": t.zero,
             "dropped": dropped_json(t),
             "dropped_total": t.non_finite + t.outside_map + t.dropped.total(),
+            "ground_clearing": t.clearing,
             "rays": t.rays,
             "heads_skipped": t.heads_skipped,
             "free_updates": t.free,

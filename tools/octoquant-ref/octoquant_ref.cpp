@@ -23,10 +23,15 @@
 //   write_bt PATH                     tree.writeBinary(PATH)  (ML + prune, mutates)
 //   write_bt_const PATH               tree.writeBinaryConst(PATH)
 //   read_bt PATH | read_ot PATH       replace the tree by the file's
-//   insert FRAMES [maxrange M] [discretize] [lazy] [simple] [inner]
+//   insert FRAMES [maxrange M] [discretize] [lazy] [simple] [inner] [ground GROUND]
 //                                     insertPointCloud per frame (or insertPointCloudRays with
 //                                     simple); "inner" calls updateInnerOccupancy at the end;
-//                                     prints "frame I POINTS SECONDS" per frame
+//                                     prints "frame I POINTS SECONDS" per frame. With ground,
+//                                     frame I of GROUND (a frames file) holds ground points that
+//                                     octomap_server inserts as free space: insertPointCloud's
+//                                     steps (computeUpdate, then updateNode false on each free
+//                                     key, true on each occupied one) with each ground point's
+//                                     ray (cut at M as computeUpdate cuts) added to the free keys
 //   print_size                        prints "size N"
 //   changes_on | changes_reset        enableChangeDetection(true) / resetChangeDetection()
 //   print_changes                     prints "change KX KY KZ NEW" per changed key, sorted
@@ -38,9 +43,11 @@
 //                                     setNodeColor / averageNodeColor / integrateNodeColor
 //   points FILE LAZY                  per point: updateNode(point, true, lazy), then
 //                                     integrateNodeColor(x, y, z, r, g, b)
-//   colorscan FRAMES COLORS average|integrate [MAXRANGE]
-//                                     per frame, octomap_server's colour insertScan (no ground
-//                                     filter; MAXRANGE its sensor_model/max_range, default -1:
+//   colorscan FRAMES COLORS average|integrate [MAXRANGE [GROUND]]
+//                                     per frame, octomap_server's colour insertScan (GROUND: its
+//                                     ground points, frame I of a frames file, whose rays go into
+//                                     the free KeySet first, cut at MAXRANGE; no end key; MAXRANGE
+//                                     its sensor_model/max_range, default -1:
 //                                     a farther point frees its ray cut there and the cut
 //                                     end's voxel, nothing else): per point in order, its ray's keys
 //                                     into a free KeySet, its key into an occupied KeySet and
@@ -220,6 +227,21 @@ static void insert_colored_points(ColorOcTree& tree, const std::string& path, bo
   }
 }
 
+// The rays of ground points into free_cells, as octomap_server's insertScan inserts its
+// ground points: each cut at max_range (when >= 0) as computeUpdate cuts a farther point, the
+// ray's keys free, the end's voxel left alone.
+template <class TREE>
+static void add_ground_rays(const TREE& tree, const Frame& ground, const point3d& origin,
+                            double max_range, KeySet& free_cells) {
+  KeyRay ray;
+  for (size_t i = 0; i < ground.cloud.size(); ++i) {
+    point3d p = ground.cloud[i];
+    if (!(max_range < 0.0 || (p - origin).norm() <= max_range))
+      p = origin + (p - origin).normalized() * (float)max_range;
+    if (tree.computeRayKeys(origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
+  }
+}
+
 // octomap_server's insertScan as its colour server builds it (COLOR_OCTOMAP_SERVER), without
 // ground filtering: the colours merge while the key sets are collected, before the scan's
 // occupancy updates; the map is pruned after each scan (compress_map). max_range < 0: none;
@@ -227,8 +249,14 @@ static void insert_colored_points(ColorOcTree& tree, const std::string& path, bo
 // than maxrange" branch).
 static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_path,
                                  const std::string& colors_path, bool integrate,
-                                 double max_range) {
+                                 double max_range, const std::string& ground_path) {
   std::vector<Frame> frames = read_frames(frames_path);
+  std::vector<Frame> ground;
+  if (!ground_path.empty()) {
+    ground = read_frames(ground_path);
+    if (ground.size() != frames.size()) die(ground_path + ": frame count differs");
+  }
+  size_t f = 0;
   std::ifstream in(colors_path, std::ios::binary);
   if (!in) die("cannot open " + colors_path);
   uint32_t count = get<uint32_t>(in, "colour frame count");
@@ -238,6 +266,8 @@ static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_pa
     uint32_t n = get<uint32_t>(in, "colour count");
     if (n != fr.cloud.size()) die(colors_path + ": colour count differs from the point count");
     KeySet free_cells, occupied_cells;
+    if (!ground.empty()) add_ground_rays(tree, ground[f], fr.origin, max_range, free_cells);
+    ++f;
     for (uint32_t i = 0; i < n; ++i) {
       uint8_t c[3];
       for (uint8_t& v : c) v = get<uint8_t>(in, "colour");
@@ -355,8 +385,10 @@ static int run_script(std::istream& in) {
       double maxrange = -1.0;
       bool discretize = false, lazy = false, simple = false, inner = false;
       long long stamp_start = -1, stamp_step = 0;
+      std::string ground_path;
       while (ls >> opt) {
         if (opt == "maxrange") ls >> maxrange;
+        else if (opt == "ground") ls >> ground_path;
         else if (opt == "stamps") ls >> stamp_start >> stamp_step;
         else if (opt == "discretize") discretize = true;
         else if (opt == "lazy") lazy = true;
@@ -365,10 +397,25 @@ static int run_script(std::istream& in) {
         else die("unknown insert option " + opt);
       }
       std::vector<Frame> frames = read_frames(p);
+      std::vector<Frame> ground;
+      if (!ground_path.empty()) {
+        if (simple || discretize) die("insert: ground only with the default insertion");
+        ground = read_frames(ground_path);
+        if (ground.size() != frames.size()) die(ground_path + ": frame count differs");
+      }
       for (size_t i = 0; i < frames.size(); ++i) {
         if (stamp_start >= 0) g_clock = stamp_start + static_cast<long long>(i) * stamp_step;
         auto t0 = std::chrono::steady_clock::now();
-        if (simple)
+        if (!ground.empty()) {
+          KeySet free_cells, occupied_cells;
+          tree->computeUpdate(frames[i].cloud, frames[i].origin, free_cells, occupied_cells,
+                              maxrange);
+          add_ground_rays(*tree, ground[i], frames[i].origin, maxrange, free_cells);
+          for (KeySet::iterator it = free_cells.begin(); it != free_cells.end(); ++it)
+            if (occupied_cells.find(*it) == occupied_cells.end()) tree->updateNode(*it, false, lazy);
+          for (KeySet::iterator it = occupied_cells.begin(); it != occupied_cells.end(); ++it)
+            tree->updateNode(*it, true, lazy);
+        } else if (simple)
           tree->insertPointCloudRays(frames[i].cloud, frames[i].origin, maxrange, lazy);
         else
           tree->insertPointCloud(frames[i].cloud, frames[i].origin, maxrange, lazy, discretize);
@@ -422,8 +469,10 @@ static int run_script(std::istream& in) {
         if (!(ls >> frames >> colors >> merge) || (merge != "average" && merge != "integrate"))
           die("colorscan needs FRAMES COLORS average|integrate [MAXRANGE]");
         double max_range = -1.0;
+        std::string ground;
         if (!(ls >> max_range)) max_range = -1.0;
-        insert_colored_scans(*tree, frames, colors, merge == "integrate", max_range);
+        else ls >> ground;
+        insert_colored_scans(*tree, frames, colors, merge == "integrate", max_range, ground);
       }
     } else if (stamped && cmd == "clock") {
       if (!(ls >> g_clock) || g_clock < 0) die("clock needs a time >= 0");
