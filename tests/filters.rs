@@ -800,6 +800,31 @@ fn cli_filters_and_json() {
     assert!(!o.status.success() && err.contains("--zmin"), "{err}");
 }
 
+/// The first norlab frame with every 8th point; `None` without the data.
+fn norlab_first_frame_every_8th_point() -> Option<Frame> {
+    let input = common::data_file("lidar3d/norlab_icp_mapper_example")?;
+    let f = octoquant::formats::frame_stream(&input, &Default::default())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap();
+    Some(Frame::new_f32(
+        f.origin,
+        f.points.into_iter().step_by(8).collect(),
+    ))
+}
+
+/// The ground filter at 0.1 m, its points kept to clear space.
+fn clearing_ground() -> PointFilters {
+    PointFilters {
+        ground: Some(GroundFilter {
+            clear: true,
+            ..GroundFilter::with_distance(0.1)
+        }),
+        ..PointFilters::default()
+    }
+}
+
 /// Run a reference-program script (`script` or `color-script` `mode`) in `dir`; it must
 /// succeed.
 fn run_reference(mode: &str, script: &str, dir: &Path) {
@@ -868,13 +893,7 @@ fn clearing_ground_points_match_octomap_server() {
     let dir = scratch("filters_ground_clears");
     octoquant::formats::frames::write_frames_file(&dir.join("all.frames"), &frames).unwrap();
     // the library's split: hits first, then the ground points (with their colours)
-    let filters = PointFilters {
-        ground: Some(GroundFilter {
-            clear: true,
-            ..GroundFilter::with_distance(0.1)
-        }),
-        ..PointFilters::default()
-    };
+    let filters = clearing_ground();
     let (mut hits, mut ground, mut hit_colors) = (Vec::new(), Vec::new(), Vec::new());
     hit_colors.extend_from_slice(&(frames.len() as u32).to_le_bytes());
     for f in &frames {
@@ -958,15 +977,9 @@ fn clearing_ground_points_match_octomap_server() {
 /// space (the ground rays' voxels). One norlab frame, every 8th point.
 #[test]
 fn clearing_ground_points_only_add_free_space_in_every_mode() {
-    let Some(input) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+    let Some(frame) = norlab_first_frame_every_8th_point() else {
         return;
     };
-    let f = octoquant::formats::frame_stream(&input, &Default::default())
-        .unwrap()
-        .next()
-        .unwrap()
-        .unwrap();
-    let frame = Frame::new_f32(f.origin, f.points.into_iter().step_by(8).collect());
     let known_volume = |t: &octoquant::OcTree| -> f64 {
         t.leaves().map(|l| 8f64.powi(16 - i32::from(l.depth))).sum()
     };
@@ -1027,22 +1040,10 @@ fn clearing_ground_points_only_add_free_space_in_every_mode() {
 fn clearing_ground_points_in_simple_mode_are_rays_of_misses() {
     use octoquant::octree::{InnerNodes, Update};
     use octoquant::raycast::{compute_ray_keys_f32, insert_point_cloud_rays_f32, KeyRay};
-    let Some(input) = common::data_file("lidar3d/norlab_icp_mapper_example") else {
+    let Some(frame) = norlab_first_frame_every_8th_point() else {
         return;
     };
-    let f = octoquant::formats::frame_stream(&input, &Default::default())
-        .unwrap()
-        .next()
-        .unwrap()
-        .unwrap();
-    let frame = Frame::new_f32(f.origin, f.points.into_iter().step_by(8).collect());
-    let filters = PointFilters {
-        ground: Some(GroundFilter {
-            clear: true,
-            ..GroundFilter::with_distance(0.1)
-        }),
-        ..PointFilters::default()
-    };
+    let filters = clearing_ground();
     let options = MapperOptions {
         resolution: 0.2,
         mode: InsertMode::Simple,

@@ -725,16 +725,8 @@ pub fn compute_update_grid_f32(
     max_range: Option<f64>,
     out: &mut ScanUpdate,
 ) -> ScanStats {
-    compute(
-        conv,
-        points,
-        points.len(),
-        Some(grid),
-        origin,
-        max_range,
-        RayModel::Dda,
-        out,
-    )
+    let dda = RayModel::Dda;
+    compute_update_clearing_f32(conv, points, 0, Some(grid), origin, max_range, dda, out)
 }
 
 #[allow(clippy::too_many_arguments)]
