@@ -640,7 +640,7 @@ pub fn read_pcd_with(
                 cloud
                     .points
                     .iter()
-                    .map(|p| rigid_transform(&rot, &t, p))
+                    .map(|p| rigid_transform(&rotation, &t, p))
                     .collect(),
             )
         }

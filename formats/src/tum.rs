@@ -455,15 +455,11 @@ pub fn tum_sequence_frames_with(
         } else {
             None
         };
-        let (points, camera, colors) = depth_to_camera(
-            &img,
-            &options,
-            row.rotation.to_rotation_matrix(),
-            rgb.as_ref(),
-        );
+        let rotation = row.rotation.to_rotation_matrix();
+        let (points, camera, colors) = depth_to_camera(&img, &options, rotation, rgb.as_ref());
         let points = points
             .iter()
-            .map(|p| rigid_transform(&row.rotation, &row.translation, p))
+            .map(|p| rigid_transform(&rotation, &row.translation, p))
             .collect();
         let mut f = Frame::new_f32(row.translation.cast::<f32>().into(), points);
         f.stamp = stamp_of(&row.depth);

@@ -225,7 +225,7 @@ impl StampedPose {
 
     /// `R(q)·p + t` in `f64`, rounded to `f32`.
     pub fn transform(&self, p: &Point3<f64>) -> Point3<f32> {
-        rigid_transform(&self.rotation, &self.translation, p)
+        rigid_transform(&self.rotation.to_rotation_matrix(), &self.translation, p)
     }
 }
 
@@ -388,9 +388,10 @@ pub fn vtk_sequence_frames(
                 )
             })?;
             let data = read_all(&path)?;
+            let rotation = pose.rotation.to_rotation_matrix();
             let points = parse_vtk_points(&path, &data)?
                 .iter()
-                .map(|p| pose.transform(p))
+                .map(|p| rigid_transform(&rotation, &pose.translation, p))
                 .collect();
             let mut f = Frame::new_f32(pose.translation.cast::<f32>().into(), points);
             f.stamp = Some(pose.stamp());

@@ -5,15 +5,18 @@
 //! the last bit: [`rigid_transform`] goes through the rotation matrix (VTK sequences, TUM, PCD)
 //! and [`isometry_transform`] through nalgebra's quaternion rotation (MCAP's tf chains).
 
-use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Quaternion, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-/// `R(q)·p + t` in `f64` through the rotation matrix, rounded to `f32` at the end.
+/// `R·p + t` in `f64` with `R` the rotation matrix of the pose's quaternion
+/// (`q.to_rotation_matrix()`, made once per frame by the caller, not per point), rounded to
+/// `f32` at the end.
+#[inline]
 pub(crate) fn rigid_transform(
-    q: &UnitQuaternion<f64>,
+    r: &Rotation3<f64>,
     t: &Vector3<f64>,
     p: &Point3<f64>,
 ) -> Point3<f32> {
-    (q.to_rotation_matrix() * p + t).cast::<f32>()
+    (r * p + t).cast::<f32>()
 }
 
 /// A unit quaternion from (w, x, y, z), or `None` when it is not finite or has zero norm.
