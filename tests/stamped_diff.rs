@@ -39,6 +39,12 @@ enum Op {
     MaxLikelihood,
     Inner,
     Many(Vec<Op>),
+    /// One scan's sets at one time (`insert_update_at`): a miss on each free key, then a
+    /// hit on each occupied one, eager.
+    Batch {
+        free: Vec<Key>,
+        occupied: Vec<Key>,
+    },
 }
 
 #[derive(Debug, Clone)]
@@ -100,6 +106,15 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
         1 => Just(Op::Expand),
         1 => Just(Op::MaxLikelihood),
         2 => Just(Op::Inner),
+        // a scan's sets, in Morton order as computed (or not), repeated keys and all
+        6 => (prop::collection::vec(k(), 1..60), prop::collection::vec(k(), 0..8), any::<bool>())
+            .prop_map(|(mut free, mut occupied, sorted)| {
+                if sorted {
+                    free.sort_by_key(|k| k.morton());
+                    occupied.sort_by_key(|k| k.morton());
+                }
+                Op::Batch { free, occupied }
+            }),
     ]
 }
 
@@ -226,6 +241,22 @@ fn apply(tree: &mut StampedOcTree, ops: &[Op], now: &mut u32, s: &mut String) {
             Op::Inner => {
                 tree.update_inner_occupancy_at(*now);
                 s.push_str("inner\n");
+            }
+            Op::Batch {
+                ref free,
+                ref occupied,
+            } => {
+                tree.insert_update_at(
+                    free.iter().copied(),
+                    occupied.iter().copied(),
+                    InnerNodes::Refresh,
+                    *now,
+                );
+                for (keys, c) in [(free, "miss"), (occupied, "hit")] {
+                    for k in keys {
+                        writeln!(s, "{c} {} {} {} 0", k.x(), k.y(), k.z()).unwrap();
+                    }
+                }
             }
         }
     }

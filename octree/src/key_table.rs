@@ -34,6 +34,7 @@
 //!   count and the growth threshold: the table never shrinks.
 
 use crate::key::Key;
+use crate::key_hasher::KeyHashing;
 use std::collections::HashMap;
 
 /// libstdc++'s `std::tr1::__detail::__prime_list` (64-bit), up to 2^32: the bucket counts of
@@ -92,7 +93,7 @@ pub struct KeyTable<V: Copy> {
     entries: Vec<Entry<V>>,
     free: Vec<u32>,
     /// Slot of each key present.
-    slots: HashMap<Key, u32>,
+    slots: HashMap<Key, u32, KeyHashing>,
     /// Head of each bucket's chain (`NIL` when empty); the length is the bucket count.
     heads: Vec<u32>,
     /// `_M_next_resize`: the policy is asked for growth when the count would pass it.
@@ -105,7 +106,7 @@ impl<V: Copy> Default for KeyTable<V> {
         KeyTable {
             entries: Vec::new(),
             free: Vec::new(),
-            slots: HashMap::new(),
+            slots: HashMap::default(),
             heads: vec![NIL; first as usize],
             next_resize: resize_threshold(first),
         }

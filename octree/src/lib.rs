@@ -34,6 +34,7 @@ mod error;
 pub mod io;
 mod iter;
 mod key;
+mod key_hasher;
 pub mod key_table;
 mod merge;
 mod node_id;

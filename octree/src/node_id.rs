@@ -3,6 +3,7 @@
 //! (`ColorOcTree`'s colours, `OcTreeStamped`'s time stamps) are keyed by it.
 
 use crate::key::Key;
+use crate::key_hasher::KeyHashing;
 
 /// The side table's key for a node: its depth and smallest voxel key.
 pub(crate) type NodeId = (u8, Key);
@@ -25,3 +26,6 @@ pub(crate) fn child_id(id: NodeId, i: usize) -> NodeId {
     }
     (depth + 1, k)
 }
+
+/// The side tables' map from node ids to payloads, hashed by [`crate::key_hasher::KeyHasher`].
+pub(crate) type NodeMap<P> = std::collections::HashMap<NodeId, P, KeyHashing>;

@@ -18,10 +18,9 @@
 
 use crate::error::OctreeError;
 use crate::key::{Key, TREE_DEPTH};
-use crate::node_id::{child_id, node_id, NodeId};
+use crate::node_id::{child_id, node_id, NodeId, NodeMap};
 use crate::store::NodeRef;
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
-use std::collections::HashMap;
 
 /// A per-node payload of a [`PayloadTree`] and OctoMap's rule for it when eight children are
 /// collapsed into their parent (`pruneNode`), the one structural rule that differs between
@@ -45,7 +44,7 @@ pub(crate) struct PayloadTree<P> {
     /// The occupancy, exactly as a plain `OcTree` holds it.
     pub(crate) tree: OcTree,
     /// The payloads of the existing nodes whose payload is not [`NodePayload::UNSET`].
-    pub(crate) payloads: HashMap<NodeId, P>,
+    pub(crate) payloads: NodeMap<P>,
 }
 
 impl<P: NodePayload> PayloadTree<P> {
@@ -53,7 +52,7 @@ impl<P: NodePayload> PayloadTree<P> {
     pub(crate) fn new(tree: OcTree) -> Self {
         PayloadTree {
             tree,
-            payloads: HashMap::new(),
+            payloads: NodeMap::default(),
         }
     }
 
@@ -95,7 +94,8 @@ impl<P: NodePayload> PayloadTree<P> {
         settle: impl FnOnce(&mut Self),
     ) -> f32 {
         let delta = self.tree.delta(update);
-        if let Some(n) = self.tree.search(key, TREE_DEPTH) {
+        let found = self.tree.search(key, TREE_DEPTH);
+        if let Some(n) = found {
             let p = self.tree.params();
             if (delta >= 0.0 && n.value >= p.clamp_max) || (delta <= 0.0 && n.value <= p.clamp_min)
             {
@@ -105,7 +105,10 @@ impl<P: NodePayload> PayloadTree<P> {
         if delta.is_nan() {
             return self.tree.update_node(key, update, inner);
         }
-        self.before_descent(key);
+        // the descent expands the pruned leaf holding `key` (the node just found)
+        if let Some(n) = found {
+            self.copy_down(key, n.depth, TREE_DEPTH);
+        }
         let v = self.tree.update_node(key, update, inner);
         settle(self);
         v
@@ -139,6 +142,9 @@ impl<P: NodePayload> PayloadTree<P> {
     /// The leaf at depth `from` holding `key` is about to be expanded level by level down to
     /// depth `to`: each expansion gives the eight children the leaf's payload (`copyData`).
     fn copy_down(&mut self, key: Key, from: u8, to: u8) {
+        if from >= to {
+            return; // nothing is expanded
+        }
         let p = self.get(node_id(key, from));
         if p == P::UNSET {
             return; // the new children are unset too

@@ -209,8 +209,35 @@ impl StampedOcTree {
     /// `OcTreeStamped` whose clock reads `now`). Returns the voxel's new log-odds.
     pub fn update_node_at(&mut self, key: Key, update: Update, inner: InnerNodes, now: u32) -> f32 {
         self.base.update_node(key, update, inner, |b| {
-            after_descent(b, key, inner, Some(now), now);
+            after_descent(b, key, inner, Some(now), now, 0);
         })
+    }
+
+    /// [`StampedOcTree::update_node_at`] inside a batch at one time `now`: `last` is the last
+    /// key of the batch whose update was applied eagerly and the depth of the node that held
+    /// it afterwards. That update left every node on its path, root to that node, stamped
+    /// `now`, and nothing in the batch stamps them otherwise or removes them but collapses,
+    /// which leave the collapsed node stamped `now`; so the ancestors `key` shares with it down
+    /// to that depth need no new stamp, and the walk up stamps only the rest.
+    fn update_node_in_batch(
+        &mut self,
+        key: Key,
+        update: Update,
+        inner: InnerNodes,
+        now: u32,
+        last: &mut Option<(Key, u8)>,
+    ) {
+        let known = match *last {
+            Some((prev, held)) => usize::from(shared_depth(prev, key).min(held)) + 1,
+            None => 0,
+        };
+        let mut held = None;
+        self.base.update_node(key, update, inner, |b| {
+            held = after_descent(b, key, inner, Some(now), now, known);
+        });
+        if let Some(h) = held {
+            *last = Some((key, h));
+        }
     }
 
     /// [`StampedOcTree::set_node_value_at`] at the system clock's time.
@@ -234,7 +261,7 @@ impl StampedOcTree {
         now: u32,
     ) -> Result<f32, OctreeError> {
         self.base.set_node_value(key, value, inner, |b| {
-            after_descent(b, key, inner, None, now);
+            after_descent(b, key, inner, None, now, 0);
         })
     }
 
@@ -247,11 +274,13 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) {
+        // consecutive keys (the sets come in Morton order) share most of their path
+        let mut last = None;
         for k in free {
-            self.update_node_at(k, Update::Miss, inner, now);
+            self.update_node_in_batch(k, Update::Miss, inner, now, &mut last);
         }
         for k in occupied {
-            self.update_node_at(k, Update::Hit, inner, now);
+            self.update_node_in_batch(k, Update::Hit, inner, now, &mut last);
         }
     }
 
@@ -382,14 +411,13 @@ fn after_descent(
     inner: InnerNodes,
     leaf_now: Option<u32>,
     now: u32,
-) {
+    known: usize,
+) -> Option<u8> {
     if let Some(t) = leaf_now {
         base.set(node_id(key, TREE_DEPTH), t);
     }
-    let Some((top, refused)) = base.collapse_path(key, inner) else {
-        return;
-    };
-    let inner_to = match refused {
+    let (top, refused) = base.collapse_path(key, inner)?;
+    let (inner_to, held) = match refused {
         Some(k) => {
             for d in top..=k {
                 let r = base
@@ -399,13 +427,20 @@ fn after_descent(
                 base.tree.store.expand_node(r);
                 base.tree.add_size(8);
             }
-            k + 1
+            (k + 1, k + 1)
         }
-        None => top,
+        None => (top, top),
     };
-    for d in 0..inner_to {
-        base.set(node_id(key, d), now);
+    for d in known.min(usize::from(inner_to))..usize::from(inner_to) {
+        base.set(node_id(key, d as u8), now);
     }
+    Some(held)
+}
+
+/// The depth of the deepest node holding both keys (16 when they are equal).
+fn shared_depth(a: Key, b: Key) -> u8 {
+    let diff = (0..3).fold(0u16, |acc, i| acc | (a[i] ^ b[i]));
+    diff.leading_zeros() as u8
 }
 
 #[cfg(test)]
