@@ -161,6 +161,21 @@ pub(crate) fn min_axis(t: &[f64; 3]) -> usize {
     }
 }
 
+/// [`min_axis`] as two selections: the same comparisons in the same order, ties and NaN
+/// included (`t0 < t1 ? (t0 < t2 ? 0 : 2) : (t1 < t2 ? 1 : 2)`), without the branches a single
+/// ray's changing axis mispredicts. For the scalar walk only: the head replay and `castRay`
+/// keep the branches (the selections were not timed there).
+#[inline(always)]
+fn min_axis_select(t: &[f64; 3]) -> usize {
+    let m = if t[0] < t[1] { 0 } else { 1 };
+    let tm = if m == 0 { t[0] } else { t[1] };
+    if tm < t[2] {
+        m
+    } else {
+        2
+    }
+}
+
 /// The DDA state of one ray after OctoMap's set-up: both keys, per-axis step, `tMax`,
 /// `tDelta`, the `f32` length (as `f64`) and the iteration budget.
 #[derive(Debug, Clone, Copy)]
@@ -318,24 +333,40 @@ where
     if !visit(r.key_origin) {
         return RayWalk::Stopped;
     }
-    let mut current = r.key_origin;
+    // the key packed as x | y << 16 | z << 32, stepped one 16-bit lane at a time with that
+    // lane's wrap-around (OctoMap's `unsigned short` arithmetic): one register, where a key
+    // array indexed by the axis went through memory at every step
+    let pack = |k: Key| u64::from(k[0]) | u64::from(k[1]) << 16 | u64::from(k[2]) << 32;
+    let lane = [0xffffu64, 0xffff << 16, 0xffff << 32];
+    let add = [0, 1, 2].map(|a| u64::from(r.step[a] as u16) << (16 * a));
+    let end = pack(r.key_end);
+    let mut current = pack(r.key_origin);
+    // tMax per axis in registers, each advanced by a selection (the axis is data)
+    let [mut t0, mut t1, mut t2] = r.t_max;
+    let [d0, d1, d2] = r.t_delta;
     loop {
         if r.budget == 0 {
             return RayWalk::Degenerate;
         }
         r.budget -= 1;
-        let dim = min_axis(&r.t_max);
-        current[dim] = (current[dim] as i32 + r.step[dim]) as u16;
-        r.t_max[dim] += r.t_delta[dim];
-        if current == r.key_end {
+        let dim = min_axis_select(&[t0, t1, t2]);
+        current = (current & !lane[dim]) | (current.wrapping_add(add[dim]) & lane[dim]);
+        t0 = if dim == 0 { t0 + d0 } else { t0 };
+        t1 = if dim == 1 { t1 + d1 } else { t1 };
+        t2 = if dim == 2 { t2 + d2 } else { t2 };
+        if current == end {
             return RayWalk::Complete;
         }
         // the border of the current voxel lies beyond the end point: rounding made the walk
         // miss the end voxel, so stop here (without this key)
-        if cmin(cmin(r.t_max[0], r.t_max[1]), r.t_max[2]) > r.length {
+        if cmin(cmin(t0, t1), t2) > r.length {
             return RayWalk::Complete;
         }
-        if !visit(current) {
+        if !visit(Key::new(
+            current as u16,
+            (current >> 16) as u16,
+            (current >> 32) as u16,
+        )) {
             return RayWalk::Stopped;
         }
     }
