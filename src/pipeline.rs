@@ -9,13 +9,14 @@ use crate::checkpoint::{
     frame_digest, Checkpoint, CheckpointError, FramesFingerprint, RunIdentity,
 };
 use crate::filters::{count_zero_f32, PointFilters};
-use crate::frame::Frame;
+use crate::frame::{CameraPixels, Frame};
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_octree::{InnerNodes, KeyConverter, OcTree, OctreeError, Update};
 use octoquant_quantize::{quantize_endpoints, QuantizeStats};
 use octoquant_raycast::{
     apply_update, compute_discrete_update_f32, compute_ray_keys_f32, compute_update_clearing_f32,
-    discretize_f32, ApplyOptions, KeyRay, PixelGrid, RayModel, ScanStats, ScanUpdate,
+    discretize_f32, ApplyOptions, KeyRay, PinholeCamera, PixelGrid, RayModel, ScanStats,
+    ScanUpdate,
 };
 use std::borrow::Borrow;
 use std::path::{Path, PathBuf};
@@ -618,16 +619,31 @@ impl FrameCaster {
         frame: &Frame,
         rotation: &UnitQuaternion<f64>,
     ) -> (&ScanUpdate, FrameStats) {
-        let mut st = prepare(
-            &self.conv,
-            &self.options,
-            frame,
-            rotation,
-            &mut self.update,
-            &mut self.centres,
-        );
+        let FrameCaster {
+            conv,
+            options,
+            update,
+            centres,
+        } = self;
+        let mut st = prepare(conv, options, frame, rotation, update, centres);
         st.seconds = st.ray_seconds;
         (&self.update, st)
+    }
+
+    /// [`FrameCaster::cast`] into buffers of the caller's (a pipeline casts the next frame into
+    /// a second update while the tree takes the sets of the first): the frame's sets go into
+    /// `update`, `centres` is scratch. Takes `&self`, so it can run beside a reader of
+    /// another update.
+    pub(crate) fn cast_into(
+        &self,
+        frame: &Frame,
+        update: &mut ScanUpdate,
+        centres: &mut Vec<Point3<f32>>,
+    ) -> FrameStats {
+        let identity = UnitQuaternion::identity();
+        let mut st = prepare(&self.conv, &self.options, frame, &identity, update, centres);
+        st.seconds = st.ray_seconds;
+        st
     }
 }
 
@@ -649,14 +665,23 @@ pub(crate) fn sensor_points_to_world(
 
 /// A frame whose `f32` points are in the sensor frame, moved into the world by `pose` as
 /// [`sensor_points_to_world`] moves them (each point widened to `f64`, exactly), keeping its
-/// time stamp and colours. Its `origin` is not used (the sensor is at the pose's translation),
-/// nor its depth camera's pixel grid, whose orientation the pose would change (the result has
-/// none, as [`Mapper::insert_sensor_frame_f32`]'s frames have none: the same map, walked
-/// without the grid's shortcut).
+/// time stamp, colours and depth camera. Its `origin` is not used (the sensor is at the pose's
+/// translation). The camera, whose orientation is given in the sensor frame, is turned by the
+/// pose with its points, so a depth image keeps its pixel grid and `exact` mode its head skip
+/// (a grid only ever speeds the walk: points that do not match their pixel are walked whole,
+/// so the map is the same either way).
 pub(crate) fn sensor_frame_to_world(frame: &Frame, pose: &Isometry3<f64>) -> Frame {
+    let turn = pose.rotation.to_rotation_matrix();
     Frame {
         stamp: frame.stamp,
         colors: frame.colors.clone(),
+        camera: frame.camera.as_ref().map(|c| CameraPixels {
+            camera: PinholeCamera {
+                rotation: turn * c.camera.rotation,
+                ..c.camera
+            },
+            pixels: c.pixels.clone(),
+        }),
         ..sensor_points_to_world(frame.points.iter().map(|p| p.cast::<f64>()), pose)
     }
 }

@@ -139,3 +139,62 @@ fn stamped_mapper_sensor_frame_is_the_naive_world_frame() {
     assert!(m.insert_sensor_frame_f32(&late, &c.pose).is_err());
     assert_eq!(m.frames(), 1);
 }
+
+/// A depth image given in the camera's own frame keeps its pixel grid under a pose: the
+/// camera turns with the points, so `exact` mode skips the covered ray heads, and the map is
+/// the one of the same world points without a camera, byte for byte.
+#[test]
+fn depth_frame_in_the_sensor_frame_keeps_its_pixel_grid() {
+    use crate::scene::{scan_depth, DepthCamera, ScanOptions, Scene};
+    let scene = Scene::builtin();
+    let (frames, _) = scan_depth(
+        &scene,
+        &DepthCamera::builtin(&scene),
+        &ScanOptions::default(),
+    )
+    .unwrap();
+    let world = &frames[0];
+    let cam = world.camera.as_ref().unwrap();
+    let pose = Isometry3::from_parts(
+        Translation3::from(world.origin.coords.cast::<f64>()),
+        UnitQuaternion::from_euler_angles(0.2, -0.4, 2.5),
+    );
+    // the frame as the camera saw it: points and orientation in the camera's own frame
+    let inverse = pose.inverse();
+    let mut local = Frame::new_f32(
+        Point3::origin(),
+        world
+            .points
+            .iter()
+            .map(|p| (inverse * p.cast::<f64>()).cast::<f32>())
+            .collect(),
+    );
+    local.stamp = world.stamp;
+    let mut camera = cam.clone();
+    camera.camera.rotation = inverse.rotation.to_rotation_matrix() * cam.camera.rotation;
+    local.camera = Some(camera);
+    let bare = Frame {
+        camera: None,
+        ..local.clone()
+    };
+    let exact = MapperOptions {
+        resolution: 0.05,
+        ..MapperOptions::default()
+    };
+    let mut with_grid = StampedMapper::new(exact.clone(), None).unwrap();
+    let mut without = StampedMapper::new(exact, None).unwrap();
+    let a = with_grid.insert_sensor_frame_f32(&local, &pose).unwrap();
+    let b = without.insert_sensor_frame_f32(&bare, &pose).unwrap();
+    assert!(
+        a.heads_skipped > a.rays / 2,
+        "{} of {} heads skipped",
+        a.heads_skipped,
+        a.rays
+    );
+    assert_eq!(b.heads_skipped, 0);
+    assert_eq!((a.free, a.occupied), (b.free, b.occupied));
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    write_stamped_ot(with_grid.tree(), &mut x).unwrap();
+    write_stamped_ot(without.tree(), &mut y).unwrap();
+    assert_eq!(x, y);
+}

@@ -14,9 +14,11 @@
 //! against liboctomap's `OcTreeStamped` with the same clock).
 
 use crate::pipeline::{sensor_frame_to_world, CasterError, FrameCaster, FrameStats, MapperOptions};
-use nalgebra::{Isometry3, UnitQuaternion};
+use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_formats::Frame;
 use octoquant_octree::{now_seconds, InnerNodes, OctreeError, StampedOcTree};
+use octoquant_raycast::ScanUpdate;
+use std::borrow::Borrow;
 use std::time::Instant;
 
 /// Why a stamped map cannot be built as asked.
@@ -50,6 +52,17 @@ pub struct StampedMapper {
     caster: FrameCaster,
     degrade_older_than: Option<u32>,
     frames: usize,
+    /// The pipeline's two updates and its scratch, kept from one run to the next.
+    buffers: Buffers,
+}
+
+/// The sets a pipelined run casts into: the frame going into the tree, the next one, and the
+/// casting's scratch.
+#[derive(Default)]
+struct Buffers {
+    cur: ScanUpdate,
+    next: ScanUpdate,
+    centres: Vec<Point3<f32>>,
 }
 
 impl std::fmt::Debug for StampedMapper {
@@ -78,6 +91,7 @@ impl StampedMapper {
             caster: FrameCaster::new(options)?,
             degrade_older_than,
             frames: 0,
+            buffers: Buffers::default(),
         })
     }
 
@@ -122,22 +136,117 @@ impl StampedMapper {
         rotation: &UnitQuaternion<f64>,
     ) -> Result<FrameStats, StampedMapError> {
         let now = Self::frame_time(frame, self.frames)?;
+        Ok(self.insert_at(frame, rotation, now))
+    }
+
+    /// Cast `frame` and put it into the tree at time `now`.
+    fn insert_at(&mut self, frame: &Frame, rotation: &UnitQuaternion<f64>, now: u32) -> FrameStats {
         let start = Instant::now();
         let (update, mut st) = self.caster.cast_oriented(frame, rotation);
-        let tree_start = Instant::now();
-        self.tree.insert_update_at(
-            update.free().iter().copied(),
-            update.occupied().iter().copied(),
-            InnerNodes::Refresh,
-            now,
-        );
-        if let Some(thres) = self.degrade_older_than {
-            self.tree.degrade_outdated_nodes_at(thres, now);
-        }
-        st.tree_seconds = tree_start.elapsed().as_secs_f64();
+        st.tree_seconds = apply_at(&mut self.tree, update, now, self.degrade_older_than);
         st.seconds = start.elapsed().as_secs_f64();
         self.frames += 1;
-        Ok(st)
+        st
+    }
+
+    /// Insert frames (world coordinates) in order, each at its time, with the same tree and
+    /// stamps as [`StampedMapper::insert`] on each in turn, but pipelined when rayon has a
+    /// thread to spare: while frame `i` goes into the tree, the rays of frame `i + 1` are cast
+    /// (the tree update, per voxel in OctoMap's order, is the larger part). A frame without a
+    /// stamp is stamped by the clock as it goes into the tree, as `insert` stamps it.
+    ///
+    /// `after` is called with each frame's statistics and time once it is in the tree. The run
+    /// stops at the first error, with the frames before it in the tree: one from the source
+    /// (`frames`), from `after`, or a time stamp OctoMap cannot store (that frame not inserted).
+    pub fn insert_stream<F, E>(
+        &mut self,
+        frames: impl Iterator<Item = Result<F, E>>,
+        mut after: impl FnMut(&StampedMapper, &FrameStats, u32) -> Result<(), E>,
+    ) -> Result<(), E>
+    where
+        F: Borrow<Frame> + Sync,
+        E: From<StampedMapError>,
+    {
+        let mut frames = frames;
+        if rayon::current_num_threads() < 2 {
+            for f in frames {
+                let f = f?;
+                let now = Self::frame_time(f.borrow(), self.frames)?;
+                let st = self.insert_at(f.borrow(), &UnitQuaternion::identity(), now);
+                after(self, &st, now)?;
+            }
+            return Ok(());
+        }
+        let mut buffers = std::mem::take(&mut self.buffers);
+        let result = self.pipeline(&mut frames, &mut after, &mut buffers);
+        self.buffers = buffers;
+        result
+    }
+
+    /// The pipelined loop of [`StampedMapper::insert_stream`], casting into `buffers`.
+    fn pipeline<F, E>(
+        &mut self,
+        frames: &mut impl Iterator<Item = Result<F, E>>,
+        after: &mut impl FnMut(&StampedMapper, &FrameStats, u32) -> Result<(), E>,
+        buffers: &mut Buffers,
+    ) -> Result<(), E>
+    where
+        F: Borrow<Frame> + Sync,
+        E: From<StampedMapError>,
+    {
+        let Some(first) = frames.next() else {
+            return Ok(());
+        };
+        let mut frame = first?;
+        check_stamp(frame.borrow(), self.frames)?;
+        let Buffers { cur, next, centres } = buffers;
+        let mut mark = Instant::now();
+        let mut st = self.caster.cast_into(frame.borrow(), cur, centres);
+        loop {
+            let upcoming = frames.next();
+            // a frame's time is read as it goes into the tree (the clock, for no stamp)
+            let now = Self::frame_time(frame.borrow(), self.frames)?;
+            let next_stamp = match &upcoming {
+                Some(Ok(f)) => check_stamp(f.borrow(), self.frames + 1),
+                _ => Ok(()),
+            };
+            let cast_next = next_stamp.is_ok();
+            let StampedMapper {
+                tree,
+                caster,
+                degrade_older_than,
+                ..
+            } = self;
+            let degrade = *degrade_older_than;
+            let (tree_s, next_st) = match (&upcoming, cast_next) {
+                (Some(Ok(f)), true) => {
+                    // the tree needs only `cur`'s sets: its working buffers go to the next cast
+                    next.pass_buffers(cur);
+                    let (t, n) = rayon::join(
+                        || apply_at(tree, cur, now, degrade),
+                        || caster.cast_into(f.borrow(), next, centres),
+                    );
+                    (t, Some(n))
+                }
+                _ => (apply_at(tree, cur, now, degrade), None),
+            };
+            self.frames += 1;
+            st.tree_seconds = tree_s;
+            st.seconds = mark.elapsed().as_secs_f64();
+            mark = Instant::now();
+            after(self, &st, now)?;
+            // the next frame's stamp that cannot be stored: the error `insert` gives
+            next_stamp?;
+            match (upcoming, next_st) {
+                (Some(Ok(f)), Some(n)) => {
+                    std::mem::swap(cur, next);
+                    frame = f;
+                    st = n;
+                }
+                (Some(Err(e)), _) => return Err(e),
+                _ => return Ok(()),
+            }
+        }
     }
 
     /// Frames inserted so far.
@@ -153,6 +262,30 @@ impl StampedMapper {
     /// The tree, consuming the mapper.
     pub fn into_tree(self) -> StampedOcTree {
         self.tree
+    }
+}
+
+/// A frame's sets into the stamped tree at time `now` (OctoMap's `insertPointCloud` into an
+/// `OcTreeStamped`), then the degrading; returns the seconds it took.
+fn apply_at(tree: &mut StampedOcTree, update: &ScanUpdate, now: u32, degrade: Option<u32>) -> f64 {
+    let start = Instant::now();
+    tree.insert_update_at(
+        update.free().iter().copied(),
+        update.occupied().iter().copied(),
+        InnerNodes::Refresh,
+        now,
+    );
+    if let Some(thres) = degrade {
+        tree.degrade_outdated_nodes_at(thres, now);
+    }
+    start.elapsed().as_secs_f64()
+}
+
+/// A given time stamp's check (the clock, read later, needs none): the frame at `index`.
+fn check_stamp(frame: &Frame, index: usize) -> Result<(), StampedMapError> {
+    match frame.stamp {
+        Some(_) => StampedMapper::frame_time(frame, index).map(|_| ()),
+        None => Ok(()),
     }
 }
 
@@ -194,5 +327,69 @@ mod tests {
             ));
         }
         assert_eq!(m.frames(), 2);
+    }
+
+    /// The pipelined run equals inserting frame by frame: the same nodes, values and stamps,
+    /// degrading included, and the same per-frame times; a stamp OctoMap cannot store stops it
+    /// with the frames before in the tree.
+    #[test]
+    fn insert_stream_is_insert_frame_by_frame() {
+        use crate::scene::{scan_lidar, ScanOptions, Scene, SpinningLidar};
+        let scene = Scene::builtin();
+        let (mut frames, _) = scan_lidar(
+            &scene,
+            &SpinningLidar::builtin_path(),
+            &ScanOptions::default(),
+        )
+        .unwrap();
+        frames.truncate(6);
+        for (i, f) in frames.iter_mut().enumerate() {
+            f.stamp = Some(100.0 + 0.7 * i as f64);
+        }
+        let options = MapperOptions {
+            resolution: 0.2,
+            ..MapperOptions::default()
+        };
+        let one_by_one = |frames: &[Frame]| {
+            let mut m = StampedMapper::new(options.clone(), Some(1)).unwrap();
+            for f in frames {
+                m.insert(f).unwrap();
+            }
+            m.into_tree().nodes_with_stamps()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let piped = |frames: &[Frame]| {
+            pool.install(|| {
+                let mut m = StampedMapper::new(options.clone(), Some(1)).unwrap();
+                let mut times = Vec::new();
+                let r = m.insert_stream(
+                    frames.iter().map(Ok::<&Frame, StampedMapError>),
+                    |mapper, _, now| {
+                        times.push((mapper.frames(), now));
+                        Ok(())
+                    },
+                );
+                (r, times, m.into_tree().nodes_with_stamps())
+            })
+        };
+        let (r, times, nodes) = piped(&frames);
+        assert!(r.is_ok());
+        let want: Vec<(usize, u32)> = (0..6)
+            .map(|i| (i + 1, (100.0 + 0.7 * i as f64) as u32))
+            .collect();
+        assert_eq!(times, want);
+        assert_eq!(nodes, one_by_one(&frames));
+        // frame 3's time cannot be stored: frames 0-2 go in, then the error
+        frames[3].stamp = Some(-1.0);
+        let (r, times, nodes) = piped(&frames);
+        assert!(
+            matches!(r, Err(StampedMapError::BadStamp { frame: 3, .. })),
+            "{r:?}"
+        );
+        assert_eq!(times.len(), 3);
+        assert_eq!(nodes, one_by_one(&frames[..3]));
     }
 }

@@ -162,7 +162,7 @@ impl PyStampedMapper {
         frames: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let first = self.mapper.frames();
-        let mut list = read_frames(frames, |i, item| {
+        let list = read_frames(frames, |i, item| {
             let (pts, origin, stamp): (Bound<'py, PyAny>, Option<Bound<'py, PyAny>>, Option<f64>) =
                 item.extract()?;
             let frame = engine::Frame {
@@ -179,15 +179,20 @@ impl PyStampedMapper {
             Ok(frame)
         })?;
         let mapper = &mut self.mapper;
-        // checked above: no insertion fails
+        // checked above: no insertion fails; pipelined (a frame's rays are cast while the one
+        // before goes into the tree)
         let stats = py
             .detach(|| {
-                list.iter_mut()
-                    .map(|f| {
-                        let now = stamp_frame(f, mapper.frames())?;
-                        Ok((mapper.insert(f)?, now))
-                    })
-                    .collect::<Result<Vec<_>, StampedMapError>>()
+                let mut out = Vec::with_capacity(list.len());
+                mapper
+                    .insert_stream(
+                        list.iter().map(Ok::<&engine::Frame, StampedMapError>),
+                        |_, st, now| {
+                            out.push((*st, now));
+                            Ok(())
+                        },
+                    )
+                    .map(|()| out)
             })
             .map_err(stamp_error)?;
         stats

@@ -579,11 +579,13 @@ fn run_stamped(a: &Args) -> Result<()> {
     let frames = typed_frames(&plan, false, load_ns.clone())?;
     let mut progress = Progress::new(a.quiet, a.progress_every, None);
     let mut stats = MapStats::default();
-    for frame in frames {
-        let st = mapper.insert(&frame?)?;
-        stats.add(&st);
+    // pipelined: a frame's rays are cast while the one before goes into the tree
+    let frames = frames.map(|f| f.map_err(anyhow::Error::from));
+    mapper.insert_stream(frames, |_, st, _| -> Result<()> {
+        stats.add(st);
         progress.update(&stats, stats.total.points, 0);
-    }
+        Ok(())
+    })?;
     progress.finish();
     let tree = mapper.into_tree();
     octoquant::output::write_atomic(&plan.output, |w| {
