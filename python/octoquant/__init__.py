@@ -30,6 +30,7 @@ from octoquant._octoquant import (
     reduce,
     segment_scan,
     tree_iterator,
+    write_frames,
 )
 
 __all__ = [
@@ -56,4 +57,5 @@ __all__ = [
     "reduce",
     "segment_scan",
     "tree_iterator",
+    "write_frames",
 ]

@@ -1,7 +1,7 @@
 """Type stubs for octoquant (the extension module octoquant._octoquant)."""
 
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, Literal, Optional, Union, overload
 
 import numpy as np
@@ -780,6 +780,22 @@ def count_frames(
 ) -> Optional[int]:
     """How many frames :func:`read_frames` gives for ``path``, known without reading points
     (file headers, association rows, MCAP statistics); ``None`` when the input does not say."""
+
+def write_frames(
+    path: StrOrBytesPath,
+    frames: Iterable[tuple[Any, ...]],
+    *,
+    colors: bool = False,
+    stamps: bool = False,
+) -> None:
+    """Write frames as a ``.frames`` file (what ``octoquant map``, ``bench``, the distributed
+    build and :func:`read_frames` read back bit for bit). Each frame is a tuple laid out as
+    :func:`read_frames` returns it with the same flags: ``(points (N, 3), origin (3,))``, then
+    (N, 3) uint8 colours with ``colors=True``, then the time in seconds or ``None`` with
+    ``stamps=True``. Points are stored as float32 (NaN kept); origins and stamps must be
+    finite. Every frame is checked before anything is written (``TypeError``/``ValueError``
+    naming ``frames[i]``); the file is replaced atomically, so a failed write (``OSError``)
+    leaves no partial file."""
 
 CellSize = Union[float, Sequence[float], NDArray[np.floating[Any]]]
 Selection = Literal["centre", "center", "mean"]

@@ -3,10 +3,9 @@
 
 use crate::color_tree::PyColorOcTree;
 use crate::convert;
-use crate::engine::{self, Color, ColorMapper, ColorMerge, MapperOptions};
+use crate::engine::{self, ColorMapper, ColorMerge, MapperOptions};
 use crate::mapper::{origin_or_zero, read_frames, stats_dict, FilterArgs, Placement};
 use nalgebra::Point3;
-use numpy::PyReadonlyArray2;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -198,13 +197,13 @@ impl PyColorMapper {
 
 /// A coloured frame from an ``insert``'s arguments: the points, one colour per point
 /// (ValueError otherwise), the origin given.
-fn coloured_frame(
+pub(crate) fn coloured_frame(
     points: &Bound<'_, PyAny>,
     colors: &Bound<'_, PyAny>,
     origin: Point3<f32>,
 ) -> PyResult<engine::Frame> {
     let pts = convert::points_f32(points, "points")?;
-    let colors = rgb_rows(colors)?;
+    let colors = convert::rgb_rows(colors)?;
     if colors.len() != pts.len() {
         return Err(PyValueError::new_err(format!(
             "{} colours for {} points: give one per point",
@@ -216,18 +215,4 @@ fn coloured_frame(
         colors: Some(colors),
         ..engine::Frame::new_f32(origin, pts)
     })
-}
-
-/// An (N, 3) ``uint8`` array as colours.
-fn rgb_rows(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Color>> {
-    let err = || PyValueError::new_err("colors must be an (N, 3) uint8 array (r, g, b)");
-    let a: PyReadonlyArray2<'_, u8> = obj.extract().map_err(|_| err())?;
-    let a = a.as_array();
-    if a.ncols() != 3 {
-        return Err(err());
-    }
-    Ok(a.rows()
-        .into_iter()
-        .map(|r| Color::new(r[0], r[1], r[2]))
-        .collect())
 }

@@ -2,12 +2,12 @@
 //! library's errors as Python exceptions. Every check happens here, before any Rust call, so a
 //! bad argument is a clear `TypeError`/`ValueError`, never a panic.
 
-use crate::engine::OctreeError;
+use crate::engine::{Color, OctreeError};
 use nalgebra::Point3;
 use numpy::ndarray::Array2;
 use numpy::{
-    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray,
-    PyUntypedArrayMethods,
+    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArray2,
+    PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{
     PyFileNotFoundError, PyOSError, PyPermissionError, PyTypeError, PyValueError,
@@ -318,4 +318,18 @@ pub fn real_array(
     let ro = a.readonly();
     let values = ro.as_array().iter().copied().collect();
     Ok((values, shape))
+}
+
+/// An (N, 3) ``uint8`` array as colours.
+pub fn rgb_rows(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Color>> {
+    let err = || PyValueError::new_err("colors must be an (N, 3) uint8 array (r, g, b)");
+    let a: PyReadonlyArray2<'_, u8> = obj.extract().map_err(|_| err())?;
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(err());
+    }
+    Ok(a.rows()
+        .into_iter()
+        .map(|r| Color::new(r[0], r[1], r[2]))
+        .collect())
 }

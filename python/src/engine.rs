@@ -96,6 +96,12 @@ pub fn read_frame_range(
     Ok(frames)
 }
 
+/// Write frames as a `.frames` file, atomically (the formats crate's `write_frames_file`):
+/// version 1 when no frame has colours or a stamp, else version 2. Errors name the file.
+pub fn write_frames_file(path: &Path, frames: &[Frame]) -> Result<(), String> {
+    octoquant::formats::frames::write_frames_file(path, frames).map_err(|e| e.to_string())
+}
+
 /// How many frames a sensor file announces without reading its points (the formats crate's
 /// `count_frames`): `None` for text logs and MCAP files without statistics.
 pub fn count_frames(path: &Path, options: &ReadOptions) -> Option<usize> {

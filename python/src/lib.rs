@@ -195,6 +195,76 @@ fn count_frames<'py>(
     Ok(py.detach(|| engine::count_frames(&p, &options)))
 }
 
+/// Write frames to a ``.frames`` file, the CLI's lossless frame store: what ``octoquant map``,
+/// ``bench``, the distributed build and :func:`read_frames` read back bit for bit. ``frames``
+/// holds tuples laid out as :func:`read_frames` returns them with the same ``colors`` and
+/// ``stamps`` flags: ``(points (N, 3), origin (3,))``, then the (N, 3) uint8 colours with
+/// ``colors=True``, then the time in seconds (or ``None``) with ``stamps=True``. Points are
+/// stored as float32 (float64 is rounded, as ``Mapper.insert`` rounds it), NaN points too (the
+/// mapper counts and skips them); origins and stamps must be finite. Every frame is checked
+/// before anything is written; a bad one raises ``TypeError``/``ValueError`` naming
+/// ``frames[i]``. The file is written through a temporary file and a rename, so a failed write
+/// (``OSError``) leaves no partial file.
+#[pyfunction]
+#[pyo3(signature = (path, frames, *, colors=false, stamps=false))]
+fn write_frames(
+    py: Python<'_>,
+    path: &Bound<'_, PyAny>,
+    frames: &Bound<'_, PyAny>,
+    colors: bool,
+    stamps: bool,
+) -> PyResult<()> {
+    use pyo3::exceptions::{PyOSError, PyValueError};
+    let p = convert::path(path, "path")?;
+    let fields = 2 + usize::from(colors) + usize::from(stamps);
+    let list = mapper::read_frames(frames, |_, item| {
+        let parts: Vec<Bound<'_, PyAny>> = item.extract().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "a frame must be a tuple of {fields} items, got {}",
+                item.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            ))
+        })?;
+        if parts.len() != fields {
+            return Err(PyValueError::new_err(format!(
+                "a frame must have {fields} items (points, origin{}{}), got {}",
+                if colors { ", colors" } else { "" },
+                if stamps { ", stamp" } else { "" },
+                parts.len()
+            )));
+        }
+        let origin = convert::vec3_f32(&parts[1], "origin")?;
+        if !(origin.x.is_finite() && origin.y.is_finite() && origin.z.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "origin must be finite, got ({}, {}, {})",
+                origin.x, origin.y, origin.z
+            )));
+        }
+        let mut frame = if colors {
+            color_mapper::coloured_frame(&parts[0], &parts[2], origin)?
+        } else {
+            engine::Frame::new_f32(origin, convert::points_f32(&parts[0], "points")?)
+        };
+        if stamps {
+            let stamp: Option<f64> = parts[fields - 1].extract().map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err("stamp must be a number or None")
+            })?;
+            if stamp.is_some_and(|t| !t.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "stamp must be finite, got {}",
+                    stamp.unwrap_or_default()
+                )));
+            }
+            frame.stamp = stamp;
+        }
+        Ok(frame)
+    })?;
+    py.detach(|| engine::write_frames_file(&p, &list))
+        .map_err(PyOSError::new_err)
+}
+
 /// The path argument of a reader, which must exist (FileNotFoundError otherwise).
 fn existing_path(path: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
     let p = convert::path(path, "path")?;
@@ -286,6 +356,7 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tree::_restore, m)?)?;
     m.add_function(wrap_pyfunction!(read_frames, m)?)?;
     m.add_function(wrap_pyfunction!(count_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(write_frames, m)?)?;
     m.add_class::<density::PyDensityReducer>()?;
     m.add_class::<density::PyOutputCycle>()?;
     m.add_function(wrap_pyfunction!(density::reduce, m)?)?;
