@@ -7,11 +7,11 @@
 
 use nalgebra::{Point3, Rotation3};
 use octoquant_formats::frame::{CameraPixels, Frame};
-use octoquant_formats::PinholeCamera;
 use octoquant_formats::frames::write_frames;
 use octoquant_formats::graph::{graph_from_frames, write_graph};
 use octoquant_formats::mcap::datatype;
 use octoquant_formats::ply::{write_ply, PlyEncoding};
+use octoquant_formats::PinholeCamera;
 use octoquant_octree::io::{write_bt, write_color_ot, write_ot};
 use octoquant_octree::{Color, ColorOcTree, InnerNodes, Key, OcTree, Update};
 use std::collections::BTreeMap;
@@ -38,6 +38,7 @@ fn main() {
     octree_ops(&mut seeds);
     rows(&mut seeds);
     distance_map(&mut seeds);
+    stamped_ops(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
     tiles(&mut seeds);
@@ -951,7 +952,10 @@ fn mcap(s: &mut Seeds) {
             log_time: 50 + 10 * i,
         });
     }
-    for (name, crcs) in [("ros2-zstd-chunks.mcap", true), ("ros2-zstd-chunks-no-crc.mcap", false)] {
+    for (name, crcs) in [
+        ("ros2-zstd-chunks.mcap", true),
+        ("ros2-zstd-chunks-no-crc.mcap", false),
+    ] {
         let zstd = Some(mcap::Compression::Zstd);
         let file = mcap_file_in_chunks("ros2", &chunked, zstd, Some(200), crcs);
         s.put("mcap", name, &file);
@@ -1038,10 +1042,23 @@ fn count_frames(s: &mut Seeds) {
 // ---- octree operation sequences -------------------------------------------------------
 
 fn octree_ops(s: &mut Seeds) {
-    // `arbitrary` reads any bytes; a few deterministic pseudo-random strings of different
-    // lengths start the campaign with sequences of a few to a few dozen operations.
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    for (i, len) in [16usize, 64, 256, 1024].into_iter().enumerate() {
+    random_seeds(s, "octree_ops", 0x2545_f491_4f6c_dd1d, &[16, 64, 256, 1024]);
+}
+
+fn stamped_ops(s: &mut Seeds) {
+    random_seeds(
+        s,
+        "stamped_ops",
+        0x5851_f42d_4c95_7f2d,
+        &[16, 64, 256, 1024],
+    );
+}
+
+/// Seeds for a structure-aware target: `arbitrary` reads any bytes, so a few deterministic
+/// pseudo-random strings (xorshift from `state`) of the given lengths start its campaign with
+/// sequences of a few to a few dozen operations.
+fn random_seeds(s: &mut Seeds, target: &str, mut state: u64, lengths: &[usize]) {
+    for (i, &len) in lengths.iter().enumerate() {
         let bytes: Vec<u8> = (0..len)
             .map(|_| {
                 state ^= state << 13;
@@ -1050,7 +1067,7 @@ fn octree_ops(s: &mut Seeds) {
                 (state >> 24) as u8
             })
             .collect();
-        s.put("octree_ops", &format!("random-{i}.bin"), &bytes);
+        s.put(target, &format!("random-{i}.bin"), &bytes);
     }
 }
 
@@ -1074,19 +1091,12 @@ fn rows(s: &mut Seeds) {
 }
 
 fn distance_map(s: &mut Seeds) {
-    // `arbitrary` reads any bytes: deterministic pseudo-random strings of a few lengths
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    for (i, len) in [32usize, 128, 512, 2048].into_iter().enumerate() {
-        let bytes: Vec<u8> = (0..len)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 24) as u8
-            })
-            .collect();
-        s.put("distance_map", &format!("random-{i}.bin"), &bytes);
-    }
+    random_seeds(
+        s,
+        "distance_map",
+        0x9e37_79b9_7f4a_7c15,
+        &[32, 128, 512, 2048],
+    );
 }
 
 /// Tile update buffers (OQTU) at several tile depths, from deterministic pseudo-random
