@@ -36,12 +36,12 @@
 //! octomap_server's insertion; [`ColorMapper::new`] refuses them.
 
 use crate::filters::PointFilters;
-use crate::keyset_order::KeySetOrder;
+use crate::keyset_order::{insert_ray_keys, KeySetOrder};
 use crate::pipeline::{sensor_frame_to_world, FrameStats, InsertMode, MapperOptions};
-use nalgebra::{Isometry3, UnitQuaternion};
+use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_formats::Frame;
-use octoquant_octree::{Color, ColorOcTree, InnerNodes, KeyConverter, OctreeError, Update};
-use octoquant_raycast::{compute_ray_keys_f32, max_range_end_f32, KeyRay};
+use octoquant_octree::{Color, ColorOcTree, InnerNodes, Key, KeyConverter, OctreeError, Update};
+use octoquant_raycast::max_range_end_f32;
 use std::time::Instant;
 
 /// How an end point's colour merges into its node's.
@@ -112,7 +112,6 @@ pub enum ColorMapError {
 pub struct ColorMapper {
     tree: ColorOcTree,
     conv: KeyConverter,
-    ray: KeyRay,
     /// octomap_server's `m_maxRange`: negative for none.
     max_range: f64,
     /// octoquant's point filters, applied first.
@@ -154,7 +153,6 @@ impl ColorMapper {
         let tree = ColorOcTree::with_params(options.resolution, options.params)?;
         Ok(ColorMapper {
             conv: KeyConverter::new(options.resolution)?,
-            ray: KeyRay::new(),
             max_range: options.max_range.unwrap_or(-1.0),
             filters: options.filters,
             tree,
@@ -258,14 +256,18 @@ impl ColorMapper {
         // octomap_server's loops over the points: key sets, and each end point's colour into
         // its node as the tree is now; first the ground points kept to clear space (the
         // filters put them last), whose rays only clear (cut at the maximum range)
-        let (mut free, mut occupied) = (KeySetOrder::new(), KeySetOrder::new());
+        let (mut free, mut occupied) = match self.key_box(&origin, points) {
+            Some((lo, hi)) => (
+                KeySetOrder::with_window(lo, hi),
+                KeySetOrder::with_window(lo, hi),
+            ),
+            None => (KeySetOrder::new(), KeySetOrder::new()),
+        };
         let (points, ground) = points.split_at(points.len() - st.clearing);
         for p in ground {
             st.rays += 1;
             let end = max_range_end_f32(&origin, p, self.max_range).unwrap_or(*p);
-            if compute_ray_keys_f32(&self.conv, &origin, &end, &mut self.ray) {
-                free.insert_range(self.ray.keys());
-            }
+            insert_ray_keys(&mut free, &self.conv, &origin, &end);
             if self.conv.point_to_key(&end.cast::<f64>()).is_none() {
                 st.outside_map += 1;
             }
@@ -282,8 +284,7 @@ impl ColorMapper {
             if let Some(end) = max_range_end_f32(&origin, p, self.max_range) {
                 // octomap_server's "ray longer than maxrange": free up to and including the
                 // cut end's voxel (only when the ray's keys could be computed)
-                if compute_ray_keys_f32(&self.conv, &origin, &end, &mut self.ray) {
-                    free.insert_range(self.ray.keys());
+                if insert_ray_keys(&mut free, &self.conv, &origin, &end) {
                     match self.conv.point_to_key(&end.cast::<f64>()) {
                         Some(k) => {
                             free.insert(k);
@@ -293,9 +294,7 @@ impl ColorMapper {
                 }
                 continue;
             }
-            if compute_ray_keys_f32(&self.conv, &origin, p, &mut self.ray) {
-                free.insert_range(self.ray.keys());
-            }
+            insert_ray_keys(&mut free, &self.conv, &origin, p);
             let Some(key) = self.conv.point_to_key(&p.cast::<f64>()) else {
                 st.outside_map += 1;
                 continue;
@@ -308,13 +307,13 @@ impl ColorMapper {
         }
         st.ray_seconds = start.elapsed().as_secs_f64();
         let tree_start = Instant::now();
-        for k in free.iter() {
+        for k in free.order() {
             if !occupied.contains(&k) {
                 self.tree.update_node(k, Update::Miss, InnerNodes::Refresh);
                 st.free += 1;
             }
         }
-        for k in occupied.iter() {
+        for k in occupied.order() {
             self.tree.update_node(k, Update::Hit, InnerNodes::Refresh);
             st.occupied += 1;
         }
@@ -323,6 +322,32 @@ impl ColorMapper {
         st.seconds = start.elapsed().as_secs_f64();
         self.frames += 1;
         Ok(st)
+    }
+
+    /// The box of voxels the scan's keys lie in: those of the origin and of every ray's end
+    /// (cut at the maximum range), one voxel wider on each side (a ray's keys lie between its
+    /// two ends' keys; the margin covers an end whose `f32` key differs from its `f64` one).
+    /// `None` when the origin is outside the map (no ray has keys). The key sets only go
+    /// faster inside it.
+    fn key_box(&self, origin: &Point3<f32>, points: &[Point3<f32>]) -> Option<(Key, Key)> {
+        let o = self.conv.point_to_key(&origin.cast::<f64>())?;
+        let (mut lo, mut hi) = (o.0, o.0);
+        for p in points {
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                continue;
+            }
+            let end = max_range_end_f32(origin, p, self.max_range).unwrap_or(*p);
+            if let Some(k) = self.conv.point_to_key(&end.cast::<f64>()) {
+                for i in 0..3 {
+                    lo[i] = lo[i].min(k[i]);
+                    hi[i] = hi[i].max(k[i]);
+                }
+            }
+        }
+        Some((
+            Key(lo.map(|c| c.saturating_sub(1))),
+            Key(hi.map(|c| c.saturating_add(1))),
+        ))
     }
 
     /// Frames inserted so far.

@@ -11,53 +11,41 @@
 //! With GCC (and not libc++), OctoMap's `OcTreeKey.h` makes `KeySet` a
 //! `std::tr1::unordered_set<OcTreeKey, OcTreeKey::KeyHash>`, whose order is that of libstdc++'s
 //! TR1 hash table, modelled by [`octoquant_octree::KeyTable`] (its docs give the rules; the
-//! same model gives OctoMap's changed-keys order for the distance maps).
+//! same model gives OctoMap's changed-keys order for the distance maps). A scan only inserts,
+//! so the set keeps the insertions' history and rebuilds that order once, at the end
+//! ([`octoquant_octree::KeySetLog`]).
 
-use octoquant_octree::{Key, KeyTable};
+use nalgebra::Point3;
+use octoquant_octree::KeyConverter;
+use octoquant_octree::KeySetLog;
+use octoquant_raycast::{walk_ray_keys_f32, RayWalk};
 
-/// A set of keys that iterates in the order of OctoMap's `KeySet` under libstdc++.
-#[derive(Debug, Clone, Default)]
-pub struct KeySetOrder(KeyTable<()>);
+/// A set of keys that iterates in the order of OctoMap's `KeySet` under libstdc++
+/// ([`KeySetLog::order`]).
+pub type KeySetOrder = KeySetLog;
 
-impl KeySetOrder {
-    /// An empty set, as a default-constructed `KeySet` (11 buckets).
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Keys held.
-    pub fn len(&self) -> usize {
-        self.0.len()
-    }
-
-    /// Whether the set is empty.
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-
-    /// Whether `k` is in the set.
-    pub fn contains(&self, k: &Key) -> bool {
-        self.0.contains(k)
-    }
-
-    /// The buckets in use.
-    pub fn bucket_count(&self) -> usize {
-        self.0.bucket_count()
-    }
-
-    /// Insert `k` (`KeySet::insert(key)`); false when it was there.
-    pub fn insert(&mut self, k: Key) -> bool {
-        self.0.insert(k, ())
-    }
-
-    /// Insert a range of keys (`KeySet::insert(first, last)`): room for all of them first,
-    /// then one by one.
-    pub fn insert_range(&mut self, keys: &[Key]) {
-        self.0.insert_range(keys.iter().map(|&k| (k, ())));
-    }
-
-    /// The keys in the set's iteration order.
-    pub fn iter(&self) -> impl Iterator<Item = Key> + '_ {
-        self.0.iter().map(|(k, ())| k)
+/// `set.insert(ray.begin(), ray.end())` after OctoMap's `computeRayKeys(origin, end, ray)`
+/// succeeds, as octomap_server adds a ray's voxels: the keys go into the set as the ray is
+/// walked, and a ray whose keys cannot be computed (an end outside the map, a degenerate
+/// walk) adds nothing. Returns whether the keys were computed.
+pub fn insert_ray_keys(
+    set: &mut KeySetOrder,
+    conv: &KeyConverter,
+    origin: &Point3<f32>,
+    end: &Point3<f32>,
+) -> bool {
+    let mut range = set.range();
+    match walk_ray_keys_f32(conv, origin, end, |k| {
+        range.key(k);
+        true
+    }) {
+        RayWalk::Complete | RayWalk::SameVoxel => {
+            range.finish();
+            true
+        }
+        RayWalk::OutsideMap | RayWalk::Stopped | RayWalk::Degenerate => {
+            range.cancel();
+            false
+        }
     }
 }

@@ -1,6 +1,7 @@
 //! A fast hasher for the maps keyed by voxel keys or node ids: the colour and stamped trees'
 //! side tables (a lookup for every node an update passes) and OctoMap's key containers
-//! ([`crate::key_table::KeyTable`], a lookup per ray step of octomap_server's colour scans).
+//! ([`crate::key_table::KeyTable`], and the keys of a colour scan outside its
+//! [`crate::KeySetLog`] window: a lookup per ray step).
 //!
 //! The standard `HashMap` hashes with SipHash, built to resist keys chosen against it; these
 //! keys are the map's own voxels, and SipHash took a fifth of a stamped map's insertion and a

@@ -32,6 +32,10 @@
 //!   makes room for the whole range, duplicates included, then inserts key by key.
 //! - `clear()` (OctoMap's `resetChangeDetection`) drops the elements but keeps the bucket
 //!   count and the growth threshold: the table never shrinks.
+//!
+//! A table that only grows, such as a scan's `KeySet` of ray voxels (millions of insertions,
+//! a few new keys), is cheaper kept as its history and replayed into this model once:
+//! [`crate::KeySetLog`].
 
 use crate::key::Key;
 use crate::key_hasher::KeyHashing;
@@ -96,19 +100,67 @@ pub struct KeyTable<V: Copy> {
     slots: HashMap<Key, u32, KeyHashing>,
     /// Head of each bucket's chain (`NIL` when empty); the length is the bucket count.
     heads: Vec<u32>,
-    /// `_M_next_resize`: the policy is asked for growth when the count would pass it.
+    /// When the table grows.
+    growth: Growth,
+}
+
+/// libstdc++'s `_Prime_rehash_policy` as a `KeySet` uses it: the bucket count, and
+/// `_M_next_resize`, the count past which the policy is asked for growth.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Growth {
+    buckets: u64,
     next_resize: u64,
+}
+
+impl Default for Growth {
+    /// A default-constructed container's: `_M_next_bkt(10)` = 11 buckets.
+    fn default() -> Self {
+        let buckets = next_bucket_count(10);
+        Growth {
+            buckets,
+            next_resize: resize_threshold(buckets),
+        }
+    }
+}
+
+impl Growth {
+    /// The buckets in use.
+    pub(crate) fn buckets(&self) -> u64 {
+        self.buckets
+    }
+
+    /// `_M_need_rehash(bucket_count, size, ins)` in its `float` arithmetic, before `ins` more
+    /// keys join `n_elt`: the new bucket count (taken as the table's), or `None` (possibly
+    /// moving the threshold).
+    #[inline]
+    pub(crate) fn need_rehash(&mut self, n_elt: u64, ins: u64) -> Option<u64> {
+        if n_elt + ins <= self.next_resize {
+            return None;
+        }
+        let n_bkt = self.buckets;
+        let min_bkts = ins as f32 + n_elt as f32;
+        if min_bkts > n_bkt as f32 {
+            let want = min_bkts.max(2.0f32 * n_bkt as f32);
+            let n = next_bucket_count(f64::from(want).ceil() as u64);
+            self.next_resize = resize_threshold(n);
+            self.buckets = n;
+            Some(n)
+        } else {
+            self.next_resize = resize_threshold(n_bkt);
+            None
+        }
+    }
 }
 
 impl<V: Copy> Default for KeyTable<V> {
     fn default() -> Self {
-        let first = next_bucket_count(10);
+        let growth = Growth::default();
         KeyTable {
             entries: Vec::new(),
             free: Vec::new(),
             slots: HashMap::default(),
-            heads: vec![NIL; first as usize],
-            next_resize: resize_threshold(first),
+            heads: vec![NIL; growth.buckets() as usize],
+            growth,
         }
     }
 }
@@ -163,6 +215,14 @@ impl<V: Copy> KeyTable<V> {
         if let Some(n) = self.need_rehash(1) {
             self.rehash(n);
         }
+        let slot = self.push_head(key, value);
+        self.slots.insert(key, slot);
+        true
+    }
+
+    /// Put `key`, known to be absent, at the head of its bucket's chain; returns its slot.
+    /// Neither the growth policy nor the slot map is consulted (the caller's business).
+    pub(crate) fn push_head(&mut self, key: Key, value: V) -> u32 {
         let b = self.bucket(key);
         let e = Entry {
             key,
@@ -180,8 +240,7 @@ impl<V: Copy> KeyTable<V> {
             }
         };
         self.heads[b] = slot;
-        self.slots.insert(key, slot);
-        true
+        slot
     }
 
     /// `insert(first, last)`: room for the whole range first (duplicates included), then
@@ -195,29 +254,14 @@ impl<V: Copy> KeyTable<V> {
         }
     }
 
-    /// `_M_need_rehash(bucket_count, size, ins)` in its `float` arithmetic: the new bucket
-    /// count, or `None` (possibly moving the threshold).
+    /// [`Growth::need_rehash`] before `ins` more keys join the table.
     fn need_rehash(&mut self, ins: u64) -> Option<u64> {
-        let n_bkt = self.heads.len() as u64;
-        let n_elt = self.len() as u64;
-        if n_elt + ins <= self.next_resize {
-            return None;
-        }
-        let min_bkts = ins as f32 + n_elt as f32;
-        if min_bkts > n_bkt as f32 {
-            let want = min_bkts.max(2.0f32 * n_bkt as f32);
-            let n = next_bucket_count(f64::from(want).ceil() as u64);
-            self.next_resize = resize_threshold(n);
-            Some(n)
-        } else {
-            self.next_resize = resize_threshold(n_bkt);
-            None
-        }
+        self.growth.need_rehash(self.len() as u64, ins)
     }
 
     /// `_M_rehash`: bucket by bucket, each chain from its head, every element pushed onto the
     /// head of its new bucket's chain.
-    fn rehash(&mut self, buckets: u64) {
+    pub(crate) fn rehash(&mut self, buckets: u64) {
         let old = std::mem::replace(&mut self.heads, vec![NIL; buckets as usize]);
         for head in old {
             let mut s = head;

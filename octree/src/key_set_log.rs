@@ -1,0 +1,369 @@
+//! An insert-only `KeySet` whose iteration order is OctoMap's, for a scan's millions of
+//! insertions: [`KeySetLog`].
+//!
+//! [`KeyTable`] models libstdc++'s hash table as it goes, a chain link per new key and a hash
+//! lookup per insertion. An octomap_server colour scan inserts every step of every ray, about
+//! ten million keys a depth image of which one in a hundred or two is new, so that lookup is
+//! the scan's cost. But of an insert-only table's history the order depends only on
+//!
+//! - the distinct keys, in the order they were first inserted, and
+//! - where the table grew: each growth takes the elements present then and re-chains them;
+//!   whether it grows before an insertion depends on the count of elements and the size of
+//!   the insertion (a range reserves room for all its keys, duplicates included).
+//!
+//! A [`KeySetLog`] keeps just that: membership in a plain set (a bit per voxel of a window
+//! the caller expects the keys in, a hash set beyond it), the new keys in a list, and the
+//! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. The order
+//! is rebuilt once, when asked for, by replaying that history into a [`KeyTable`]: the same
+//! chains, built from the new keys alone.
+
+use crate::key::Key;
+use crate::key_hasher::KeyHashing;
+use crate::key_table::{Growth, KeyTable};
+use std::collections::HashSet;
+
+/// At most this many voxels (bits) in a membership window: 8 MiB of bits.
+pub const MAX_WINDOW_VOXELS: u64 = 1 << 26;
+
+/// An insert-only `KeySet` (OctoMap's `KeySet` under GCC's libstdc++, as [`KeyTable`] models
+/// it) that records its history instead of chaining keys as they come; [`KeySetLog::order`]
+/// gives the keys in the order the `KeySet` would iterate them.
+#[derive(Debug, Clone, Default)]
+pub struct KeySetLog {
+    seen: SeenKeys,
+    /// Distinct keys in the order they were first inserted.
+    keys: Vec<Key>,
+    growth: Growth,
+    /// Growths: the count of keys present and the new bucket count, in order.
+    rehashes: Vec<(usize, u64)>,
+}
+
+impl KeySetLog {
+    /// An empty set, as a default-constructed `KeySet` (11 buckets).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An empty set that expects its keys in the box from `lo` to `hi` (corners included): a
+    /// bit per voxel there answers membership, when the box has at most
+    /// [`MAX_WINDOW_VOXELS`] voxels. Keys outside it are kept too (in a hash set), so the box
+    /// only decides the speed.
+    pub fn with_window(lo: Key, hi: Key) -> Self {
+        KeySetLog {
+            seen: SeenKeys {
+                window: Window::new(lo, hi),
+                rest: HashSet::default(),
+            },
+            ..Self::default()
+        }
+    }
+
+    /// Keys held.
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+
+    /// Whether `key` is in the set.
+    pub fn contains(&self, key: &Key) -> bool {
+        self.seen.contains(*key)
+    }
+
+    /// The buckets the `KeySet` would have now.
+    pub fn bucket_count(&self) -> usize {
+        self.growth.buckets() as usize
+    }
+
+    /// `KeySet::insert(key)`; false when it was there.
+    #[inline]
+    pub fn insert(&mut self, key: Key) -> bool {
+        if !self.seen.insert(key) {
+            return false;
+        }
+        // a new key alone asks the policy (a present one returns before it)
+        self.reserve(1);
+        self.keys.push(key);
+        true
+    }
+
+    /// `KeySet::insert(first, last)`: room for the whole range first (duplicates included),
+    /// then key by key.
+    pub fn insert_range(&mut self, keys: &[Key]) {
+        let mut range = self.range();
+        for &k in keys {
+            range.key(k);
+        }
+        range.finish();
+    }
+
+    /// `KeySet::insert(first, last)` of a range whose keys come one at a time (a ray being
+    /// walked), without holding them: [`RangeInsert::key`] for each, then
+    /// [`RangeInsert::finish`] (the same as [`KeySetLog::insert_range`] over them) or
+    /// [`RangeInsert::cancel`] (as if the range had never been started).
+    pub fn range(&mut self) -> RangeInsert<'_> {
+        RangeInsert {
+            start: self.keys.len(),
+            len: 0,
+            log: self,
+        }
+    }
+
+    /// The policy's answer before `n` more keys: a growth is recorded with the count it
+    /// happens at.
+    #[inline]
+    fn reserve(&mut self, n: usize) {
+        self.reserve_at(self.keys.len(), n);
+    }
+
+    /// The policy's answer before `n` more keys join `count`.
+    #[inline]
+    fn reserve_at(&mut self, count: usize, n: usize) {
+        if let Some(b) = self.growth.need_rehash(count as u64, n as u64) {
+            self.rehashes.push((count, b));
+        }
+    }
+
+    /// The keys in the order OctoMap's `KeySet` iterates them after the same insertions.
+    pub fn order(&self) -> Vec<Key> {
+        let mut table = KeyTable::<()>::new();
+        let mut growths = self.rehashes.iter().peekable();
+        for (i, &k) in self.keys.iter().enumerate() {
+            while let Some(&(_, b)) = growths.next_if(|g| g.0 == i) {
+                table.rehash(b);
+            }
+            table.push_head(k, ());
+        }
+        for &(_, b) in growths {
+            table.rehash(b);
+        }
+        table.iter().map(|(k, ())| k).collect()
+    }
+}
+
+/// A range being inserted ([`KeySetLog::range`]). The policy's room for the range depends on
+/// its length, known only at its end; it comes before the range's first key, and which keys
+/// are new does not depend on it, so [`RangeInsert::finish`] asks the policy afterwards, in
+/// the order `insert(first, last)` asks it: for the range, then for each new key.
+#[derive(Debug)]
+pub struct RangeInsert<'a> {
+    log: &'a mut KeySetLog,
+    /// Keys held before the range.
+    start: usize,
+    /// Keys given so far, duplicates included.
+    len: usize,
+}
+
+impl RangeInsert<'_> {
+    /// The range's next key.
+    #[inline]
+    pub fn key(&mut self, key: Key) {
+        self.len += 1;
+        if self.log.seen.insert(key) {
+            self.log.keys.push(key);
+        }
+    }
+
+    /// End the range: the set is as after `insert(first, last)` of its keys.
+    pub fn finish(self) {
+        let log = self.log;
+        log.reserve_at(self.start, self.len);
+        for count in self.start..log.keys.len() {
+            log.reserve_at(count, 1);
+        }
+    }
+
+    /// Drop the range: the set is as before it (a ray whose keys could not all be computed
+    /// is not inserted at all).
+    pub fn cancel(self) {
+        let log = self.log;
+        for k in log.keys.drain(self.start..) {
+            log.seen.remove(k);
+        }
+    }
+}
+
+/// Membership: a bit per voxel of the window, a hash set for keys outside it.
+#[derive(Debug, Clone, Default)]
+struct SeenKeys {
+    window: Option<Window>,
+    rest: HashSet<Key, KeyHashing>,
+}
+
+impl SeenKeys {
+    /// Add `key`; false when it was there.
+    #[inline]
+    fn insert(&mut self, key: Key) -> bool {
+        if let Some(w) = &mut self.window {
+            if let Some((word, mask)) = w.bit(key) {
+                // stores only for new keys (rare): a store on every step would make the next
+                // step's load of the same word wait for it
+                let b = &mut w.bits[word];
+                let new = *b & mask == 0;
+                if new {
+                    *b |= mask;
+                }
+                return new;
+            }
+        }
+        self.rest.insert(key)
+    }
+
+    fn remove(&mut self, key: Key) {
+        if let Some(w) = &mut self.window {
+            if let Some((word, mask)) = w.bit(key) {
+                w.bits[word] &= !mask;
+                return;
+            }
+        }
+        self.rest.remove(&key);
+    }
+
+    fn contains(&self, key: Key) -> bool {
+        match self
+            .window
+            .as_ref()
+            .and_then(|w| w.bit(key).map(|b| (w, b)))
+        {
+            Some((w, (word, mask))) => w.bits[word] & mask != 0,
+            None => self.rest.contains(&key),
+        }
+    }
+}
+
+/// A box of voxels with a bit each, x fastest.
+#[derive(Debug, Clone)]
+struct Window {
+    lo: [u16; 3],
+    /// Voxels along each axis.
+    dims: [u32; 3],
+    bits: Vec<u64>,
+}
+
+impl Window {
+    /// The box from `lo` to `hi` (corners included), or `None` when it is empty (a corner
+    /// past the other) or holds more than [`MAX_WINDOW_VOXELS`].
+    fn new(lo: Key, hi: Key) -> Option<Window> {
+        if (0..3).any(|i| hi[i] < lo[i]) {
+            return None;
+        }
+        let dims: [u32; 3] = std::array::from_fn(|i| u32::from(hi[i] - lo[i]) + 1);
+        let voxels = dims.iter().map(|&d| u64::from(d)).product::<u64>();
+        (voxels <= MAX_WINDOW_VOXELS).then(|| Window {
+            lo: lo.0,
+            dims,
+            bits: vec![0; voxels.div_ceil(64) as usize],
+        })
+    }
+
+    /// The word and bit of `key`, or `None` outside the box.
+    #[inline]
+    fn bit(&self, key: Key) -> Option<(usize, u64)> {
+        let d: [u32; 3] = std::array::from_fn(|i| u32::from(key[i].wrapping_sub(self.lo[i])));
+        if d[0] >= self.dims[0] || d[1] >= self.dims[1] || d[2] >= self.dims[2] {
+            return None;
+        }
+        let i = (u64::from(d[2]) * u64::from(self.dims[1]) + u64::from(d[1]))
+            * u64::from(self.dims[0])
+            + u64::from(d[0]);
+        Some(((i >> 6) as usize, 1 << (i & 63)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// One insertion: a single key or a range (a ray's keys).
+    #[derive(Debug, Clone)]
+    enum Insert {
+        One(Key),
+        Range(Vec<Key>),
+        /// A range given key by key, then cancelled.
+        Cancelled(Vec<Key>),
+    }
+
+    fn key_in(span: u16) -> impl Strategy<Value = Key> {
+        (0..span, 0..span, 0..span).prop_map(|(x, y, z)| Key::new(100 + x, 200 + y, 300 + z))
+    }
+
+    fn inserts(span: u16) -> impl Strategy<Value = Vec<Insert>> {
+        prop::collection::vec(
+            prop_oneof![
+                key_in(span).prop_map(Insert::One),
+                prop::collection::vec(key_in(span), 0..40).prop_map(Insert::Range),
+                prop::collection::vec(key_in(span), 0..40).prop_map(Insert::Cancelled),
+            ],
+            0..120,
+        )
+    }
+
+    proptest! {
+        /// The log gives the keys, and the bucket count, of the table that models libstdc++
+        /// insertion by insertion, with and without a window (one that holds some of the
+        /// keys, all of them, or none); a cancelled range leaves no trace.
+        #[test]
+        fn order_is_the_modelled_tables(
+            ins in inserts(12),
+            window in prop_oneof![
+                Just(None),
+                (0u16..12, 0u16..12).prop_map(Some),
+            ],
+        ) {
+            let mut model = KeyTable::<()>::new();
+            let mut log = match window {
+                None => KeySetLog::new(),
+                Some((a, b)) => KeySetLog::with_window(
+                    Key::new(100 + a, 200, 300 + a.min(b)),
+                    Key::new(100 + b, 211, 300 + a.max(b)),
+                ),
+            };
+            for i in &ins {
+                match i {
+                    Insert::One(k) => {
+                        prop_assert_eq!(log.insert(*k), model.insert(*k, ()));
+                    }
+                    Insert::Range(ks) => {
+                        model.insert_range(ks.iter().map(|&k| (k, ())));
+                        log.insert_range(ks);
+                    }
+                    Insert::Cancelled(ks) => {
+                        let mut r = log.range();
+                        ks.iter().for_each(|&k| r.key(k));
+                        r.cancel();
+                    }
+                }
+                prop_assert_eq!(log.len(), model.len());
+                prop_assert_eq!(log.bucket_count(), model.bucket_count());
+            }
+            let want: Vec<Key> = model.iter().map(|(k, ())| k).collect();
+            prop_assert_eq!(log.order(), want);
+            for x in 95..115 {
+                let k = Key::new(x, 205, 305);
+                prop_assert_eq!(log.contains(&k), model.contains(&k));
+            }
+        }
+    }
+
+    #[test]
+    fn windows_past_the_limit_or_inside_out_are_not_made() {
+        let lo = Key::new(0, 0, 0);
+        assert!(Window::new(lo, Key::new(1023, 1023, 63)).is_some());
+        assert!(Window::new(lo, Key::new(1023, 1023, 64)).is_none());
+        assert!(Window::new(Key::new(5, 0, 0), Key::new(4, 9, 9)).is_none());
+        // a whole-axis box (65,536 voxels) along one axis fits
+        assert!(Window::new(lo, Key::new(65535, 0, 0)).is_some());
+        // and a key outside any window is still a member once inserted
+        let mut s = KeySetLog::with_window(Key::new(10, 10, 10), Key::new(11, 11, 11));
+        assert!(s.insert(Key::new(65535, 0, 7)));
+        assert!(!s.insert(Key::new(65535, 0, 7)));
+        assert!(s.insert(Key::new(10, 11, 10)));
+        assert!(s.contains(&Key::new(65535, 0, 7)) && s.contains(&Key::new(10, 11, 10)));
+        assert!(!s.contains(&Key::new(11, 11, 10)));
+        assert_eq!(s.len(), 2);
+    }
+}
