@@ -224,9 +224,8 @@ impl ColorOcTree {
     /// colour bookkeeping of the expansions and prunings it causes. Returns the voxel's new
     /// log-odds.
     pub fn update_node(&mut self, key: Key, update: Update, inner: InnerNodes) -> f32 {
-        self.base.update_node(key, update, inner, |b| {
-            b.collapse_path(key, inner);
-        })
+        // colours never stop a prune: each collapse averages them on the way up
+        self.base.update_node(key, update, inner, |_| {}, |_, _| {})
     }
 
     /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's

@@ -2,8 +2,9 @@
 //! voxel key. The side tables of the tree types that carry more than occupancy per node
 //! (`ColorOcTree`'s colours, `OcTreeStamped`'s time stamps) are keyed by it.
 
-use crate::key::Key;
+use crate::key::{Key, TREE_DEPTH};
 use crate::key_hasher::KeyHashing;
+use std::collections::HashMap;
 
 /// The side table's key for a node: its depth and smallest voxel key.
 pub(crate) type NodeId = (u8, Key);
@@ -27,5 +28,213 @@ pub(crate) fn child_id(id: NodeId, i: usize) -> NodeId {
     (depth + 1, k)
 }
 
-/// The side tables' map from node ids to payloads, hashed by [`crate::key_hasher::KeyHasher`].
-pub(crate) type NodeMap<P> = std::collections::HashMap<NodeId, P, KeyHashing>;
+/// Voxels per brick: the 4x4x4 voxels below a depth-14 node.
+const BRICK_VOXELS: usize = 64;
+
+/// The side tables' map from node ids to payloads, holding no entry for `unset` (white, stamp
+/// 0): the payloads of depth-16 nodes (voxels), most of the entries, in slabs of a 4x4x4
+/// brick each, the others in a hash map (both hashed by [`crate::key_hasher::KeyHasher`]).
+///
+/// Why slabs: a voxel update reads its seven siblings' payloads (may the eight be collapsed?)
+/// and writes its own; with a hash entry per voxel each of those was a cache miss of its own
+/// (the entries of neighbours land anywhere), with a slab per brick they share one or two
+/// cache lines.
+#[derive(Debug, Clone)]
+pub(crate) struct NodeMap<P> {
+    unset: P,
+    /// Nodes above depth 16.
+    inner: HashMap<NodeId, P, KeyHashing>,
+    /// Brick code (a voxel key's upper 14 bits per axis, packed) to slab index.
+    bricks: HashMap<u64, u32, KeyHashing>,
+    /// A brick's voxel payloads (`unset`: none) and how many are set.
+    slabs: Vec<([P; BRICK_VOXELS], u8)>,
+    /// Slabs no brick uses.
+    free: Vec<u32>,
+    /// Entries in all.
+    len: usize,
+}
+
+/// A voxel's brick code and its place in the brick's slab.
+#[inline]
+fn brick_of(k: Key) -> (u64, usize) {
+    let code = u64::from(k[0] >> 2) | u64::from(k[1] >> 2) << 14 | u64::from(k[2] >> 2) << 28;
+    let slot = usize::from(k[0] & 3) | usize::from(k[1] & 3) << 2 | usize::from(k[2] & 3) << 4;
+    (code, slot)
+}
+
+impl<P: Copy + PartialEq> NodeMap<P> {
+    /// An empty map whose absent entries read as `unset`.
+    pub(crate) fn new(unset: P) -> Self {
+        NodeMap {
+            unset,
+            inner: HashMap::default(),
+            bricks: HashMap::default(),
+            slabs: Vec::new(),
+            free: Vec::new(),
+            len: 0,
+        }
+    }
+
+    /// Entries held.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether no entry is held.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// No entries.
+    pub(crate) fn clear(&mut self) {
+        self.inner.clear();
+        self.bricks.clear();
+        self.slabs.clear();
+        self.free.clear();
+        self.len = 0;
+    }
+
+    /// The payload of `id`, `unset` when it has none.
+    #[inline]
+    pub(crate) fn get(&self, id: NodeId) -> P {
+        if id.0 < TREE_DEPTH {
+            return self.inner.get(&id).copied().unwrap_or(self.unset);
+        }
+        let (code, slot) = brick_of(id.1);
+        match self.bricks.get(&code) {
+            Some(&s) => self.slabs[s as usize].0[slot],
+            None => self.unset,
+        }
+    }
+
+    /// Give `id` the payload `p` (`unset` removes its entry).
+    #[inline]
+    pub(crate) fn insert(&mut self, id: NodeId, p: P) {
+        if p == self.unset {
+            self.remove(id);
+            return;
+        }
+        if id.0 < TREE_DEPTH {
+            if self.inner.insert(id, p).is_none() {
+                self.len += 1;
+            }
+            return;
+        }
+        let (code, slot) = brick_of(id.1);
+        let s = match self.bricks.get(&code) {
+            Some(&s) => s,
+            None => {
+                let fresh = ([self.unset; BRICK_VOXELS], 0);
+                let s = match self.free.pop() {
+                    Some(s) => {
+                        self.slabs[s as usize] = fresh;
+                        s
+                    }
+                    None => {
+                        self.slabs.push(fresh);
+                        (self.slabs.len() - 1) as u32
+                    }
+                };
+                self.bricks.insert(code, s);
+                s
+            }
+        };
+        let (vals, count) = &mut self.slabs[s as usize];
+        if vals[slot] == self.unset {
+            *count += 1;
+            self.len += 1;
+        }
+        vals[slot] = p;
+    }
+
+    /// Remove the entry of `id`, returning its payload (`None`: it had none).
+    #[inline]
+    pub(crate) fn remove(&mut self, id: NodeId) -> Option<P> {
+        if id.0 < TREE_DEPTH {
+            let p = self.inner.remove(&id);
+            self.len -= usize::from(p.is_some());
+            return p;
+        }
+        let (code, slot) = brick_of(id.1);
+        let &s = self.bricks.get(&code)?;
+        let (vals, count) = &mut self.slabs[s as usize];
+        let p = vals[slot];
+        if p == self.unset {
+            return None;
+        }
+        vals[slot] = self.unset;
+        *count -= 1;
+        self.len -= 1;
+        if *count == 0 {
+            self.bricks.remove(&code);
+            self.free.push(s);
+        }
+        Some(p)
+    }
+
+    /// The ids with an entry, in no particular order.
+    #[cfg(test)]
+    pub(crate) fn ids(&self) -> impl Iterator<Item = NodeId> + '_ {
+        let voxels = self.bricks.iter().flat_map(move |(&code, &s)| {
+            let lo = |shift: u32| ((code >> shift) as u16 & 0x3fff) << 2;
+            let base = [lo(0), lo(14), lo(28)];
+            let vals = &self.slabs[s as usize].0;
+            (0..BRICK_VOXELS)
+                .filter(move |&i| vals[i] != self.unset)
+                .map(move |i| {
+                    let k = Key::new(
+                        base[0] | (i & 3) as u16,
+                        base[1] | (i >> 2 & 3) as u16,
+                        base[2] | (i >> 4 & 3) as u16,
+                    );
+                    (TREE_DEPTH, k)
+                })
+        });
+        self.inner.keys().copied().chain(voxels)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::collections::HashMap;
+
+    proptest! {
+        /// The map holds what a plain hash map of the set entries holds (setting the unset
+        /// payload removes), through slabs emptied and reused.
+        #[test]
+        fn holds_what_a_hash_map_holds(
+            ops in prop::collection::vec(
+                (0u8..3, 13u8..=16, 0u16..12, 0u16..12, 0u16..4, 0u32..4),
+                0..300,
+            )
+        ) {
+            let mut m = NodeMap::new(0u32);
+            let mut naive: HashMap<NodeId, u32> = HashMap::new();
+            for (op, depth, x, y, z, p) in ops {
+                let id = node_id(Key::new(32760 + x, 32760 + y, 32760 + z), depth);
+                match op {
+                    0 | 1 => {
+                        m.insert(id, p);
+                        if p == 0 {
+                            naive.remove(&id);
+                        } else {
+                            naive.insert(id, p);
+                        }
+                    }
+                    _ => prop_assert_eq!(m.remove(id), naive.remove(&id)),
+                }
+                prop_assert_eq!(m.get(id), naive.get(&id).copied().unwrap_or(0));
+                prop_assert_eq!(m.len(), naive.len());
+            }
+            let mut ids: Vec<NodeId> = m.ids().collect();
+            let mut want: Vec<NodeId> = naive.keys().copied().collect();
+            ids.sort();
+            want.sort();
+            prop_assert_eq!(ids, want);
+            prop_assert!(m.bricks.len() <= m.slabs.len());
+            prop_assert_eq!(m.slabs.len() - m.free.len(), m.bricks.len());
+        }
+    }
+}

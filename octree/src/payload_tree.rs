@@ -52,7 +52,7 @@ impl<P: NodePayload> PayloadTree<P> {
     pub(crate) fn new(tree: OcTree) -> Self {
         PayloadTree {
             tree,
-            payloads: NodeMap::default(),
+            payloads: NodeMap::new(P::UNSET),
         }
     }
 
@@ -64,16 +64,12 @@ impl<P: NodePayload> PayloadTree<P> {
 
     /// The payload of node `id` ([`NodePayload::UNSET`] when it has none).
     pub(crate) fn get(&self, id: NodeId) -> P {
-        self.payloads.get(&id).copied().unwrap_or(P::UNSET)
+        self.payloads.get(id)
     }
 
     /// Give node `id` the payload `p`; an unset payload removes its entry.
     pub(crate) fn set(&mut self, id: NodeId, p: P) {
-        if p == P::UNSET {
-            self.payloads.remove(&id);
-        } else {
-            self.payloads.insert(id, p);
-        }
+        self.payloads.insert(id, p);
     }
 
     /// The node `search` finds for `key` at `depth`, with its payload; `None` in unknown space.
@@ -84,34 +80,62 @@ impl<P: NodePayload> PayloadTree<P> {
 
     /// OctoMap's `updateNode` on the occupancy with the payload bookkeeping: nothing happens
     /// when the update cannot change the voxel (OctoMap's early exit) or its delta is NaN;
-    /// otherwise the expansions on the way copy payloads down, and `settle` then mirrors what
-    /// happened on the way back up. Returns the voxel's new log-odds.
+    /// otherwise the expansions on the way copy payloads down, and the payloads take part in
+    /// the ascent as in `updateNodeRecurs`: `before` runs once the update is known to apply
+    /// (so the voxel's new payload is what its parent compares), a prune the occupancy allows
+    /// is made only if the children's payloads allow it too (their payloads then collapse into
+    /// the parent's), and `after` gets the depth of the node holding `key` afterwards (`None`
+    /// for a deferred update, which has no ascent). Nothing is pruned that would have to be
+    /// expanded again. Returns the voxel's new log-odds.
     pub(crate) fn update_node(
         &mut self,
         key: Key,
         update: Update,
         inner: InnerNodes,
-        settle: impl FnOnce(&mut Self),
+        before: impl FnOnce(&mut Self),
+        after: impl FnOnce(&mut Self, Option<u8>),
     ) -> f32 {
+        if let Err(v) = self.start_update(key, update) {
+            return v;
+        }
+        before(self);
+        let mut held = TREE_DEPTH;
+        let PayloadTree { tree, payloads } = self;
+        let v = tree.update_node_guarded(key, update, inner, |depth| {
+            let id = node_id(key, depth);
+            if !P::may_collapse(|i| payloads.get(child_id(id, i))) {
+                return false;
+            }
+            collapse_into(payloads, id);
+            held = depth;
+            true
+        });
+        after(self, (!inner.is_deferred()).then_some(held));
+        v
+    }
+
+    /// The start of an update of `key`: `Err` with the voxel's log-odds when nothing is to
+    /// change (OctoMap's early exit at the clamp, or a NaN delta, which the plain tree
+    /// ignores); otherwise the payloads of the pruned leaf holding `key`, which the descent
+    /// will expand, are copied down.
+    fn start_update(&mut self, key: Key, update: Update) -> Result<(), f32> {
         let delta = self.tree.delta(update);
         let found = self.tree.search(key, TREE_DEPTH);
         if let Some(n) = found {
             let p = self.tree.params();
             if (delta >= 0.0 && n.value >= p.clamp_max) || (delta <= 0.0 && n.value <= p.clamp_min)
             {
-                return n.value; // OctoMap's early exit: nothing changes
+                return Err(n.value); // OctoMap's early exit: nothing changes
             }
         }
         if delta.is_nan() {
-            return self.tree.update_node(key, update, inner);
+            return Err(found.map_or(0.0, |n| n.value));
         }
         // the descent expands the pruned leaf holding `key` (the node just found)
         if let Some(n) = found {
             self.copy_down(key, n.depth, TREE_DEPTH);
         }
-        let v = self.tree.update_node(key, update, inner);
-        settle(self);
-        v
+        Ok(())
     }
 
     /// OctoMap's `setNodeValue` on the occupancy with the payload bookkeeping, as
@@ -185,9 +209,7 @@ impl<P: NodePayload> PayloadTree<P> {
     /// The eight children of `id` were just collapsed into it: their entries go and it takes
     /// [`NodePayload::collapsed`] of their payloads.
     fn collapse(&mut self, id: NodeId) {
-        let kids =
-            std::array::from_fn(|i| self.payloads.remove(&child_id(id, i)).unwrap_or(P::UNSET));
-        self.set(id, P::collapsed(kids));
+        collapse_into(&mut self.payloads, id);
     }
 
     /// Collapse every node whose eight children are leaves of equal occupancy and whose
@@ -334,7 +356,7 @@ impl<P: NodePayload> PayloadTree<P> {
             if let Some(n) = self.tree.node_at_depth(key, d) {
                 return Some(n);
             }
-            self.payloads.remove(&node_id(key, d));
+            self.payloads.remove(node_id(key, d));
         }
         Some(
             self.tree
@@ -356,10 +378,17 @@ impl<P: NodePayload> PayloadTree<P> {
             for i in 0..8 {
                 if let Some(c) = self.tree.store.child(n, i) {
                     let cid = child_id(id, i);
-                    self.payloads.remove(&cid);
+                    self.payloads.remove(cid);
                     stack.push((c, cid));
                 }
             }
         }
     }
+}
+
+/// The eight children of `id` were just collapsed into it: their entries go and it takes
+/// [`NodePayload::collapsed`] of their payloads.
+fn collapse_into<P: NodePayload>(payloads: &mut NodeMap<P>, id: NodeId) {
+    let kids = std::array::from_fn(|i| payloads.remove(child_id(id, i)).unwrap_or(P::UNSET));
+    payloads.insert(id, P::collapsed(kids));
 }

@@ -208,9 +208,39 @@ impl StampedOcTree {
     /// Integrate one observation of voxel `key` at time `now` (OctoMap's `updateNode` on an
     /// `OcTreeStamped` whose clock reads `now`). Returns the voxel's new log-odds.
     pub fn update_node_at(&mut self, key: Key, update: Update, inner: InnerNodes, now: u32) -> f32 {
-        self.base.update_node(key, update, inner, |b| {
-            after_descent(b, key, inner, Some(now), now, 0);
-        })
+        self.update_stamping(key, update, inner, now, 0).0
+    }
+
+    /// OctoMap's `updateNode` at time `now` as `updateNodeRecurs` makes it: the voxel gets
+    /// `now` before its parents compare it, a parent is pruned only where its eight children
+    /// also have equal stamps (taking child 0's), and every ancestor left with children gets
+    /// `now`, except the first `known` (depths `0..known`), which the caller knows hold it
+    /// already. Returns the voxel's new log-odds and, for an eager update that applied, the
+    /// depth of the node holding `key` afterwards.
+    fn update_stamping(
+        &mut self,
+        key: Key,
+        update: Update,
+        inner: InnerNodes,
+        now: u32,
+        known: usize,
+    ) -> (f32, Option<u8>) {
+        let mut holder = None;
+        let v = self.base.update_node(
+            key,
+            update,
+            inner,
+            |b| b.set(node_id(key, TREE_DEPTH), now),
+            |b, held| {
+                if let Some(h) = held {
+                    for d in known.min(usize::from(h))..usize::from(h) {
+                        b.set(node_id(key, d as u8), now);
+                    }
+                }
+                holder = held;
+            },
+        );
+        (v, holder)
     }
 
     /// [`StampedOcTree::update_node_at`] inside a batch at one time `now`: `last` is the last
@@ -231,11 +261,7 @@ impl StampedOcTree {
             Some((prev, held)) => usize::from(shared_depth(prev, key).min(held)) + 1,
             None => 0,
         };
-        let mut held = None;
-        self.base.update_node(key, update, inner, |b| {
-            held = after_descent(b, key, inner, Some(now), now, known);
-        });
-        if let Some(h) = held {
+        if let (_, Some(h)) = self.update_stamping(key, update, inner, now, known) {
             *last = Some((key, h));
         }
     }
@@ -261,7 +287,7 @@ impl StampedOcTree {
         now: u32,
     ) -> Result<f32, OctreeError> {
         self.base.set_node_value(key, value, inner, |b| {
-            after_descent(b, key, inner, None, now, 0);
+            after_set(b, key, inner, now);
         })
     }
 
@@ -399,25 +425,17 @@ impl StampedOcTree {
     }
 }
 
-/// After a descent to `key`: stamp the voxel (`leaf_now`, or keep its stamp for a `set`),
-/// then replay `updateNodeRecurs`'s way back up. The plain tree pruned every ancestor whose
-/// children were equal-valued leaves; OctoMap also needs equal stamps, so from the deepest
-/// level where the stamps differ upwards those prunings are undone (the children re-created
-/// by expansion had exactly the pruned value, and their stamps are still in the table). Every
-/// ancestor left with children gets `now`.
-fn after_descent(
-    base: &mut PayloadTree<u32>,
-    key: Key,
-    inner: InnerNodes,
-    leaf_now: Option<u32>,
-    now: u32,
-    known: usize,
-) -> Option<u8> {
-    if let Some(t) = leaf_now {
-        base.set(node_id(key, TREE_DEPTH), t);
-    }
-    let (top, refused) = base.collapse_path(key, inner)?;
-    let (inner_to, held) = match refused {
+/// After a `set` descent to `key` (the voxel keeps its stamp), replay `updateNodeRecurs`'s
+/// way back up. The plain tree pruned every ancestor whose children were equal-valued leaves;
+/// OctoMap also needs equal stamps, so from the deepest level where the stamps differ upwards
+/// those prunings are undone (the children re-created by expansion had exactly the pruned
+/// value, and their stamps are still in the table). Every ancestor left with children gets
+/// `now`. (Updates do this in their ascent: [`PayloadTree::update_node`].)
+fn after_set(base: &mut PayloadTree<u32>, key: Key, inner: InnerNodes, now: u32) {
+    let Some((top, refused)) = base.collapse_path(key, inner) else {
+        return;
+    };
+    let inner_to = match refused {
         Some(k) => {
             for d in top..=k {
                 let r = base
@@ -427,14 +445,13 @@ fn after_descent(
                 base.tree.store.expand_node(r);
                 base.tree.add_size(8);
             }
-            (k + 1, k + 1)
+            k + 1
         }
-        None => (top, top),
+        None => top,
     };
-    for d in known.min(usize::from(inner_to))..usize::from(inner_to) {
-        base.set(node_id(key, d as u8), now);
+    for d in 0..inner_to {
+        base.set(node_id(key, d), now);
     }
-    Some(held)
 }
 
 /// The depth of the deepest node holding both keys (16 when they are equal).

@@ -200,8 +200,8 @@ proptest! {
         }
         let existing: std::collections::HashSet<NodeId> =
             t.nodes_with_stamps().iter().map(|n| (n.0, n.1)).collect();
-        for id in t.base.payloads.keys() {
-            prop_assert!(existing.contains(id), "stamp for a missing node {:?}", id);
+        for id in t.base.payloads.ids() {
+            prop_assert!(existing.contains(&id), "stamp for a missing node {:?}", id);
         }
     }
 }

@@ -210,7 +210,26 @@ impl OcTree {
         }
         let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
         let add = self.store.adder(delta, cmin, cmax);
-        self.descend_and_apply(key, inner, VoxelOp::Add(add))
+        self.descend_and_apply(key, inner, VoxelOp::Add(add), |_| true)
+    }
+
+    /// [`OcTree::update_node`] for a caller that has already taken OctoMap's early exit and
+    /// the NaN case (the trees with a payload per node, which search first), with
+    /// `may_prune(depth)` asked before each ancestor the ascent would prune (see
+    /// [`NodeStore::prune_or_refresh_if`](crate::store::NodeStore::prune_or_refresh_if)):
+    /// refused, it is refreshed instead, as OctoMap's `pruneNode` fails when the children's
+    /// payloads differ.
+    pub(crate) fn update_node_guarded(
+        &mut self,
+        key: Key,
+        update: Update,
+        inner: InnerNodes,
+        may_prune: impl FnMut(u8) -> bool,
+    ) -> f32 {
+        let delta = self.delta(update);
+        let (cmin, cmax) = (self.params.clamp_min, self.params.clamp_max);
+        let add = self.store.adder(delta, cmin, cmax);
+        self.descend_and_apply(key, inner, VoxelOp::Add(add), may_prune)
     }
 
     /// Set voxel `key` to `value` clamped to the sensor model's bounds (OctoMap's
@@ -225,7 +244,7 @@ impl OcTree {
             return Err(OctreeError::NanValue);
         }
         let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
-        Ok(self.descend_and_apply(key, inner, VoxelOp::Set(v)))
+        Ok(self.descend_and_apply(key, inner, VoxelOp::Set(v), |_| true))
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.
@@ -241,8 +260,15 @@ impl OcTree {
 
     /// The shared descent of `updateNodeRecurs` / `setNodeValueRecurs`: create or expand the
     /// path to `key`, apply `op` to the voxel, then (unless deferred) prune or refresh every
-    /// ancestor bottom-up, root included.
-    fn descend_and_apply(&mut self, key: Key, inner: InnerNodes, op: VoxelOp) -> f32 {
+    /// ancestor bottom-up, root included, a prune only where `may_prune(depth)` allows it.
+    #[inline]
+    fn descend_and_apply(
+        &mut self,
+        key: Key,
+        inner: InnerNodes,
+        op: VoxelOp,
+        mut may_prune: impl FnMut(u8) -> bool,
+    ) -> f32 {
         let mut just_created = false;
         if self.store.root_val.is_none() {
             self.store.root_val = Some(0.0);
@@ -292,7 +318,7 @@ impl OcTree {
         self.record_change(key, old, v, just_created);
         if !inner.is_deferred() {
             for n in path.iter().rev() {
-                if self.store.prune_or_refresh(*n) == Some(true) {
+                if self.store.prune_or_refresh_if(*n, || may_prune(n.depth)) == Some(true) {
                     self.size -= 8;
                 }
             }

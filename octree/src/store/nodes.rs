@@ -338,30 +338,38 @@ impl NodeStore {
     /// equal leaves (`Some(true)`), else set it to the max of its children (`Some(false)`).
     #[inline]
     pub fn prune_or_refresh(&mut self, n: NodeRef) -> Option<bool> {
+        self.prune_or_refresh_if(n, || true)
+    }
+
+    /// [`NodeStore::prune_or_refresh`] where a prune the occupancy allows also needs `allow()`
+    /// (asked only then): refused, the node is refreshed instead (to its children's common
+    /// value). The trees with a payload per node use it, whose children must also have equal
+    /// payloads to be pruned.
+    #[inline]
+    pub fn prune_or_refresh_if(
+        &mut self,
+        n: NodeRef,
+        allow: impl FnOnce() -> bool,
+    ) -> Option<bool> {
         let b = self.kids(n);
         if b == NO_BLOCK {
             return None;
         }
         let cd = n.depth + 1;
-        if cd == 16 {
+        let (uniform, v) = if cd == 16 {
             // one look at the depth-16 block: equal children, else their max
-            return Some(match self.voxels.collapse_or_max(b) {
-                (true, v0) => {
-                    self.collapse(n, b, v0);
-                    true
-                }
-                (false, m) => {
-                    self.set_branch_value(n, m);
-                    false
-                }
-            });
-        }
-        if let Some(v0) = self.uniform_in(cd, b) {
-            self.collapse(n, b, v0);
+            self.voxels.collapse_or_max(b)
+        } else {
+            match self.uniform_in(cd, b) {
+                Some(v0) => (true, v0),
+                None => (false, max_present(&self.inner.blocks[b as usize].vals)),
+            }
+        };
+        if uniform && allow() {
+            self.collapse(n, b, v);
             return Some(true);
         }
-        let m = max_present(&self.inner.blocks[b as usize].vals);
-        self.set_branch_value(n, m);
+        self.set_branch_value(n, v);
         Some(false)
     }
 
