@@ -28,25 +28,29 @@ pub(crate) fn child_id(id: NodeId, i: usize) -> NodeId {
     (depth + 1, k)
 }
 
-/// Voxels per brick: the 4x4x4 voxels below a depth-14 node.
+/// Nodes per slab: a 4x4x4 block of nodes of one depth.
 const BRICK_VOXELS: usize = 64;
 
+/// The shallowest depth whose nodes are kept in slabs (14, 15 and 16: most of a tree's nodes).
+const SLAB_MIN_DEPTH: u8 = TREE_DEPTH - 2;
+
 /// The side tables' map from node ids to payloads, holding no entry for `unset` (white, stamp
-/// 0): the payloads of depth-16 nodes (voxels), most of the entries, in slabs of a 4x4x4
-/// brick each, the others in a hash map (both hashed by [`crate::key_hasher::KeyHasher`]).
+/// 0): the payloads of the nodes at depths 14 to 16, most of the entries, in slabs of a 4x4x4
+/// block of same-depth nodes each, the others in a hash map (both hashed by
+/// [`crate::key_hasher::KeyHasher`]).
 ///
 /// Why slabs: a voxel update reads its seven siblings' payloads (may the eight be collapsed?)
-/// and writes its own; with a hash entry per voxel each of those was a cache miss of its own
-/// (the entries of neighbours land anywhere), with a slab per brick they share one or two
-/// cache lines.
+/// and writes its own, and the same one level up; with a hash entry per node each of those was
+/// a cache miss of its own (the entries of neighbours land anywhere), with a slab per block
+/// they share one or two cache lines.
 #[derive(Debug, Clone)]
 pub(crate) struct NodeMap<P> {
     unset: P,
-    /// Nodes above depth 16.
+    /// Nodes above depth 14.
     inner: HashMap<NodeId, P, KeyHashing>,
-    /// Brick code (a voxel key's upper 14 bits per axis, packed) to slab index.
+    /// Block code (see [`slab_of`]) to slab index.
     bricks: HashMap<u64, u32, KeyHashing>,
-    /// A brick's voxel payloads (`unset`: none) and how many are set.
+    /// A block's payloads (`unset`: none) and how many are set.
     slabs: Vec<([P; BRICK_VOXELS], u8)>,
     /// Slabs no brick uses.
     free: Vec<u32>,
@@ -54,11 +58,19 @@ pub(crate) struct NodeMap<P> {
     len: usize,
 }
 
-/// A voxel's brick code and its place in the brick's slab.
+/// The code of the slab of node `id` (depth 14 to 16) and its place there: the node's
+/// coordinates at its depth (`key >> (16 - depth)`) without their two low bits, packed with the
+/// depth, and those low bits.
 #[inline]
-fn brick_of(k: Key) -> (u64, usize) {
-    let code = u64::from(k[0] >> 2) | u64::from(k[1] >> 2) << 14 | u64::from(k[2] >> 2) << 28;
-    let slot = usize::from(k[0] & 3) | usize::from(k[1] & 3) << 2 | usize::from(k[2] & 3) << 4;
+fn slab_of(id: NodeId) -> (u64, usize) {
+    let (depth, k) = id;
+    let up = TREE_DEPTH - depth;
+    let c = k.0.map(|v| v >> up);
+    let code = u64::from(c[0] >> 2)
+        | u64::from(c[1] >> 2) << 14
+        | u64::from(c[2] >> 2) << 28
+        | u64::from(up) << 42;
+    let slot = usize::from(c[0] & 3) | usize::from(c[1] & 3) << 2 | usize::from(c[2] & 3) << 4;
     (code, slot)
 }
 
@@ -97,10 +109,10 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// The payload of `id`, `unset` when it has none.
     #[inline]
     pub(crate) fn get(&self, id: NodeId) -> P {
-        if id.0 < TREE_DEPTH {
+        if id.0 < SLAB_MIN_DEPTH {
             return self.inner.get(&id).copied().unwrap_or(self.unset);
         }
-        let (code, slot) = brick_of(id.1);
+        let (code, slot) = slab_of(id);
         match self.bricks.get(&code) {
             Some(&s) => self.slabs[s as usize].0[slot],
             None => self.unset,
@@ -114,13 +126,13 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             self.remove(id);
             return;
         }
-        if id.0 < TREE_DEPTH {
+        if id.0 < SLAB_MIN_DEPTH {
             if self.inner.insert(id, p).is_none() {
                 self.len += 1;
             }
             return;
         }
-        let (code, slot) = brick_of(id.1);
+        let (code, slot) = slab_of(id);
         let s = match self.bricks.get(&code) {
             Some(&s) => s,
             None => {
@@ -150,12 +162,12 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// Remove the entry of `id`, returning its payload (`None`: it had none).
     #[inline]
     pub(crate) fn remove(&mut self, id: NodeId) -> Option<P> {
-        if id.0 < TREE_DEPTH {
+        if id.0 < SLAB_MIN_DEPTH {
             let p = self.inner.remove(&id);
             self.len -= usize::from(p.is_some());
             return p;
         }
-        let (code, slot) = brick_of(id.1);
+        let (code, slot) = slab_of(id);
         let &s = self.bricks.get(&code)?;
         let (vals, count) = &mut self.slabs[s as usize];
         let p = vals[slot];
@@ -175,22 +187,20 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// The ids with an entry, in no particular order.
     #[cfg(test)]
     pub(crate) fn ids(&self) -> impl Iterator<Item = NodeId> + '_ {
-        let voxels = self.bricks.iter().flat_map(move |(&code, &s)| {
+        let slabbed = self.bricks.iter().flat_map(move |(&code, &s)| {
+            let up = (code >> 42) as u8;
             let lo = |shift: u32| ((code >> shift) as u16 & 0x3fff) << 2;
             let base = [lo(0), lo(14), lo(28)];
             let vals = &self.slabs[s as usize].0;
             (0..BRICK_VOXELS)
                 .filter(move |&i| vals[i] != self.unset)
                 .map(move |i| {
-                    let k = Key::new(
-                        base[0] | (i & 3) as u16,
-                        base[1] | (i >> 2 & 3) as u16,
-                        base[2] | (i >> 4 & 3) as u16,
-                    );
-                    (TREE_DEPTH, k)
+                    let c = [i & 3, i >> 2 & 3, i >> 4 & 3];
+                    let k = Key(std::array::from_fn(|a| (base[a] | c[a] as u16) << up));
+                    (TREE_DEPTH - up, k)
                 })
         });
-        self.inner.keys().copied().chain(voxels)
+        self.inner.keys().copied().chain(slabbed)
     }
 }
 
@@ -206,14 +216,14 @@ mod tests {
         #[test]
         fn holds_what_a_hash_map_holds(
             ops in prop::collection::vec(
-                (0u8..3, 13u8..=16, 0u16..12, 0u16..12, 0u16..4, 0u32..4),
+                (0u8..3, 12u8..=16, 0u16..12, 0u16..12, 0u16..4, 0u32..4),
                 0..300,
             )
         ) {
             let mut m = NodeMap::new(0u32);
             let mut naive: HashMap<NodeId, u32> = HashMap::new();
             for (op, depth, x, y, z, p) in ops {
-                let id = node_id(Key::new(32760 + x, 32760 + y, 32760 + z), depth);
+                let id = node_id(Key::new(32760 + 4 * x, 32760 + 4 * y, 32760 + z), depth);
                 match op {
                     0 | 1 => {
                         m.insert(id, p);
