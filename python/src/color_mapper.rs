@@ -149,7 +149,6 @@ impl PyColorMapper {
         py: Python<'py>,
         frames: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let first = self.mapper.frames();
         let list = read_frames(frames, |i, item| {
             let (pts, colors, origin): (
                 Bound<'py, PyAny>,
@@ -158,7 +157,7 @@ impl PyColorMapper {
             ) = item.extract()?;
             let frame = coloured_frame(&pts, &colors, origin_or_zero(origin.as_ref())?)?;
             self.mapper
-                .check(&frame, first + i)
+                .check(&frame, i)
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
             Ok(frame)
         })?;

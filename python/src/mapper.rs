@@ -154,7 +154,9 @@ pub(crate) fn origin_or_zero(origin: Option<&Bound<'_, PyAny>>) -> PyResult<Poin
 
 /// The frames of an ``insert_frames`` call, each read by `read` (given its position in the
 /// list), all read before any is inserted: an error names the frame (``frames[i]: ...``, the
-/// exception type kept, the original as its cause) and leaves the map as it was.
+/// exception type kept, the original as its cause) and leaves the map as it was. A library
+/// check that names the frame itself is given the list position `i` as the frame's number,
+/// and its ``frame i`` becomes ``frames[i]``, so the frame is named once.
 pub(crate) fn read_frames<'py, T>(
     frames: &Bound<'py, PyAny>,
     mut read: impl FnMut(usize, Bound<'py, PyAny>) -> PyResult<T>,
@@ -163,7 +165,13 @@ pub(crate) fn read_frames<'py, T>(
     let mut out = Vec::new();
     for (i, item) in frames.try_iter()?.enumerate() {
         let frame = item.and_then(|item| read(i, item)).map_err(|e| {
-            let named = PyErr::from_type(e.get_type(py), format!("frames[{i}]: {}", e.value(py)));
+            let message = e.value(py).to_string();
+            let own = format!("frame {i}");
+            let named = match message.strip_prefix(&own) {
+                Some(rest) if rest.starts_with([':', ' ']) => format!("frames[{i}]{rest}"),
+                _ => format!("frames[{i}]: {message}"),
+            };
+            let named = PyErr::from_type(e.get_type(py), named);
             named.set_cause(py, Some(e));
             named
         })?;

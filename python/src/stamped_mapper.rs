@@ -161,7 +161,6 @@ impl PyStampedMapper {
         py: Python<'py>,
         frames: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let first = self.mapper.frames();
         let list = read_frames(frames, |i, item| {
             let (pts, origin, stamp): (Bound<'py, PyAny>, Option<Bound<'py, PyAny>>, Option<f64>) =
                 item.extract()?;
@@ -174,7 +173,7 @@ impl PyStampedMapper {
             };
             if stamp.is_some() {
                 // the clock is read when the scan goes in; a given time is checked now
-                StampedMapper::frame_time(&frame, first + i).map_err(stamp_error)?;
+                StampedMapper::frame_time(&frame, i).map_err(stamp_error)?;
             }
             Ok(frame)
         })?;
