@@ -9,37 +9,14 @@
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
+use octoquant_fuzz::ops::{FuzzKey, FuzzUpdate};
 use octoquant_octree::io::{read_bt, read_ot, write_bt, write_ot};
 use octoquant_octree::validate::check_well_formed;
 use octoquant_octree::{Brick, InnerNodes, Key, OcTree, Update, TREE_DEPTH};
 use std::collections::BTreeMap;
 
-/// A voxel key: mostly inside a 16³ block around the centre (so siblings meet and prune),
-/// sometimes anywhere.
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum FuzzKey {
-    Near(u8, u8, u8),
-    Far(u16, u16, u16),
-}
-
-impl FuzzKey {
-    fn key(self) -> Key {
-        match self {
-            FuzzKey::Near(x, y, z) => {
-                let c = |v: u8| 0x8000 - 8 + u16::from(v % 16);
-                Key::new(c(x), c(y), c(z))
-            }
-            FuzzKey::Far(x, y, z) => Key::new(x, y, z),
-        }
-    }
-}
-
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum FuzzUpdate {
-    Hit,
-    Miss,
-    LogOdds(f32),
-}
+/// The side of the block of near keys: siblings meet and prune.
+const SIDE: u16 = 16;
 
 #[derive(Arbitrary, Debug, Clone, Copy)]
 enum Op {
@@ -87,14 +64,6 @@ struct Input {
 }
 
 type Model = BTreeMap<[u16; 3], f32>;
-
-fn update_of(u: FuzzUpdate) -> Update {
-    match u {
-        FuzzUpdate::Hit => Update::Hit,
-        FuzzUpdate::Miss => Update::Miss,
-        FuzzUpdate::LogOdds(d) => Update::LogOdds(d),
-    }
-}
 
 /// OctoMap's voxel update: from 0 for a new voxel, `old + delta` clamped, NaN ignored.
 fn model_update(tree: &OcTree, model: &mut Model, key: Key, update: Update) {
@@ -161,14 +130,14 @@ fuzz_target!(|input: Input| {
     for op in input.ops.iter().take(256) {
         match *op {
             Op::Update { key, update, lazy } => {
-                let (k, u) = (key.key(), update_of(update));
+                let (k, u) = (key.key_in(SIDE), update.update());
                 model_update(&tree, &mut model, k, u);
                 tree.update_node(k, u, InnerNodes::from_lazy(lazy));
                 strict &= !lazy;
             }
             Op::UpdateOctant { key, update } => {
-                let base = key.key().0.map(|c| c & !1);
-                let u = update_of(update);
+                let base = key.key_in(SIDE).0.map(|c| c & !1);
+                let u = update.update();
                 for i in 0..8u16 {
                     let k = Key::new(
                         base[0] | (i & 1),
@@ -186,11 +155,11 @@ fuzz_target!(|input: Input| {
                 lazy,
                 track,
             } => {
-                let u = update_of(update);
+                let u = update.update();
                 let list: Vec<Brick> = bricks[..usize::from(count % 5)]
                     .iter()
                     .map(|&(key, voxels)| Brick {
-                        code: Brick::of_voxel(key.key().morton()).code,
+                        code: Brick::of_voxel(key.key_in(SIDE).morton()).code,
                         voxels,
                     })
                     .collect();
@@ -210,7 +179,7 @@ fuzz_target!(|input: Input| {
                 strict &= !lazy;
             }
             Op::Set { key, value, lazy } => {
-                let k = key.key();
+                let k = key.key_in(SIDE);
                 let r = tree.set_node_value(k, value, InnerNodes::from_lazy(lazy));
                 if value.is_nan() {
                     assert!(r.is_err(), "set_node_value accepted NaN");
@@ -221,7 +190,7 @@ fuzz_target!(|input: Input| {
                 }
             }
             Op::Delete { key, depth } => {
-                let k = key.key();
+                let k = key.key_in(SIDE);
                 let d = if depth == 0 || depth > TREE_DEPTH {
                     TREE_DEPTH
                 } else {

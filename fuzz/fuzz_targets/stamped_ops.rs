@@ -10,46 +10,13 @@
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
+use octoquant_fuzz::ops::{FuzzKey, FuzzUpdate};
 use octoquant_octree::io::{read_stamped_ot, write_stamped_ot};
 use octoquant_octree::validate::check_well_formed;
 use octoquant_octree::{InnerNodes, Key, StampedOcTree, Update, TREE_DEPTH};
 
-/// A voxel key: mostly inside an 8³ block around the centre (so siblings meet, collapse and
-/// share ancestors), sometimes anywhere.
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum FuzzKey {
-    Near(u8, u8, u8),
-    Far(u16, u16, u16),
-}
-
-impl FuzzKey {
-    fn key(self) -> Key {
-        match self {
-            FuzzKey::Near(x, y, z) => {
-                let c = |v: u8| 0x8000 - 4 + u16::from(v % 8);
-                Key::new(c(x), c(y), c(z))
-            }
-            FuzzKey::Far(x, y, z) => Key::new(x, y, z),
-        }
-    }
-}
-
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum FuzzUpdate {
-    Hit,
-    Miss,
-    LogOdds(f32),
-}
-
-impl FuzzUpdate {
-    fn update(self) -> Update {
-        match self {
-            FuzzUpdate::Hit => Update::Hit,
-            FuzzUpdate::Miss => Update::Miss,
-            FuzzUpdate::LogOdds(d) => Update::LogOdds(d),
-        }
-    }
-}
+/// The side of the block of near keys: siblings meet, collapse and share ancestors.
+const SIDE: u16 = 8;
 
 #[derive(Arbitrary, Debug, Clone)]
 enum Op {
@@ -126,7 +93,7 @@ fuzz_target!(|input: Input| {
         match op {
             Op::Tick(s) => now = now.wrapping_add(u32::from(*s)),
             Op::Update { key, update, lazy } => {
-                let (k, u) = (key.key(), update.update());
+                let (k, u) = (key.key_in(SIDE), update.update());
                 let inner = InnerNodes::from_lazy(*lazy);
                 let delta = single.occupancy().delta(u);
                 let stamps =
@@ -143,8 +110,8 @@ fuzz_target!(|input: Input| {
                 occupied,
                 lazy,
             } => {
-                let free: Vec<Key> = free.iter().take(64).map(|k| k.key()).collect();
-                let occupied: Vec<Key> = occupied.iter().take(64).map(|k| k.key()).collect();
+                let free: Vec<Key> = free.iter().take(64).map(|k| k.key_in(SIDE)).collect();
+                let occupied: Vec<Key> = occupied.iter().take(64).map(|k| k.key_in(SIDE)).collect();
                 let inner = InnerNodes::from_lazy(*lazy);
                 batched.insert_update_at(
                     free.iter().copied(),
@@ -160,7 +127,7 @@ fuzz_target!(|input: Input| {
                 }
             }
             Op::Set { key, value, lazy } => {
-                let k = key.key();
+                let k = key.key_in(SIDE);
                 let inner = InnerNodes::from_lazy(*lazy);
                 let a = batched.set_node_value_at(k, *value, inner, now);
                 let b = single.set_node_value_at(k, *value, inner, now);
@@ -168,7 +135,7 @@ fuzz_target!(|input: Input| {
                 assert_eq!(a.ok().map(f32::to_bits), b.ok().map(f32::to_bits));
             }
             Op::Delete { key, depth } => {
-                let k = key.key();
+                let k = key.key_in(SIDE);
                 let a = batched.delete_node_at(k, *depth, now);
                 let b = single.delete_node_at(k, *depth, now);
                 assert_eq!(a, b);

@@ -44,3 +44,56 @@ pub fn scratch_subdir(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("cannot create a fuzz scratch directory");
     dir
 }
+
+/// Keys and updates for the structure-aware targets (`octree_ops`, `stamped_ops`), decoded by
+/// `arbitrary`.
+pub mod ops {
+    use arbitrary::Arbitrary;
+    use octoquant_octree::{Key, Update};
+
+    /// A voxel key: mostly inside a small block around the map's centre (so siblings meet,
+    /// collapse and share ancestors), sometimes anywhere.
+    #[derive(Arbitrary, Debug, Clone, Copy)]
+    pub enum FuzzKey {
+        /// Inside the block: each coordinate taken modulo the block's side.
+        Near(u8, u8, u8),
+        /// Anywhere in the map.
+        Far(u16, u16, u16),
+    }
+
+    impl FuzzKey {
+        /// The key, near ones in the block of `side`³ voxels centred on the map's centre
+        /// (`side` at most 256).
+        pub fn key_in(self, side: u16) -> Key {
+            match self {
+                FuzzKey::Near(x, y, z) => {
+                    let c = |v: u8| 0x8000 - side / 2 + u16::from(v) % side;
+                    Key::new(c(x), c(y), c(z))
+                }
+                FuzzKey::Far(x, y, z) => Key::new(x, y, z),
+            }
+        }
+    }
+
+    /// An occupancy update: a hit, a miss or any log-odds (NaN and infinities included).
+    #[derive(Arbitrary, Debug, Clone, Copy)]
+    pub enum FuzzUpdate {
+        /// `Update::Hit`.
+        Hit,
+        /// `Update::Miss`.
+        Miss,
+        /// `Update::LogOdds`.
+        LogOdds(f32),
+    }
+
+    impl FuzzUpdate {
+        /// The library's update.
+        pub fn update(self) -> Update {
+            match self {
+                FuzzUpdate::Hit => Update::Hit,
+                FuzzUpdate::Miss => Update::Miss,
+                FuzzUpdate::LogOdds(d) => Update::LogOdds(d),
+            }
+        }
+    }
+}

@@ -39,6 +39,7 @@
 
 use crate::key::Key;
 use crate::key_hasher::KeyHashing;
+use crate::slots::place;
 use std::collections::HashMap;
 
 /// libstdc++'s `std::tr1::__detail::__prime_list` (64-bit), up to 2^32: the bucket counts of
@@ -229,16 +230,7 @@ impl<V: Copy> KeyTable<V> {
             value,
             next: self.heads[b],
         };
-        let slot = match self.free.pop() {
-            Some(s) => {
-                self.entries[s as usize] = e;
-                s
-            }
-            None => {
-                self.entries.push(e);
-                (self.entries.len() - 1) as u32
-            }
-        };
+        let slot = place(&mut self.entries, &mut self.free, e);
         self.heads[b] = slot;
         slot
     }

@@ -41,6 +41,7 @@ mod merge;
 mod node_id;
 mod params;
 mod payload_tree;
+mod slots;
 mod stamped_tree;
 mod store;
 mod tree;

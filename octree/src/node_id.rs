@@ -4,6 +4,7 @@
 
 use crate::key::{Key, TREE_DEPTH};
 use crate::key_hasher::KeyHashing;
+use crate::slots::place;
 use std::collections::HashMap;
 
 /// The side table's key for a node: its depth and smallest voxel key.
@@ -137,16 +138,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             Some(&s) => s,
             None => {
                 let fresh = ([self.unset; BRICK_VOXELS], 0);
-                let s = match self.free.pop() {
-                    Some(s) => {
-                        self.slabs[s as usize] = fresh;
-                        s
-                    }
-                    None => {
-                        self.slabs.push(fresh);
-                        (self.slabs.len() - 1) as u32
-                    }
-                };
+                let s = place(&mut self.slabs, &mut self.free, fresh);
                 self.bricks.insert(code, s);
                 s
             }
