@@ -37,9 +37,9 @@
 //! a few new keys), is cheaper kept as its history and replayed into this model once:
 //! [`crate::KeySetLog`].
 
+use crate::free_list::place;
 use crate::key::Key;
 use crate::key_hasher::KeyHashing;
-use crate::slots::place;
 use std::collections::HashMap;
 
 /// libstdc++'s `std::tr1::__detail::__prime_list` (64-bit), up to 2^32: the bucket counts of

@@ -2,9 +2,9 @@
 //! voxel key. The side tables of the tree types that carry more than occupancy per node
 //! (`ColorOcTree`'s colours, `OcTreeStamped`'s time stamps) are keyed by it.
 
+use crate::free_list::place;
 use crate::key::{Key, TREE_DEPTH};
 use crate::key_hasher::KeyHashing;
-use crate::slots::place;
 use std::collections::HashMap;
 
 /// The side table's key for a node: its depth and smallest voxel key.
