@@ -236,9 +236,7 @@ impl ColorOcTree {
         value: f32,
         inner: InnerNodes,
     ) -> Result<f32, OctreeError> {
-        self.base.set_node_value(key, value, inner, |b| {
-            b.collapse_path(key, inner);
-        })
+        self.base.set_node_value(key, value, inner, |_, _| {})
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.

@@ -99,9 +99,28 @@ impl<P: NodePayload> PayloadTree<P> {
             return v;
         }
         before(self);
+        self.ascend_collapsing(
+            key,
+            inner,
+            |tree, guard| tree.update_node_guarded(key, update, inner, guard),
+            after,
+        )
+    }
+
+    /// The occupancy operation `op` on `key` (handed the guard its ascent asks before each
+    /// prune), with the payloads taking part in that ascent: a prune is made only if the
+    /// children's payloads allow it too, their payloads then collapsing into the parent's;
+    /// `after` gets the depth of the node holding `key` afterwards (`None` when deferred).
+    fn ascend_collapsing<T>(
+        &mut self,
+        key: Key,
+        inner: InnerNodes,
+        op: impl FnOnce(&mut OcTree, &mut dyn FnMut(u8) -> bool) -> T,
+        after: impl FnOnce(&mut Self, Option<u8>),
+    ) -> T {
         let mut held = TREE_DEPTH;
         let PayloadTree { tree, payloads } = self;
-        let v = tree.update_node_guarded(key, update, inner, |depth| {
+        let out = op(tree, &mut |depth| {
             let id = node_id(key, depth);
             if !P::may_collapse(|i| payloads.get(child_id(id, i))) {
                 return false;
@@ -111,7 +130,7 @@ impl<P: NodePayload> PayloadTree<P> {
             true
         });
         after(self, (!inner.is_deferred()).then_some(held));
-        v
+        out
     }
 
     /// The start of an update of `key`: `Err` with the voxel's log-odds when nothing is to
@@ -139,21 +158,25 @@ impl<P: NodePayload> PayloadTree<P> {
     }
 
     /// OctoMap's `setNodeValue` on the occupancy with the payload bookkeeping, as
-    /// [`PayloadTree::update_node`] (no early exit). Errors on NaN, changing nothing.
+    /// [`PayloadTree::update_node`] (no early exit, and nothing before the ascent: the voxel
+    /// keeps its payload). Errors on NaN, changing nothing.
     pub(crate) fn set_node_value(
         &mut self,
         key: Key,
         value: f32,
         inner: InnerNodes,
-        settle: impl FnOnce(&mut Self),
+        after: impl FnOnce(&mut Self, Option<u8>),
     ) -> Result<f32, OctreeError> {
         if value.is_nan() {
             return Err(OctreeError::NanValue);
         }
         self.before_descent(key);
-        let v = self.tree.set_node_value(key, value, inner)?;
-        settle(self);
-        Ok(v)
+        self.ascend_collapsing(
+            key,
+            inner,
+            |tree, guard| tree.set_node_value_guarded(key, value, inner, guard),
+            after,
+        )
     }
 
     /// A descent to `key` expands a pruned leaf on the path and every level below it.
@@ -179,31 +202,6 @@ impl<P: NodePayload> PayloadTree<P> {
                 self.payloads.insert(child_id(id, i), p);
             }
         }
-    }
-
-    /// After an eager descent to `key`, the occupancy tree has pruned the ancestors of `key`
-    /// that are now leaves: apply the payload rule to them deepest first, as
-    /// `updateNodeRecurs` does on its way back up, until one level's payloads forbid the
-    /// collapse. Returns the depth of the node now holding `key` and the level refused, if any
-    /// (OctoMap pruned neither it nor anything above it); `None` for a deferred descent or
-    /// when `key` is in unknown space.
-    pub(crate) fn collapse_path(
-        &mut self,
-        key: Key,
-        inner: InnerNodes,
-    ) -> Option<(u8, Option<u8>)> {
-        if inner.is_deferred() {
-            return None;
-        }
-        let top = self.tree.search(key, TREE_DEPTH)?.depth;
-        for d in (top..TREE_DEPTH).rev() {
-            let id = node_id(key, d);
-            if !P::may_collapse(|i| self.get(child_id(id, i))) {
-                return Some((top, Some(d)));
-            }
-            self.collapse(id);
-        }
-        Some((top, None))
     }
 
     /// The eight children of `id` were just collapsed into it: their entries go and it takes

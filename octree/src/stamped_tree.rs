@@ -232,11 +232,7 @@ impl StampedOcTree {
             inner,
             |b| b.set(node_id(key, TREE_DEPTH), now),
             |b, held| {
-                if let Some(h) = held {
-                    for d in known.min(usize::from(h))..usize::from(h) {
-                        b.set(node_id(key, d as u8), now);
-                    }
-                }
+                stamp_ancestors(b, key, held, known, now);
                 holder = held;
             },
         );
@@ -286,8 +282,8 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) -> Result<f32, OctreeError> {
-        self.base.set_node_value(key, value, inner, |b| {
-            after_set(b, key, inner, now);
+        self.base.set_node_value(key, value, inner, |b, held| {
+            stamp_ancestors(b, key, held, 0, now);
         })
     }
 
@@ -425,32 +421,21 @@ impl StampedOcTree {
     }
 }
 
-/// After a `set` descent to `key` (the voxel keeps its stamp), replay `updateNodeRecurs`'s
-/// way back up. The plain tree pruned every ancestor whose children were equal-valued leaves;
-/// OctoMap also needs equal stamps, so from the deepest level where the stamps differ upwards
-/// those prunings are undone (the children re-created by expansion had exactly the pruned
-/// value, and their stamps are still in the table). Every ancestor left with children gets
-/// `now`. (Updates do this in their ascent: [`PayloadTree::update_node`].)
-fn after_set(base: &mut PayloadTree<u32>, key: Key, inner: InnerNodes, now: u32) {
-    let Some((top, refused)) = base.collapse_path(key, inner) else {
-        return;
-    };
-    let inner_to = match refused {
-        Some(k) => {
-            for d in top..=k {
-                let r = base
-                    .tree
-                    .search_ref(key, d)
-                    .expect("the pruned ancestor is on the path");
-                base.tree.store.expand_node(r);
-                base.tree.add_size(8);
-            }
-            k + 1
+/// After an eager ascent from `key` that left it held at depth `held` (`None`: deferred, no
+/// ascent): every ancestor above, left with children and refreshed, gets `now`
+/// (`updateOccupancyChildren`), except the first `known` (depths `0..known`), which the
+/// caller knows hold it already.
+fn stamp_ancestors(
+    base: &mut PayloadTree<u32>,
+    key: Key,
+    held: Option<u8>,
+    known: usize,
+    now: u32,
+) {
+    if let Some(h) = held {
+        for d in known.min(usize::from(h))..usize::from(h) {
+            base.set(node_id(key, d as u8), now);
         }
-        None => top,
-    };
-    for d in 0..inner_to {
-        base.set(node_id(key, d), now);
     }
 }
 

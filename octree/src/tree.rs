@@ -240,11 +240,23 @@ impl OcTree {
         value: f32,
         inner: InnerNodes,
     ) -> Result<f32, OctreeError> {
+        self.set_node_value_guarded(key, value, inner, |_| true)
+    }
+
+    /// [`OcTree::set_node_value`] with `may_prune(depth)` asked before each ancestor the
+    /// ascent would prune, as [`OcTree::update_node_guarded`].
+    pub(crate) fn set_node_value_guarded(
+        &mut self,
+        key: Key,
+        value: f32,
+        inner: InnerNodes,
+        may_prune: impl FnMut(u8) -> bool,
+    ) -> Result<f32, OctreeError> {
         if value.is_nan() {
             return Err(OctreeError::NanValue);
         }
         let v = value.max(self.params.clamp_min).min(self.params.clamp_max);
-        Ok(self.descend_and_apply(key, inner, VoxelOp::Set(v), |_| true))
+        Ok(self.descend_and_apply(key, inner, VoxelOp::Set(v), may_prune))
     }
 
     /// Integrate an observation of the voxel containing `point`; errors outside the map.
