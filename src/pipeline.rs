@@ -47,6 +47,11 @@ pub struct Mapper {
     /// The second buffers of [`Mapper::insert_frames`]: the next frame's rays.
     next_update: ScanUpdate,
     next_centres: Vec<Point3<f32>>,
+    /// The third and fourth buffers of [`Mapper::insert_frames`], once frames are cast in
+    /// pairs.
+    spare: Vec<Slot>,
+    /// When [`Mapper::insert_frames`] casts two frames at once.
+    frame_pairs: FramePairs,
     stats: MapStats,
     /// Fingerprint of every frame inserted so far (what a checkpoint records); `None` after
     /// [`Mapper::without_checkpoints`], when no frame is digested.
@@ -54,6 +59,28 @@ pub struct Mapper {
     /// The checkpoint this mapper continues, for the error when the skipped frames differ.
     resumed_from: Option<PathBuf>,
 }
+
+/// When the pipelined insertion ([`Mapper::insert_frames`], [`Mapper::insert_stream`]
+/// without checkpoints) casts two frames at once, each on a thread of its own, instead of one
+/// frame at a time on all threads. Pairs keep both threads busy on frames whose casting is
+/// short or has serial parts (depth images: about 5 ms a frame, where a split frame's second
+/// thread joins late), at the cost of the working buffers (hash tables, sorted sets) of two
+/// castings at once. The tree is the same, byte for byte, in every case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FramePairs {
+    /// One frame at a time.
+    Never,
+    /// Once the frames' tree updates take less than half their casting (measured on the
+    /// frames just applied; so not for LiDAR at fine resolutions, where the tree is half the
+    /// work and pairs would only cost memory).
+    #[default]
+    WhenTreeIsCheap,
+    /// From the first frames on.
+    Always,
+}
+
+/// The buffers of one frame in flight: its key sets and scratch, and its quantized end points.
+type Slot = (ScanUpdate, Vec<Point3<f32>>);
 
 /// Why [`Mapper::insert_stream`] stopped early.
 #[derive(Debug, thiserror::Error)]
@@ -68,7 +95,7 @@ pub enum RunError {
 }
 
 /// Frames read ahead of insertion by [`Mapper::insert_stream`]'s reader thread, at most: with
-/// the frame being cast and the one being applied, the frames in memory at any moment.
+/// the frames being cast (one, or two in [`FramePairs`]), the frames in memory at any moment.
 pub const READ_AHEAD: usize = 2;
 
 impl Mapper {
@@ -89,6 +116,8 @@ impl Mapper {
             centres: Vec::new(),
             next_update: ScanUpdate::new(),
             next_centres: Vec::new(),
+            spare: Vec::new(),
+            frame_pairs: FramePairs::default(),
             stats: MapStats::default(),
             fingerprint: Some(FramesFingerprint::new()),
             resumed_from: None,
@@ -102,6 +131,13 @@ impl Mapper {
     /// before inserting: frames inserted earlier are forgotten by the fingerprint too.
     pub fn without_checkpoints(mut self) -> Self {
         self.fingerprint = None;
+        self
+    }
+
+    /// This mapper with `pairs` as the policy for casting two frames at once (see
+    /// [`FramePairs`]; the default is [`FramePairs::WhenTreeIsCheap`]).
+    pub fn with_frame_pairs(mut self, pairs: FramePairs) -> Self {
+        self.frame_pairs = pairs;
         self
     }
 
@@ -178,11 +214,13 @@ impl Mapper {
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
     /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of frame
-    /// `i + 1` are cast on the others. With one rayon thread it is a plain loop.
+    /// `i + 1` are cast on the others, or, where the tree updates are cheap, two frames are
+    /// cast at once, a thread each ([`FramePairs`]). With one rayon thread it is a plain loop.
     ///
-    /// Each frame's `seconds` is the wall time from the end of the previous frame's tree
-    /// update to the end of its own (its share of the throughput); `ray_seconds` and
-    /// `tree_seconds` are measured inside each stage and overlap between frames.
+    /// Each frame's `seconds` is its share of the wall time from the end of the previous
+    /// step's tree updates to the end of its own (one frame per step, or the two of a pair:
+    /// the sum over frames is the run's time); `ray_seconds` and `tree_seconds` are measured
+    /// inside each stage and overlap between frames.
     pub fn insert_frames(&mut self, frames: &[Frame]) -> Vec<FrameStats> {
         if self.options.mode == InsertMode::Simple
             || rayon::current_num_threads() < 2
@@ -192,10 +230,14 @@ impl Mapper {
         }
         let mut out = Vec::with_capacity(frames.len());
         let mut in_memory = frames.iter().map(Ok::<&Frame, RunError>);
-        let done = self.pipeline(&mut in_memory, &mut |_, st| {
-            out.push(*st);
-            Ok(())
-        });
+        let done = self.pipeline(
+            &mut in_memory,
+            &mut |_, st| {
+                out.push(*st);
+                Ok(())
+            },
+            true,
+        );
         // frames in memory cannot fail to read, and collecting the stats cannot fail
         debug_assert!(done.is_ok());
         out
@@ -261,8 +303,9 @@ impl Mapper {
     /// tree (none for a new mapper; the checkpoint's position for a resumed one, whose
     /// skipped frames must have the checkpoint's fingerprint). Only a few frames are in memory
     /// at any time: with two or more rayon threads a reader thread reads at most
-    /// [`READ_AHEAD`] frames ahead while one frame's rays are cast and the previous one is
-    /// applied to the tree (the pipelining of [`Mapper::insert_frames`]); with one thread,
+    /// [`READ_AHEAD`] frames ahead while one frame's rays are cast (or two, see [`FramePairs`];
+    /// not with `checkpoint`) and the previous ones are applied to the tree (the pipelining of
+    /// [`Mapper::insert_frames`]; a frame is dropped once cast); with one thread,
     /// frames are read, cast and applied in turn. The tree is the same, byte for byte, either
     /// way and for any number of frames.
     ///
@@ -372,7 +415,9 @@ impl Mapper {
                 after(self, &st)?;
             }
         } else {
-            self.pipeline(frames, &mut after)?;
+            // a checkpoint must hold exactly the frames counted, so frames are applied one per
+            // step then
+            self.pipeline(frames, &mut after, checkpoint.is_none())?;
         }
         if let Some((c, identity)) = checkpoint {
             // the last frame (or a run with none, or resumed after its last) ends checkpointed
@@ -387,95 +432,182 @@ impl Mapper {
 
     /// The pipelined loop of [`Mapper::insert_frames`] and [`Mapper::insert_stream`] (frames
     /// owned or borrowed): while frame `i` is applied to the tree, the rays of frame `i + 1`
-    /// are cast; `after` runs with the frame's stats once each frame is in the tree (the next
-    /// one's rays may be ready, but the tree holds exactly the frames counted).
+    /// are cast (or, in pairs, frames `i` and `i + 1` are applied while `i + 2` and `i + 3`
+    /// are cast; see [`FramePairs`]); `after` runs with each frame's stats once it is in the
+    /// tree. Without `pairs` the tree then holds exactly the frames counted (checkpoints need
+    /// that); with them, the other frame of its pair may be in it too.
     fn pipeline<F: Borrow<Frame> + Sync>(
         &mut self,
         frames: &mut dyn Iterator<Item = Result<F, RunError>>,
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
+        pairs: bool,
     ) -> Result<(), RunError> {
-        let Some(first) = frames.next() else {
-            return Ok(());
+        // the buffers of the frames in flight: the mapper's two, and two more for pairs
+        let spare = std::mem::take(&mut self.spare);
+        let mut slots: Vec<Option<Slot>> = [
+            (
+                std::mem::take(&mut self.update),
+                std::mem::take(&mut self.centres),
+            ),
+            (
+                std::mem::take(&mut self.next_update),
+                std::mem::take(&mut self.next_centres),
+            ),
+        ]
+        .into_iter()
+        .chain(spare)
+        .chain(std::iter::repeat_with(|| (ScanUpdate::new(), Vec::new())))
+        .take(if pairs && self.frame_pairs != FramePairs::Never {
+            4
+        } else {
+            2
+        })
+        .map(Some)
+        .collect();
+        let done = self.pipeline_steps(frames, after, pairs, &mut slots);
+        // every slot is back in `slots` (the steps return them before any error)
+        let mut back = slots.into_iter().flatten();
+        let mut put = |u: &mut ScanUpdate, c: &mut Vec<Point3<f32>>| {
+            if let Some((bu, bc)) = back.next() {
+                *u = bu;
+                *c = bc;
+            }
         };
-        let frame = first?;
+        put(&mut self.update, &mut self.centres);
+        put(&mut self.next_update, &mut self.next_centres);
+        self.spare = back.collect();
+        done
+    }
+
+    /// The steps of [`Mapper::pipeline`]: each applies the frames cast in the step before (in
+    /// order, on one thread) while the next frames are cast, one at a time on all threads, or
+    /// two at once, each on a thread of its own, once the tree updates have proved cheap beside
+    /// the casting (a frame's tree update under half its casting): then a frame's casting no
+    /// longer waits for the serial parts of the other's (set-up, merge, sort) or for a worker
+    /// to wake, as the rays of a cheap depth image did on two threads. Which frames go
+    /// together changes only the timing: the tree takes the same key sets in the same order.
+    /// `pairs` is false when `after` must see the tree with exactly the frames it is called
+    /// for (checkpoints): a step applies two frames before calling it for either.
+    fn pipeline_steps<F: Borrow<Frame> + Sync>(
+        &mut self,
+        frames: &mut dyn Iterator<Item = Result<F, RunError>>,
+        after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
+        pairs: bool,
+        slots: &mut [Option<Slot>],
+    ) -> Result<(), RunError> {
         let conv = self.tree.converter().clone();
         let lazy = self.options.lazy;
-        let mut mark = Instant::now();
         // files carry no sensor orientation: the filters' sensor frame has the world's axes
         let identity = UnitQuaternion::identity();
-        let mut cur = prepare(
-            &conv,
-            &self.options,
-            frame.borrow(),
-            &identity,
-            &mut self.update,
-            &mut self.centres,
-        );
         let track = self.fingerprint.is_some();
-        let mut digest = self.digest(frame.borrow());
-        // a frame is needed only until its rays are cast and its digest taken
-        drop(frame);
+        // frames cast and waiting for the tree, in order: their slot, stats and digest
+        let mut ready: Vec<(usize, FrameStats, Option<u64>)> = Vec::new();
+        let mut idle: Vec<usize> = (0..slots.len()).rev().collect();
+        let mut failed = None;
+        let pairs = if pairs {
+            self.frame_pairs
+        } else {
+            FramePairs::Never
+        };
+        let mut width = if pairs == FramePairs::Always { 2 } else { 1 };
+        let mut mark = Instant::now();
         loop {
-            // a source error ends the run after the frame in hand, as without pipelining
-            let (next_frame, failed) = match frames.next() {
-                Some(Ok(f)) => (Some(f), None),
-                Some(Err(e)) => (None, Some(e)),
-                None => (None, None),
-            };
-            let Mapper {
-                tree,
-                options,
-                update,
-                centres,
-                next_update,
-                next_centres,
-                ..
-            } = self;
-            let (tree_s, next) = match &next_frame {
-                Some(f) => {
-                    // the tree needs only the sets of `update`: its working buffers (hash
-                    // tables, the threads' sets) go to the next frame's computation, so that
-                    // one set of them exists, not two
-                    next_update.pass_buffers(update);
-                    // the checkpoints' frame digest too is found off the serial path
-                    let (t, n) = rayon::join(
-                        || apply(tree, update, lazy),
-                        || {
-                            rayon::join(
-                                || {
-                                    prepare(
-                                        &conv,
-                                        options,
-                                        f.borrow(),
-                                        &identity,
-                                        next_update,
-                                        next_centres,
-                                    )
-                                },
-                                || track.then(|| frame_digest(f.borrow())),
-                            )
-                        },
-                    );
-                    (t, Some(n))
+            // a source error ends the run after the frames in hand, as without pipelining
+            let mut new = Vec::with_capacity(width);
+            while failed.is_none() && new.len() < width {
+                match frames.next() {
+                    Some(Ok(f)) => new.push(f),
+                    Some(Err(e)) => failed = Some(e),
+                    None => break,
                 }
-                None => (apply(tree, update, lazy), None),
-            };
-            std::mem::swap(update, next_update);
-            std::mem::swap(centres, next_centres);
-            cur.tree_seconds = tree_s;
-            cur.seconds = mark.elapsed().as_secs_f64();
-            mark = Instant::now();
-            self.account(digest, &cur);
-            after(self, &cur)?;
-            if let Some(e) = failed {
-                return Err(e);
             }
-            match next {
-                Some((n, d)) => {
-                    cur = n;
-                    digest = d;
+            if ready.is_empty() && new.is_empty() {
+                return failed.map_or(Ok(()), Err);
+            }
+            let mut applying: Vec<(usize, Slot)> = ready
+                .iter()
+                .filter_map(|&(i, ..)| Some((i, slots[i].take()?)))
+                .collect();
+            let mut casting: Vec<(usize, Slot)> = Vec::with_capacity(new.len());
+            for _ in &new {
+                if let Some(i) = idle.pop() {
+                    if let Some(slot) = slots[i].take() {
+                        casting.push((i, slot));
+                    }
                 }
-                None => return Ok(()),
+            }
+            // the tree needs only the sets of a frame: its working buffers (hash tables, the
+            // threads' sets) go to a frame being cast, so that no more of them exist than
+            // frames are cast at once
+            for ((_, c), (_, a)) in casting.iter_mut().zip(applying.iter_mut()) {
+                c.0.pass_buffers(&mut a.0);
+            }
+            let (tree, options) = (&mut self.tree, &self.options);
+            let (tree_s, cast) = rayon::join(
+                || {
+                    applying
+                        .iter()
+                        .map(|(_, (u, _))| apply(tree, u, lazy))
+                        .collect::<Vec<f64>>()
+                },
+                || {
+                    let one = |f: &F, (u, c): &mut Slot| {
+                        // the checkpoints' frame digest too is found off the serial path
+                        rayon::join(
+                            || prepare(&conv, options, f.borrow(), &identity, u, c),
+                            || track.then(|| frame_digest(f.borrow())),
+                        )
+                    };
+                    match (&new[..], &mut casting[..]) {
+                        ([a, b], [(_, sa), (_, sb)]) => {
+                            let (x, y) = rayon::join(|| one(a, sa), || one(b, sb));
+                            vec![x, y]
+                        }
+                        _ => new
+                            .iter()
+                            .zip(casting.iter_mut())
+                            .map(|(f, (_, s))| one(f, s))
+                            .collect(),
+                    }
+                },
+            );
+            drop(new);
+            // every slot goes back: those cast wait for the tree, those applied are free
+            let cast_slots: Vec<usize> = casting.iter().map(|&(i, _)| i).collect();
+            for (i, slot) in casting {
+                slots[i] = Some(slot);
+            }
+            let n = applying.len();
+            for (i, slot) in applying {
+                slots[i] = Some(slot);
+                idle.push(i);
+            }
+            let done = std::mem::replace(
+                &mut ready,
+                cast_slots
+                    .into_iter()
+                    .zip(cast)
+                    .map(|(i, (st, digest))| (i, st, digest))
+                    .collect(),
+            );
+            if n == 0 {
+                // the first frames' casting counts towards the first frame's time
+                continue;
+            }
+            // each frame applied in this step gets an equal share of its time
+            let share = mark.elapsed().as_secs_f64() / n as f64;
+            mark = Instant::now();
+            let (mut tree_total, mut ray_total) = (0.0, 0.0);
+            for ((_, mut st, digest), t) in done.into_iter().zip(tree_s) {
+                st.tree_seconds = t;
+                st.seconds = share;
+                tree_total += t;
+                ray_total += st.ray_seconds;
+                self.account(digest, &st);
+                after(self, &st)?;
+            }
+            if pairs == FramePairs::WhenTreeIsCheap {
+                width = if tree_total < 0.5 * ray_total { 2 } else { 1 };
             }
         }
     }

@@ -11,6 +11,7 @@ mod distance;
 mod eval;
 mod filters;
 mod formats;
+mod frame_pairs;
 mod frame_slices;
 mod grid;
 mod import;

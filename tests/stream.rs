@@ -6,7 +6,7 @@
 use crate::common::{self, first_diff, scratch};
 use octoquant::formats::{count_frames, frame_stream, read_frames, ReadOptions};
 use octoquant::octree::io::write_bt;
-use octoquant::pipeline::{Mapper, MapperOptions, READ_AHEAD};
+use octoquant::pipeline::{FramePairs, Mapper, MapperOptions, READ_AHEAD};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
@@ -124,12 +124,19 @@ fn announced_frame_counts_are_the_frames_read() {
 }
 
 /// However many frames the source yields, `insert_stream` has pulled at most a few more
-/// than it has inserted: the frames in memory are bounded by [`READ_AHEAD`] plus the frame
-/// being cast and the one being applied (counted at every frame, not timed).
+/// than it has inserted: the frames in memory are bounded by [`READ_AHEAD`] plus the frames
+/// being cast (one, or two in pairs) and those cast and waiting for the tree (one, or two in
+/// pairs; only their key sets are kept), counted at every frame, not timed.
 #[test]
 fn stream_holds_a_bounded_number_of_frames() {
     let base = scene_frames();
-    for threads in [1, 2] {
+    let policies = [
+        (1, FramePairs::WhenTreeIsCheap, 0),
+        (2, FramePairs::Never, READ_AHEAD + 2),
+        (2, FramePairs::WhenTreeIsCheap, READ_AHEAD + 4),
+        (2, FramePairs::Always, READ_AHEAD + 4),
+    ];
+    for (threads, pairs, bound) in policies {
         for n in [50usize, 1000] {
             let pulled = AtomicUsize::new(0);
             let source = (0..n).map(|i| {
@@ -151,17 +158,17 @@ fn stream_holds_a_bounded_number_of_frames() {
                     resolution: 0.5,
                     ..MapperOptions::default()
                 })
-                .unwrap();
+                .unwrap()
+                .with_frame_pairs(pairs);
                 m.insert_stream(source, None, |s| {
                     most = most.max(pulled.load(Ordering::SeqCst) - s.frames);
                 })
                 .unwrap();
                 assert_eq!(m.stats().frames, n);
             });
-            let bound = if threads == 1 { 0 } else { READ_AHEAD + 2 };
             assert!(
                 most <= bound,
-                "{threads} threads, {n} frames: {most} frames pulled ahead of insertion"
+                "{threads} threads, {pairs:?}, {n} frames: {most} frames pulled ahead of insertion"
             );
         }
     }
