@@ -90,4 +90,4 @@ pub use octoquant_raycast as raycast;
 /// tile, applied per tile, joined; see [`tiled`] for frames in, tile lists out.
 pub use octoquant_tiles as tiles;
 pub use parry3d;
-pub use pipeline::{FramePairs, Mapper, MapperOptions};
+pub use pipeline::{FramePairs, Mapper, MapperOptions, SMALL_FRAME_BRICKS};

@@ -70,14 +70,21 @@ pub struct Mapper {
 pub enum FramePairs {
     /// One frame at a time.
     Never,
-    /// Once the frames' tree updates take less than half their casting (measured on the
-    /// frames just applied; so not for LiDAR at fine resolutions, where the tree is half the
-    /// work and pairs would only cost memory).
+    /// Pairs once the frames just cast are small (under [`SMALL_FRAME_BRICKS`] bricks of
+    /// voxels: the second casting's buffers then stay under about 8 MB) or, measured on the
+    /// frames just applied, their tree updates took under half their casting. So not for
+    /// LiDAR frames of many bricks whose tree update is half the work (norlab at 0.2 and 0.1
+    /// m), where pairs would cost memory and gain nothing.
     #[default]
-    WhenTreeIsCheap,
+    Auto,
     /// From the first frames on.
     Always,
 }
+
+/// Frames whose voxel sets hold fewer bricks (of 4x4x4 voxels) than this are paired by
+/// [`FramePairs::Auto`]: TUM depth images at 0.05 m and the Ouster recording at 0.1 m (a few
+/// ten thousand), not norlab's LiDAR frames (about 180 000 at 0.2 m, 700 000 at 0.1 m).
+pub const SMALL_FRAME_BRICKS: usize = 1 << 16;
 
 /// The buffers of one frame in flight: its key sets and scratch, and its quantized end points.
 type Slot = (ScanUpdate, Vec<Point3<f32>>);
@@ -135,7 +142,7 @@ impl Mapper {
     }
 
     /// This mapper with `pairs` as the policy for casting two frames at once (see
-    /// [`FramePairs`]; the default is [`FramePairs::WhenTreeIsCheap`]).
+    /// [`FramePairs`]; the default is [`FramePairs::Auto`]).
     pub fn with_frame_pairs(mut self, pairs: FramePairs) -> Self {
         self.frame_pairs = pairs;
         self
@@ -214,7 +221,7 @@ impl Mapper {
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
     /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of frame
-    /// `i + 1` are cast on the others, or, where the tree updates are cheap, two frames are
+    /// `i + 1` are cast on the others, or, for small frames or cheap tree updates, two frames are
     /// cast at once, a thread each ([`FramePairs`]). With one rayon thread it is a plain loop.
     ///
     /// Each frame's `seconds` is its share of the wall time from the end of the previous
@@ -481,10 +488,9 @@ impl Mapper {
 
     /// The steps of [`Mapper::pipeline`]: each applies the frames cast in the step before (in
     /// order, on one thread) while the next frames are cast, one at a time on all threads, or
-    /// two at once, each on a thread of its own, once the tree updates have proved cheap beside
-    /// the casting (a frame's tree update under half its casting): then a frame's casting no
-    /// longer waits for the serial parts of the other's (set-up, merge, sort) or for a worker
-    /// to wake, as the rays of a cheap depth image did on two threads. Which frames go
+    /// two at once, each on a thread of its own, as [`FramePairs`] decides after each step:
+    /// then a frame's casting no longer waits for its serial parts (set-up, merge, sort) or for
+    /// a worker to wake, as the rays of a cheap depth image did on two threads. Which frames go
     /// together changes only the timing: the tree takes the same key sets in the same order.
     /// `pairs` is false when `after` must see the tree with exactly the frames it is called
     /// for (checkpoints): a step applies two frames before calling it for either.
@@ -590,8 +596,17 @@ impl Mapper {
                     .map(|(i, (st, digest))| (i, st, digest))
                     .collect(),
             );
+            // the frames just cast are small: a second casting's buffers cost little
+            let small = ready.iter().all(|&(i, ..)| {
+                slots[i].as_ref().is_some_and(|(u, _)| {
+                    u.free_bricks().len() + u.occupied_bricks().len() < SMALL_FRAME_BRICKS
+                })
+            });
             if n == 0 {
                 // the first frames' casting counts towards the first frame's time
+                if pairs == FramePairs::Auto {
+                    width = if small { 2 } else { 1 };
+                }
                 continue;
             }
             // each frame applied in this step gets an equal share of its time
@@ -606,8 +621,12 @@ impl Mapper {
                 self.account(digest, &st);
                 after(self, &st)?;
             }
-            if pairs == FramePairs::WhenTreeIsCheap {
-                width = if tree_total < 0.5 * ray_total { 2 } else { 1 };
+            if pairs == FramePairs::Auto {
+                width = if small || tree_total < 0.5 * ray_total {
+                    2
+                } else {
+                    1
+                };
             }
         }
     }

@@ -12,11 +12,7 @@ use octoquant::pipeline::{FramePairs, InsertMode, Mapper, MapperOptions};
 use octoquant::scene::{scan_lidar, ScanOptions, Scene, SpinningLidar};
 use octoquant::Frame;
 
-const POLICIES: [FramePairs; 3] = [
-    FramePairs::Never,
-    FramePairs::WhenTreeIsCheap,
-    FramePairs::Always,
-];
+const POLICIES: [FramePairs; 3] = [FramePairs::Never, FramePairs::Auto, FramePairs::Always];
 
 /// The `.ot` bytes: log-odds, not only the classes a `.bt` keeps.
 fn ot(m: Mapper) -> Vec<u8> {

@@ -131,9 +131,9 @@ fn announced_frame_counts_are_the_frames_read() {
 fn stream_holds_a_bounded_number_of_frames() {
     let base = scene_frames();
     let policies = [
-        (1, FramePairs::WhenTreeIsCheap, 0),
+        (1, FramePairs::Auto, 0),
         (2, FramePairs::Never, READ_AHEAD + 2),
-        (2, FramePairs::WhenTreeIsCheap, READ_AHEAD + 4),
+        (2, FramePairs::Auto, READ_AHEAD + 4),
         (2, FramePairs::Always, READ_AHEAD + 4),
     ];
     for (threads, pairs, bound) in policies {
