@@ -9,7 +9,7 @@ use octoquant_fuzz::with_file;
 
 fuzz_target!(|data: &[u8]| {
     with_file("input.pcd", data, |path| {
-        let viewpoint = if data.len() % 2 == 0 {
+        let viewpoint = if data.len().is_multiple_of(2) {
             ViewpointUse::Apply
         } else {
             ViewpointUse::OriginOnly

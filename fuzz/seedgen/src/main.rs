@@ -39,6 +39,7 @@ fn main() {
     rows(&mut seeds);
     distance_map(&mut seeds);
     stamped_ops(&mut seeds);
+    frame_pairs(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
     tiles(&mut seeds);
@@ -1051,6 +1052,15 @@ fn stamped_ops(s: &mut Seeds) {
         "stamped_ops",
         0x5851_f42d_4c95_7f2d,
         &[16, 64, 256, 1024],
+    );
+}
+
+fn frame_pairs(s: &mut Seeds) {
+    random_seeds(
+        s,
+        "frame_pairs",
+        0x9e37_79b9_7f4a_7c15,
+        &[64, 256, 1024, 4096],
     );
 }
 
