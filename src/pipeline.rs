@@ -499,7 +499,7 @@ impl Mapper {
         frames: &mut dyn Iterator<Item = Result<F, RunError>>,
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
         pairs: bool,
-        slots: &mut [Option<Slot>],
+        slots: &mut Vec<Option<Slot>>,
     ) -> Result<(), RunError> {
         let conv = self.tree.converter().clone();
         let lazy = self.options.lazy;
@@ -534,13 +534,15 @@ impl Mapper {
                 .iter()
                 .filter_map(|&(i, ..)| Some((i, slots[i].take()?)))
                 .collect();
+            // a slot for each new frame (the mapper's spares cover two applied and two cast;
+            // more are made rather than a frame left out)
             let mut casting: Vec<(usize, Slot)> = Vec::with_capacity(new.len());
             for _ in &new {
-                if let Some(i) = idle.pop() {
-                    if let Some(slot) = slots[i].take() {
-                        casting.push((i, slot));
-                    }
-                }
+                let i = idle.pop().unwrap_or_else(|| {
+                    slots.push(None);
+                    slots.len() - 1
+                });
+                casting.push((i, slots[i].take().unwrap_or_default()));
             }
             // the tree needs only the sets of a frame: its working buffers (hash tables, the
             // threads' sets) go to a frame being cast, so that no more of them exist than
