@@ -366,8 +366,9 @@ impl PyMapper {
 
     /// Insert frames ``[(points, origin), ...]`` in order, pipelined over the threads (the
     /// next frame's rays are cast while this one updates the tree, small frames two at a
-    /// time; same map as one ``insert`` per frame). Returns the statistics of each. Every frame is read before any
-    /// is inserted: a bad one raises, naming it (``frames[i]: ...``), and the map is unchanged.
+    /// time; same map as one ``insert`` per frame). Returns the statistics of each. Every
+    /// frame is read before any is inserted: a bad one raises, naming it (``frames[i]:
+    /// ...``), and the map is unchanged.
     fn insert_frames<'py>(
         &mut self,
         py: Python<'py>,
