@@ -77,10 +77,12 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
-fn run_mode(frames: &[Frame], opts: &MapperOptions, threads: usize) -> Result<Run> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
+/// Time one mode on `pool`'s threads. The pools live for the whole `bench` run, as a
+/// program's pool does: a pool built for every run made each two-thread run pay its new
+/// threads' start (their first tasks, their first allocations), about 15 ms on 10 TUM frames
+/// where the frames take 30, which no longer-lived program pays per run.
+fn run_mode(frames: &[Frame], opts: &MapperOptions, pool: &rayon::ThreadPool) -> Result<Run> {
+    let threads = pool.current_num_threads();
     let (mut mapper, frame_ms) = pool.install(|| -> Result<_> {
         // as `map` without --checkpoint: no frame fingerprints
         let mut mapper = Mapper::new(opts.clone())?.without_checkpoints();
@@ -329,6 +331,10 @@ pub fn run(a: &Args) -> Result<()> {
         InsertMode::QuantizedBresenham,
     ];
     let thread_counts = if all > 1 { vec![1, all] } else { vec![1] };
+    let pools = thread_counts
+        .iter()
+        .map(|&n| rayon::ThreadPoolBuilder::new().num_threads(n).build())
+        .collect::<Result<Vec<_>, _>>()?;
     let mut runs: Vec<Run> = Vec::new();
     let mut reference: Option<(RefRun, RefRun)> = None;
     let mut peers: Vec<PeerRun> = a.peer.iter().map(|_| PeerRun::default()).collect();
@@ -344,13 +350,13 @@ pub fn run(a: &Args) -> Result<()> {
     // hits all of them alike
     for rep in 0..a.repeat {
         let mut i = 0;
-        for &threads in &thread_counts {
+        for pool in &pools {
             for mode in modes {
                 let opts = MapperOptions {
                     mode,
                     ..base.clone()
                 };
-                let run = run_mode(&frames, &opts, threads)?;
+                let run = run_mode(&frames, &opts, pool)?;
                 if rep == 0 {
                     runs.push(run);
                 } else {
