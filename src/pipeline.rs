@@ -449,7 +449,8 @@ impl Mapper {
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
         pairs: bool,
     ) -> Result<(), RunError> {
-        // the buffers of the frames in flight: the mapper's two, and two more for pairs
+        // the buffers of the frames in flight: the mapper's two, and those kept from pairs
+        // before (the steps make more when pairs need them)
         let spare = std::mem::take(&mut self.spare);
         let mut slots: Vec<Option<Slot>> = [
             (
@@ -463,15 +464,14 @@ impl Mapper {
         ]
         .into_iter()
         .chain(spare)
-        .chain(std::iter::repeat_with(|| (ScanUpdate::new(), Vec::new())))
-        .take(if pairs && self.frame_pairs != FramePairs::Never {
-            4
-        } else {
-            2
-        })
         .map(Some)
         .collect();
-        let done = self.pipeline_steps(frames, after, pairs, &mut slots);
+        let policy = if pairs {
+            self.frame_pairs
+        } else {
+            FramePairs::Never
+        };
+        let done = self.pipeline_steps(frames, after, policy, &mut slots);
         // every slot is back in `slots` (the steps return them before any error)
         let mut back = slots.into_iter().flatten();
         let mut put = |u: &mut ScanUpdate, c: &mut Vec<Point3<f32>>| {
@@ -492,13 +492,13 @@ impl Mapper {
     /// then a frame's casting no longer waits for its serial parts (set-up, merge, sort) or for
     /// a worker to wake, as the rays of a cheap depth image did on two threads. Which frames go
     /// together changes only the timing: the tree takes the same key sets in the same order.
-    /// `pairs` is false when `after` must see the tree with exactly the frames it is called
-    /// for (checkpoints): a step applies two frames before calling it for either.
+    /// `pairs` is [`FramePairs::Never`] when `after` must see the tree with exactly the frames
+    /// it is called for (checkpoints): a step applies two frames before calling it for either.
     fn pipeline_steps<F: Borrow<Frame> + Sync>(
         &mut self,
         frames: &mut dyn Iterator<Item = Result<F, RunError>>,
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
-        pairs: bool,
+        pairs: FramePairs,
         slots: &mut Vec<Option<Slot>>,
     ) -> Result<(), RunError> {
         let conv = self.tree.converter().clone();
@@ -510,11 +510,6 @@ impl Mapper {
         let mut ready: Vec<(usize, FrameStats, Option<u64>)> = Vec::new();
         let mut idle: Vec<usize> = (0..slots.len()).rev().collect();
         let mut failed = None;
-        let pairs = if pairs {
-            self.frame_pairs
-        } else {
-            FramePairs::Never
-        };
         let mut width = if pairs == FramePairs::Always { 2 } else { 1 };
         let mut mark = Instant::now();
         loop {
@@ -534,8 +529,7 @@ impl Mapper {
                 .iter()
                 .filter_map(|&(i, ..)| Some((i, slots[i].take()?)))
                 .collect();
-            // a slot for each new frame (the mapper's spares cover two applied and two cast;
-            // more are made rather than a frame left out)
+            // a slot for each new frame: an idle one, or a new one (pairs need four in all)
             let mut casting: Vec<(usize, Slot)> = Vec::with_capacity(new.len());
             for _ in &new {
                 let i = idle.pop().unwrap_or_else(|| {
