@@ -2,11 +2,16 @@
 //! walk of [`crate::lanes::avx2`] with twice the lanes, where comparisons give mask registers,
 //! a masked move picks each lane's new `tMax`, and the bricks the lanes leave are compressed to
 //! the front of a register by the CPU (`vpcompressq`) instead of by a permutation table.
+//! Lanes whose walks stop take the next walks of the batch all at once: the batch's states are
+//! laid out one array per register beforehand ([`LaneInits`]), and a masked expand
+//! (`vpexpandq`) moves the next ones into the stopped lanes, lowest lane first. Short rays
+//! (indoor LiDAR, the tails of depth-image rays) restart a lane every few steps, and a restart
+//! lane by lane (the AVX2 lanes' [`crate::lanes::refill::restart`]) cost a sixth of the walk.
 //!
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
 //! exactly the voxels of [`crate::dda::walk_ray_codes_f32`].
 
-use super::refill::{first_stop, restart, LaneInit};
+use super::refill::{first_stop, LaneInit};
 use super::runs::merge_runs_from;
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx512;
@@ -14,11 +19,12 @@ use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_alignr_epi64,
     _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask,
-    _mm512_cmpneq_epu64_mask, _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64,
+    _mm512_cmpneq_epu64_mask, _mm512_mask_add_epi64, _mm512_mask_expand_epi64,
+    _mm512_mask_expand_pd, _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64,
     _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512,
-    _mm512_permutexvar_epi64, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
-    _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512, _CMP_GT_OQ,
-    _CMP_LT_OQ,
+    _mm512_permutexvar_epi64, _mm512_reduce_min_epu64, _mm512_set1_epi64, _mm512_set1_pd,
+    _mm512_setzero_si512, _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
+    _CMP_GT_OQ, _CMP_LT_OQ,
 };
 use octoquant_octree::Brick;
 
@@ -32,17 +38,29 @@ type U8 = [u64; 8];
 /// step's eight. Fixed-size, so a step's store needs no bounds check.
 #[derive(Debug, Clone)]
 pub(crate) struct OctScratch {
-    bricks: Box<[u64; LEFT + 8]>,
-    bits: Box<[u64; LEFT + 8]>,
+    left: LeftBricks,
+    /// The DDA walks' states of a batch (unused by the Bresenham lanes).
+    inits: LaneInits,
 }
 
 impl Default for OctScratch {
     fn default() -> Self {
         OctScratch {
-            bricks: Box::new([0; LEFT + 8]),
-            bits: Box::new([0; LEFT + 8]),
+            left: LeftBricks {
+                bricks: Box::new([0; LEFT + 8]),
+                bits: Box::new([0; LEFT + 8]),
+            },
+            inits: LaneInits::default(),
         }
     }
+}
+
+/// The bricks the lanes left and their voxels, side by side, with room for one more step's
+/// eight.
+#[derive(Debug, Clone)]
+pub(crate) struct LeftBricks {
+    bricks: Box<[u64; LEFT + 8]>,
+    bits: Box<[u64; LEFT + 8]>,
 }
 
 /// The eight lanes' open bricks and the voxels met in them, and the bricks the lanes left,
@@ -54,7 +72,7 @@ pub(crate) struct Bricks8<'a> {
     brick: __m512i,
     bits: __m512i,
     left: usize,
-    scratch: &'a mut OctScratch,
+    scratch: &'a mut LeftBricks,
 }
 
 impl<'a> Bricks8<'a> {
@@ -62,6 +80,13 @@ impl<'a> Bricks8<'a> {
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub(crate) fn new(first: __m512i, scratch: &'a mut OctScratch) -> Self {
+        Self::over(first, &mut scratch.left)
+    }
+
+    /// [`Bricks8::new`] over the buffers alone.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn over(first: __m512i, scratch: &'a mut LeftBricks) -> Self {
         Bricks8 {
             brick: _mm512_srli_epi64::<6>(first),
             bits: _mm512_sllv_epi64(
@@ -116,7 +141,7 @@ impl<'a> Bricks8<'a> {
 /// Hand the first `n` bricks left in `s` to `flush`, each run of one brick merged first
 /// ([`merge_runs`]).
 #[target_feature(enable = "avx512f,popcnt")]
-fn hand_on<F: BrickSink>(s: &mut OctScratch, n: usize, flush: &mut F) {
+fn hand_on<F: BrickSink>(s: &mut LeftBricks, n: usize, flush: &mut F) {
     let n = n.min(LEFT + 8);
     let k = merge_runs(&mut s.bricks[..n], &mut s.bits[..n]);
     flush.put_all(&s.bricks[..k], &s.bits[..k]);
@@ -211,48 +236,69 @@ where
     Some(degenerate)
 }
 
-/// The eight lanes' registers, in memory only while lanes restart: the step loop keeps them
-/// in registers and writes back what it changed (`t`, `m`) before a restart.
-struct Lanes {
-    t: [__m512d; 3],
-    d: [__m512d; 3],
-    len: __m512d,
-    m: __m512i,
-    end: __m512i,
-    flip: __m512i,
-    /// The step at which each lane's walk runs out of budget (`u64::MAX`: never).
-    due: __m512i,
-    /// The lanes that walk a ray (bit `l` for lane `l`); the others idle.
-    active: __mmask8,
+/// A batch's walk states side by side, one array per register of the lanes
+/// ([`LaneInit`]'s fields), then eight idle walks: a restart moves the next walks into the
+/// lanes that stopped with one masked expand per register (`vpexpandq`), not lane by lane.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LaneInits {
+    t: [Vec<f64>; 3],
+    d: [Vec<f64>; 3],
+    len: Vec<f64>,
+    m: Vec<u64>,
+    end: Vec<u64>,
+    flip: Vec<u64>,
+    budget: Vec<u64>,
 }
 
-impl Lanes {
-    /// Overwrite lane `l` with `s` (once per walk, at step `now`) by masked moves of
-    /// broadcasts.
-    #[target_feature(enable = "avx512f")]
-    fn set(&mut self, l: usize, s: &LaneInit, active: bool, now: u64) {
-        let k: __mmask8 = 1 << (l & 7);
-        let put_f = |v: &mut __m512d, x: f64| *v = _mm512_mask_mov_pd(*v, k, _mm512_set1_pd(x));
-        let put_u = |v: &mut __m512i, x: u64| {
-            *v = _mm512_mask_mov_epi64(*v, k, _mm512_set1_epi64(x as i64))
-        };
-        for i in 0..3 {
-            put_f(&mut self.t[i], s.t[i]);
-            put_f(&mut self.d[i], s.d[i]);
+/// An idle lane's budget: far beyond any step count, so it never runs out, and small enough
+/// that adding a step count cannot overflow.
+const IDLE_BUDGET: u64 = 1 << 62;
+
+impl LaneInits {
+    /// The walks of `rays` at their origin voxels, then eight idle lanes writing `idle_code`.
+    fn fill(&mut self, rays: &[RaySetup], idle_code: u64) {
+        let n = rays.len() + 8;
+        for v in self.t.iter_mut().chain(self.d.iter_mut()) {
+            v.clear();
+            v.reserve(n);
         }
-        put_f(&mut self.len, s.len);
-        put_u(&mut self.m, s.m);
-        put_u(&mut self.end, s.end);
-        put_u(&mut self.flip, s.flip);
-        put_u(&mut self.due, s.due(now));
-        self.active = (self.active & !k) | if active { k } else { 0 };
+        for v in [&mut self.m, &mut self.end, &mut self.flip, &mut self.budget] {
+            v.clear();
+            v.reserve(n);
+        }
+        self.len.clear();
+        self.len.reserve(n);
+        for r in rays {
+            let s = LaneInit::new(r);
+            self.push(&s, s.budget.max(0) as u64);
+        }
+        let idle = LaneInit::idle(idle_code);
+        for _ in 0..8 {
+            self.push(&idle, IDLE_BUDGET);
+        }
     }
 
-    /// The first step at which some lane runs out of budget.
-    fn next_due(&self) -> u64 {
-        let due: U8 = bytemuck::cast(self.due);
-        due.into_iter().min().unwrap_or(u64::MAX)
+    /// Append walk `s` with `budget`.
+    #[inline(always)]
+    fn push(&mut self, s: &LaneInit, budget: u64) {
+        for a in 0..3 {
+            self.t[a].push(s.t[a]);
+            self.d[a].push(s.d[a]);
+        }
+        self.len.push(s.len);
+        self.m.push(s.m);
+        self.end.push(s.end);
+        self.flip.push(s.flip);
+        self.budget.push(budget);
     }
+}
+
+/// Eight entries of `v` from `at` (which leaves at least eight), as a register.
+#[inline(always)]
+fn eight<T: Copy + Default + bytemuck::Pod>(v: &[T], at: usize) -> [T; 8] {
+    let mut a = [T::default(); 8];
+    a.copy_from_slice(&v[at..at + 8]);
+    a
 }
 
 /// [`walk_octs`] once AVX-512 is known to be there.
@@ -264,44 +310,34 @@ where
     let Some(first) = rays.first() else {
         return 0;
     };
-    let mut next = rays.iter();
-    let zero_f = _mm512_set1_pd(0.0);
-    let zero_i = _mm512_setzero_si512();
-    let mut q = Lanes {
-        t: [zero_f; 3],
-        d: [zero_f; 3],
-        len: zero_f,
-        m: zero_i,
-        end: zero_i,
-        flip: zero_i,
-        due: zero_i,
-        active: 0,
-    };
     // idle lanes repeat the first walk's origin voxel, which is recorded
     let idle_code = LaneInit::new(first).origin;
-    let mut first_code = [idle_code; 8];
-    let mut live = 8;
-    // the steps taken so far; each lane's budget is the step it runs out at (`LaneInit::due`)
+    let OctScratch { left, inits } = scratch;
+    inits.fill(rays, idle_code);
+    let q = &*inits;
+    let n = rays.len();
+    let ld = |v: &[f64], at: usize| -> __m512d { bytemuck::cast(eight(v, at)) };
+    let li = |v: &[u64], at: usize| -> __m512i { bytemuck::cast(eight(v, at)) };
+    let inf = _mm512_set1_pd(f64::INFINITY);
+    // the first eight walks (idle lanes past the last ray)
+    let [mut t0, mut t1, mut t2] = [0, 1, 2].map(|a| ld(&q.t[a], 0));
+    let [mut d0, mut d1, mut d2] = [0, 1, 2].map(|a| ld(&q.d[a], 0));
+    let mut len = ld(&q.len, 0);
+    let mut m = li(&q.m, 0);
+    let mut end = li(&q.end, 0);
+    let mut flip = li(&q.flip, 0);
+    // the step at which each lane's walk runs out of budget (`LaneInit::due`)
+    let mut due = li(&q.budget, 0);
+    let mut active = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(len, inf);
+    let mut pos = n.min(8);
+    // the steps taken so far
     let mut now = 0u64;
-    restart(
-        &mut first_code,
-        0xFF,
-        0xFF,
-        &mut next,
-        idle_code,
-        &mut live,
-        flush,
-        |l, s, a| q.set(l, s, a, 0),
-    );
-    let mut due = q.next_due();
-    let mut near = first_stop(due);
+    let mut near = first_stop(_mm512_reduce_min_epu64(due));
     let ones_i = _mm512_set1_epi64(-1);
+    let zero_i = _mm512_setzero_si512();
     let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
-    let [mut t0, mut t1, mut t2] = q.t;
-    let [mut d0, mut d1, mut d2] = q.d;
-    let (mut len, mut m, mut end, mut flip, mut active) = (q.len, q.m, q.end, q.flip, q.active);
     // each lane's open brick starts with its origin voxel
-    let mut bricks = Bricks8::new(bytemuck::cast(first_code), scratch);
+    let mut lanes = Bricks8::over(_mm512_xor_si512(m, flip), left);
     let mut degenerate = 0;
     loop {
         now += 1;
@@ -330,42 +366,55 @@ where
         // a walk is over on its end voxel or once the smallest tMax passes the length (no
         // lane holds a NaN); it is cut off (degenerate) when its budget runs out
         let mut codes = _mm512_xor_si512(m, flip);
-        let mut finished = false;
         if now < near {
             // no walk can stop yet (see `first_stop`)
-            bricks.push(codes, flush);
+            lanes.push(codes, flush);
             continue;
         }
         let tmin = _mm512_min_pd(_mm512_min_pd(t0, t1), t2);
         let done = _mm512_cmpeq_epu64_mask(m, end) | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(tmin, len);
-        if done != 0 || now == due {
-            // the rare step where walks end: restart those lanes on the next rays
-            let stopped = done | _mm512_cmpeq_epu64_mask(q.due, _mm512_set1_epi64(now as i64));
-            let mut written: U8 = bytemuck::cast(codes);
-            (q.t, q.m) = ([t0, t1, t2], m);
-            degenerate += restart(
-                &mut written,
-                stopped as u32,
-                done as u32,
-                &mut next,
-                idle_code,
-                &mut live,
-                flush,
-                |l, s, a| q.set(l, s, a, now),
-            );
-            due = q.next_due();
-            near = first_stop(due);
-            [t0, t1, t2] = q.t;
-            [d0, d1, d2] = q.d;
-            (len, m, end, flip, active) = (q.len, q.m, q.end, q.flip, q.active);
-            codes = bytemuck::cast(written);
-            finished = live == 0;
+        let now_v = _mm512_set1_epi64(now as i64);
+        let stopped = done | _mm512_cmpeq_epu64_mask(due, now_v);
+        if stopped != 0 {
+            // the rare step where walks end. A walk that stopped without being done ran out
+            // of budget: the voxel it just entered is handed on and it counts as degenerate
+            let mut cut = stopped & !done;
+            if cut != 0 {
+                let written: U8 = bytemuck::cast(codes);
+                while cut != 0 {
+                    let l = cut.trailing_zeros() as usize;
+                    cut &= cut - 1;
+                    flush.put(Brick::of_voxel(written[l & 7]));
+                    degenerate += 1;
+                }
+            }
+            // the next walks move into the stopped lanes, lowest lane first, as many as
+            // there are (idle walks past the last)
+            let k = stopped;
+            t0 = _mm512_mask_expand_pd(t0, k, ld(&q.t[0], pos));
+            t1 = _mm512_mask_expand_pd(t1, k, ld(&q.t[1], pos));
+            t2 = _mm512_mask_expand_pd(t2, k, ld(&q.t[2], pos));
+            d0 = _mm512_mask_expand_pd(d0, k, ld(&q.d[0], pos));
+            d1 = _mm512_mask_expand_pd(d1, k, ld(&q.d[1], pos));
+            d2 = _mm512_mask_expand_pd(d2, k, ld(&q.d[2], pos));
+            len = _mm512_mask_expand_pd(len, k, ld(&q.len, pos));
+            m = _mm512_mask_expand_epi64(m, k, li(&q.m, pos));
+            end = _mm512_mask_expand_epi64(end, k, li(&q.end, pos));
+            flip = _mm512_mask_expand_epi64(flip, k, li(&q.flip, pos));
+            let budget = _mm512_mask_expand_epi64(zero_i, k, li(&q.budget, pos));
+            due = _mm512_mask_add_epi64(due, k, budget, now_v);
+            pos = (pos + k.count_ones() as usize).min(n);
+            active = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(len, inf);
+            near = first_stop(_mm512_reduce_min_epu64(due));
+            // a restarted lane's voxel is its new walk's origin
+            codes = _mm512_mask_mov_epi64(codes, k, _mm512_xor_si512(m, flip));
+            if active == 0 {
+                lanes.push(codes, flush);
+                lanes.finish(flush);
+                return degenerate;
+            }
         }
-        bricks.push(codes, flush);
-        if finished {
-            bricks.finish(flush);
-            return degenerate;
-        }
+        lanes.push(codes, flush);
     }
 }
 

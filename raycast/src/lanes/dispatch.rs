@@ -302,6 +302,80 @@ mod tests {
         }
     }
 
+    /// Walks cut off by their budget (only ill-conditioned rays can run out, and those are not
+    /// walked in lanes; here budgets are shortened on purpose): every path counts the same
+    /// degenerate walks, one per ray whose budget is below its step count (its free voxels
+    /// plus the step into its end voxel), and hands on the same voxels, the first `budget`
+    /// steps' and the origin's.
+    #[test]
+    fn walks_cut_off_by_their_budget_agree() {
+        fn add(set: &mut BTreeSet<u64>, b: Brick) {
+            let mut m = b.voxels;
+            while m != 0 {
+                set.insert((b.code << 6) | m.trailing_zeros() as u64);
+                m &= m - 1;
+            }
+        }
+        let conv = KeyConverter::new(0.1).unwrap();
+        let o = Point3::new(0.03f32, -0.41, 0.17);
+        let ends: Vec<Point3<f32>> = (0..37)
+            .map(|i| {
+                let a = i as f32 * 0.37;
+                Point3::new(3.0 * a.cos(), 2.0 * a.sin(), 0.1 * i as f32 - 1.5)
+            })
+            .collect();
+        let mut rays = setups(&conv, &o, &ends);
+        assert_eq!(rays.len(), ends.len());
+        // the reference: each ray's codes, cut after its first `budget` steps
+        let mut want = BTreeSet::new();
+        let mut cut = 0;
+        for (i, r) in rays.iter_mut().enumerate() {
+            let mut codes = Vec::new();
+            walk_ray_codes_f32(&conv, &o, &ends[i], |c| codes.push(c));
+            if i % 3 != 0 {
+                // a walk's last step enters its end voxel (not a free voxel, not in
+                // `codes`): a whole walk takes one step more than it has free voxels
+                let steps = codes.len() - 1;
+                r.budget = (steps / (1 + i % 4)) as u32;
+                if (r.budget as usize) <= steps {
+                    cut += 1;
+                    codes.truncate(r.budget as usize + 1);
+                }
+            }
+            want.extend(codes);
+        }
+        assert!(cut > 10);
+        let mut got = Vec::new();
+        let mut s = BTreeSet::new();
+        let d = walk_each(&rays, &mut Vec::new(), &mut |b| add(&mut s, b));
+        got.push((d, s));
+        let mut scratch = LaneScratch::default();
+        let mut s = BTreeSet::new();
+        let d = walk_all(&rays, &mut scratch, &mut |b| add(&mut s, b));
+        got.push((d, s));
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut s = BTreeSet::new();
+            let mut quad = crate::lanes::avx2::QuadScratch::default();
+            if let Some(d) =
+                crate::lanes::avx2::walk_quads(&rays, &mut quad, &mut |b| add(&mut s, b))
+            {
+                got.push((d, s));
+            }
+            let mut s = BTreeSet::new();
+            let mut oct = crate::lanes::avx512::OctScratch::default();
+            if let Some(d) =
+                crate::lanes::avx512::walk_octs(&rays, &mut oct, &mut |b| add(&mut s, b))
+            {
+                got.push((d, s));
+            }
+        }
+        for (d, s) in got {
+            assert_eq!(d, cut);
+            assert_eq!(s, want);
+        }
+    }
+
     proptest! {
         #[test]
         fn batches_visit_the_reference_voxels(

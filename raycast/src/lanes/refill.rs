@@ -1,6 +1,8 @@
-//! Starting the SIMD lanes on rays: a walk's state as scalars ([`LaneInit`]), the first step
-//! at which any walk can stop ([`first_stop`]), and the restart of the lanes whose walks
-//! stopped on the next rays of the batch ([`restart`]). Shared by the AVX2 and AVX-512 lanes.
+//! Starting the SIMD lanes on rays: a walk's state as scalars ([`LaneInit`]) and the first step
+//! at which any walk can stop ([`first_stop`]), shared by the AVX2 and AVX-512 lanes; and the
+//! restart of the lanes whose walks stopped on the next rays of the batch, lane by lane
+//! ([`restart`], the AVX2 lanes; the AVX-512 lanes expand a batch's states into the stopped
+//! lanes at once).
 
 use super::brick_walk::lane_start;
 use crate::brickset::BrickSink;
