@@ -19,10 +19,10 @@ use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
     __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_alignr_epi64,
     _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask,
-    _mm512_cmpneq_epu64_mask, _mm512_mask_add_epi64, _mm512_mask_expand_epi64,
-    _mm512_mask_expand_pd, _mm512_mask_mov_epi64, _mm512_mask_mov_pd, _mm512_mask_or_epi64,
-    _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd, _mm512_or_si512,
-    _mm512_permutexvar_epi64, _mm512_reduce_min_epu64, _mm512_set1_epi64, _mm512_set1_pd,
+    _mm512_cmplt_epu64_mask, _mm512_cmpneq_epu64_mask, _mm512_mask_add_epi64,
+    _mm512_mask_expand_epi64, _mm512_mask_expand_pd, _mm512_mask_mov_epi64, _mm512_mask_mov_pd,
+    _mm512_mask_or_epi64, _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd,
+    _mm512_or_si512, _mm512_permutexvar_epi64, _mm512_reduce_min_epu64, _mm512_set1_epi64,
     _mm512_setzero_si512, _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
     _CMP_GT_OQ, _CMP_LT_OQ,
 };
@@ -318,7 +318,6 @@ where
     let n = rays.len();
     let ld = |v: &[f64], at: usize| -> __m512d { bytemuck::cast(eight(v, at)) };
     let li = |v: &[u64], at: usize| -> __m512i { bytemuck::cast(eight(v, at)) };
-    let inf = _mm512_set1_pd(f64::INFINITY);
     // the first eight walks (idle lanes past the last ray)
     let [mut t0, mut t1, mut t2] = [0, 1, 2].map(|a| ld(&q.t[a], 0));
     let [mut d0, mut d1, mut d2] = [0, 1, 2].map(|a| ld(&q.d[a], 0));
@@ -328,7 +327,9 @@ where
     let mut flip = li(&q.flip, 0);
     // the step at which each lane's walk runs out of budget (`LaneInit::due`)
     let mut due = li(&q.budget, 0);
-    let mut active = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(len, inf);
+    // idle lanes are those with an idle walk's budget (whatever a walk's length)
+    let far = _mm512_set1_epi64(IDLE_BUDGET as i64);
+    let mut active = _mm512_cmplt_epu64_mask(due, far);
     let mut pos = n.min(8);
     // the steps taken so far
     let mut now = 0u64;
@@ -404,7 +405,7 @@ where
             let budget = _mm512_mask_expand_epi64(zero_i, k, li(&q.budget, pos));
             due = _mm512_mask_add_epi64(due, k, budget, now_v);
             pos = (pos + k.count_ones() as usize).min(n);
-            active = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(len, inf);
+            active = _mm512_cmplt_epu64_mask(due, far);
             near = first_stop(_mm512_reduce_min_epu64(due));
             // a restarted lane's voxel is its new walk's origin
             codes = _mm512_mask_mov_epi64(codes, k, _mm512_xor_si512(m, flip));
