@@ -256,31 +256,26 @@ const IDLE_BUDGET: u64 = 1 << 62;
 
 impl LaneInits {
     /// The walks of `rays` at their origin voxels, then eight idle lanes writing `idle_code`.
+    /// The arrays keep their capacity from batch to batch.
     fn fill(&mut self, rays: &[RaySetup], idle_code: u64) {
-        let n = rays.len() + 8;
-        for v in self.t.iter_mut().chain(self.d.iter_mut()) {
+        for v in self.t.iter_mut().chain(&mut self.d).chain([&mut self.len]) {
             v.clear();
-            v.reserve(n);
         }
         for v in [&mut self.m, &mut self.end, &mut self.flip, &mut self.budget] {
             v.clear();
-            v.reserve(n);
         }
-        self.len.clear();
-        self.len.reserve(n);
         for r in rays {
-            let s = LaneInit::new(r);
-            self.push(&s, s.budget.max(0) as u64);
+            self.push(&LaneInit::new(r));
         }
         let idle = LaneInit::idle(idle_code);
         for _ in 0..8 {
-            self.push(&idle, IDLE_BUDGET);
+            self.push(&idle);
         }
     }
 
-    /// Append walk `s` with `budget`.
+    /// Append walk `s`; an idle walk's budget (`i64::MAX`) becomes [`IDLE_BUDGET`].
     #[inline(always)]
-    fn push(&mut self, s: &LaneInit, budget: u64) {
+    fn push(&mut self, s: &LaneInit) {
         for a in 0..3 {
             self.t[a].push(s.t[a]);
             self.d[a].push(s.d[a]);
@@ -289,7 +284,7 @@ impl LaneInits {
         self.m.push(s.m);
         self.end.push(s.end);
         self.flip.push(s.flip);
-        self.budget.push(budget);
+        self.budget.push((s.budget.max(0) as u64).min(IDLE_BUDGET));
     }
 }
 

@@ -198,6 +198,15 @@ mod tests {
         s
     }
 
+    /// Add the voxels of brick `b` to `set`, as Morton codes.
+    fn add(set: &mut BTreeSet<u64>, b: Brick) {
+        let mut m = b.voxels;
+        while m != 0 {
+            set.insert((b.code << 6) | m.trailing_zeros() as u64);
+            m &= m - 1;
+        }
+    }
+
     /// The well-conditioned set-ups of the rays `o -> e`.
     fn setups(conv: &KeyConverter, o: &Point3<f32>, ends: &[Point3<f32>]) -> Vec<RaySetup> {
         let ok = key_of(conv, o);
@@ -212,13 +221,6 @@ mod tests {
     /// [`walk_each`];
     /// none may report a degenerate walk.
     fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
-        fn add(set: &mut BTreeSet<u64>, b: Brick) {
-            let mut m = b.voxels;
-            while m != 0 {
-                set.insert((b.code << 6) | m.trailing_zeros() as u64);
-                m &= m - 1;
-            }
-        }
         let mut sets = Vec::new();
         let mut scratch = LaneScratch::default();
         let mut s = BTreeSet::new();
@@ -311,13 +313,6 @@ mod tests {
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn lanes_cut_off_by_their_budget_keep_the_reference_voxels() {
-        fn add(set: &mut BTreeSet<u64>, b: Brick) {
-            let mut m = b.voxels;
-            while m != 0 {
-                set.insert((b.code << 6) | m.trailing_zeros() as u64);
-                m &= m - 1;
-            }
-        }
         let conv = KeyConverter::new(0.1).unwrap();
         let o = Point3::new(0.03f32, -0.41, 0.17);
         let ends: Vec<Point3<f32>> = (0..37)
