@@ -342,6 +342,17 @@ pub fn run(a: &Args) -> Result<()> {
         .iter()
         .map(|&n| rayon::ThreadPoolBuilder::new().num_threads(n).build())
         .collect::<Result<Vec<_>, _>>()?;
+    // a pool's threads are slow on their first tasks (their start, first allocations and
+    // wake-ups: about 15 ms on two threads), which the first repetition alone would pay and
+    // which a program mapping a stream pays once; an untimed run of a few frames on each pool
+    // takes it out of every timed run
+    for pool in &pools {
+        let warm = MapperOptions {
+            mode: InsertMode::Exact,
+            ..base.clone()
+        };
+        run_mode(&frames[..frames.len().min(3)], &warm, pool)?;
+    }
     let mut runs: Vec<Run> = Vec::new();
     let mut reference: Option<(RefRun, RefRun)> = None;
     let mut peers: Vec<PeerRun> = a.peer.iter().map(|_| PeerRun::default()).collect();
