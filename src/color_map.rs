@@ -40,7 +40,9 @@ use crate::keyset_order::{insert_ray_keys, KeySetOrder};
 use crate::pipeline::{sensor_frame_to_world, FrameStats, InsertMode, MapperOptions};
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_formats::Frame;
-use octoquant_octree::{Color, ColorOcTree, InnerNodes, Key, KeyConverter, OctreeError, Update};
+use octoquant_octree::{
+    Color, ColorOcTree, InnerNodes, Key, KeyConverter, KeySetPart, OctreeError, Update,
+};
 use octoquant_raycast::max_range_end_f32;
 use std::time::Instant;
 
@@ -253,25 +255,33 @@ impl ColorMapper {
         } else {
             (&frame.points[..], colors)
         };
-        // octomap_server's loops over the points: key sets, and each end point's colour into
-        // its node as the tree is now; first the ground points kept to clear space (the
-        // filters put them last), whose rays only clear (cut at the maximum range)
-        let (mut free, mut occupied) = match self.key_box(&origin, points) {
+        // octomap_server's loop over the points: the rays' keys into the free set, first
+        // those of the ground points kept to clear space (the filters put them last), whose
+        // rays only clear (cut at the maximum range); the rays are walked in stretches on the
+        // rayon threads and the stretches appended in order, which gives the set of one walk
+        // after another ([`octoquant_octree::KeySetPart`])
+        let window = self.key_box(&origin, points);
+        let (points, ground) = points.split_at(points.len() - st.clearing);
+        let rays = RayStretch {
+            conv: &self.conv,
+            origin: &origin,
+            max_range: self.max_range,
+            window,
+        };
+        let (mut free, mut occupied) = match window {
             Some((lo, hi)) => (
                 KeySetOrder::with_window(lo, hi),
                 KeySetOrder::with_window(lo, hi),
             ),
             None => (KeySetOrder::new(), KeySetOrder::new()),
         };
-        let (points, ground) = points.split_at(points.len() - st.clearing);
-        for p in ground {
-            st.rays += 1;
-            let end = max_range_end_f32(&origin, p, self.max_range).unwrap_or(*p);
-            insert_ray_keys(&mut free, &self.conv, &origin, &end);
-            if self.conv.point_to_key(&end.cast::<f64>()).is_none() {
-                st.outside_map += 1;
-            }
+        for part in rays.walk_all(ground, points) {
+            free.append(&part.keys);
+            st.outside_map += part.outside_map;
         }
+        st.rays += ground.len();
+        // the same loop's end points, in order: occupied keys, and each one's colour into
+        // its node as the tree is now
         for (p, &c) in points.iter().zip(colors) {
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 st.non_finite += 1;
@@ -281,20 +291,10 @@ impl ColorMapper {
                 st.zero += 1; // (the filters counted them)
             }
             st.rays += 1;
-            if let Some(end) = max_range_end_f32(&origin, p, self.max_range) {
-                // octomap_server's "ray longer than maxrange": free up to and including the
-                // cut end's voxel (only when the ray's keys could be computed)
-                if insert_ray_keys(&mut free, &self.conv, &origin, &end) {
-                    match self.conv.point_to_key(&end.cast::<f64>()) {
-                        Some(k) => {
-                            free.insert(k);
-                        }
-                        None => st.outside_map += 1,
-                    }
-                }
+            if max_range_end_f32(&origin, p, self.max_range).is_some() {
+                // a cut ray: free space only (counted in its stretch)
                 continue;
             }
-            insert_ray_keys(&mut free, &self.conv, &origin, p);
             let Some(key) = self.conv.point_to_key(&p.cast::<f64>()) else {
                 st.outside_map += 1;
                 continue;
@@ -363,6 +363,89 @@ impl ColorMapper {
     /// The tree, consuming the mapper.
     pub fn into_tree(self) -> ColorOcTree {
         self.tree
+    }
+}
+
+/// Points per stretch of rays walked apart, at least: fewer make more parts to append than
+/// threads gain.
+const MIN_STRETCH: usize = 4096;
+
+/// Stretches of rays per thread: more than one, so that a thread whose rays are long does not
+/// leave the others waiting.
+const STRETCHES_PER_THREAD: usize = 4;
+
+/// What a scan's rays need to find their free keys: octomap_server's rules for one origin.
+struct RayStretch<'a> {
+    conv: &'a KeyConverter,
+    origin: &'a Point3<f32>,
+    /// octomap_server's `m_maxRange`: negative for none.
+    max_range: f64,
+    /// The box the scan's keys lie in ([`ColorMapper::key_box`]).
+    window: Option<(Key, Key)>,
+}
+
+/// The free keys of a stretch of rays, and its ends outside the map.
+struct FreePart {
+    keys: KeySetPart,
+    outside_map: usize,
+}
+
+impl RayStretch<'_> {
+    /// The free-key parts of the ground rays, then of the points' rays, in order, walked in
+    /// stretches on the rayon threads.
+    fn walk_all(&self, ground: &[Point3<f32>], points: &[Point3<f32>]) -> Vec<FreePart> {
+        use rayon::prelude::*;
+        let stretches = rayon::current_num_threads() * STRETCHES_PER_THREAD;
+        let per = (ground.len() + points.len())
+            .div_ceil(stretches)
+            .max(MIN_STRETCH);
+        let jobs: Vec<(bool, &[Point3<f32>])> = ground
+            .chunks(per)
+            .map(|g| (true, g))
+            .chain(points.chunks(per).map(|p| (false, p)))
+            .collect();
+        jobs.par_iter()
+            .map(|&(is_ground, pts)| self.walk(is_ground, pts))
+            .collect()
+    }
+
+    /// The free keys of the rays to `points` (ground points' when `ground`), in order.
+    fn walk(&self, ground: bool, points: &[Point3<f32>]) -> FreePart {
+        let mut part = FreePart {
+            keys: match self.window {
+                Some((lo, hi)) => KeySetPart::with_window(lo, hi),
+                None => KeySetPart::new(),
+            },
+            outside_map: 0,
+        };
+        let (conv, origin) = (self.conv, self.origin);
+        let outside = |e: &Point3<f32>| conv.point_to_key(&e.cast::<f64>()).is_none();
+        for p in points {
+            if ground {
+                let end = max_range_end_f32(origin, p, self.max_range).unwrap_or(*p);
+                insert_ray_keys(&mut part.keys, conv, origin, &end);
+                part.outside_map += usize::from(outside(&end));
+                continue;
+            }
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                continue;
+            }
+            let Some(end) = max_range_end_f32(origin, p, self.max_range) else {
+                insert_ray_keys(&mut part.keys, conv, origin, p);
+                continue;
+            };
+            // octomap_server's "ray longer than maxrange": free up to and including the cut
+            // end's voxel (only when the ray's keys could be computed)
+            if insert_ray_keys(&mut part.keys, conv, origin, &end) {
+                match conv.point_to_key(&end.cast::<f64>()) {
+                    Some(k) => {
+                        part.keys.insert(k);
+                    }
+                    None => part.outside_map += 1,
+                }
+            }
+        }
+        part
     }
 }
 

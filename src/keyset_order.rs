@@ -17,7 +17,7 @@
 
 use nalgebra::Point3;
 use octoquant_octree::KeyConverter;
-use octoquant_octree::KeySetLog;
+use octoquant_octree::{KeySetLog, KeySetPart};
 use octoquant_raycast::{walk_ray_keys_f32, RayWalk};
 
 /// A set of keys that iterates in the order of OctoMap's `KeySet` under libstdc++
@@ -25,11 +25,12 @@ use octoquant_raycast::{walk_ray_keys_f32, RayWalk};
 pub type KeySetOrder = KeySetLog;
 
 /// `set.insert(ray.begin(), ray.end())` after OctoMap's `computeRayKeys(origin, end, ray)`
-/// succeeds, as octomap_server adds a ray's voxels: the keys go into the set as the ray is
-/// walked, and a ray whose keys cannot be computed (an end outside the map, a degenerate
-/// walk) adds nothing. Returns whether the keys were computed.
+/// succeeds, as octomap_server adds a ray's voxels, into a stretch of a scan's insertions made
+/// apart ([`KeySetPart`], appended to the scan's set in order): the keys go into the set as
+/// the ray is walked, and a ray whose keys cannot be computed (an end outside the map, a
+/// degenerate walk) adds nothing. Returns whether the keys were computed.
 pub fn insert_ray_keys(
-    set: &mut KeySetOrder,
+    set: &mut KeySetPart,
     conv: &KeyConverter,
     origin: &Point3<f32>,
     end: &Point3<f32>,

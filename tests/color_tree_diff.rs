@@ -603,6 +603,43 @@ fn tum_rgbd_colored_scans_match_octomap_server() {
     check_colored_scans("color_scans_tum", &frames, 0.05, 4.0);
 }
 
+/// The rays of a colour scan are walked in stretches on the rayon threads; the map does not
+/// depend on how many: one thread and three give the same `.ot` bytes, with cut rays (a
+/// maximum range) and without, and the map is not empty.
+#[test]
+fn colored_scans_are_the_same_on_any_thread_count() {
+    use octoquant::color_map::{ColorMapper, ColorMerge};
+    let Some(frames) = tum_colored_frames() else {
+        return;
+    };
+    for max_range in [None, Some(4.0)] {
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let options = octoquant::MapperOptions {
+                    resolution: 0.05,
+                    max_range,
+                    ..octoquant::MapperOptions::default()
+                };
+                let mut mapper = ColorMapper::new(options, ColorMerge::Average).unwrap();
+                for f in &frames {
+                    mapper.insert(f).unwrap();
+                }
+                mapper.into_tree()
+            })
+        };
+        let (one, three) = (build(1), build(3));
+        assert!(one.num_colored_nodes() > 500, "{}", one.num_colored_nodes());
+        assert!(
+            color_ot(&one) == color_ot(&three),
+            "max range {max_range:?}: one thread and three differ"
+        );
+    }
+}
+
 /// octoquant's z band filter with `ColorMapper` equals octomap_server's insertion of the
 /// frames filtered here by hand (points and their colours kept together), on the TUM frames.
 #[test]

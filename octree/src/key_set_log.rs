@@ -16,6 +16,15 @@
 //! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. The order
 //! is rebuilt once, when asked for, by replaying that history into a [`KeyTable`]: the same
 //! chains, built from the new keys alone.
+//!
+//! The insertions of a scan can also be made in parts, on several threads: a [`KeySetPart`]
+//! takes a stretch of them (its rays, in their order) with a membership of its own, and
+//! [`KeySetLog::append`] adds the parts in their order. A key's first insertion in the whole
+//! sequence is its first one in the earliest part that holds it, so the set's new keys, in
+//! order, are each part's new keys in order that the set does not hold yet; and a range's
+//! room depends only on its length and the keys held before it. So the appended set is the
+//! one the insertions would have made one after another, whatever the split, and the serial
+//! append only looks at each part's new keys, not at every key inserted.
 
 use crate::key::Key;
 use crate::key_hasher::KeyHashing;
@@ -141,6 +150,126 @@ impl KeySetLog {
             table.rehash(b);
         }
         table.iter().map(|(k, ())| k).collect()
+    }
+}
+
+impl KeySetLog {
+    /// Make the insertions `part` holds, in its order: the set ends as if they had been made
+    /// on it one after another (see the module docs). Parts appended in the order of the
+    /// stretches they hold give the set of the whole sequence.
+    pub fn append(&mut self, part: &KeySetPart) {
+        let mut keys = part.log.keys.iter().copied();
+        for step in &part.steps {
+            match *step {
+                PartStep::One => {
+                    if let Some(k) = keys.next() {
+                        self.insert(k);
+                    }
+                }
+                PartStep::Range { len, new } => {
+                    let mut range = self.range();
+                    keys.by_ref().take(new).for_each(|k| range.key(k));
+                    // the part's other keys were in it before, so they are here now
+                    range.len = len;
+                    range.finish();
+                }
+            }
+        }
+    }
+}
+
+/// A stretch of insertions into a [`KeySetLog`] made apart from it (on another thread), to be
+/// added to it by [`KeySetLog::append`] (see the module docs). It keeps the keys new to the
+/// stretch in order and, for each insertion that matters to the set, its kind and length.
+#[derive(Debug, Clone, Default)]
+pub struct KeySetPart {
+    /// The stretch's own membership and new keys (its growth history is not used).
+    log: KeySetLog,
+    /// The insertions, in order, each taking its new keys from the front of `log.keys`.
+    steps: Vec<PartStep>,
+}
+
+/// One insertion of a [`KeySetPart`].
+#[derive(Debug, Clone, Copy)]
+enum PartStep {
+    /// `insert(key)` of a key new to the part (a single key the part held already is held by
+    /// the set too, by then, and changes nothing).
+    One,
+    /// `insert(first, last)` of `len` keys, duplicates included, `new` of them new to the part.
+    Range { len: usize, new: usize },
+}
+
+impl KeySetPart {
+    /// An empty part, membership by hashing alone.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An empty part whose keys are expected in the box from `lo` to `hi` (as
+    /// [`KeySetLog::with_window`]: the box only decides the speed).
+    pub fn with_window(lo: Key, hi: Key) -> Self {
+        KeySetPart {
+            log: KeySetLog::with_window(lo, hi),
+            steps: Vec::new(),
+        }
+    }
+
+    /// `KeySet::insert(key)` in the stretch; false when the stretch held it.
+    pub fn insert(&mut self, key: Key) -> bool {
+        let new = self.log.seen.insert(key);
+        if new {
+            self.log.keys.push(key);
+            self.steps.push(PartStep::One);
+        }
+        new
+    }
+
+    /// `KeySet::insert(first, last)` of a range whose keys come one at a time, as
+    /// [`KeySetLog::range`].
+    pub fn range(&mut self) -> PartRange<'_> {
+        PartRange {
+            range: self.log.range(),
+            steps: &mut self.steps,
+        }
+    }
+
+    /// Keys new to the stretch.
+    pub fn len(&self) -> usize {
+        self.log.len()
+    }
+
+    /// Whether the stretch inserted no key that it keeps.
+    pub fn is_empty(&self) -> bool {
+        self.log.is_empty()
+    }
+}
+
+/// A range being inserted into a [`KeySetPart`] ([`KeySetPart::range`]).
+#[derive(Debug)]
+pub struct PartRange<'a> {
+    range: RangeInsert<'a>,
+    steps: &'a mut Vec<PartStep>,
+}
+
+impl PartRange<'_> {
+    /// The range's next key.
+    #[inline]
+    pub fn key(&mut self, key: Key) {
+        self.range.key(key);
+    }
+
+    /// End the range ([`RangeInsert::finish`]).
+    pub fn finish(self) {
+        let r = self.range;
+        self.steps.push(PartStep::Range {
+            len: r.len,
+            new: r.log.keys.len() - r.start,
+        });
+    }
+
+    /// Drop the range ([`RangeInsert::cancel`]): the part is as before it.
+    pub fn cancel(self) {
+        self.range.cancel();
     }
 }
 
@@ -345,6 +474,75 @@ mod tests {
             for x in 95..115 {
                 let k = Key::new(x, 205, 305);
                 prop_assert_eq!(log.contains(&k), model.contains(&k));
+            }
+        }
+    }
+
+    /// `ins`'s insertions made on `set` as they come.
+    fn insert_all(set: &mut KeySetLog, ins: &[Insert]) {
+        for i in ins {
+            match i {
+                Insert::One(k) => {
+                    set.insert(*k);
+                }
+                Insert::Range(ks) => set.insert_range(ks),
+                Insert::Cancelled(ks) => {
+                    let mut r = set.range();
+                    ks.iter().for_each(|&k| r.key(k));
+                    r.cancel();
+                }
+            }
+        }
+    }
+
+    proptest! {
+        /// Insertions split into parts at any points, each part made apart (with or without a
+        /// window) and the parts appended in order, give the set of the insertions made one
+        /// after another: the same order, bucket count and membership.
+        #[test]
+        fn appended_parts_are_the_whole_sequence(
+            ins in inserts(10),
+            cuts in prop::collection::vec(0usize..=120, 0..6),
+            windowed in prop::collection::vec(any::<bool>(), 7),
+        ) {
+            let mut whole = KeySetLog::new();
+            insert_all(&mut whole, &ins);
+            let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c.min(ins.len())).collect();
+            cuts.push(0);
+            cuts.push(ins.len());
+            cuts.sort_unstable();
+            let mut appended = KeySetLog::with_window(Key::new(100, 200, 300), Key::new(104, 209, 309));
+            for (p, w) in cuts.windows(2).zip(&windowed) {
+                let mut part = if *w {
+                    KeySetPart::with_window(Key::new(102, 200, 300), Key::new(109, 209, 309))
+                } else {
+                    KeySetPart::new()
+                };
+                for i in &ins[p[0]..p[1]] {
+                    match i {
+                        Insert::One(k) => {
+                            part.insert(*k);
+                        }
+                        Insert::Range(ks) => {
+                            let mut r = part.range();
+                            ks.iter().for_each(|&k| r.key(k));
+                            r.finish();
+                        }
+                        Insert::Cancelled(ks) => {
+                            let mut r = part.range();
+                            ks.iter().for_each(|&k| r.key(k));
+                            r.cancel();
+                        }
+                    }
+                }
+                appended.append(&part);
+            }
+            prop_assert_eq!(appended.len(), whole.len());
+            prop_assert_eq!(appended.bucket_count(), whole.bucket_count());
+            prop_assert_eq!(appended.order(), whole.order());
+            for x in 95..115 {
+                let k = Key::new(x, 205, 305);
+                prop_assert_eq!(appended.contains(&k), whole.contains(&k));
             }
         }
     }

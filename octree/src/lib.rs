@@ -60,7 +60,7 @@ pub use compare::{
 pub use error::OctreeError;
 pub use iter::{NodeItem, TreeIter};
 pub use key::{Key, KeyConverter, KEY_CENTER, TREE_DEPTH};
-pub use key_set_log::{KeySetLog, RangeInsert, MAX_WINDOW_VOXELS};
+pub use key_set_log::{KeySetLog, KeySetPart, PartRange, RangeInsert, MAX_WINDOW_VOXELS};
 pub use key_table::KeyTable;
 pub use merge::MergeStats;
 pub use params::{logodds, probability, OccupancyParams, SensorPreset, SensorProbabilities};
