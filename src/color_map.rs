@@ -113,13 +113,30 @@ pub enum ColorMapError {
 /// server does (see the module docs).
 pub struct ColorMapper {
     tree: ColorOcTree,
+    rules: ScanRules,
+    merge: ColorMerge,
+    frames: usize,
+}
+
+/// What turns a coloured frame into its key sets and colours, the tree aside.
+struct ScanRules {
     conv: KeyConverter,
     /// octomap_server's `m_maxRange`: negative for none.
     max_range: f64,
     /// octoquant's point filters, applied first.
     filters: PointFilters,
-    merge: ColorMerge,
-    frames: usize,
+}
+
+/// A coloured scan made ready for the tree: octomap_server's key sets in the order it walks
+/// them and the end points' colours in scan order.
+struct ColorScan {
+    /// Free keys that are not occupied, in `KeySet` order.
+    free: Vec<Key>,
+    /// Occupied keys, in `KeySet` order.
+    occupied: Vec<Key>,
+    /// Each end point's voxel and colour, in scan order.
+    colors: Vec<(Key, Color)>,
+    st: FrameStats,
 }
 
 impl std::fmt::Debug for ColorMapper {
@@ -154,9 +171,11 @@ impl ColorMapper {
         options.filters.validate()?;
         let tree = ColorOcTree::with_params(options.resolution, options.params)?;
         Ok(ColorMapper {
-            conv: KeyConverter::new(options.resolution)?,
-            max_range: options.max_range.unwrap_or(-1.0),
-            filters: options.filters,
+            rules: ScanRules {
+                conv: KeyConverter::new(options.resolution)?,
+                max_range: options.max_range.unwrap_or(-1.0),
+                filters: options.filters,
+            },
             tree,
             merge,
             frames: 0,
@@ -188,30 +207,69 @@ impl ColorMapper {
     /// would give otherwise, naming the frame `index`. Lets a caller check a batch of frames
     /// before inserting any.
     pub fn check(&self, frame: &Frame, index: usize) -> Result<(), ColorMapError> {
-        self.checked_colors(frame, index).map(|_| ())
+        self.rules.checked_colors(frame, index).map(|_| ())
     }
 
-    /// The frame's colours, checked as [`ColorMapper::check`] does.
-    fn checked_colors<'f>(
-        &self,
-        frame: &'f Frame,
-        index: usize,
-    ) -> Result<&'f [Color], ColorMapError> {
-        let colors = frame
-            .colors
-            .as_deref()
-            .ok_or(ColorMapError::NoColors { frame: index })?;
-        if colors.len() != frame.points.len() {
-            return Err(ColorMapError::ColorCount {
-                frame: index,
-                colors: colors.len(),
-                points: frame.points.len(),
-            });
+    /// Insert coloured world-coordinate frames in order, calling `after` with the mapper and
+    /// each frame's statistics once it is in the tree: the same map as one
+    /// [`ColorMapper::insert`] per frame. With two or more rayon threads it is pipelined: a
+    /// frame's rays are walked while the frame before goes into the tree (which is the only
+    /// part that depends on the frames before). The first error, of the source, of a frame or
+    /// of `after`, ends the run after the frames before it are in.
+    pub fn insert_stream<F, E>(
+        &mut self,
+        frames: impl Iterator<Item = Result<F, E>>,
+        mut after: impl FnMut(&ColorMapper, &FrameStats) -> Result<(), E>,
+    ) -> Result<(), E>
+    where
+        F: std::borrow::Borrow<Frame> + Sync,
+        E: From<ColorMapError>,
+    {
+        let identity = UnitQuaternion::identity();
+        let mut frames = frames;
+        if rayon::current_num_threads() < 2 {
+            for f in frames {
+                let st = self.insert_oriented(f?.borrow(), &identity)?;
+                after(self, &st)?;
+            }
+            return Ok(());
         }
-        if self.filters.is_active() {
-            point_index_count(frame, index)?;
+        let Some(first) = frames.next() else {
+            return Ok(());
+        };
+        let mut mark = Instant::now();
+        let mut scan = self
+            .rules
+            .prepare(first?.borrow(), &identity, self.frames)?;
+        loop {
+            let upcoming = frames.next();
+            let ColorMapper {
+                tree,
+                rules,
+                merge,
+                frames: done,
+            } = self;
+            let index = *done + 1;
+            let (mut st, next) = match &upcoming {
+                Some(Ok(f)) => {
+                    let (st, next) = rayon::join(
+                        || apply(tree, *merge, scan),
+                        || rules.prepare(f.borrow(), &identity, index),
+                    );
+                    (st, Some(next))
+                }
+                _ => (apply(tree, *merge, scan), None),
+            };
+            *done += 1;
+            st.seconds = mark.elapsed().as_secs_f64();
+            mark = Instant::now();
+            after(self, &st)?;
+            match (upcoming, next) {
+                (Some(Err(e)), _) => return Err(e),
+                (_, Some(next)) => scan = next?,
+                _ => return Ok(()),
+            }
         }
-        Ok(colors)
     }
 
     /// Insert a coloured world-coordinate frame whose sensor has the orientation `rotation`
@@ -221,133 +279,12 @@ impl ColorMapper {
         frame: &Frame,
         rotation: &UnitQuaternion<f64>,
     ) -> Result<FrameStats, ColorMapError> {
-        let index = self.frames;
-        let colors = self.checked_colors(frame, index)?;
         let start = Instant::now();
-        let mut st = FrameStats {
-            points: frame.points.len(),
-            reduced: frame.points.len(),
-            ..FrameStats::default()
-        };
-        let origin = frame.origin;
-        // the filters keep points with their colours: each kept point's index rides along
-        // in the filters' pixel channel
-        let filtered;
-        let (points, colors) = if self.filters.is_active() {
-            let n = point_index_count(frame, index)?;
-            let (mut kept, mut kept_index) = (Vec::new(), Vec::new());
-            let index: Vec<u32> = (0..n).collect();
-            let c = self.filters.apply(
-                &origin,
-                rotation,
-                &frame.points,
-                Some(&index),
-                &mut kept,
-                &mut kept_index,
-            );
-            st.non_finite = c.non_finite;
-            st.zero = c.zero;
-            st.dropped = c.dropped;
-            st.clearing = c.clearing;
-            let kept_colors: Vec<Color> = kept_index.iter().map(|&i| colors[i as usize]).collect();
-            filtered = (kept, kept_colors);
-            (&filtered.0[..], &filtered.1[..])
-        } else {
-            (&frame.points[..], colors)
-        };
-        // octomap_server's loop over the points: the rays' keys into the free set, first
-        // those of the ground points kept to clear space (the filters put them last), whose
-        // rays only clear (cut at the maximum range); the rays are walked in stretches on the
-        // rayon threads and the stretches appended in order, which gives the set of one walk
-        // after another ([`octoquant_octree::KeySetPart`])
-        let window = self.key_box(&origin, points);
-        let (points, ground) = points.split_at(points.len() - st.clearing);
-        let rays = RayStretch {
-            conv: &self.conv,
-            origin: &origin,
-            max_range: self.max_range,
-            window,
-        };
-        let (mut free, mut occupied) = match window {
-            Some((lo, hi)) => (
-                KeySetOrder::with_window(lo, hi),
-                KeySetOrder::with_window(lo, hi),
-            ),
-            None => (KeySetOrder::new(), KeySetOrder::new()),
-        };
-        for part in rays.walk_all(ground, points) {
-            free.append(&part.keys);
-            st.outside_map += part.outside_map;
-        }
-        st.rays += ground.len();
-        // the same loop's end points, in order: occupied keys, and each one's colour into
-        // its node as the tree is now
-        for (p, &c) in points.iter().zip(colors) {
-            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-                st.non_finite += 1;
-                continue;
-            }
-            if *p == origin && !self.filters.is_active() {
-                st.zero += 1; // (the filters counted them)
-            }
-            st.rays += 1;
-            if max_range_end_f32(&origin, p, self.max_range).is_some() {
-                // a cut ray: free space only (counted in its stretch)
-                continue;
-            }
-            let Some(key) = self.conv.point_to_key(&p.cast::<f64>()) else {
-                st.outside_map += 1;
-                continue;
-            };
-            occupied.insert(key);
-            match self.merge {
-                ColorMerge::Average => self.tree.average_node_color(key, c),
-                ColorMerge::Integrate => self.tree.integrate_node_color(key, c),
-            };
-        }
-        st.ray_seconds = start.elapsed().as_secs_f64();
-        let tree_start = Instant::now();
-        for k in free.order() {
-            if !occupied.contains(&k) {
-                self.tree.update_node(k, Update::Miss, InnerNodes::Refresh);
-                st.free += 1;
-            }
-        }
-        for k in occupied.order() {
-            self.tree.update_node(k, Update::Hit, InnerNodes::Refresh);
-            st.occupied += 1;
-        }
-        self.tree.prune();
-        st.tree_seconds = tree_start.elapsed().as_secs_f64();
+        let scan = self.rules.prepare(frame, rotation, self.frames)?;
+        let mut st = apply(&mut self.tree, self.merge, scan);
         st.seconds = start.elapsed().as_secs_f64();
         self.frames += 1;
         Ok(st)
-    }
-
-    /// The box of voxels the scan's keys lie in: those of the origin and of every ray's end
-    /// (cut at the maximum range), one voxel wider on each side (a ray's keys lie between its
-    /// two ends' keys; the margin covers an end whose `f32` key differs from its `f64` one).
-    /// `None` when the origin is outside the map (no ray has keys). The key sets only go
-    /// faster inside it.
-    fn key_box(&self, origin: &Point3<f32>, points: &[Point3<f32>]) -> Option<(Key, Key)> {
-        let o = self.conv.point_to_key(&origin.cast::<f64>())?;
-        let (mut lo, mut hi) = (o.0, o.0);
-        for p in points {
-            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-                continue;
-            }
-            let end = max_range_end_f32(origin, p, self.max_range).unwrap_or(*p);
-            if let Some(k) = self.conv.point_to_key(&end.cast::<f64>()) {
-                for i in 0..3 {
-                    lo[i] = lo[i].min(k[i]);
-                    hi[i] = hi[i].max(k[i]);
-                }
-            }
-        }
-        Some((
-            Key(lo.map(|c| c.saturating_sub(1))),
-            Key(hi.map(|c| c.saturating_add(1))),
-        ))
     }
 
     /// Frames inserted so far.
@@ -449,6 +386,191 @@ impl RayStretch<'_> {
     }
 }
 
+impl ScanRules {
+    /// The frame's colours, checked as [`ColorMapper::check`] does.
+    fn checked_colors<'f>(
+        &self,
+        frame: &'f Frame,
+        index: usize,
+    ) -> Result<&'f [Color], ColorMapError> {
+        let colors = frame
+            .colors
+            .as_deref()
+            .ok_or(ColorMapError::NoColors { frame: index })?;
+        if colors.len() != frame.points.len() {
+            return Err(ColorMapError::ColorCount {
+                frame: index,
+                colors: colors.len(),
+                points: frame.points.len(),
+            });
+        }
+        if self.filters.is_active() {
+            point_index_count(frame, index)?;
+        }
+        Ok(colors)
+    }
+
+    /// The frame's key sets in octomap_server's order and its end points' colours, all that
+    /// does not depend on the tree; `index` names the frame in errors.
+    fn prepare(
+        &self,
+        frame: &Frame,
+        rotation: &UnitQuaternion<f64>,
+        index: usize,
+    ) -> Result<ColorScan, ColorMapError> {
+        let colors = self.checked_colors(frame, index)?;
+        let start = Instant::now();
+        let mut st = FrameStats {
+            points: frame.points.len(),
+            reduced: frame.points.len(),
+            ..FrameStats::default()
+        };
+        let origin = frame.origin;
+        // the filters keep points with their colours: each kept point's index rides along
+        // in the filters' pixel channel
+        let filtered;
+        let (points, colors) = if self.filters.is_active() {
+            let n = point_index_count(frame, index)?;
+            let (mut kept, mut kept_index) = (Vec::new(), Vec::new());
+            let index: Vec<u32> = (0..n).collect();
+            let c = self.filters.apply(
+                &origin,
+                rotation,
+                &frame.points,
+                Some(&index),
+                &mut kept,
+                &mut kept_index,
+            );
+            st.non_finite = c.non_finite;
+            st.zero = c.zero;
+            st.dropped = c.dropped;
+            st.clearing = c.clearing;
+            let kept_colors: Vec<Color> = kept_index.iter().map(|&i| colors[i as usize]).collect();
+            filtered = (kept, kept_colors);
+            (&filtered.0[..], &filtered.1[..])
+        } else {
+            (&frame.points[..], colors)
+        };
+        // octomap_server's loop over the points: the rays' keys into the free set, first
+        // those of the ground points kept to clear space (the filters put them last), whose
+        // rays only clear (cut at the maximum range); the rays are walked in stretches on the
+        // rayon threads and the stretches appended in order, which gives the set of one walk
+        // after another ([`octoquant_octree::KeySetPart`])
+        let window = self.key_box(&origin, points);
+        let (points, ground) = points.split_at(points.len() - st.clearing);
+        let rays = RayStretch {
+            conv: &self.conv,
+            origin: &origin,
+            max_range: self.max_range,
+            window,
+        };
+        let (mut free, mut occupied) = match window {
+            Some((lo, hi)) => (
+                KeySetOrder::with_window(lo, hi),
+                KeySetOrder::with_window(lo, hi),
+            ),
+            None => (KeySetOrder::new(), KeySetOrder::new()),
+        };
+        for part in rays.walk_all(ground, points) {
+            free.append(&part.keys);
+            st.outside_map += part.outside_map;
+        }
+        st.rays += ground.len();
+        // the same loop's end points, in order: occupied keys, and each one's colour, which
+        // goes into its node as the tree is before this scan's updates
+        let mut merges = Vec::with_capacity(points.len());
+        for (p, &c) in points.iter().zip(colors) {
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                st.non_finite += 1;
+                continue;
+            }
+            if *p == origin && !self.filters.is_active() {
+                st.zero += 1; // (the filters counted them)
+            }
+            st.rays += 1;
+            if max_range_end_f32(&origin, p, self.max_range).is_some() {
+                // a cut ray: free space only (counted in its stretch)
+                continue;
+            }
+            let Some(key) = self.conv.point_to_key(&p.cast::<f64>()) else {
+                st.outside_map += 1;
+                continue;
+            };
+            occupied.insert(key);
+            merges.push((key, c));
+        }
+        let free = free
+            .order()
+            .into_iter()
+            .filter(|k| !occupied.contains(k))
+            .collect();
+        st.ray_seconds = start.elapsed().as_secs_f64();
+        Ok(ColorScan {
+            free,
+            occupied: occupied.order(),
+            colors: merges,
+            st,
+        })
+    }
+
+    /// The box of voxels the scan's keys lie in: those of the origin and of every ray's end
+    /// (cut at the maximum range), one voxel wider on each side (a ray's keys lie between its
+    /// two ends' keys; the margin covers an end whose `f32` key differs from its `f64` one).
+    /// `None` when the origin is outside the map (no ray has keys). The key sets only go
+    /// faster inside it.
+    fn key_box(&self, origin: &Point3<f32>, points: &[Point3<f32>]) -> Option<(Key, Key)> {
+        let o = self.conv.point_to_key(&origin.cast::<f64>())?;
+        let (mut lo, mut hi) = (o.0, o.0);
+        for p in points {
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                continue;
+            }
+            let end = max_range_end_f32(origin, p, self.max_range).unwrap_or(*p);
+            if let Some(k) = self.conv.point_to_key(&end.cast::<f64>()) {
+                for i in 0..3 {
+                    lo[i] = lo[i].min(k[i]);
+                    hi[i] = hi[i].max(k[i]);
+                }
+            }
+        }
+        Some((
+            Key(lo.map(|c| c.saturating_sub(1))),
+            Key(hi.map(|c| c.saturating_add(1))),
+        ))
+    }
+}
+
+/// octomap_server's insertion of a prepared scan: each end point's colour into its node as
+/// the tree is now, one miss per free voxel and one hit per occupied one in `KeySet` order,
+/// eager, then `prune()`. Returns the scan's statistics with the tree's time.
+fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameStats {
+    let start = Instant::now();
+    let ColorScan {
+        free,
+        occupied,
+        colors,
+        mut st,
+    } = scan;
+    for (key, c) in colors {
+        match merge {
+            ColorMerge::Average => tree.average_node_color(key, c),
+            ColorMerge::Integrate => tree.integrate_node_color(key, c),
+        };
+    }
+    for &k in &free {
+        tree.update_node(k, Update::Miss, InnerNodes::Refresh);
+    }
+    for &k in &occupied {
+        tree.update_node(k, Update::Hit, InnerNodes::Refresh);
+    }
+    tree.prune();
+    st.free = free.len();
+    st.occupied = occupied.len();
+    st.tree_seconds = start.elapsed().as_secs_f64();
+    st.seconds = st.ray_seconds + st.tree_seconds;
+    st
+}
+
 /// The frame's point count as the filters' `u32` index channel holds it
 /// ([`ColorMapError::TooManyPoints`] beyond).
 fn point_index_count(frame: &Frame, index: usize) -> Result<u32, ColorMapError> {
@@ -482,7 +604,11 @@ mod tests {
         let p = [[1.05f32, 0.05, 0.05]];
         m.insert(&frame(&p, Some(vec![Color::new(100, 0, 0)])))
             .unwrap();
-        let key = m.conv.point_to_key(&Point3::new(1.05, 0.05, 0.05)).unwrap();
+        let key = m
+            .rules
+            .conv
+            .point_to_key(&Point3::new(1.05, 0.05, 0.05))
+            .unwrap();
         assert_eq!(m.tree().node_color(key), Some(Color::WHITE));
         m.insert(&frame(&p, Some(vec![Color::new(100, 0, 0)])))
             .unwrap();
@@ -499,6 +625,77 @@ mod tests {
         octoquant_octree::io::write_ot(m.tree().occupancy(), &mut a).unwrap();
         octoquant_octree::io::write_ot(plain.tree(), &mut b).unwrap();
         assert_eq!(a, b);
+    }
+
+    /// Pipelined on two threads, `insert_stream` gives each frame's colours the tree of the
+    /// frames before (the merges of frame `i + 1` wait for frame `i`'s updates) and the map of
+    /// one `insert` per frame; a frame without colours ends the run after the frames before
+    /// it, with `after` called once for each of them and the frame named in the error.
+    #[test]
+    fn insert_stream_is_insert_frame_by_frame_and_stops_at_a_bad_frame() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let p = [
+            [1.05f32, 0.05, 0.05],
+            [0.55, -0.35, 0.25],
+            [-0.8, 0.45, 0.05],
+        ];
+        let rgb = |r, g| Some(vec![Color::new(r, g, 0); 3]);
+        let good = [
+            frame(&p, rgb(100, 0)),
+            frame(&p, rgb(100, 0)),
+            frame(&p, rgb(0, 50)),
+        ];
+        let ot = |m: &ColorMapper| {
+            let mut b = Vec::new();
+            octoquant_octree::io::write_color_ot(m.tree(), &mut b).unwrap();
+            b
+        };
+        let mut one_by_one =
+            ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+        for f in &good {
+            one_by_one.insert(f).unwrap();
+        }
+        let key = one_by_one
+            .rules
+            .conv
+            .point_to_key(&Point3::new(1.05, 0.05, 0.05))
+            .unwrap();
+        assert_eq!(
+            one_by_one.tree().node_color(key),
+            Some(Color::new(50, 25, 0))
+        );
+        pool.install(|| {
+            let mut m = ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+            let mut seen = Vec::new();
+            m.insert_stream(good.iter().map(Ok::<_, ColorMapError>), |m, st| {
+                seen.push((m.frames(), st.occupied));
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(seen, vec![(1, 3), (2, 3), (3, 3)]);
+            assert_eq!(ot(&m), ot(&one_by_one));
+
+            let mut bad = good.to_vec();
+            bad.insert(2, frame(&p, None));
+            let mut m = ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+            let mut calls = 0;
+            let e = m
+                .insert_stream(bad.iter().map(Ok::<_, ColorMapError>), |_, _| {
+                    calls += 1;
+                    Ok(())
+                })
+                .unwrap_err();
+            assert!(matches!(e, ColorMapError::NoColors { frame: 2 }), "{e}");
+            assert_eq!((calls, m.frames()), (2, 2));
+            let mut two = ColorMapper::new(MapperOptions::default(), ColorMerge::Average).unwrap();
+            for f in &good[..2] {
+                two.insert(f).unwrap();
+            }
+            assert_eq!(ot(&m), ot(&two));
+        });
     }
 
     #[test]

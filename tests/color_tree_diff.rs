@@ -603,9 +603,10 @@ fn tum_rgbd_colored_scans_match_octomap_server() {
     check_colored_scans("color_scans_tum", &frames, 0.05, 4.0);
 }
 
-/// The rays of a colour scan are walked in stretches on the rayon threads; the map does not
-/// depend on how many: one thread and three give the same `.ot` bytes, with cut rays (a
-/// maximum range) and without, and the map is not empty.
+/// The rays of a colour scan are walked in stretches on the rayon threads, and
+/// `insert_stream` walks a frame's rays while the frame before goes into the tree; the map
+/// depends on neither: one thread and three, frame by frame or streamed, give the same `.ot`
+/// bytes, with cut rays (a maximum range) and without, and the map is not empty.
 #[test]
 fn colored_scans_are_the_same_on_any_thread_count() {
     use octoquant::color_map::{ColorMapper, ColorMerge};
@@ -613,7 +614,7 @@ fn colored_scans_are_the_same_on_any_thread_count() {
         return;
     };
     for max_range in [None, Some(4.0)] {
-        let build = |threads: usize| {
+        let build = |threads: usize, stream: bool| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
@@ -625,18 +626,27 @@ fn colored_scans_are_the_same_on_any_thread_count() {
                     ..octoquant::MapperOptions::default()
                 };
                 let mut mapper = ColorMapper::new(options, ColorMerge::Average).unwrap();
-                for f in &frames {
-                    mapper.insert(f).unwrap();
+                if stream {
+                    let frames = frames
+                        .iter()
+                        .map(Ok::<_, octoquant::color_map::ColorMapError>);
+                    mapper.insert_stream(frames, |_, _| Ok(())).unwrap();
+                } else {
+                    for f in &frames {
+                        mapper.insert(f).unwrap();
+                    }
                 }
                 mapper.into_tree()
             })
         };
-        let (one, three) = (build(1), build(3));
+        let one = build(1, false);
         assert!(one.num_colored_nodes() > 500, "{}", one.num_colored_nodes());
-        assert!(
-            color_ot(&one) == color_ot(&three),
-            "max range {max_range:?}: one thread and three differ"
-        );
+        for (threads, stream) in [(3, false), (1, true), (3, true)] {
+            assert!(
+                color_ot(&one) == color_ot(&build(threads, stream)),
+                "max range {max_range:?}: {threads} threads, streamed {stream}, differ from one thread"
+            );
+        }
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::color_tree::PyColorOcTree;
 use crate::convert;
-use crate::engine::{self, ColorMapper, ColorMerge, MapperOptions};
+use crate::engine::{self, ColorMapError, ColorMapper, ColorMerge, MapperOptions};
 use crate::mapper::{origin_or_zero, read_frames, stats_dict, FilterArgs, Placement};
 use nalgebra::Point3;
 use pyo3::exceptions::PyValueError;
@@ -162,12 +162,17 @@ impl PyColorMapper {
             Ok(frame)
         })?;
         let mapper = &mut self.mapper;
-        // checked above: no insertion fails
+        // checked above: no insertion fails; pipelined (a scan's rays are walked while the one
+        // before goes into the tree)
         let stats = py
             .detach(|| {
-                list.iter()
-                    .map(|f| mapper.insert(f))
-                    .collect::<Result<Vec<_>, _>>()
+                let mut out = Vec::with_capacity(list.len());
+                mapper
+                    .insert_stream(list.iter().map(Ok::<_, ColorMapError>), |_, st| {
+                        out.push(*st);
+                        Ok(())
+                    })
+                    .map(|()| out)
             })
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         stats.iter().map(|s| stats_dict(py, s)).collect()

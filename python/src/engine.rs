@@ -10,7 +10,7 @@ use octoquant::octree::io;
 use octoquant::raycast::{self, InsertOptions};
 use std::path::Path;
 
-pub use octoquant::color_map::{ColorMapper, ColorMerge};
+pub use octoquant::color_map::{ColorMapError, ColorMapper, ColorMerge};
 pub use octoquant::filters::{CropBox, FilterError, GroundFilter, PointFilters};
 pub use octoquant::grid::{GridError, GridOptions, OccupancyGrid, UnknownCells};
 pub use octoquant::octree::{

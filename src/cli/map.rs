@@ -614,9 +614,15 @@ fn run_color(a: &Args) -> Result<()> {
     let inputs = typed_frames(&plan, true, load_ns.clone())?;
     let mut progress = Progress::new(a.quiet, a.progress_every, None);
     let mut stats = MapStats::default();
-    for frame in inputs {
-        let frame = frame?;
-        let st = mapper.insert(&frame).with_context(|| {
+    // pipelined: a frame's rays are walked while the one before goes into the tree
+    let frames = inputs.map(|f| f.map_err(anyhow::Error::from));
+    mapper
+        .insert_stream(frames, |_, st| -> Result<()> {
+            stats.add(st);
+            progress.update(&stats, stats.total.points, 0);
+            Ok(())
+        })
+        .with_context(|| {
             let names: Vec<String> = plan
                 .inputs
                 .iter()
@@ -624,9 +630,6 @@ fn run_color(a: &Args) -> Result<()> {
                 .collect();
             format!("mapping {} in colour", names.join(", "))
         })?;
-        stats.add(&st);
-        progress.update(&stats, stats.total.points, 0);
-    }
     progress.finish();
     let tree = mapper.into_tree();
     save_color_tree_file(&tree, &plan.output)?;
