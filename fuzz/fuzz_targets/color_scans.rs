@@ -1,0 +1,142 @@
+//! Structure-aware: a few small coloured frames (any `f32` coordinates, NaN, infinities and
+//! points outside the key range included; empty frames; origins anywhere; now and then a
+//! frame without colours) inserted by `ColorMapper::insert` frame by frame on one thread and
+//! by `ColorMapper::insert_stream` pipelined on two. No call may panic; both must stop at the
+//! same frame with the same error, and give the same coloured `.ot` bytes and per-frame
+//! counts.
+#![no_main]
+use arbitrary::Arbitrary;
+use libfuzzer_sys::fuzz_target;
+use nalgebra::Point3;
+use octoquant::color_map::{ColorMapError, ColorMapper, ColorMerge};
+use octoquant::octree::io::write_color_ot;
+use octoquant::octree::Color;
+use octoquant::pipeline::{FrameStats, MapperOptions};
+use octoquant::Frame;
+use std::sync::OnceLock;
+
+#[derive(Arbitrary, Debug)]
+struct FuzzFrame {
+    /// The origin: near the map's centre, or any `f32`s.
+    origin: Place,
+    /// Points with their colours.
+    points: Vec<(Place, [u8; 3])>,
+    /// The frame carries no colours (an error for the colour mapper).
+    colourless: bool,
+}
+
+#[derive(Arbitrary, Debug, Clone, Copy)]
+enum Place {
+    /// Within a few metres of the map's centre (tenths of a metre).
+    Near(i8, i8, i8),
+    /// Any coordinates.
+    Raw(f32, f32, f32),
+}
+
+impl Place {
+    fn point(self) -> Point3<f32> {
+        match self {
+            Place::Near(x, y, z) => {
+                Point3::new(f32::from(x) * 0.1, f32::from(y) * 0.1, f32::from(z) * 0.1)
+            }
+            Place::Raw(x, y, z) => Point3::new(x, y, z),
+        }
+    }
+}
+
+#[derive(Arbitrary, Debug)]
+struct Input {
+    frames: Vec<FuzzFrame>,
+    integrate: bool,
+    resolution: u8,
+    max_range: Option<u8>,
+}
+
+/// The counts of a frame's statistics that do not depend on timing.
+fn counts(s: &FrameStats) -> [usize; 6] {
+    [
+        s.points,
+        s.non_finite,
+        s.outside_map,
+        s.rays,
+        s.free,
+        s.occupied,
+    ]
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+}
+
+fn one_thread() -> &'static rayon::ThreadPool {
+    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
+    POOL.get_or_init(|| pool(1))
+}
+
+fn two_threads() -> &'static rayon::ThreadPool {
+    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
+    POOL.get_or_init(|| pool(2))
+}
+
+fn ot(m: &ColorMapper) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_color_ot(m.tree(), &mut out).expect("writing into memory");
+    out
+}
+
+fuzz_target!(|input: Input| {
+    let frames: Vec<Frame> = input
+        .frames
+        .iter()
+        .take(6)
+        .map(|f| {
+            let points = f.points.iter().take(48);
+            let colors = points.clone().map(|(_, [r, g, b])| Color::new(*r, *g, *b));
+            Frame {
+                colors: (!f.colourless).then(|| colors.collect()),
+                ..Frame::new_f32(f.origin.point(), points.map(|(p, _)| p.point()).collect())
+            }
+        })
+        .collect();
+    let options = MapperOptions {
+        resolution: [0.05, 0.1, 0.25, 1.0][usize::from(input.resolution % 4)],
+        max_range: input.max_range.map(|r| f64::from(r) * 0.1),
+        ..MapperOptions::default()
+    };
+    let merge = if input.integrate {
+        ColorMerge::Integrate
+    } else {
+        ColorMerge::Average
+    };
+    let new = || ColorMapper::new(options.clone(), merge).expect("a valid resolution");
+    let (want, want_stats, want_err) = one_thread().install(|| {
+        let mut m = new();
+        let mut stats = Vec::new();
+        let mut err = None;
+        for f in &frames {
+            match m.insert(f) {
+                Ok(st) => stats.push(counts(&st)),
+                Err(e) => {
+                    err = Some(e.to_string());
+                    break;
+                }
+            }
+        }
+        (ot(&m), stats, err)
+    });
+    let (got, got_stats, got_err) = two_threads().install(|| {
+        let mut m = new();
+        let mut stats = Vec::new();
+        let r = m.insert_stream(frames.iter().map(Ok::<_, ColorMapError>), |_, st| {
+            stats.push(counts(st));
+            Ok(())
+        });
+        (ot(&m), stats, r.err().map(|e| e.to_string()))
+    });
+    assert_eq!(got_err, want_err, "another error than frame by frame");
+    assert_eq!(got_stats, want_stats, "other per-frame counts");
+    assert!(got == want, "another tree than one insert per frame");
+});
