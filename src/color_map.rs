@@ -317,7 +317,7 @@ struct RayStretch<'a> {
     origin: &'a Point3<f32>,
     /// octomap_server's `m_maxRange`: negative for none.
     max_range: f64,
-    /// The box the scan's keys lie in ([`ColorMapper::key_box`]).
+    /// The box the scan's keys lie in ([`ScanRules::key_box`]).
     window: Option<(Key, Key)>,
 }
 
