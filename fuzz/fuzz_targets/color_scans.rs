@@ -7,13 +7,12 @@
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
-use nalgebra::Point3;
 use octoquant::color_map::{ColorMapError, ColorMapper, ColorMerge};
 use octoquant::octree::io::write_color_ot;
 use octoquant::octree::Color;
-use octoquant::pipeline::{FrameStats, MapperOptions};
+use octoquant::pipeline::MapperOptions;
 use octoquant::Frame;
-use std::sync::OnceLock;
+use octoquant_fuzz::{frame_counts, pool, written, Place};
 
 #[derive(Arbitrary, Debug)]
 struct FuzzFrame {
@@ -25,66 +24,12 @@ struct FuzzFrame {
     colourless: bool,
 }
 
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum Place {
-    /// Within a few metres of the map's centre (tenths of a metre).
-    Near(i8, i8, i8),
-    /// Any coordinates.
-    Raw(f32, f32, f32),
-}
-
-impl Place {
-    fn point(self) -> Point3<f32> {
-        match self {
-            Place::Near(x, y, z) => {
-                Point3::new(f32::from(x) * 0.1, f32::from(y) * 0.1, f32::from(z) * 0.1)
-            }
-            Place::Raw(x, y, z) => Point3::new(x, y, z),
-        }
-    }
-}
-
 #[derive(Arbitrary, Debug)]
 struct Input {
     frames: Vec<FuzzFrame>,
     integrate: bool,
     resolution: u8,
     max_range: Option<u8>,
-}
-
-/// The counts of a frame's statistics that do not depend on timing.
-fn counts(s: &FrameStats) -> [usize; 6] {
-    [
-        s.points,
-        s.non_finite,
-        s.outside_map,
-        s.rays,
-        s.free,
-        s.occupied,
-    ]
-}
-
-fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool")
-}
-
-fn one_thread() -> &'static rayon::ThreadPool {
-    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
-    POOL.get_or_init(|| pool(1))
-}
-
-fn two_threads() -> &'static rayon::ThreadPool {
-    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
-    POOL.get_or_init(|| pool(2))
-}
-
-fn ot(m: &ColorMapper) -> Vec<u8> {
-    let mut out = Vec::new();
-    write_color_ot(m.tree(), &mut out).expect("writing into memory");
-    out
 }
 
 fuzz_target!(|input: Input| {
@@ -112,29 +57,33 @@ fuzz_target!(|input: Input| {
         ColorMerge::Average
     };
     let new = || ColorMapper::new(options.clone(), merge).expect("a valid resolution");
-    let (want, want_stats, want_err) = one_thread().install(|| {
+    let (want, want_stats, want_err) = pool(1).install(|| {
         let mut m = new();
         let mut stats = Vec::new();
         let mut err = None;
         for f in &frames {
             match m.insert(f) {
-                Ok(st) => stats.push(counts(&st)),
+                Ok(st) => stats.push(frame_counts(&st)),
                 Err(e) => {
                     err = Some(e.to_string());
                     break;
                 }
             }
         }
-        (ot(&m), stats, err)
+        (written(|w| write_color_ot(m.tree(), w)), stats, err)
     });
-    let (got, got_stats, got_err) = two_threads().install(|| {
+    let (got, got_stats, got_err) = pool(2).install(|| {
         let mut m = new();
         let mut stats = Vec::new();
         let r = m.insert_stream(frames.iter().map(Ok::<_, ColorMapError>), |_, st| {
-            stats.push(counts(st));
+            stats.push(frame_counts(st));
             Ok(())
         });
-        (ot(&m), stats, r.err().map(|e| e.to_string()))
+        (
+            written(|w| write_color_ot(m.tree(), w)),
+            stats,
+            r.err().map(|e| e.to_string()),
+        )
     });
     assert_eq!(got_err, want_err, "another error than frame by frame");
     assert_eq!(got_stats, want_stats, "other per-frame counts");

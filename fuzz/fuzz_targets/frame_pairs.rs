@@ -7,11 +7,10 @@
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
-use nalgebra::Point3;
 use octoquant::octree::io::write_ot;
-use octoquant::pipeline::{FramePairs, FrameStats, InsertMode, Mapper, MapperOptions};
+use octoquant::pipeline::{FramePairs, InsertMode, Mapper, MapperOptions};
 use octoquant::Frame;
-use std::sync::OnceLock;
+use octoquant_fuzz::{frame_counts, pool, written, Place};
 
 #[derive(Arbitrary, Debug)]
 struct FuzzFrame {
@@ -20,59 +19,12 @@ struct FuzzFrame {
     points: Vec<Place>,
 }
 
-#[derive(Arbitrary, Debug, Clone, Copy)]
-enum Place {
-    /// Within a few metres of the map's centre (tenths of a metre).
-    Near(i8, i8, i8),
-    /// Any coordinates.
-    Raw(f32, f32, f32),
-}
-
-impl Place {
-    fn point(self) -> Point3<f32> {
-        match self {
-            Place::Near(x, y, z) => {
-                Point3::new(f32::from(x) * 0.1, f32::from(y) * 0.1, f32::from(z) * 0.1)
-            }
-            Place::Raw(x, y, z) => Point3::new(x, y, z),
-        }
-    }
-}
-
 #[derive(Arbitrary, Debug)]
 struct Input {
     frames: Vec<FuzzFrame>,
     mode: u8,
     resolution: u8,
     max_range: Option<u8>,
-}
-
-/// The counts of a frame's statistics that do not depend on timing.
-fn counts(s: &FrameStats) -> [usize; 6] {
-    [
-        s.points,
-        s.non_finite,
-        s.outside_map,
-        s.rays,
-        s.free,
-        s.occupied,
-    ]
-}
-
-fn two_threads() -> &'static rayon::ThreadPool {
-    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
-    POOL.get_or_init(|| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .expect("a pool of two threads")
-    })
-}
-
-fn ot(m: Mapper) -> Vec<u8> {
-    let mut out = Vec::new();
-    write_ot(&m.into_tree(), &mut out).expect("writing into memory");
-    out
 }
 
 fuzz_target!(|input: Input| {
@@ -98,21 +50,24 @@ fuzz_target!(|input: Input| {
         ..MapperOptions::default()
     };
     let mut serial = Mapper::new(options.clone()).expect("a valid resolution");
-    let want_stats: Vec<[usize; 6]> = frames.iter().map(|f| counts(&serial.insert(f))).collect();
-    let want = ot(serial);
+    let want_stats: Vec<[usize; 6]> = frames
+        .iter()
+        .map(|f| frame_counts(&serial.insert(f)))
+        .collect();
+    let want = written(|w| write_ot(serial.tree(), w));
     for pairs in [FramePairs::Always, FramePairs::Never] {
-        let (got, stats) = two_threads().install(|| {
+        let (got, stats) = pool(2).install(|| {
             let mut m = Mapper::new(options.clone())
                 .expect("a valid resolution")
                 .with_frame_pairs(pairs);
             let stats = m.insert_frames(&frames);
-            (ot(m), stats)
+            (written(|w| write_ot(m.tree(), w)), stats)
         });
         assert!(
             got == want,
             "{pairs:?}: another tree than one insert per frame"
         );
-        let got_stats: Vec<[usize; 6]> = stats.iter().map(counts).collect();
+        let got_stats: Vec<[usize; 6]> = stats.iter().map(frame_counts).collect();
         assert_eq!(got_stats, want_stats, "{pairs:?}: other per-frame counts");
     }
 });

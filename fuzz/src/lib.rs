@@ -97,3 +97,63 @@ pub mod ops {
         }
     }
 }
+
+/// A point (or origin) of a structure-aware frame target: near the map's centre, where rays
+/// meet the tree, or any `f32`s (NaN, infinities, outside the key range).
+#[derive(arbitrary::Arbitrary, Debug, Clone, Copy)]
+pub enum Place {
+    /// Within a few metres of the map's centre (tenths of a metre).
+    Near(i8, i8, i8),
+    /// Any coordinates.
+    Raw(f32, f32, f32),
+}
+
+impl Place {
+    /// The point this place stands for.
+    pub fn point(self) -> nalgebra::Point3<f32> {
+        match self {
+            Place::Near(x, y, z) => {
+                nalgebra::Point3::new(f32::from(x) * 0.1, f32::from(y) * 0.1, f32::from(z) * 0.1)
+            }
+            Place::Raw(x, y, z) => nalgebra::Point3::new(x, y, z),
+        }
+    }
+}
+
+/// The counts of a frame's statistics that do not depend on timing: points, non-finite,
+/// outside the map, rays, free, occupied.
+pub fn frame_counts(s: &octoquant::pipeline::FrameStats) -> [usize; 6] {
+    [
+        s.points,
+        s.non_finite,
+        s.outside_map,
+        s.rays,
+        s.free,
+        s.occupied,
+    ]
+}
+
+/// A rayon pool of `threads` threads, made once per thread count and kept (a target's every
+/// input runs on the same pools).
+pub fn pool(threads: usize) -> &'static rayon::ThreadPool {
+    static POOLS: OnceLock<[rayon::ThreadPool; 2]> = OnceLock::new();
+    let make = |n| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("a thread pool")
+    };
+    let pools = POOLS.get_or_init(|| [make(1), make(2)]);
+    match threads {
+        1 => &pools[0],
+        2 => &pools[1],
+        _ => panic!("the fuzz targets use pools of one or two threads"),
+    }
+}
+
+/// The bytes `write` writes into memory (a tree's `.ot`, say).
+pub fn written(write: impl FnOnce(&mut Vec<u8>) -> std::io::Result<()>) -> Vec<u8> {
+    let mut out = Vec::new();
+    write(&mut out).expect("writing into memory");
+    out
+}
