@@ -551,10 +551,12 @@ fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameSta
         colors,
         mut st,
     } = scan;
-    for (key, c) in colors {
+    // neighbouring end points often share a voxel: each run of them merges with one search
+    for run in colors.chunk_by(|a, b| a.0 == b.0) {
+        let (key, run) = (run[0].0, run.iter().map(|&(_, c)| c));
         match merge {
-            ColorMerge::Average => tree.average_node_color(key, c),
-            ColorMerge::Integrate => tree.integrate_node_color(key, c),
+            ColorMerge::Average => tree.average_node_colors(key, run),
+            ColorMerge::Integrate => tree.integrate_node_colors(key, run),
         };
     }
     for &k in &free {

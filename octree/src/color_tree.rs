@@ -268,8 +268,22 @@ impl ColorOcTree {
     /// mean with the old colour, or `color` when it had none). Returns the new colour, `None`
     /// in unknown space.
     pub fn average_node_color(&mut self, key: Key, color: Color) -> Option<Color> {
+        self.average_node_colors(key, [color])
+    }
+
+    /// [`ColorOcTree::average_node_color`] of each of `colors` in turn into the node holding
+    /// `key`, with one search: averaging changes no occupancy, so every call of the run finds
+    /// the same node (a scan's neighbouring points often end in one voxel). Returns the node's
+    /// last colour, `None` (and no change) in unknown space.
+    pub fn average_node_colors(
+        &mut self,
+        key: Key,
+        colors: impl IntoIterator<Item = Color>,
+    ) -> Option<Color> {
         let (id, _) = self.found(key)?;
-        let c = self.color_of(id).averaged_with(color);
+        let c = colors
+            .into_iter()
+            .fold(self.color_of(id), |old, c| old.averaged_with(c));
         self.put_color(id, c);
         Some(c)
     }
@@ -278,9 +292,22 @@ impl ColorOcTree {
     /// `integrateNodeColor`: `old·p + color·(0.99 − p)` with `p` the node's probability, or
     /// `color` when it had none). Returns the new colour, `None` in unknown space.
     pub fn integrate_node_color(&mut self, key: Key, color: Color) -> Option<Color> {
+        self.integrate_node_colors(key, [color])
+    }
+
+    /// [`ColorOcTree::integrate_node_color`] of each of `colors` in turn into the node holding
+    /// `key`, with one search (the node and its occupancy stay the same through the run).
+    /// Returns the node's last colour, `None` (and no change) in unknown space.
+    pub fn integrate_node_colors(
+        &mut self,
+        key: Key,
+        colors: impl IntoIterator<Item = Color>,
+    ) -> Option<Color> {
         let (id, v) = self.found(key)?;
         let p = crate::params::probability(f64::from(v));
-        let c = self.color_of(id).integrated_with(color, p);
+        let c = colors
+            .into_iter()
+            .fold(self.color_of(id), |old, c| old.integrated_with(c, p));
         self.put_color(id, c);
         Some(c)
     }

@@ -120,3 +120,66 @@ fn colours_at_a_depth_and_average_of_children() {
     assert!(!t.set_color_at(far, 16, Color::new(1, 1, 1)));
     assert_eq!(t.num_colored_nodes(), 3);
 }
+
+/// A run of colours merged with one search is the same as merging them one call at a time,
+/// for both rules, a run passing through white (no colour) included, into a voxel and into
+/// a pruned leaf; in unknown space a run changes nothing.
+#[test]
+fn colour_runs_are_single_merges_in_turn() {
+    let runs: [&[Color]; 4] = [
+        &[Color::new(10, 200, 30)],
+        &[
+            Color::new(0, 0, 0),
+            Color::new(255, 255, 255),
+            Color::new(90, 7, 255),
+        ],
+        &[Color::WHITE, Color::WHITE],
+        &[
+            Color::new(255, 255, 253),
+            Color::new(255, 255, 255),
+            Color::new(1, 2, 3),
+            Color::new(200, 100, 50),
+        ],
+    ];
+    let base = k(32768, 32768, 32768);
+    for integrate in [false, true] {
+        let (mut one, mut many) = (
+            ColorOcTree::new(0.1).unwrap(),
+            ColorOcTree::new(0.1).unwrap(),
+        );
+        for t in [&mut one, &mut many] {
+            t.update_node(base, Update::Hit, InnerNodes::Refresh);
+            for s in siblings(k(32770, 32768, 32768)) {
+                t.update_node(s, Update::Hit, InnerNodes::Refresh);
+            }
+            t.prune();
+        }
+        for (i, run) in runs.iter().enumerate() {
+            let key = if i % 2 == 0 {
+                base
+            } else {
+                k(32771, 32769, 32768)
+            };
+            let mut last = None;
+            for &c in *run {
+                last = if integrate {
+                    one.integrate_node_color(key, c)
+                } else {
+                    one.average_node_color(key, c)
+                };
+            }
+            let got = if integrate {
+                many.integrate_node_colors(key, run.iter().copied())
+            } else {
+                many.average_node_colors(key, run.iter().copied())
+            };
+            assert_eq!(got, last, "run {i}, integrate {integrate}");
+            assert_eq!(many.node_color(key), one.node_color(key));
+        }
+        assert_eq!(
+            many.average_node_colors(k(100, 100, 100), runs[1].iter().copied()),
+            None
+        );
+        assert!(many.node_color(k(100, 100, 100)).is_none());
+    }
+}
