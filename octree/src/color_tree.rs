@@ -280,12 +280,7 @@ impl ColorOcTree {
         key: Key,
         colors: impl IntoIterator<Item = Color>,
     ) -> Option<Color> {
-        let (id, _) = self.found(key)?;
-        let c = colors
-            .into_iter()
-            .fold(self.color_of(id), |old, c| old.averaged_with(c));
-        self.put_color(id, c);
-        Some(c)
+        self.merge_colors(key, colors, |old, c, _| old.averaged_with(c))
     }
 
     /// Integrate `color` into the node holding `key`, weighted by its occupancy (OctoMap's
@@ -303,11 +298,23 @@ impl ColorOcTree {
         key: Key,
         colors: impl IntoIterator<Item = Color>,
     ) -> Option<Color> {
+        self.merge_colors(key, colors, |old, c, p| old.integrated_with(c, p))
+    }
+
+    /// Merge `colors` in turn into the node holding `key` by `rule(old, new, p)` (`p` the
+    /// node's occupancy probability, the same through the run), with one search; the node's
+    /// last colour, `None` (and no change) in unknown space.
+    fn merge_colors(
+        &mut self,
+        key: Key,
+        colors: impl IntoIterator<Item = Color>,
+        rule: impl Fn(Color, Color, f64) -> Color,
+    ) -> Option<Color> {
         let (id, v) = self.found(key)?;
         let p = crate::params::probability(f64::from(v));
         let c = colors
             .into_iter()
-            .fold(self.color_of(id), |old, c| old.integrated_with(c, p));
+            .fold(self.color_of(id), |old, c| rule(old, c, p));
         self.put_color(id, c);
         Some(c)
     }
