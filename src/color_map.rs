@@ -569,7 +569,6 @@ fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameSta
     st.free = free.len();
     st.occupied = occupied.len();
     st.tree_seconds = start.elapsed().as_secs_f64();
-    st.seconds = st.ray_seconds + st.tree_seconds;
     st
 }
 
