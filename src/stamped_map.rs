@@ -269,9 +269,9 @@ impl StampedMapper {
 /// `OcTreeStamped`), then the degrading; returns the seconds it took.
 fn apply_at(tree: &mut StampedOcTree, update: &ScanUpdate, now: u32, degrade: Option<u32>) -> f64 {
     let start = Instant::now();
-    tree.insert_update_at(
-        update.free().iter().copied(),
-        update.occupied().iter().copied(),
+    tree.insert_bricks_at(
+        update.free_bricks(),
+        update.occupied_bricks(),
         InnerNodes::Refresh,
         now,
     );

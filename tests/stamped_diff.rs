@@ -395,8 +395,8 @@ fn random_stamped_sequences_match_octomap() {
     );
 }
 
-/// Real scans inserted one per second (OctoMap's `insertPointCloud` at a clock it reads), then
-/// the stale obstacles degraded: same nodes, stamps and `.ot` bytes as OctoMap.
+/// Real scans inserted one per second (OctoMap's `insertPointCloud` at a clock it reads; as
+/// keys and as bricks in turn), then the stale obstacles degraded: same nodes, stamps and `.ot` bytes as OctoMap.
 fn check_real_frames(name: &str, frames: &[Frame], res: f64, max_range: Option<f64>) {
     let Some(refprog) = common::reference_program() else {
         return;
@@ -416,12 +416,22 @@ fn check_real_frames(name: &str, frames: &[Frame], res: f64, max_range: Option<f
             &mut update,
         );
         let now = start + i as u32;
-        tree.insert_update_at(
-            update.free().iter().copied(),
-            update.occupied().iter().copied(),
-            InnerNodes::Refresh,
-            now,
-        );
+        // both batch forms, keys and bricks, in turn
+        if i % 2 == 0 {
+            tree.insert_update_at(
+                update.free().iter().copied(),
+                update.occupied().iter().copied(),
+                InnerNodes::Refresh,
+                now,
+            );
+        } else {
+            tree.insert_bricks_at(
+                update.free_bricks(),
+                update.occupied_bricks(),
+                InnerNodes::Refresh,
+                now,
+            );
+        }
     }
     let last = start + frames.len() as u32 - 1;
     let before = dump(&tree);

@@ -57,7 +57,18 @@ pub(crate) struct NodeMap<P> {
     free: Vec<u32>,
     /// Entries in all.
     len: usize,
+    /// The slab looked up last at each slabbed depth (14, 15, 16), as block code and slab
+    /// index ([`NO_SLAB`] for none): a batched walk goes through the tree in Morton order, so
+    /// most look-ups repeat the one before at their depth.
+    recent: [(u64, u32); 3],
 }
+
+/// A block code no slab has (codes have 45 bits).
+const NO_SLAB: u64 = u64::MAX;
+
+/// Per child index (`child_id`'s bits: x, y, z), the child's place in its slab relative to
+/// child 0's.
+const CHILD_SLOT: [usize; 8] = [0, 1, 4, 5, 16, 17, 20, 21];
 
 /// The code of the slab of node `id` (depth 14 to 16) and its place there: the node's
 /// coordinates at its depth (`key >> (16 - depth)`) without their two low bits, packed with the
@@ -85,6 +96,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             slabs: Vec::new(),
             free: Vec::new(),
             len: 0,
+            recent: [(NO_SLAB, 0); 3],
         }
     }
 
@@ -105,6 +117,127 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         self.slabs.clear();
         self.free.clear();
         self.len = 0;
+        self.recent = [(NO_SLAB, 0); 3];
+    }
+
+    /// The slab of block `code` at depth `depth` (14 to 16), if it has one; remembered for
+    /// the next look-up.
+    #[inline]
+    fn find_slab(&mut self, code: u64, depth: u8) -> Option<u32> {
+        let r = &mut self.recent[usize::from(depth - SLAB_MIN_DEPTH)];
+        if r.0 == code {
+            return Some(r.1);
+        }
+        let s = *self.bricks.get(&code)?;
+        *r = (code, s);
+        Some(s)
+    }
+
+    /// [`NodeMap::find_slab`] without remembering (for readers).
+    #[inline]
+    fn peek_slab(&self, code: u64, depth: u8) -> Option<u32> {
+        let r = self.recent[usize::from(depth - SLAB_MIN_DEPTH)];
+        if r.0 == code {
+            return Some(r.1);
+        }
+        self.bricks.get(&code).copied()
+    }
+
+    /// The slab of block `code` at depth `depth`, made when it has none.
+    #[inline]
+    fn slab_for(&mut self, code: u64, depth: u8) -> u32 {
+        if let Some(s) = self.find_slab(code, depth) {
+            return s;
+        }
+        let fresh = ([self.unset; BRICK_VOXELS], 0);
+        let s = place(&mut self.slabs, &mut self.free, fresh);
+        self.bricks.insert(code, s);
+        self.recent[usize::from(depth - SLAB_MIN_DEPTH)] = (code, s);
+        s
+    }
+
+    /// Slab `s` of block `code` lost an entry: freed when it was the last.
+    #[inline]
+    fn release_if_empty(&mut self, code: u64, s: u32) {
+        if self.slabs[s as usize].1 == 0 {
+            self.bricks.remove(&code);
+            self.free.push(s);
+            for r in &mut self.recent {
+                if r.0 == code {
+                    *r = (NO_SLAB, 0);
+                }
+            }
+        }
+    }
+
+    /// The payloads of the eight children of `id` (child `i` as [`child_id`]): one slab
+    /// look-up for children at depths 14 to 16.
+    #[inline]
+    pub(crate) fn children(&self, id: NodeId) -> [P; 8] {
+        let first = child_id(id, 0);
+        if first.0 < SLAB_MIN_DEPTH {
+            return std::array::from_fn(|i| self.get(child_id(id, i)));
+        }
+        let (code, slot) = slab_of(first);
+        match self.peek_slab(code, first.0) {
+            Some(s) => {
+                let vals = &self.slabs[s as usize].0;
+                std::array::from_fn(|i| vals[slot + CHILD_SLOT[i]])
+            }
+            None => [self.unset; 8],
+        }
+    }
+
+    /// Give the eight children of `id` the payload `p`, which is set (`copyData` on an
+    /// expansion).
+    #[inline]
+    pub(crate) fn set_children(&mut self, id: NodeId, p: P) {
+        debug_assert!(p != self.unset);
+        let first = child_id(id, 0);
+        if first.0 < SLAB_MIN_DEPTH {
+            for i in 0..8 {
+                self.insert(child_id(id, i), p);
+            }
+            return;
+        }
+        let (code, slot) = slab_of(first);
+        let s = self.slab_for(code, first.0);
+        let (vals, count) = &mut self.slabs[s as usize];
+        for off in CHILD_SLOT {
+            let v = &mut vals[slot + off];
+            if *v == self.unset {
+                *count += 1;
+                self.len += 1;
+            }
+            *v = p;
+        }
+    }
+
+    /// Remove the entries of the eight children of `id`, returning their payloads.
+    #[inline]
+    pub(crate) fn remove_children(&mut self, id: NodeId) -> [P; 8] {
+        let first = child_id(id, 0);
+        if first.0 < SLAB_MIN_DEPTH {
+            return std::array::from_fn(|i| self.remove(child_id(id, i)).unwrap_or(self.unset));
+        }
+        let (code, slot) = slab_of(first);
+        let Some(s) = self.find_slab(code, first.0) else {
+            return [self.unset; 8];
+        };
+        let unset = self.unset;
+        let (vals, count) = &mut self.slabs[s as usize];
+        let mut out = [unset; 8];
+        for (o, off) in out.iter_mut().zip(CHILD_SLOT) {
+            let v = &mut vals[slot + off];
+            if *v != unset {
+                *o = *v;
+                *v = unset;
+                *count -= 1;
+                self.len -= 1;
+            }
+        }
+        self.release_if_empty(code, s);
+        out
     }
 
     /// The payload of `id`, `unset` when it has none.
@@ -114,8 +247,8 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             return self.inner.get(&id).copied().unwrap_or(self.unset);
         }
         let (code, slot) = slab_of(id);
-        match self.bricks.get(&code) {
-            Some(&s) => self.slabs[s as usize].0[slot],
+        match self.peek_slab(code, id.0) {
+            Some(s) => self.slabs[s as usize].0[slot],
             None => self.unset,
         }
     }
@@ -134,15 +267,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             return;
         }
         let (code, slot) = slab_of(id);
-        let s = match self.bricks.get(&code) {
-            Some(&s) => s,
-            None => {
-                let fresh = ([self.unset; BRICK_VOXELS], 0);
-                let s = place(&mut self.slabs, &mut self.free, fresh);
-                self.bricks.insert(code, s);
-                s
-            }
-        };
+        let s = self.slab_for(code, id.0);
         let (vals, count) = &mut self.slabs[s as usize];
         if vals[slot] == self.unset {
             *count += 1;
@@ -160,7 +285,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             return p;
         }
         let (code, slot) = slab_of(id);
-        let &s = self.bricks.get(&code)?;
+        let s = self.find_slab(code, id.0)?;
         let (vals, count) = &mut self.slabs[s as usize];
         let p = vals[slot];
         if p == self.unset {
@@ -169,10 +294,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         vals[slot] = self.unset;
         *count -= 1;
         self.len -= 1;
-        if *count == 0 {
-            self.bricks.remove(&code);
-            self.free.push(s);
-        }
+        self.release_if_empty(code, s);
         Some(p)
     }
 
@@ -208,14 +330,23 @@ mod tests {
         #[test]
         fn holds_what_a_hash_map_holds(
             ops in prop::collection::vec(
-                (0u8..3, 12u8..=16, 0u16..12, 0u16..12, 0u16..4, 0u32..4),
+                (0u8..6, 12u8..=16, 0u16..24, 0u16..24, 0u16..8, 0u32..4),
                 0..300,
             )
         ) {
             let mut m = NodeMap::new(0u32);
             let mut naive: HashMap<NodeId, u32> = HashMap::new();
             for (op, depth, x, y, z, p) in ops {
-                let id = node_id(Key::new(32760 + 4 * x, 32760 + 4 * y, 32760 + z), depth);
+                let id = node_id(Key::new(32760 + x, 32760 + y, 32760 + z), depth);
+                // the eight children, named as `child_id`'s definition: bit a of i adds half
+                // the node's side on axis a
+                let kids: Vec<NodeId> = (0..8)
+                    .map(|i| {
+                        let half = 1u16 << (15 - id.0.min(15));
+                        let k = Key(std::array::from_fn(|a| id.1[a] + ((i >> a) & 1) * half));
+                        (id.0 + 1, k)
+                    })
+                    .collect();
                 match op {
                     0 | 1 => {
                         m.insert(id, p);
@@ -225,7 +356,30 @@ mod tests {
                             naive.insert(id, p);
                         }
                     }
-                    _ => prop_assert_eq!(m.remove(id), naive.remove(&id)),
+                    2 => prop_assert_eq!(m.remove(id), naive.remove(&id)),
+                    _ if depth == 16 => {}
+                    3 => {
+                        let want: Vec<u32> =
+                            kids.iter().map(|k| naive.get(k).copied().unwrap_or(0)).collect();
+                        prop_assert_eq!(m.children(id).to_vec(), want);
+                    }
+                    4 => {
+                        let p = p + 1;
+                        m.set_children(id, p);
+                        for &k in &kids {
+                            naive.insert(k, p);
+                        }
+                    }
+                    _ => {
+                        let want: Vec<u32> =
+                            kids.iter().map(|k| naive.remove(k).unwrap_or(0)).collect();
+                        prop_assert_eq!(m.remove_children(id).to_vec(), want);
+                    }
+                }
+                for k in &kids {
+                    if k.0 <= 16 {
+                        prop_assert_eq!(m.get(*k), naive.get(k).copied().unwrap_or(0));
+                    }
                 }
                 prop_assert_eq!(m.get(id), naive.get(&id).copied().unwrap_or(0));
                 prop_assert_eq!(m.len(), naive.len());

@@ -122,7 +122,7 @@ impl<P: NodePayload> PayloadTree<P> {
         let PayloadTree { tree, payloads } = self;
         let out = op(tree, &mut |depth| {
             let id = node_id(key, depth);
-            if !P::may_collapse(|i| payloads.get(child_id(id, i))) {
+            if !payloads_may_collapse(payloads, id) {
                 return false;
             }
             collapse_into(payloads, id);
@@ -192,14 +192,9 @@ impl<P: NodePayload> PayloadTree<P> {
         if from >= to {
             return; // nothing is expanded
         }
-        let p = self.get(node_id(key, from));
-        if p == P::UNSET {
-            return; // the new children are unset too
-        }
         for d in from..to {
-            let id = node_id(key, d);
-            for i in 0..8 {
-                self.payloads.insert(child_id(id, i), p);
+            if !copy_to_children(&mut self.payloads, node_id(key, d)) {
+                return; // the new children are unset too, and theirs below
             }
         }
     }
@@ -229,7 +224,7 @@ impl<P: NodePayload> PayloadTree<P> {
     /// (node `id`); returns how many nodes were collapsed.
     fn prune_level(&mut self, n: NodeRef, id: NodeId, target: u8) -> usize {
         if n.depth == target {
-            if P::may_collapse(|i| self.get(child_id(id, i))) && self.tree.store.prune_node(n) {
+            if payloads_may_collapse(&self.payloads, id) && self.tree.store.prune_node(n) {
                 self.collapse(id);
                 return 1;
             }
@@ -384,9 +379,27 @@ impl<P: NodePayload> PayloadTree<P> {
     }
 }
 
+/// Node `id` was just expanded: its eight children take its payload (OctoMap's `copyData`).
+/// Returns whether that payload is set (an unset one adds no entry).
+pub(crate) fn copy_to_children<P: NodePayload>(payloads: &mut NodeMap<P>, id: NodeId) -> bool {
+    let p = payloads.get(id);
+    if p == P::UNSET {
+        return false;
+    }
+    payloads.set_children(id, p);
+    true
+}
+
+/// Whether the eight children of `id` may be collapsed by their payloads
+/// ([`NodePayload::may_collapse`]).
+pub(crate) fn payloads_may_collapse<P: NodePayload>(payloads: &NodeMap<P>, id: NodeId) -> bool {
+    let kids = payloads.children(id);
+    P::may_collapse(|i| kids[i])
+}
+
 /// The eight children of `id` were just collapsed into it: their entries go and it takes
 /// [`NodePayload::collapsed`] of their payloads.
-fn collapse_into<P: NodePayload>(payloads: &mut NodeMap<P>, id: NodeId) {
-    let kids = std::array::from_fn(|i| payloads.remove(child_id(id, i)).unwrap_or(P::UNSET));
+pub(crate) fn collapse_into<P: NodePayload>(payloads: &mut NodeMap<P>, id: NodeId) {
+    let kids = payloads.remove_children(id);
     payloads.insert(id, P::collapsed(kids));
 }

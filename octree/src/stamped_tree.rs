@@ -54,11 +54,14 @@
 
 use crate::error::OctreeError;
 use crate::key::{Key, KeyConverter, TREE_DEPTH};
-use crate::node_id::{child_id, node_id, NodeId};
+use crate::node_id::{child_id, node_id, NodeId, NodeMap};
 use crate::params::OccupancyParams;
-use crate::payload_tree::{NodePayload, PayloadTree};
+use crate::payload_tree::{
+    collapse_into, copy_to_children, payloads_may_collapse, NodePayload, PayloadTree,
+};
 use crate::store::NodeRef;
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
+use crate::tree_batch::WalkHooks;
 
 /// The current time as OctoMap stamps it: `(unsigned int) time(NULL)`, whole seconds since
 /// the Unix epoch, truncated to 32 bits (0 if the clock is before the epoch).
@@ -208,58 +211,16 @@ impl StampedOcTree {
     /// Integrate one observation of voxel `key` at time `now` (OctoMap's `updateNode` on an
     /// `OcTreeStamped` whose clock reads `now`). Returns the voxel's new log-odds.
     pub fn update_node_at(&mut self, key: Key, update: Update, inner: InnerNodes, now: u32) -> f32 {
-        self.update_stamping(key, update, inner, now, 0).0
-    }
-
-    /// OctoMap's `updateNode` at time `now` as `updateNodeRecurs` makes it: the voxel gets
-    /// `now` before its parents compare it, a parent is pruned only where its eight children
-    /// also have equal stamps (taking child 0's), and every ancestor left with children gets
-    /// `now`, except the first `known` (depths `0..known`), which the caller knows hold it
-    /// already. Returns the voxel's new log-odds and, for an eager update that applied, the
-    /// depth of the node holding `key` afterwards.
-    fn update_stamping(
-        &mut self,
-        key: Key,
-        update: Update,
-        inner: InnerNodes,
-        now: u32,
-        known: usize,
-    ) -> (f32, Option<u8>) {
-        let mut holder = None;
-        let v = self.base.update_node(
+        // as `updateNodeRecurs`: the voxel gets `now` before its parents compare it, a parent
+        // is pruned only where its eight children also have equal stamps (taking child 0's),
+        // and every ancestor left with children gets `now`
+        self.base.update_node(
             key,
             update,
             inner,
             |b| b.set(node_id(key, TREE_DEPTH), now),
-            |b, held| {
-                stamp_ancestors(b, key, held, known, now);
-                holder = held;
-            },
-        );
-        (v, holder)
-    }
-
-    /// [`StampedOcTree::update_node_at`] inside a batch at one time `now`: `last` is the last
-    /// key of the batch whose update was applied eagerly and the depth of the node that held
-    /// it afterwards. That update left every node on its path, root to that node, stamped
-    /// `now`, and nothing in the batch stamps them otherwise or removes them but collapses,
-    /// which leave the collapsed node stamped `now`; so the ancestors `key` shares with it down
-    /// to that depth need no new stamp, and the walk up stamps only the rest.
-    fn update_node_in_batch(
-        &mut self,
-        key: Key,
-        update: Update,
-        inner: InnerNodes,
-        now: u32,
-        last: &mut Option<(Key, u8)>,
-    ) {
-        let known = match *last {
-            Some((prev, held)) => usize::from(shared_depth(prev, key).min(held)) + 1,
-            None => 0,
-        };
-        if let (_, Some(h)) = self.update_stamping(key, update, inner, now, known) {
-            *last = Some((key, h));
-        }
+            |b, held| stamp_ancestors(b, key, held, now),
+        )
     }
 
     /// [`StampedOcTree::set_node_value_at`] at the system clock's time.
@@ -283,7 +244,7 @@ impl StampedOcTree {
         now: u32,
     ) -> Result<f32, OctreeError> {
         self.base.set_node_value(key, value, inner, |b, held| {
-            stamp_ancestors(b, key, held, 0, now);
+            stamp_ancestors(b, key, held, now);
         })
     }
 
@@ -296,14 +257,31 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) {
-        // consecutive keys (the sets come in Morton order) share most of their path
-        let mut last = None;
-        for k in free {
-            self.update_node_in_batch(k, Update::Miss, inner, now, &mut last);
-        }
-        for k in occupied {
-            self.update_node_in_batch(k, Update::Hit, inner, now, &mut last);
-        }
+        // the batched walk of the plain tree, with the stamps following its changes: each
+        // node is descended to once per brick and refreshed once, not once per voxel
+        let PayloadTree { tree, payloads } = &mut self.base;
+        let stamps = &mut *payloads;
+        tree.update_keys_hooked(free, Update::Miss, inner, StampHooks { stamps, now });
+        let stamps = payloads;
+        tree.update_keys_hooked(occupied, Update::Hit, inner, StampHooks { stamps, now });
+    }
+
+    /// [`StampedOcTree::insert_update_at`] for sets given as bricks of 4x4x4 voxels (as
+    /// [`OcTree::update_bricks`] takes them; `octoquant_raycast`'s `ScanUpdate` keeps its sets
+    /// so): the same tree and stamps as the keys of `free`'s bricks, then `occupied`'s, each
+    /// brick's voxels in mask-bit order. Saves listing the keys.
+    pub fn insert_bricks_at(
+        &mut self,
+        free: &[crate::Brick],
+        occupied: &[crate::Brick],
+        inner: InnerNodes,
+        now: u32,
+    ) {
+        let PayloadTree { tree, payloads } = &mut self.base;
+        let stamps = &mut *payloads;
+        tree.update_bricks_hooked(free, Update::Miss, inner, StampHooks { stamps, now });
+        let stamps = payloads;
+        tree.update_bricks_hooked(occupied, Update::Hit, inner, StampHooks { stamps, now });
     }
 
     /// [`StampedOcTree::degrade_outdated_nodes_at`] at the system clock's time.
@@ -421,28 +399,47 @@ impl StampedOcTree {
     }
 }
 
-/// After an eager ascent from `key` that left it held at depth `held` (`None`: deferred, no
-/// ascent): every ancestor above, left with children and refreshed, gets `now`
-/// (`updateOccupancyChildren`), except the first `known` (depths `0..known`), which the
-/// caller knows hold it already.
-fn stamp_ancestors(
-    base: &mut PayloadTree<u32>,
-    key: Key,
-    held: Option<u8>,
-    known: usize,
+/// The stamp rules for the batched walk ([`StampedOcTree::insert_update_at`]): a voxel that
+/// takes its update and an inner node refreshed with children left get `now`; expansions copy
+/// stamps down; children collapse only with equal stamps, the parent taking child 0's.
+struct StampHooks<'a> {
+    stamps: &'a mut NodeMap<u32>,
     now: u32,
-) {
-    if let Some(h) = held {
-        for d in known.min(usize::from(h))..usize::from(h) {
-            base.set(node_id(key, d as u8), now);
-        }
+}
+
+impl WalkHooks for StampHooks<'_> {
+    const PLAIN: bool = false;
+
+    fn expanded(&mut self, id: NodeId) {
+        copy_to_children(self.stamps, id);
+    }
+
+    fn applied(&mut self, id: NodeId) {
+        self.stamps.insert(id, self.now);
+    }
+
+    fn may_prune(&mut self, id: NodeId) -> bool {
+        payloads_may_collapse(self.stamps, id)
+    }
+
+    fn collapsed(&mut self, id: NodeId) {
+        collapse_into(self.stamps, id);
+    }
+
+    fn refreshed(&mut self, id: NodeId) {
+        self.stamps.insert(id, self.now);
     }
 }
 
-/// The depth of the deepest node holding both keys (16 when they are equal).
-fn shared_depth(a: Key, b: Key) -> u8 {
-    let diff = (0..3).fold(0u16, |acc, i| acc | (a[i] ^ b[i]));
-    diff.leading_zeros() as u8
+/// After an eager ascent from `key` that left it held at depth `held` (`None`: deferred, no
+/// ascent): every ancestor above, left with children and refreshed, gets `now`
+/// (`updateOccupancyChildren`).
+fn stamp_ancestors(base: &mut PayloadTree<u32>, key: Key, held: Option<u8>, now: u32) {
+    if let Some(h) = held {
+        for d in 0..h {
+            base.set(node_id(key, d), now);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -155,6 +155,11 @@ fn ot_files_hold_the_plain_payload_and_read_back_unstamped() {
     assert!(crate::io::read_ot(&stamped[..]).is_err());
 }
 
+/// Keys of two neighbouring bricks, dense enough for scans to fill whole groups of siblings.
+fn key_in_two_bricks() -> impl Strategy<Value = Key> {
+    (0u16..4, 0u16..4, 0u16..8).prop_map(|(x, y, z)| Key::new(32764 + x, 32764 + y, 32764 + z))
+}
+
 fn key_in_block() -> impl Strategy<Value = Key> {
     (0u16..8, 0u16..8, 0u16..8).prop_map(|(x, y, z)| Key::new(32764 + x, 32764 + y, 32764 + z))
 }
@@ -202,6 +207,50 @@ proptest! {
             t.nodes_with_stamps().iter().map(|n| (n.0, n.1)).collect();
         for id in t.base.payloads.ids() {
             prop_assert!(existing.contains(&id), "stamp for a missing node {:?}", id);
+        }
+    }
+}
+
+proptest! {
+    /// A scan's sets through the batched walk leave the same nodes, log-odds and stamps as the
+    /// same updates one `update_node_at` at a time (a miss on each free key, then a hit on each
+    /// occupied one), whatever came before: other times, lazy scans, unsorted keys, repeats.
+    #[test]
+    fn a_batch_is_its_updates_one_at_a_time(
+        scans in prop::collection::vec(
+            (
+                prop::collection::vec(prop_oneof![key_in_two_bricks(), key_in_block()], 0..160),
+                prop::collection::vec(prop_oneof![key_in_two_bricks(), key_in_block()], 0..40),
+                0u32..3,
+                prop::bool::weighted(0.15),
+                any::<bool>(),
+            ),
+            1..12,
+        ),
+    ) {
+        let mut batched = StampedOcTree::new(0.1).unwrap();
+        let mut single = StampedOcTree::new(0.1).unwrap();
+        let mut now = 100;
+        for (mut free, occupied, tick, lazy, sorted) in scans {
+            now += tick;
+            if sorted {
+                free.sort_by_key(|k| k.morton());
+            }
+            let inner = InnerNodes::from_lazy(lazy);
+            batched.insert_update_at(free.iter().copied(), occupied.iter().copied(), inner, now);
+            for &k in &free {
+                single.update_node_at(k, Update::Miss, inner, now);
+            }
+            for &k in &occupied {
+                single.update_node_at(k, Update::Hit, inner, now);
+            }
+            let (a, b) = (batched.nodes_with_stamps(), single.nodes_with_stamps());
+            prop_assert_eq!(a.len(), b.len());
+            for (x, y) in a.iter().zip(&b) {
+                prop_assert_eq!((x.0, x.1, x.2.to_bits(), x.3), (y.0, y.1, y.2.to_bits(), y.3));
+            }
+            prop_assert_eq!(batched.size(), single.size());
+            prop_assert_eq!(batched.base.payloads.len(), single.base.payloads.len());
         }
     }
 }

@@ -15,8 +15,68 @@
 //! gives the same tree.
 
 use crate::key::{Key, TREE_DEPTH};
+use crate::node_id::{node_id, NodeId};
 use crate::store::{present, Adder, NodeRef, Outcome, NO_BLOCK};
 use crate::tree::{InnerNodes, OcTree, Update};
+
+/// What a tree with a payload per node (the stamped tree's time stamps) is told during a
+/// batched walk, so that its side table follows every structural change OctoMap's per-voxel
+/// `updateNodeRecurs` would make: the same events, once per node instead of once per voxel.
+///
+/// The plain tree walks with [`NoHooks`], for which the walk keeps its memoized group updates
+/// (they hide which voxel took its update and which depth-15 node they pruned).
+pub(crate) trait WalkHooks {
+    /// `true` only for [`NoHooks`]: the walk may update whole voxel groups at once and prune
+    /// without asking.
+    const PLAIN: bool;
+
+    /// The childless node `id` was just given eight children, copies of itself (`expandNode`
+    /// and `copyData`).
+    fn expanded(&mut self, id: NodeId);
+
+    /// Voxel `id` took its update (not OctoMap's early exit).
+    fn applied(&mut self, id: NodeId);
+
+    /// Whether node `id`, whose eight children are leaves of equal occupancy, may be collapsed
+    /// (OctoMap's node comparison also looks at the payload).
+    fn may_prune(&mut self, id: NodeId) -> bool;
+
+    /// The eight children of node `id` were just collapsed into it.
+    fn collapsed(&mut self, id: NodeId);
+
+    /// Node `id` kept its children and was set to their max (`updateOccupancyChildren`).
+    fn refreshed(&mut self, id: NodeId);
+}
+
+/// The plain tree's hooks: nothing to tell.
+pub(crate) struct NoHooks;
+
+impl WalkHooks for NoHooks {
+    const PLAIN: bool = true;
+
+    #[inline(always)]
+    fn expanded(&mut self, _: NodeId) {}
+
+    #[inline(always)]
+    fn applied(&mut self, _: NodeId) {}
+
+    #[inline(always)]
+    fn may_prune(&mut self, _: NodeId) -> bool {
+        true
+    }
+
+    #[inline(always)]
+    fn collapsed(&mut self, _: NodeId) {}
+
+    #[inline(always)]
+    fn refreshed(&mut self, _: NodeId) {}
+}
+
+/// The id of the node at `depth` on the way to the voxel of Morton code `voxel`.
+#[inline(always)]
+fn id_at(voxel: u64, depth: usize) -> NodeId {
+    node_id(Key::from_morton(voxel), depth as u8)
+}
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.
 const BRICK_DEPTH: usize = TREE_DEPTH as usize - 2;
@@ -48,7 +108,20 @@ impl OcTree {
         // consecutive keys of one brick go down together; a key already in the pending
         // brick (a duplicate) starts a new one, so that it is updated twice
         let bricks = Coalesce::new(keys.iter().map(|&k| brick_of(k)));
-        self.update_brick_iter(bricks, update, inner)
+        self.update_brick_iter(bricks, update, inner, NoHooks)
+    }
+
+    /// [`OcTree::update_keys`] over any sequence of keys, telling `hooks` what changes (the
+    /// batch insertion of the trees with a payload per node).
+    pub(crate) fn update_keys_hooked<H: WalkHooks>(
+        &mut self,
+        keys: impl IntoIterator<Item = Key>,
+        update: Update,
+        inner: InnerNodes,
+        hooks: H,
+    ) {
+        let bricks = Coalesce::new(keys.into_iter().map(brick_of));
+        self.update_brick_iter(bricks, update, inner, hooks)
     }
 
     /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each [`Brick`](crate::Brick)
@@ -61,15 +134,33 @@ impl OcTree {
     /// tree in one depth-first sweep, and each depth-15 node is reached once per brick. A NaN
     /// delta changes nothing.
     pub fn update_bricks(&mut self, bricks: &[crate::Brick], update: Update, inner: InnerNodes) {
-        self.update_brick_iter(bricks.iter().map(|b| (b.code, b.voxels)), update, inner)
+        self.update_brick_iter(
+            bricks.iter().map(|b| (b.code, b.voxels)),
+            update,
+            inner,
+            NoHooks,
+        )
     }
 
-    /// [`OcTree::update_bricks`] over any sequence of bricks.
-    fn update_brick_iter(
+    /// [`OcTree::update_bricks`], telling `hooks` what changes.
+    pub(crate) fn update_bricks_hooked<H: WalkHooks>(
+        &mut self,
+        bricks: &[crate::Brick],
+        update: Update,
+        inner: InnerNodes,
+        hooks: H,
+    ) {
+        let bricks = bricks.iter().map(|b| (b.code, b.voxels));
+        self.update_brick_iter(bricks, update, inner, hooks)
+    }
+
+    /// [`OcTree::update_bricks`] over any sequence of bricks, telling `hooks` what changes.
+    fn update_brick_iter<H: WalkHooks>(
         &mut self,
         bricks: impl Iterator<Item = (u64, u64)>,
         update: Update,
         inner: InnerNodes,
+        hooks: H,
     ) {
         let delta = self.delta(update);
         if delta.is_nan() {
@@ -86,6 +177,7 @@ impl OcTree {
             dirty: 0,
             prev: 0,
             lazy: inner.is_deferred(),
+            hooks,
         };
         // change detection costs a value read before and after each update: compiled in
         // only when it is on
@@ -149,7 +241,7 @@ impl<I: Iterator<Item = (u64, u64)>> Iterator for Coalesce<I> {
 }
 
 /// The state of one batched walk: the path of the previous brick and what is known about it.
-struct Walk {
+struct Walk<H> {
     add: Adder,
     /// `add`'s transition memo, held here so that the hot loop keeps it at hand.
     memo: Vec<u16>,
@@ -166,16 +258,41 @@ struct Walk {
     prev: u64,
     /// Ancestors are left stale ([`InnerNodes::Defer`]).
     lazy: bool,
+    /// Told of every change a side table of payloads must follow.
+    hooks: H,
 }
 
-impl Walk {
+impl<H: WalkHooks> Walk<H> {
+    /// Prune node `n` (`id`) or set it to the max of its children, telling the hooks which;
+    /// returns whether it pruned.
+    #[inline(always)]
+    fn refresh_hooked(&mut self, t: &mut OcTree, n: NodeRef, id: NodeId) -> bool {
+        let hooks = &mut self.hooks;
+        match t.store.prune_or_refresh_if(n, || hooks.may_prune(id)) {
+            Some(true) => {
+                t.sub_size(8);
+                hooks.collapsed(id);
+                true
+            }
+            Some(false) => {
+                hooks.refreshed(id);
+                false
+            }
+            None => false,
+        }
+    }
+
     /// Refresh the dirty path entries deeper than `keep` (bottom-up), as OctoMap does when
     /// its recursion returns through them; afterwards at most `keep` entries are dirty.
     #[inline]
     fn leave(&mut self, t: &mut OcTree, keep: usize) {
         if !self.lazy {
             for d in (keep..self.valid.min(self.dirty)).rev() {
-                t.refresh(self.path[d]);
+                if H::PLAIN {
+                    t.refresh(self.path[d]);
+                } else {
+                    self.refresh_hooked(t, self.path[d], id_at(self.prev << 6, d));
+                }
             }
         }
         self.dirty = self.dirty.min(keep);
@@ -240,6 +357,7 @@ impl Walk {
             let created = if kids == NO_BLOCK && !fresh {
                 kids = t.store.expand_node(cur);
                 t.add_size(8);
+                self.hooks.expanded(id_at(code << 6, d));
                 false
             } else {
                 if kids == NO_BLOCK {
@@ -271,13 +389,15 @@ impl Walk {
             } else {
                 // a childless existing node that passed the early-exit test above
                 t.add_size(8);
-                t.store.expand_node(cur)
+                let kb = t.store.expand_node(cur);
+                self.hooks.expanded(id_at(code << 6, BRICK_DEPTH));
+                kb
             };
         }
         let mut applied = false;
         let mut rest = mask;
         while rest != 0 {
-            if !TRACK {
+            if !TRACK && H::PLAIN {
                 // the groups that need no more than memoized transitions, at once
                 let store = &mut t.store;
                 let g = store.voxels.update_groups(
@@ -302,7 +422,11 @@ impl Walk {
             applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
-            if !self.lazy && t.store.refresh_branch(cur, kb) {
+            if self.lazy {
+                // ancestors stay stale
+            } else if !H::PLAIN {
+                self.refresh_hooked(t, cur, id_at(code << 6, BRICK_DEPTH));
+            } else if t.store.refresh_branch(cur, kb) {
                 t.sub_size(8);
             }
             // the brick's node is refreshed; its ancestors wait until the walk leaves them
@@ -343,8 +467,12 @@ impl Walk {
             }
             t.add_size(8);
             lb = t.store.expand_node(node);
+            self.hooks.expanded(id_at(
+                (code << 6) | ((j as u64) << 3),
+                TREE_DEPTH as usize - 1,
+            ));
         }
-        if !TRACK {
+        if !TRACK && H::PLAIN {
             // the whole group at once when its transitions are memoized
             if let Some(g) = t.store.voxels.update_group(lb, byte, &self.memo) {
                 t.add_size(g.created);
@@ -375,14 +503,23 @@ impl Walk {
             };
             t.add_size(usize::from(created));
             applied = true;
+            if !H::PLAIN {
+                let voxel = (code << 6) | ((j as u64) << 3) | s as u64;
+                self.hooks.applied(id_at(voxel, TREE_DEPTH as usize));
+            }
             if TRACK {
                 let key = Key::from_morton((code << 6) | ((j as u64) << 3) | s as u64);
                 let v = t.store.voxels.get(lb, s);
                 t.record_change(key, old, v, created);
             }
         }
-        if applied && !self.lazy && t.store.refresh_voxel_parent(kb, j, lb) {
-            t.sub_size(8);
+        if applied && !self.lazy {
+            if !H::PLAIN {
+                let id = id_at((code << 6) | ((j as u64) << 3), TREE_DEPTH as usize - 1);
+                self.refresh_hooked(t, node, id);
+            } else if t.store.refresh_voxel_parent(kb, j, lb) {
+                t.sub_size(8);
+            }
         }
         applied
     }
