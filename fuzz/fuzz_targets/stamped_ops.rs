@@ -1,7 +1,7 @@
 //! Structure-aware: random operation sequences at a moving clock on two `StampedOcTree`s, one
-//! taking each scan's sets through the batched `insert_update_at` (which skips the stamps of
-//! ancestors it knows are current), the other the same updates one `update_node_at` at a
-//! time, as the batch is documented to be. Every other operation (update, set, delete,
+//! taking each scan's sets through the batched `insert_update_at` (the plain tree's brick walk,
+//! the stamps following through its hooks), the other the same updates one `update_node_at` at
+//! a time, as the batch is documented to be. Every other operation (update, set, delete,
 //! degrade, prune, expand, max-likelihood, inner occupancy, `.ot` write and read back) goes
 //! to both. After every step the two must hold the same nodes with the same log-odds bits and
 //! stamps, the occupancy tree must be well formed (never strictly: nodes with different
