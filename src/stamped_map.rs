@@ -152,7 +152,7 @@ impl StampedMapper {
     /// Insert frames (world coordinates) in order, each at its time, with the same tree and
     /// stamps as [`StampedMapper::insert`] on each in turn, but pipelined when rayon has a
     /// thread to spare: while frame `i` goes into the tree, the rays of frame `i + 1` are cast
-    /// (the tree update, per voxel in OctoMap's order, is the larger part). A frame without a
+    /// (on LiDAR the tree update, with its stamps, is the larger part). A frame without a
     /// stamp is stamped by the clock as it goes into the tree, as `insert` stamps it.
     ///
     /// `after` is called with each frame's statistics and time once it is in the tree. The run

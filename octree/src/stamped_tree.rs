@@ -61,7 +61,7 @@ use crate::payload_tree::{
 };
 use crate::store::NodeRef;
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
-use crate::tree_batch::WalkHooks;
+use crate::tree_batch::{key_bricks, WalkHooks};
 
 /// The current time as OctoMap stamps it: `(unsigned int) time(NULL)`, whole seconds since
 /// the Unix epoch, truncated to 32 bits (0 if the clock is before the epoch).
@@ -257,13 +257,7 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) {
-        // the batched walk of the plain tree, with the stamps following its changes: each
-        // node is descended to once per brick and refreshed once, not once per voxel
-        let PayloadTree { tree, payloads } = &mut self.base;
-        let stamps = &mut *payloads;
-        tree.update_keys_hooked(free, Update::Miss, inner, StampHooks { stamps, now });
-        let stamps = payloads;
-        tree.update_keys_hooked(occupied, Update::Hit, inner, StampHooks { stamps, now });
+        self.insert_brick_iters(key_bricks(free), key_bricks(occupied), inner, now);
     }
 
     /// [`StampedOcTree::insert_update_at`] for sets given as bricks of 4x4x4 voxels (as
@@ -277,11 +271,26 @@ impl StampedOcTree {
         inner: InnerNodes,
         now: u32,
     ) {
+        let free = free.iter().map(|b| (b.code, b.voxels));
+        let occupied = occupied.iter().map(|b| (b.code, b.voxels));
+        self.insert_brick_iters(free, occupied, inner, now);
+    }
+
+    /// A scan's free and occupied bricks (code and mask) through the plain tree's batched
+    /// walk, the stamps following its changes: each node is descended to once per brick and
+    /// refreshed once, not once per voxel.
+    fn insert_brick_iters(
+        &mut self,
+        free: impl Iterator<Item = (u64, u64)>,
+        occupied: impl Iterator<Item = (u64, u64)>,
+        inner: InnerNodes,
+        now: u32,
+    ) {
         let PayloadTree { tree, payloads } = &mut self.base;
         let stamps = &mut *payloads;
-        tree.update_bricks_hooked(free, Update::Miss, inner, StampHooks { stamps, now });
+        tree.update_brick_iter(free, Update::Miss, inner, StampHooks { stamps, now });
         let stamps = payloads;
-        tree.update_bricks_hooked(occupied, Update::Hit, inner, StampHooks { stamps, now });
+        tree.update_brick_iter(occupied, Update::Hit, inner, StampHooks { stamps, now });
     }
 
     /// [`StampedOcTree::degrade_outdated_nodes_at`] at the system clock's time.

@@ -105,23 +105,7 @@ impl OcTree {
     /// Much faster than single updates when keys are sorted by [`Key::morton`]. A NaN delta
     /// changes nothing.
     pub fn update_keys(&mut self, keys: &[Key], update: Update, inner: InnerNodes) {
-        // consecutive keys of one brick go down together; a key already in the pending
-        // brick (a duplicate) starts a new one, so that it is updated twice
-        let bricks = Coalesce::new(keys.iter().map(|&k| brick_of(k)));
-        self.update_brick_iter(bricks, update, inner, NoHooks)
-    }
-
-    /// [`OcTree::update_keys`] over any sequence of keys, telling `hooks` what changes (the
-    /// batch insertion of the trees with a payload per node).
-    pub(crate) fn update_keys_hooked<H: WalkHooks>(
-        &mut self,
-        keys: impl IntoIterator<Item = Key>,
-        update: Update,
-        inner: InnerNodes,
-        hooks: H,
-    ) {
-        let bricks = Coalesce::new(keys.into_iter().map(brick_of));
-        self.update_brick_iter(bricks, update, inner, hooks)
+        self.update_brick_iter(key_bricks(keys.iter().copied()), update, inner, NoHooks)
     }
 
     /// Apply `update` to the voxels of bricks of 4x4x4 voxels: each [`Brick`](crate::Brick)
@@ -142,20 +126,9 @@ impl OcTree {
         )
     }
 
-    /// [`OcTree::update_bricks`], telling `hooks` what changes.
-    pub(crate) fn update_bricks_hooked<H: WalkHooks>(
-        &mut self,
-        bricks: &[crate::Brick],
-        update: Update,
-        inner: InnerNodes,
-        hooks: H,
-    ) {
-        let bricks = bricks.iter().map(|b| (b.code, b.voxels));
-        self.update_brick_iter(bricks, update, inner, hooks)
-    }
-
-    /// [`OcTree::update_bricks`] over any sequence of bricks, telling `hooks` what changes.
-    fn update_brick_iter<H: WalkHooks>(
+    /// [`OcTree::update_bricks`] over any sequence of bricks (code and mask), telling `hooks`
+    /// what changes (the batch insertion of the trees with a payload per node).
+    pub(crate) fn update_brick_iter<H: WalkHooks>(
         &mut self,
         bricks: impl Iterator<Item = (u64, u64)>,
         update: Update,
@@ -203,6 +176,13 @@ impl OcTree {
             self.sub_size(8);
         }
     }
+}
+
+/// `keys` as the bricks [`OcTree::update_keys`] walks: consecutive keys of one brick go down
+/// together; a key already in the pending brick (a duplicate) starts a new one, so that it is
+/// updated twice.
+pub(crate) fn key_bricks(keys: impl IntoIterator<Item = Key>) -> impl Iterator<Item = (u64, u64)> {
+    Coalesce::new(keys.into_iter().map(brick_of))
 }
 
 /// Groups a sequence of single-voxel bricks into runs: consecutive voxels of one brick become
@@ -422,12 +402,12 @@ impl<H: WalkHooks> Walk<H> {
             applied |= self.voxel_group::<TRACK>(t, code, kb, j, byte);
         }
         if applied {
-            if self.lazy {
-                // ancestors stay stale
-            } else if !H::PLAIN {
-                self.refresh_hooked(t, cur, id_at(code << 6, BRICK_DEPTH));
-            } else if t.store.refresh_branch(cur, kb) {
-                t.sub_size(8);
+            if !self.lazy {
+                if !H::PLAIN {
+                    self.refresh_hooked(t, cur, id_at(code << 6, BRICK_DEPTH));
+                } else if t.store.refresh_branch(cur, kb) {
+                    t.sub_size(8);
+                }
             }
             // the brick's node is refreshed; its ancestors wait until the walk leaves them
             self.dirty = BRICK_DEPTH;
