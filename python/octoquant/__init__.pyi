@@ -504,6 +504,18 @@ class OcTreeStamped:
     ) -> Optional[OcTreeNodeStamped]:
         """One observation at ``now`` (default the system clock): stamps the voxel, and the
         inner nodes on its way unless lazy; None outside the map."""
+    def insertPointCloud(
+        self,
+        pointcloud: Points,
+        origin: Vec3,
+        maxrange: float = -1.0,
+        lazy_eval: bool = False,
+        discretize: bool = False,
+        *,
+        now: Optional[int] = None,
+    ) -> None:
+        """Integrate a scan (N, 3) seen from ``origin`` at ``now`` (default the system
+        clock), every update stamped; releases the GIL."""
     def search(
         self, value: Union[OcTreeKey, NDArray[Any]], depth: int = ...
     ) -> Optional[OcTreeNodeStamped]: ...

@@ -188,6 +188,33 @@ pub fn insert_point_cloud(
     raycast::insert_point_cloud_f32(tree, points, origin, &options);
 }
 
+/// OctoMap's `insertPointCloud(scan, origin, maxrange, lazy_eval, discretize)` on an
+/// `OcTreeStamped` whose clock reads `now`: the scan's sets as [`insert_point_cloud`] computes
+/// them, every update stamped `now`. Non-finite points are skipped.
+pub fn insert_stamped_point_cloud(
+    tree: &mut StampedOcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    lazy: bool,
+    discretize: bool,
+    now: u32,
+) {
+    let conv = tree.converter().clone();
+    let mut update = raycast::ScanUpdate::new();
+    if discretize {
+        raycast::compute_discrete_update_f32(&conv, points, origin, max_range, &mut update);
+    } else {
+        raycast::compute_update_f32(&conv, points, origin, max_range, &mut update);
+    }
+    tree.insert_bricks_at(
+        update.free_bricks(),
+        update.occupied_bricks(),
+        InnerNodes::from_lazy(lazy),
+        now,
+    );
+}
+
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
 /// `false` when an end is outside the map.
 pub fn ray_keys(

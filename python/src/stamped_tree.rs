@@ -301,6 +301,44 @@ impl PyStampedOcTree {
         Ok(self.node_at(key, TREE_DEPTH))
     }
 
+    /// Integrate a scan at time ``now`` (seconds; default the system clock), as OctoMap's
+    /// ``insertPointCloud`` on an ``OcTreeStamped``: ``pointcloud`` (N, 3) end points and the
+    /// sensor ``origin`` in the map frame; a miss on every free voxel, then a hit on every
+    /// occupied one, each voxel once per scan, every update stamped ``now`` (and, unless
+    /// ``lazy_eval``, the inner nodes on its way). ``maxrange`` < 0: no limit;
+    /// ``discretize``: one ray per end-point voxel. NaN/inf points are skipped. Releases the
+    /// GIL.
+    #[pyo3(
+        name = "insertPointCloud",
+        signature = (pointcloud, origin, maxrange=-1.0, lazy_eval=false, discretize=false, *, now=None)
+    )]
+    #[allow(clippy::too_many_arguments)]
+    fn insert_point_cloud(
+        &mut self,
+        py: Python<'_>,
+        pointcloud: &Bound<'_, PyAny>,
+        origin: &Bound<'_, PyAny>,
+        maxrange: f64,
+        lazy_eval: bool,
+        discretize: bool,
+        now: Option<i64>,
+    ) -> PyResult<()> {
+        if maxrange.is_nan() {
+            return Err(PyValueError::new_err("maxrange must not be NaN"));
+        }
+        let points = convert::points_f32(pointcloud, "pointcloud")?;
+        let origin = convert::vec3_f32(origin, "origin")?;
+        let now = clock(now)?;
+        let max_range = (maxrange >= 0.0).then_some(maxrange);
+        let tree = &mut self.tree;
+        py.detach(|| {
+            engine::insert_stamped_point_cloud(
+                tree, &points, &origin, max_range, lazy_eval, discretize, now,
+            )
+        });
+        Ok(())
+    }
+
     /// The node holding ``value`` (an OcTreeKey or a point), descending at most to ``depth``
     /// (0 = 16), with its stamp: the node, the pruned leaf covering it, or None in unknown
     /// space.

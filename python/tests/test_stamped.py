@@ -89,6 +89,43 @@ def test_stamped_mapper_matches_cli(cli, tum, tmp_path):
     assert mapper.tree.write() == degraded
 
 
+@pytest.mark.parametrize(
+    "extra, kwargs",
+    [((), {}), (("--max-range", "4"), {"maxrange": 4.0}), (("--discretize",), {"discretize": True})],
+)
+def test_insert_point_cloud_matches_cli(cli, tum, tmp_path, extra, kwargs):
+    """``OcTreeStamped.insertPointCloud`` with each frame's whole second as ``now`` writes the
+    .ot of ``octoquant map --stamped`` on the same TUM frames (OctoMap's ``insertPointCloud``
+    into an ``OcTreeStamped`` with its clock set to each frame's second), with a maximum range
+    and with ``discretize`` as the CLI's options; and a clock a second later for every other
+    frame gives another map."""
+    assoc, frames, stamps = tum
+    want = cli_map(cli, assoc, tmp_path / "want.ot", *extra)
+    tree = octoquant.OcTreeStamped(0.1)
+    for (points, origin), stamp in zip(frames, stamps):
+        tree.insertPointCloud(points, origin, now=math.floor(stamp), **kwargs)
+    assert tree.write() == want
+    assert tree.getLastUpdateTime() == math.floor(stamps[-1])
+    shifted = octoquant.OcTreeStamped(0.1)
+    for i, ((points, origin), stamp) in enumerate(zip(frames, stamps)):
+        shifted.insertPointCloud(points, origin, now=math.floor(stamp) + i % 2, **kwargs)
+    assert shifted.write() != want
+
+
+def test_insert_point_cloud_refusals(tum):
+    """A NaN maximum range, a negative time and points of the wrong shape raise ValueError
+    and leave the tree as it was."""
+    _, frames, _ = tum
+    points, origin = frames[0]
+    tree = octoquant.OcTreeStamped(0.1)
+    for kwargs in [{"maxrange": float("nan")}, {"now": -1}]:
+        with pytest.raises(ValueError):
+            tree.insertPointCloud(points, origin, **kwargs)
+    with pytest.raises(ValueError):
+        tree.insertPointCloud(points[:, :2], origin, now=5)
+    assert tree.size() == 0
+
+
 def test_stamped_mapper_filters_and_range_match_cli(cli, tum, tmp_path):
     """The sensor model, maximum range and point filters reach the stamped map as the CLI's
     options do: same .ot bytes with --max-range, a z band and --degrade-older-than 2."""
