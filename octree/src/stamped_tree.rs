@@ -59,7 +59,7 @@ use crate::params::OccupancyParams;
 use crate::payload_tree::{
     collapse_into, copy_to_children, payloads_may_collapse, NodePayload, PayloadTree,
 };
-use crate::store::NodeRef;
+use crate::store::{present, NodeRef, NO_BLOCK};
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
 use crate::tree_batch::{key_bricks, WalkHooks};
 
@@ -304,20 +304,50 @@ impl StampedOcTree {
     /// Inner nodes are not refreshed (call [`StampedOcTree::update_inner_occupancy_at`] for
     /// that), exactly as OctoMap leaves them.
     pub fn degrade_outdated_nodes_at(&mut self, time_thres: u32, now: u32) {
-        let p = *self.base.tree.params();
-        let miss = self.base.tree.delta(Update::Miss);
-        let stale: Vec<(Key, u8, f32)> = self
-            .base
-            .tree
-            .leaves()
-            .filter(|l| {
-                p.is_occupied(l.value)
-                    && now.wrapping_sub(self.stamp_of(node_id(l.key, l.depth))) > time_thres
-            })
-            .map(|l| (l.key, l.depth, l.value))
-            .collect();
-        for (key, depth, v) in stale {
-            let v = v + miss;
+        let PayloadTree { tree, payloads } = &mut self.base;
+        if tree.is_empty() {
+            return;
+        }
+        let p = *tree.params();
+        let miss = tree.delta(Update::Miss);
+        let stale = |v: f32, id: NodeId| {
+            p.is_occupied(v) && now.wrapping_sub(payloads.get(id)) > time_thres
+        };
+        // the stale occupied leaves, by a walk that looks a leaf's stamp up only when it is
+        // occupied, and takes the eight voxels below a depth-15 node at once
+        let store = &tree.store;
+        let mut found = Vec::new();
+        let mut stack = vec![(NodeRef::ROOT, node_id(Key::default(), 0))];
+        while let Some((n, id)) = stack.pop() {
+            let b = store.kids(n);
+            if b == NO_BLOCK {
+                if stale(store.value(n), id) {
+                    found.push(n);
+                }
+                continue;
+            }
+            let cd = n.depth + 1;
+            if cd == TREE_DEPTH {
+                for (i, v) in store.child_vals(cd, b).into_iter().enumerate() {
+                    if present(v) && stale(v, child_id(id, i)) {
+                        found.push(NodeRef {
+                            depth: cd,
+                            slot: i as u8,
+                            block: b,
+                        });
+                    }
+                }
+                continue;
+            }
+            for i in 0..8 {
+                if let Some(c) = store.child(n, i) {
+                    stack.push((c, child_id(id, i)));
+                }
+            }
+        }
+        // one miss each, clamped, as OctoMap's `integrateMissNoTime`
+        for n in found {
+            let v = tree.store.value(n) + miss;
             let v = if v < p.clamp_min {
                 p.clamp_min
             } else if v > p.clamp_max {
@@ -325,9 +355,7 @@ impl StampedOcTree {
             } else {
                 v
             };
-            if let Some(r) = self.base.tree.search_ref(key, depth) {
-                self.base.tree.store.set_value(r, v);
-            }
+            tree.store.set_value(n, v);
         }
     }
 

@@ -254,3 +254,55 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    /// `degrade_outdated_nodes_at` as OctoMap's `degradeOutdatedNodes` reads: for every leaf
+    /// of the leaf iterator that is occupied and whose stamp is more than `thres` before `now`
+    /// (wrapping), one miss clamped to the sensor model's bounds; nothing else changes, stamps
+    /// included.
+    #[test]
+    fn degrading_is_one_miss_on_each_stale_occupied_leaf(
+        ops in prop::collection::vec((key_in_block(), any::<bool>(), 0u32..6, prop::bool::weighted(0.1)), 1..300),
+        fills in prop::collection::vec((0u16..4, 0u16..4, 0u16..4, 0u32..6), 0..6),
+        thres in 0u32..6,
+        now in 0u32..12,
+    ) {
+        let mut t = StampedOcTree::new(0.1).unwrap();
+        for (k, hit, time, lazy) in ops {
+            let u = if hit { Update::Hit } else { Update::Miss };
+            t.update_node_at(k, u, InnerNodes::from_lazy(lazy), 3 + time);
+        }
+        // the eight voxels of a depth-15 node hit to the clamp at one time: pruned into an
+        // occupied leaf above the voxels
+        for (x, y, z, time) in fills {
+            let base = Key::new(32764 + 2 * x, 32764 + 2 * y, 32764 + 2 * z);
+            for _ in 0..6 {
+                for i in 0..8 {
+                    t.update_node_at(octant(base, i), Update::Hit, InnerNodes::Refresh, 3 + time);
+                }
+            }
+        }
+        let p = *t.params();
+        let miss = t.occupancy().delta(Update::Miss);
+        let mut want = t.nodes_with_stamps();
+        let leaves: std::collections::HashSet<(u8, Key)> = t
+            .occupancy()
+            .leaves()
+            .map(|l| node_id(l.key, l.depth))
+            .collect();
+        for n in &mut want {
+            if leaves.contains(&(n.0, n.1))
+                && n.2 >= p.occupancy_threshold
+                && now.wrapping_sub(n.3) > thres
+            {
+                n.2 = (n.2 + miss).clamp(p.clamp_min, p.clamp_max);
+            }
+        }
+        t.degrade_outdated_nodes_at(thres, now);
+        let got = t.nodes_with_stamps();
+        prop_assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            prop_assert_eq!((g.0, g.1, g.2.to_bits(), g.3), (w.0, w.1, w.2.to_bits(), w.3));
+        }
+    }
+}
