@@ -175,6 +175,22 @@ pub fn vec3_f32(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Point3<f32>> {
     Ok(vec3(obj, name)?.cast::<f32>())
 }
 
+/// The arguments of an `insertPointCloud` (plain or stamped) checked and converted: the scan's
+/// points and the sensor origin; a NaN `maxrange` is refused (negative means no limit).
+pub fn scan_args(
+    pointcloud: &Bound<'_, PyAny>,
+    origin: &Bound<'_, PyAny>,
+    maxrange: f64,
+) -> PyResult<(Vec<Point3<f32>>, Point3<f32>)> {
+    if maxrange.is_nan() {
+        return Err(PyValueError::new_err("maxrange must not be NaN"));
+    }
+    Ok((
+        points_f32(pointcloud, "pointcloud")?,
+        vec3_f32(origin, "origin")?,
+    ))
+}
+
 /// A float64 (3,) array.
 pub fn array3<'py>(py: Python<'py>, v: [f64; 3]) -> Bound<'py, PyArray1<f64>> {
     PyArray1::from_slice(py, &v)

@@ -323,11 +323,7 @@ impl PyStampedOcTree {
         discretize: bool,
         now: Option<i64>,
     ) -> PyResult<()> {
-        if maxrange.is_nan() {
-            return Err(PyValueError::new_err("maxrange must not be NaN"));
-        }
-        let points = convert::points_f32(pointcloud, "pointcloud")?;
-        let origin = convert::vec3_f32(origin, "origin")?;
+        let (points, origin) = convert::scan_args(pointcloud, origin, maxrange)?;
         let now = clock(now)?;
         let max_range = (maxrange >= 0.0).then_some(maxrange);
         let tree = &mut self.tree;

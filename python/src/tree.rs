@@ -291,11 +291,7 @@ impl PyOcTree {
         lazy_eval: bool,
         discretize: bool,
     ) -> PyResult<()> {
-        if maxrange.is_nan() {
-            return Err(PyValueError::new_err("maxrange must not be NaN"));
-        }
-        let points = convert::points_f32(pointcloud, "pointcloud")?;
-        let origin = vec3_f32(origin, "origin")?;
+        let (points, origin) = convert::scan_args(pointcloud, origin, maxrange)?;
         let tree = &mut self.tree;
         let bbx = self.bbx;
         py.detach(|| {
