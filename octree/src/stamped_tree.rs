@@ -59,7 +59,7 @@ use crate::params::OccupancyParams;
 use crate::payload_tree::{
     collapse_into, copy_to_children, payloads_may_collapse, NodePayload, PayloadTree,
 };
-use crate::store::{present, NodeRef, NO_BLOCK};
+use crate::store::{clamp_sum, present, NodeRef, NO_BLOCK};
 use crate::tree::{InnerNodes, NodeInfo, OcTree, Update};
 use crate::tree_batch::{key_bricks, WalkHooks};
 
@@ -347,14 +347,7 @@ impl StampedOcTree {
         }
         // one miss each, clamped, as OctoMap's `integrateMissNoTime`
         for n in found {
-            let v = tree.store.value(n) + miss;
-            let v = if v < p.clamp_min {
-                p.clamp_min
-            } else if v > p.clamp_max {
-                p.clamp_max
-            } else {
-                v
-            };
+            let v = clamp_sum(tree.store.value(n), miss, p.clamp_min, p.clamp_max);
             tree.store.set_value(n, v);
         }
     }

@@ -200,13 +200,13 @@ pub fn insert_stamped_point_cloud(
     discretize: bool,
     now: u32,
 ) {
-    let conv = tree.converter().clone();
+    let options = InsertOptions {
+        max_range,
+        discretize,
+        lazy,
+    };
     let mut update = raycast::ScanUpdate::new();
-    if discretize {
-        raycast::compute_discrete_update_f32(&conv, points, origin, max_range, &mut update);
-    } else {
-        raycast::compute_update_f32(&conv, points, origin, max_range, &mut update);
-    }
+    raycast::compute_scan_update_f32(tree.converter(), points, origin, &options, &mut update);
     tree.insert_bricks_at(
         update.free_bricks(),
         update.occupied_bricks(),

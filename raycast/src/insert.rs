@@ -4,7 +4,7 @@ use crate::dda::{compute_ray_keys_f32, key_of, KeyRay};
 use crate::stats::ScanStats;
 use crate::update::{compute_discrete_update_f32, compute_update_f32, ScanUpdate};
 use nalgebra::Point3;
-use octoquant_octree::{InnerNodes, OcTree, Update};
+use octoquant_octree::{InnerNodes, KeyConverter, OcTree, Update};
 
 /// Statistics of one inserted scan (see [`ScanStats`]); `free` and `occupied` count the miss
 /// and hit updates applied.
@@ -93,13 +93,27 @@ pub fn insert_point_cloud_reusing_f32(
     buffers: &mut ScanUpdate,
 ) -> InsertStats {
     let conv = tree.converter().clone();
-    let stats = if options.discretize {
-        compute_discrete_update_f32(&conv, points, origin, options.max_range, buffers)
-    } else {
-        compute_update_f32(&conv, points, origin, options.max_range, buffers)
-    };
+    let stats = compute_scan_update_f32(&conv, points, origin, options, buffers);
     apply_update(tree, buffers, &ApplyOptions { lazy: options.lazy });
     stats
+}
+
+/// The first half of [`insert_point_cloud_f32`]: the scan's free and occupied voxels into
+/// `out` ([`compute_update_f32`], or [`compute_discrete_update_f32`] with
+/// `options.discretize`), for trees that apply them their own way (the stamped tree's
+/// `insert_bricks_at`). `options.lazy` is not read here.
+pub fn compute_scan_update_f32(
+    conv: &KeyConverter,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    options: &InsertOptions,
+    out: &mut ScanUpdate,
+) -> InsertStats {
+    if options.discretize {
+        compute_discrete_update_f32(conv, points, origin, options.max_range, out)
+    } else {
+        compute_update_f32(conv, points, origin, options.max_range, out)
+    }
 }
 
 /// OctoMap's `insertPointCloudRays` (graph2tree's `-simple` mode): for each point in order,

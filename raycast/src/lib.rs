@@ -111,7 +111,7 @@ pub use dda::{
 };
 pub use discretize::discretize_f32;
 pub use insert::{
-    apply_update, insert_point_cloud_f32, insert_point_cloud_rays_f32,
+    apply_update, compute_scan_update_f32, insert_point_cloud_f32, insert_point_cloud_rays_f32,
     insert_point_cloud_reusing_f32, ApplyOptions, InsertOptions, InsertStats,
 };
 pub use narrow::{
