@@ -21,7 +21,10 @@
 //! octomap_server builds them (each ray's keys with OctoMap's DDA, point by point) and walked
 //! in the order of octomap_server's `KeySet`s ([`crate::keyset_order`]): occupancy does not
 //! depend on that order, but colours do (a node pruned by one update and expanded by a later
-//! one of the same scan hands the children's average colour to all of them).
+//! one of the same scan hands the children's average colour to all of them). The rays are
+//! walked many at a time in the SIMD lanes and their keys handed on ray by ray, in order, as
+//! bricks ([`octoquant_raycast::walk_rays_in_order_f32`]), which the key set takes a brick at a
+//! time ([`octoquant_octree::PartRange::bricks`]).
 //!
 //! With a maximum range (octomap_server's `sensor_model/max_range`), a point farther than it
 //! from the origin gives no occupied voxel and no colour: its ray is cut at the range (the cut
@@ -36,14 +39,14 @@
 //! octomap_server's insertion; [`ColorMapper::new`] refuses them.
 
 use crate::filters::PointFilters;
-use crate::keyset_order::{insert_ray_keys, KeySetOrder};
+use crate::keyset_order::KeySetOrder;
 use crate::pipeline::{sensor_frame_to_world, FrameStats, InsertMode, MapperOptions};
 use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use octoquant_formats::Frame;
 use octoquant_octree::{
     Color, ColorOcTree, InnerNodes, Key, KeyConverter, KeySetPart, OctreeError, Update,
 };
-use octoquant_raycast::max_range_end_f32;
+use octoquant_raycast::{max_range_end_f32, walk_rays_in_order_f32, RayKeys, RayOrderScratch};
 use std::time::Instant;
 
 /// How an end point's colour merges into its node's.
@@ -357,31 +360,57 @@ impl RayStretch<'_> {
         };
         let (conv, origin) = (self.conv, self.origin);
         let outside = |e: &Point3<f32>| conv.point_to_key(&e.cast::<f64>()).is_none();
+        // the rays' ends, and for each whether its voxel joins the free keys after the ray
+        // (octomap_server's "ray longer than maxrange": free up to and including the cut end's
+        // voxel, when the ray's keys could be computed)
+        let mut ends = Vec::with_capacity(points.len());
+        let mut cut = Vec::with_capacity(points.len());
         for p in points {
             if ground {
                 let end = max_range_end_f32(origin, p, self.max_range).unwrap_or(*p);
-                insert_ray_keys(&mut part.keys, conv, origin, &end);
                 part.outside_map += usize::from(outside(&end));
+                ends.push(end);
+                cut.push(false);
                 continue;
             }
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 continue;
             }
-            let Some(end) = max_range_end_f32(origin, p, self.max_range) else {
-                insert_ray_keys(&mut part.keys, conv, origin, p);
-                continue;
-            };
-            // octomap_server's "ray longer than maxrange": free up to and including the cut
-            // end's voxel (only when the ray's keys could be computed)
-            if insert_ray_keys(&mut part.keys, conv, origin, &end) {
-                match conv.point_to_key(&end.cast::<f64>()) {
-                    Some(k) => {
-                        part.keys.insert(k);
-                    }
-                    None => part.outside_map += 1,
+            match max_range_end_f32(origin, p, self.max_range) {
+                None => {
+                    ends.push(*p);
+                    cut.push(false);
+                }
+                Some(end) => {
+                    ends.push(end);
+                    cut.push(true);
                 }
             }
         }
+        let mut scratch = RayOrderScratch::default();
+        let keys = &mut part.keys;
+        let mut outside_map = 0;
+        walk_rays_in_order_f32(conv, origin, &ends, &mut scratch, |i, ray| {
+            // a ray whose keys cannot be computed adds nothing
+            let Ok(ray) = ray else {
+                return;
+            };
+            let mut range = keys.range();
+            match ray {
+                RayKeys::Bricks { bricks, step } => range.bricks(bricks, step),
+                RayKeys::Keys(ks) => ks.iter().for_each(|&k| range.key(k)),
+            }
+            range.finish();
+            if cut[i] {
+                match conv.point_to_key(&ends[i].cast::<f64>()) {
+                    Some(k) => {
+                        keys.insert(k);
+                    }
+                    None => outside_map += 1,
+                }
+            }
+        });
+        part.outside_map += outside_map;
         part
     }
 }

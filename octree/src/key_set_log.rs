@@ -13,7 +13,11 @@
 //!
 //! A [`KeySetLog`] keeps just that: membership in a plain set (a bit per voxel of a window
 //! the caller expects the keys in, a hash set beyond it), the new keys in a list, and the
-//! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. The order
+//! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. A ray's keys
+//! may also come as the bricks of 4x4x4 voxels its walk entered ([`RangeInsert::bricks`]):
+//! the window keeps a brick's voxels in one word, so a brick is tested and added at once, and
+//! only its new voxels are put in the walk's order (one axis moves by one at each step, so that
+//! order is the order of `Σ step[a]·key[a]`). The order
 //! is rebuilt once, when asked for, by replaying that history into a [`KeyTable`]: the same
 //! chains, built from the new keys alone.
 //!
@@ -26,6 +30,7 @@
 //! one the insertions would have made one after another, whatever the split, and the serial
 //! append only looks at each part's new keys, not at every key inserted.
 
+use crate::brick::Brick;
 use crate::key::Key;
 use crate::key_hasher::KeyHashing;
 use crate::key_table::{Growth, KeyTable};
@@ -258,6 +263,11 @@ impl PartRange<'_> {
         self.range.key(key);
     }
 
+    /// The range's next keys as a walk's bricks ([`RangeInsert::bricks`]).
+    pub fn bricks(&mut self, bricks: &[Brick], step: [i32; 3]) {
+        self.range.bricks(bricks, step);
+    }
+
     /// End the range ([`RangeInsert::finish`]).
     pub fn finish(self) {
         let r = self.range;
@@ -296,6 +306,22 @@ impl RangeInsert<'_> {
         }
     }
 
+    /// The range's next keys, given as the bricks a ray walk entered, in walk order: each
+    /// [`Brick`]'s voxels (its code's bits above the 42nd ignored) are keys of the range, in
+    /// the order of `Σ step[a]·key[a]` (the order of a walk that moves one axis at a time by
+    /// `step[a]`, one of -1, 0 and 1), as [`RangeInsert::key`] for each would take them. Each
+    /// key must be in one brick only (a walk enters a brick once).
+    pub fn bricks(&mut self, bricks: &[Brick], step: [i32; 3]) {
+        for b in bricks {
+            self.len += b.voxels.count_ones() as usize;
+            let code = b.code & BRICK_CODES;
+            let new = self.log.seen.insert_brick(code, b.voxels);
+            if new != 0 {
+                push_in_walk_order(&mut self.log.keys, Key::from_morton(code << 6), new, step);
+            }
+        }
+    }
+
     /// End the range: the set is as after `insert(first, last)` of its keys.
     pub fn finish(self) {
         let log = self.log;
@@ -313,6 +339,26 @@ impl RangeInsert<'_> {
             log.seen.remove(k);
         }
     }
+}
+
+/// The bits of a brick's code (`Key::morton() >> 6` has 42).
+const BRICK_CODES: u64 = (1 << 42) - 1;
+
+/// Append the keys of `voxels` in the brick whose first voxel is `base` to `keys`, in the
+/// order of `Σ step[a]·offset[a]` (distinct for the voxels one walk enters: each of its steps
+/// adds one).
+#[inline]
+fn push_in_walk_order(keys: &mut Vec<Key>, base: Key, voxels: u64, step: [i32; 3]) {
+    let from = keys.len();
+    let mut rest = voxels;
+    while rest != 0 {
+        let bit = rest.trailing_zeros();
+        rest &= rest - 1;
+        let o = brick_offset(bit);
+        keys.push(Key::new(base[0] | o[0], base[1] | o[1], base[2] | o[2]));
+    }
+    let rank = |k: &Key| -> i32 { (0..3).map(|a| step[a] * i32::from(k[a] & 3)).sum() };
+    keys[from..].sort_unstable_by_key(rank);
 }
 
 /// Membership: a bit per voxel of the window, a hash set for keys outside it.
@@ -341,6 +387,37 @@ impl SeenKeys {
         self.rest.insert(key)
     }
 
+    /// Add the voxels `voxels` of brick `code` (42 bits); returns those that were not there.
+    #[inline]
+    fn insert_brick(&mut self, code: u64, voxels: u64) -> u64 {
+        if let Some(w) = &mut self.window {
+            if let Some(word) = w.word_mut(code) {
+                let b = &mut w.bits[word];
+                let new = voxels & !*b;
+                // stores only when something is new (rare), as `insert`
+                if new != 0 {
+                    *b |= new;
+                }
+                return new;
+            }
+        }
+        let base = Key::from_morton(code << 6);
+        let mut new = 0;
+        let mut rest = voxels;
+        while rest != 0 {
+            let bit = rest.trailing_zeros();
+            rest &= rest - 1;
+            let o = brick_offset(bit);
+            if self
+                .rest
+                .insert(Key::new(base[0] | o[0], base[1] | o[1], base[2] | o[2]))
+            {
+                new |= 1 << bit;
+            }
+        }
+        new
+    }
+
     fn remove(&mut self, key: Key) {
         if let Some(w) = &mut self.window {
             if let Some((word, mask)) = w.bit(key) {
@@ -363,43 +440,90 @@ impl SeenKeys {
     }
 }
 
-/// A box of voxels with a bit each, x fastest.
+/// A box of voxels with a bit each, in chunks of 8x8x8 of the tree's bricks of 4x4x4 voxels:
+/// the box is widened to whole chunks (32 voxels a side, aligned to 32), a chunk is 512 words in
+/// the Morton order of its bricks, a brick is one word whose bits are its voxels in Morton order
+/// (as a [`Brick`]'s mask). So a brick's word is found from its code, the chunk's part of it
+/// (above the low 9 bits) looked up once for the bricks of a ray that stay in one chunk, and a
+/// ray's voxels in one brick are tested and added at once ([`SeenKeys::insert_brick`]).
+/// Chunks are x fastest.
 #[derive(Debug, Clone)]
 struct Window {
+    /// The box's first chunk, in chunks.
     lo: [u16; 3],
-    /// Voxels along each axis.
-    dims: [u32; 3],
+    /// Chunks along each axis.
+    chunks: [u32; 3],
     bits: Vec<u64>,
+    /// The chunk code looked up last and its first word (`u64::MAX` for none).
+    last: (u64, usize),
 }
 
+/// Brick codes in a chunk: 8x8x8.
+const CHUNK_BITS: u32 = 9;
+
 impl Window {
-    /// The box from `lo` to `hi` (corners included), or `None` when it is empty (a corner
-    /// past the other) or holds more than [`MAX_WINDOW_VOXELS`].
+    /// The chunks holding the box from `lo` to `hi` (corners included), or `None` when it is
+    /// empty (a corner past the other) or they hold more than [`MAX_WINDOW_VOXELS`].
     fn new(lo: Key, hi: Key) -> Option<Window> {
         if (0..3).any(|i| hi[i] < lo[i]) {
             return None;
         }
-        let dims: [u32; 3] = std::array::from_fn(|i| u32::from(hi[i] - lo[i]) + 1);
-        let voxels = dims.iter().map(|&d| u64::from(d)).product::<u64>();
-        (voxels <= MAX_WINDOW_VOXELS).then(|| Window {
-            lo: lo.0,
-            dims,
-            bits: vec![0; voxels.div_ceil(64) as usize],
+        let lo: [u16; 3] = std::array::from_fn(|i| lo[i] >> 5);
+        let chunks: [u32; 3] = std::array::from_fn(|i| u32::from((hi[i] >> 5) - lo[i]) + 1);
+        let words = chunks.iter().map(|&d| u64::from(d)).product::<u64>() << CHUNK_BITS;
+        (words * 64 <= MAX_WINDOW_VOXELS).then(|| Window {
+            lo,
+            chunks,
+            bits: vec![0; words as usize],
+            last: (u64::MAX, 0),
         })
+    }
+
+    /// The first word of the chunk of brick `code` (42 bits), or `None` outside the box.
+    #[inline]
+    fn chunk(&self, code: u64) -> Option<usize> {
+        // the chunk's first voxel: its coordinates are multiples of 32
+        let first = Key::from_morton((code >> CHUNK_BITS) << (CHUNK_BITS + 6));
+        let c: [u32; 3] =
+            std::array::from_fn(|i| u32::from((first[i] >> 5).wrapping_sub(self.lo[i])));
+        if c[0] >= self.chunks[0] || c[1] >= self.chunks[1] || c[2] >= self.chunks[2] {
+            return None;
+        }
+        let i = (u64::from(c[2]) * u64::from(self.chunks[1]) + u64::from(c[1]))
+            * u64::from(self.chunks[0])
+            + u64::from(c[0]);
+        Some((i as usize) << CHUNK_BITS)
+    }
+
+    /// The word of brick `code` (42 bits), or `None` outside the box; remembers its chunk.
+    #[inline]
+    fn word_mut(&mut self, code: u64) -> Option<usize> {
+        let inside = (code & ((1 << CHUNK_BITS) - 1)) as usize;
+        if code >> CHUNK_BITS == self.last.0 {
+            return Some(self.last.1 | inside);
+        }
+        let first = self.chunk(code)?;
+        self.last = (code >> CHUNK_BITS, first);
+        Some(first | inside)
     }
 
     /// The word and bit of `key`, or `None` outside the box.
     #[inline]
     fn bit(&self, key: Key) -> Option<(usize, u64)> {
-        let d: [u32; 3] = std::array::from_fn(|i| u32::from(key[i].wrapping_sub(self.lo[i])));
-        if d[0] >= self.dims[0] || d[1] >= self.dims[1] || d[2] >= self.dims[2] {
-            return None;
-        }
-        let i = (u64::from(d[2]) * u64::from(self.dims[1]) + u64::from(d[1]))
-            * u64::from(self.dims[0])
-            + u64::from(d[0]);
-        Some(((i >> 6) as usize, 1 << (i & 63)))
+        let code = key.morton();
+        let first = self.chunk(code >> 6)?;
+        Some((
+            first | ((code >> 6) as usize & ((1 << CHUNK_BITS) - 1)),
+            1 << (code & 63),
+        ))
     }
+}
+
+/// The offsets (0 to 3) on each axis of the voxel at Morton position `bit` (0 to 63) in its
+/// brick.
+#[inline]
+fn brick_offset(bit: u32) -> [u16; 3] {
+    std::array::from_fn(|a| (((bit >> a) & 1) | (((bit >> (a + 3)) & 1) << 1)) as u16)
 }
 
 #[cfg(test)]
@@ -543,6 +667,97 @@ mod tests {
             for x in 95..115 {
                 let k = Key::new(x, 205, 305);
                 prop_assert_eq!(appended.contains(&k), whole.contains(&k));
+            }
+        }
+    }
+
+    /// A walk's keys: from `start`, each step moves one axis (with a non-zero sign in `step`)
+    /// by its sign, as a ray walk does.
+    fn walk_keys(start: Key, step: [i32; 3], axes: &[usize]) -> Vec<Key> {
+        let mut k = start;
+        let mut keys = vec![k];
+        for &a in axes {
+            if step[a] == 0 {
+                continue;
+            }
+            k.0[a] = k.0[a].wrapping_add_signed(step[a] as i16);
+            keys.push(k);
+        }
+        keys
+    }
+
+    /// `keys` (a walk's, which enters each brick once) as its bricks in walk order.
+    fn walk_bricks(keys: &[Key]) -> Vec<Brick> {
+        let mut out: Vec<Brick> = Vec::new();
+        for k in keys {
+            let b = Brick::of_voxel(k.morton());
+            match out.last_mut() {
+                Some(last) if last.code == b.code => last.voxels |= b.voxels,
+                _ => out.push(b),
+            }
+        }
+        out
+    }
+
+    /// One walk: start (in a 40-voxel cube around the windows' boxes), signs, axes.
+    fn walk_strategy() -> impl Strategy<Value = (Key, [i32; 3], Vec<usize>)> {
+        (
+            (0u16..40, 0u16..40, 0u16..40).prop_map(|(x, y, z)| Key::new(90 + x, 190 + y, 290 + z)),
+            prop::array::uniform3(-1i32..=1),
+            prop::collection::vec(0usize..3, 0..50),
+        )
+    }
+
+    proptest! {
+        /// Walks inserted as their bricks ([`RangeInsert::bricks`], [`PartRange::bricks`])
+        /// give the set of the same walks inserted key by key: order, bucket count and
+        /// membership, with keys inside and outside a window, between single keys, in a
+        /// set and in parts appended to it.
+        #[test]
+        fn walks_as_bricks_are_walks_key_by_key(
+            walks in prop::collection::vec((walk_strategy(), any::<bool>()), 0..30),
+            window in prop_oneof![Just(None), (0u16..40, 0u16..40).prop_map(Some)],
+        ) {
+            let make = || match window {
+                None => KeySetLog::new(),
+                Some((a, b)) => KeySetLog::with_window(
+                    Key::new(90 + a.min(b), 190, 290 + a),
+                    Key::new(90 + a.max(b), 229, 290 + b.max(a)),
+                ),
+            };
+            let (mut by_keys, mut by_bricks) = (make(), make());
+            let mut part = match window {
+                None => KeySetPart::new(),
+                Some(_) => KeySetPart::with_window(Key::new(100, 200, 300), Key::new(120, 210, 330)),
+            };
+            for ((start, step, axes), single) in &walks {
+                let keys = walk_keys(*start, *step, axes);
+                let bricks = walk_bricks(&keys);
+                by_keys.insert_range(&keys);
+                let mut r = by_bricks.range();
+                r.bricks(&bricks, *step);
+                r.finish();
+                let mut r = part.range();
+                r.bricks(&bricks, *step);
+                r.finish();
+                if *single {
+                    by_keys.insert(*start);
+                    by_bricks.insert(*start);
+                    part.insert(*start);
+                }
+            }
+            let mut appended = make();
+            appended.append(&part);
+            for log in [&by_bricks, &appended] {
+                prop_assert_eq!(log.len(), by_keys.len());
+                prop_assert_eq!(log.bucket_count(), by_keys.bucket_count());
+                prop_assert_eq!(log.order(), by_keys.order());
+                for x in (85..135).step_by(3) {
+                    for y in (185..235).step_by(7) {
+                        let k = Key::new(x, y, 300 + x % 17);
+                        prop_assert_eq!(log.contains(&k), by_keys.contains(&k));
+                    }
+                }
             }
         }
     }

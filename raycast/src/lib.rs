@@ -17,6 +17,9 @@
 //!   [`ScanUpdate`], sorted by Morton code instead of hashed and kept as [`Brick`]s of 4x4x4
 //!   voxels; [`discretize()`] ([`discretize_f32`]) alone. [`compute_update_grid_f32`]: the
 //!   same sets for a depth image's points, faster, given their [`PixelGrid`].
+//! - [`walk_rays_in_order_f32`]: the keys of many rays from one origin, ray by ray in order
+//!   ([`RayKeys`]), walked in the SIMD lanes, for callers whose result depends on the order
+//!   keys come in (octomap_server's colour scan).
 //! - [`insert_point_cloud`] ([`insert_point_cloud_f32`], [`insert_point_cloud_reusing_f32`]
 //!   with reused buffers): a scan into an [`OcTree`](octoquant_octree::OcTree) under
 //!   [`InsertOptions`] (`insertPointCloud`); [`apply_update`] for sets already computed and
@@ -37,6 +40,7 @@
 //! - `insert.rs`: a scan into a tree; `cast.rs`: one ray into or through a tree.
 //! - `update.rs`: a scan's key sets; `discretize.rs`: OctoMap's `discretize` (one point per
 //!   voxel); `stats.rs`: the counts of a scan; `brickset.rs`: the key sets as hashed bricks.
+//! - `ray_order.rs`: many rays' keys handed on ray by ray, in order.
 //! - `pixel_grid.rs`: which stretch of a depth image's rays their neighbours cover;
 //!   `setups.rs`: the DDA set-ups of many rays at once.
 //! - `dda.rs`: OctoMap's DDA, one ray at a time, and the ray set-up every walk starts from;
@@ -99,6 +103,7 @@ mod insert;
 mod lanes;
 mod narrow;
 mod pixel_grid;
+mod ray_order;
 mod setups;
 mod stats;
 mod update;
@@ -120,6 +125,7 @@ pub use narrow::{
 };
 pub use octoquant_octree::Brick;
 pub use pixel_grid::{PinholeCamera, PixelGrid};
+pub use ray_order::{walk_rays_in_order_f32, RayKeys, RayOrderScratch};
 pub use stats::ScanStats;
 pub use update::{
     compute_discrete_update_f32, compute_update_clearing_f32, compute_update_f32,

@@ -17,7 +17,7 @@
 //! exactly the voxels of [`crate::dda::walk_ray_codes_f32`]. The module's one `unsafe` is the call
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
-use super::refill::{first_stop, restart, LaneInit};
+use super::refill::{first_stop, restart, LaneInit, VOXEL_CODE};
 use super::runs::hand_on_runs;
 use crate::brickset::BrickSink;
 use crate::dda::{RaySetup, AXIS_MASK};
@@ -162,7 +162,7 @@ where
         active: zero_i,
     };
     // idle lanes repeat the first walk's origin voxel, which is recorded
-    let idle_code = LaneInit::new(first).origin;
+    let idle_code = LaneInit::new(first).origin & VOXEL_CODE;
     let lane: [__m256i; 4] = core::array::from_fn(|l| {
         bytemuck::cast(core::array::from_fn::<u64, 4, _>(|k| {
             if k == l {

@@ -11,7 +11,7 @@
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
 //! exactly the voxels of [`crate::dda::walk_ray_codes_f32`].
 
-use super::refill::{first_stop, LaneInit};
+use super::refill::{first_stop, LaneInit, VOXEL_CODE};
 use super::runs::merge_runs_from;
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx512;
@@ -306,7 +306,7 @@ where
         return 0;
     };
     // idle lanes repeat the first walk's origin voxel, which is recorded
-    let idle_code = LaneInit::new(first).origin;
+    let idle_code = LaneInit::new(first).origin & VOXEL_CODE;
     let OctScratch { left, inits } = scratch;
     inits.fill(rays, idle_code);
     let q = &*inits;

@@ -216,48 +216,101 @@ mod tests {
             .collect()
     }
 
-    /// The voxels each way of walking a batch visits, as sets: [`walk_all`] (the fastest path
-    /// the CPU has), the AVX2 and AVX-512 lanes where the CPU has them, the SSE2 lanes and
-    /// [`walk_each`];
-    /// none may report a degenerate walk.
-    fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
-        let mut sets = Vec::new();
+    /// The bricks each way of walking a batch hands on, in the order it hands them on:
+    /// [`walk_all`] (the fastest path the CPU has), the AVX2 and AVX-512 lanes where the CPU
+    /// has them, the SSE2 lanes and [`walk_each`]; none may report a degenerate walk.
+    fn all_path_bricks(rays: &[RaySetup]) -> Vec<Vec<Brick>> {
+        let mut out = Vec::new();
         let mut scratch = LaneScratch::default();
-        let mut s = BTreeSet::new();
-        assert_eq!(walk_all(rays, &mut scratch, &mut |b| add(&mut s, b)), 0);
-        sets.push(s);
+        let mut v = Vec::new();
+        assert_eq!(walk_all(rays, &mut scratch, &mut |b| v.push(b)), 0);
+        out.push(v);
         #[cfg(target_arch = "x86_64")]
         {
-            let mut s = BTreeSet::new();
+            let mut v = Vec::new();
             let mut quad = crate::lanes::avx2::QuadScratch::default();
-            if let Some(d) =
-                crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b| add(&mut s, b))
-            {
+            if let Some(d) = crate::lanes::avx2::walk_quads(rays, &mut quad, &mut |b| v.push(b)) {
                 assert_eq!(d, 0);
-                sets.push(s);
+                out.push(v);
             }
-            let mut s = BTreeSet::new();
+            let mut v = Vec::new();
             let mut oct = crate::lanes::avx512::OctScratch::default();
-            if let Some(d) =
-                crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b| add(&mut s, b))
-            {
+            if let Some(d) = crate::lanes::avx512::walk_octs(rays, &mut oct, &mut |b| v.push(b)) {
                 assert_eq!(d, 0);
-                sets.push(s);
+                out.push(v);
             }
         }
-        let mut s = BTreeSet::new();
+        let mut v = Vec::new();
         assert_eq!(
-            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b| add(&mut s, b)),
+            walk_pairs_or_each(rays, &mut scratch.bufs, &mut |b| v.push(b)),
             0
         );
-        sets.push(s);
-        let mut s = BTreeSet::new();
-        assert_eq!(
-            walk_each(rays, &mut scratch.bufs[0], &mut |b| add(&mut s, b)),
-            0
-        );
-        sets.push(s);
-        sets
+        out.push(v);
+        let mut v = Vec::new();
+        assert_eq!(walk_each(rays, &mut scratch.bufs[0], &mut |b| v.push(b)), 0);
+        out.push(v);
+        out
+    }
+
+    /// The voxels each way of walking a batch visits ([`all_path_bricks`]), as sets.
+    fn all_paths(rays: &[RaySetup]) -> Vec<BTreeSet<u64>> {
+        all_path_bricks(rays)
+            .into_iter()
+            .map(|bricks| {
+                let mut s = BTreeSet::new();
+                bricks.into_iter().for_each(|b| add(&mut s, b));
+                s
+            })
+            .collect()
+    }
+
+    /// Rays whose codes carry a mark above their 48 bits (as `crate::ray_order` marks them):
+    /// on every path each brick handed on carries its ray's mark, and a ray's bricks hold
+    /// exactly its reference voxels, each once; the only bricks without a mark are the idle
+    /// lanes', and they hold the first ray's origin voxel alone.
+    #[test]
+    fn marked_rays_keep_their_marks_on_every_path() {
+        let conv = KeyConverter::new(0.1).unwrap();
+        let o = Point3::new(0.03f32, -0.41, 0.17);
+        let ends: Vec<Point3<f32>> = (0..45)
+            .map(|i| {
+                let a = i as f32 * 0.61;
+                let r = 0.2 + (i % 7) as f32;
+                Point3::new(r * a.cos(), r * a.sin(), 0.3 * (i % 5) as f32 - 0.6)
+            })
+            .collect();
+        let mut rays = setups(&conv, &o, &ends);
+        assert_eq!(rays.len(), ends.len());
+        for (i, r) in rays.iter_mut().enumerate() {
+            let mark = (i as u64 + 1) << 48;
+            r.code_origin |= mark;
+            r.code_end |= mark;
+        }
+        let first_origin = key_of(&conv, &o).unwrap().morton();
+        for bricks in all_path_bricks(&rays) {
+            let mut got = vec![BTreeSet::new(); ends.len() + 1];
+            let mut count = vec![0; ends.len() + 1];
+            for b in bricks {
+                let mark = (b.code >> 42) as usize;
+                assert!(mark <= ends.len(), "mark {mark}");
+                count[mark] += b.voxels.count_ones() as usize;
+                let mut s = BTreeSet::new();
+                add(
+                    &mut s,
+                    Brick {
+                        code: b.code & ((1 << 42) - 1),
+                        ..b
+                    },
+                );
+                got[mark].extend(s);
+            }
+            assert!(got[0].iter().all(|&c| c == first_origin), "idle lanes");
+            for (i, e) in ends.iter().enumerate() {
+                let want = want(&conv, &o, std::slice::from_ref(e));
+                assert_eq!(got[i + 1], want, "ray {i}");
+                assert_eq!(count[i + 1], want.len(), "ray {i}: a voxel twice");
+            }
+        }
     }
 
     /// Rays from a voxel centre to voxel centres cross voxel corners and edges, where the

@@ -9,6 +9,11 @@ use crate::brickset::BrickSink;
 use crate::dda::RaySetup;
 use octoquant_octree::Brick;
 
+/// The bits of a voxel's Morton code. A caller may mark a ray's codes in the bits above
+/// (`crate::ray_order`): the walks keep them, and idle lanes, which repeat the first walk's
+/// origin voxel, write it without its mark.
+pub(crate) const VOXEL_CODE: u64 = (1 << 48) - 1;
+
 /// One walk's state as scalars, for starting a SIMD lane on a new ray.
 pub(crate) struct LaneInit {
     pub(crate) t: [f64; 3],
