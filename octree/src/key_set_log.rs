@@ -13,13 +13,14 @@
 //!
 //! A [`KeySetLog`] keeps just that: membership in a plain set (a bit per voxel of a window
 //! the caller expects the keys in, a hash set beyond it), the new keys in a list, and the
-//! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. A ray's keys
-//! may also come as the bricks of 4x4x4 voxels its walk entered ([`RangeInsert::bricks`]):
-//! the window keeps a brick's voxels in one word, so a brick is tested and added at once, and
-//! only its new voxels are put in the walk's order (one axis moves by one at each step, so that
-//! order is the order of `Σ step[a]·key[a]`). The order
+//! growth points, with libstdc++'s policy ([`Growth`]) applied as insertions come. The order
 //! is rebuilt once, when asked for, by replaying that history into a [`KeyTable`]: the same
 //! chains, built from the new keys alone.
+//!
+//! A ray's keys may also come as the bricks of 4x4x4 voxels its walk entered
+//! ([`RangeInsert::bricks`]): the window keeps a brick's voxels in one word, so a brick is
+//! tested and added at once, and only its new voxels are put in the walk's order (a walk moves
+//! one axis by one at each step, so that order is the order of `Σ step[a]·key[a]`).
 //!
 //! The insertions of a scan can also be made in parts, on several threads: a [`KeySetPart`]
 //! takes a stretch of them (its rays, in their order) with a membership of its own, and
@@ -352,10 +353,8 @@ fn push_in_walk_order(keys: &mut Vec<Key>, base: Key, voxels: u64, step: [i32; 3
     let from = keys.len();
     let mut rest = voxels;
     while rest != 0 {
-        let bit = rest.trailing_zeros();
+        keys.push(brick_voxel(base, rest.trailing_zeros()));
         rest &= rest - 1;
-        let o = brick_offset(bit);
-        keys.push(Key::new(base[0] | o[0], base[1] | o[1], base[2] | o[2]));
     }
     let rank = |k: &Key| -> i32 { (0..3).map(|a| step[a] * i32::from(k[a] & 3)).sum() };
     keys[from..].sort_unstable_by_key(rank);
@@ -407,11 +406,7 @@ impl SeenKeys {
         while rest != 0 {
             let bit = rest.trailing_zeros();
             rest &= rest - 1;
-            let o = brick_offset(bit);
-            if self
-                .rest
-                .insert(Key::new(base[0] | o[0], base[1] | o[1], base[2] | o[2]))
-            {
+            if self.rest.insert(brick_voxel(base, bit)) {
                 new |= 1 << bit;
             }
         }
@@ -519,11 +514,12 @@ impl Window {
     }
 }
 
-/// The offsets (0 to 3) on each axis of the voxel at Morton position `bit` (0 to 63) in its
-/// brick.
+/// The key of the voxel at Morton position `bit` (0 to 63) in the brick whose first voxel is
+/// `base` (whose coordinates are multiples of 4).
 #[inline]
-fn brick_offset(bit: u32) -> [u16; 3] {
-    std::array::from_fn(|a| (((bit >> a) & 1) | (((bit >> (a + 3)) & 1) << 1)) as u16)
+fn brick_voxel(base: Key, bit: u32) -> Key {
+    let o = |a: u32| (((bit >> a) & 1) | (((bit >> (a + 3)) & 1) << 1)) as u16;
+    Key::new(base[0] | o(0), base[1] | o(1), base[2] | o(2))
 }
 
 #[cfg(test)]
