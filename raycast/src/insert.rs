@@ -1,6 +1,7 @@
 //! Inserting a scan into a tree: OctoMap's `insertPointCloud` and `insertPointCloudRays`.
 
-use crate::dda::{compute_ray_keys_f32, key_of, KeyRay};
+use crate::dda::key_of;
+use crate::ray_order::{walk_rays_in_order_f32, RayKeys, RayOrderScratch};
 use crate::stats::ScanStats;
 use crate::update::{compute_discrete_update_f32, compute_update_f32, ScanUpdate};
 use nalgebra::Point3;
@@ -132,34 +133,48 @@ pub fn insert_point_cloud_rays_f32(
     origin: &Point3<f32>,
     options: &ApplyOptions,
 ) -> InsertStats {
-    let lazy = options.lazy;
+    let inner = InnerNodes::from_lazy(options.lazy);
     let conv = tree.converter().clone();
     let mut stats = InsertStats {
         points: points.len(),
         ..InsertStats::default()
     };
-    let mut ray = KeyRay::new();
-    for p in points {
+    // the rays walked many at a time and handed on in order, each as its bricks: a ray enters
+    // a brick once, so its bricks are the runs of one brick that `update_keys` makes of its
+    // keys, and the tree takes the same updates in the same order
+    let mut scratch = RayOrderScratch::default();
+    walk_rays_in_order_f32(&conv, origin, points, &mut scratch, |i, ray| {
+        let p = &points[i];
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             stats.non_finite += 1;
-            continue;
+            return;
         }
         let Some(end_key) = key_of(&conv, p) else {
             stats.outside_map += 1;
             stats.failed_rays += 1;
-            continue;
+            return;
         };
-        if !compute_ray_keys_f32(&conv, origin, p, &mut ray) {
+        let Ok(keys) = ray else {
             stats.failed_rays += 1;
-            continue;
-        }
+            return;
+        };
         stats.rays += 1;
-        // in ray order, exactly like one update_node per key; neighbours share their paths
-        tree.update_keys(ray.keys(), Update::Miss, InnerNodes::from_lazy(lazy));
-        stats.free += ray.len();
-        tree.update_node(end_key, Update::Hit, InnerNodes::from_lazy(lazy));
+        match keys {
+            RayKeys::Bricks { bricks, .. } => {
+                tree.update_bricks(bricks, Update::Miss, inner);
+                stats.free += bricks
+                    .iter()
+                    .map(|b| b.voxels.count_ones() as usize)
+                    .sum::<usize>();
+            }
+            RayKeys::Keys(keys) => {
+                tree.update_keys(keys, Update::Miss, inner);
+                stats.free += keys.len();
+            }
+        }
+        tree.update_node(end_key, Update::Hit, inner);
         stats.occupied += 1;
-    }
+    });
     stats
 }
 
