@@ -993,3 +993,59 @@ fn map_color_reports_its_filters() {
     assert_eq!(j["dropped"]["z_band"], above, "{j}");
     assert!(above > 1000, "{above}");
 }
+
+/// `map --color` names the inputs on the colour mapper's own errors (a frame without colours),
+/// and leaves read errors, which name their file and place, as they are: a coloured `.frames`
+/// file cut inside its second frame fails with the reader's message alone.
+#[test]
+fn map_color_errors_name_the_inputs_once() {
+    use octoquant::octree::Color;
+    use octoquant::Frame;
+    let dir = scratch("cli-color-errors");
+    let frame = |x: f32| {
+        let points: Vec<nalgebra::Point3<f32>> = (0..200)
+            .map(|i| nalgebra::Point3::new(x, 0.01 * i as f32, 0.5))
+            .collect();
+        let colors = vec![Color::new(10, 20, 30); points.len()];
+        Frame {
+            colors: Some(colors),
+            ..Frame::new_f32(nalgebra::Point3::origin(), points)
+        }
+    };
+    let whole = dir.join("whole.frames");
+    octoquant::formats::frames::write_frames_file(&whole, &[frame(2.0), frame(3.0)]).unwrap();
+    let bytes = std::fs::read(&whole).unwrap();
+    std::fs::write(dir.join("cut.frames"), &bytes[..bytes.len() - 100]).unwrap();
+    let o = octoquant(&dir)
+        .args(["map", "cut.frames", "--color", "--res", "0.1", "-o", "c.ot"])
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(e.contains("cut.frames is truncated"), "{e}");
+    assert!(!e.contains("in colour"), "{e}");
+    assert!(!dir.join("c.ot").exists(), "no output after a failed read");
+    // a frame without colours: the mapper's error, with the inputs named
+    let plain = dir.join("plain.frames");
+    let mut f = frame(2.0);
+    f.colors = None;
+    octoquant::formats::frames::write_frames_file(&plain, &[f]).unwrap();
+    let o = octoquant(&dir)
+        .args([
+            "map",
+            "plain.frames",
+            "--color",
+            "--res",
+            "0.1",
+            "-o",
+            "c.ot",
+        ])
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        e.contains("plain.frames in colour: frame 0 has no colours"),
+        "{e}"
+    );
+}

@@ -6,7 +6,7 @@ use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
 use octoquant::checkpoint::{Checkpoint, InputFile, RunIdentity, MANIFEST};
-use octoquant::color_map::{ColorMapper, ColorMerge};
+use octoquant::color_map::{ColorMapError, ColorMapper, ColorMerge};
 use octoquant::filters::{CropBox, GroundFilter, PointFilters, MAX_GROUND_ITERATIONS};
 use octoquant::formats::{count_frames, frame_stream, FormatError, FrameStream, ReadOptions};
 use octoquant::octree::io::TreeFormat;
@@ -622,13 +622,18 @@ fn run_color(a: &Args) -> Result<()> {
             progress.update(&stats, stats.total.points, 0);
             Ok(())
         })
-        .with_context(|| {
+        .map_err(|e| {
+            // a read error names its file and place already; the mapper's own (a frame without
+            // colours, ...) get the inputs
+            if !e.is::<ColorMapError>() {
+                return e;
+            }
             let names: Vec<String> = plan
                 .inputs
                 .iter()
                 .map(|p| p.display().to_string())
                 .collect();
-            format!("mapping {} in colour", names.join(", "))
+            e.context(format!("mapping {} in colour", names.join(", ")))
         })?;
     progress.finish();
     let tree = mapper.into_tree();
