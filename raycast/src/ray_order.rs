@@ -45,7 +45,8 @@ pub struct RayOrderScratch {
     lanes: LaneScratch,
     /// The bricks the lanes left, marked, in the order they came.
     left: Vec<Brick>,
-    /// The same bricks ray by ray, and where each lane ray's start (`mark - 1` indexes it).
+    /// The same bricks ray by ray: lane ray `n` (mark `n + 1`) holds
+    /// `sorted[starts[n]..starts[n + 1]]`.
     sorted: Vec<Brick>,
     starts: Vec<usize>,
     /// The keys of a ray walked alone.
