@@ -479,8 +479,13 @@ impl Window {
     fn chunk(&self, code: u64) -> Option<usize> {
         // the chunk's first voxel: its coordinates are multiples of 32
         let first = Key::from_morton((code >> CHUNK_BITS) << (CHUNK_BITS + 6));
-        let c: [u32; 3] =
-            std::array::from_fn(|i| u32::from((first[i] >> 5).wrapping_sub(self.lo[i])));
+        self.chunk_at(first.0.map(|c| c >> 5))
+    }
+
+    /// The first word of the chunk at `chunk` (in chunks), or `None` outside the box.
+    #[inline]
+    fn chunk_at(&self, chunk: [u16; 3]) -> Option<usize> {
+        let c: [u32; 3] = std::array::from_fn(|i| u32::from(chunk[i].wrapping_sub(self.lo[i])));
         if c[0] >= self.chunks[0] || c[1] >= self.chunks[1] || c[2] >= self.chunks[2] {
             return None;
         }
@@ -505,8 +510,9 @@ impl Window {
     /// The word and bit of `key`, or `None` outside the box.
     #[inline]
     fn bit(&self, key: Key) -> Option<(usize, u64)> {
+        // the chunk from the key itself, the brick and voxel from its Morton code
+        let first = self.chunk_at(key.0.map(|c| c >> 5))?;
         let code = key.morton();
-        let first = self.chunk(code >> 6)?;
         Some((
             first | ((code >> 6) as usize & ((1 << CHUNK_BITS) - 1)),
             1 << (code & 63),
