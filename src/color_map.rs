@@ -322,6 +322,9 @@ struct RayStretch<'a> {
     max_range: f64,
     /// The box the scan's keys lie in ([`ScanRules::key_box`]).
     window: Option<(Key, Key)>,
+    /// A ray cut at the maximum range frees its cut end's voxel too (octomap_server's rule;
+    /// OctoMap's `computeUpdate` leaves it out).
+    cut_end_free: bool,
 }
 
 /// The free keys of a stretch of rays, and its ends outside the map.
@@ -401,7 +404,7 @@ impl RayStretch<'_> {
                 RayKeys::Keys(ks) => ks.iter().for_each(|&k| range.key(k)),
             }
             range.finish();
-            if cut[i] {
+            if cut[i] && self.cut_end_free {
                 match conv.point_to_key(&ends[i].cast::<f64>()) {
                     Some(k) => {
                         keys.insert(k);
@@ -492,6 +495,7 @@ impl ScanRules {
             origin: &origin,
             max_range: self.max_range,
             window,
+            cut_end_free: true,
         };
         let (mut free, mut occupied) = match window {
             Some((lo, hi)) => (
@@ -599,6 +603,85 @@ fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameSta
     st.occupied = occupied.len();
     st.tree_seconds = start.elapsed().as_secs_f64();
     st
+}
+
+/// OctoMap's `insertPointCloud(scan, origin, maxrange, lazy_eval, discretize)` on a
+/// [`ColorOcTree`] (what octomap-python's `ColorOcTree.insertPointCloud` calls): the key sets
+/// of `computeUpdate` (with `discretize`, of `computeDiscreteUpdate`: one ray per end-point
+/// voxel, to its centre), then one miss per free key and one hit per occupied key, in the
+/// order of OctoMap's `KeySet`s, `inner` as `lazy_eval` asks, and no `prune()`. Colours change
+/// only through the structure (expansions copy a node's colour down, prunes average the
+/// children's), which is why the order is OctoMap's: a node pruned by one update and expanded
+/// by a later one hands its children the average colour.
+///
+/// `max_range` as OctoMap's `maxrange` (`None` for its -1): a farther point frees its ray cut
+/// there, without the cut end's voxel and without an occupied voxel. Points with a NaN or
+/// infinite coordinate are skipped; points outside the map give no keys. Returns the counts
+/// of free and occupied voxels updated.
+pub fn insert_point_cloud(
+    tree: &mut ColorOcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    inner: InnerNodes,
+    discretize: bool,
+) -> (usize, usize) {
+    let conv = tree.converter().clone();
+    let centres;
+    let points = if discretize {
+        let mut c = Vec::new();
+        octoquant_raycast::discretize_f32(&conv, points, &mut c);
+        centres = c;
+        &centres[..]
+    } else {
+        points
+    };
+    let rules = ScanRules {
+        conv,
+        max_range: max_range.unwrap_or(-1.0),
+        filters: PointFilters::default(),
+    };
+    let window = rules.key_box(origin, points);
+    let rays = RayStretch {
+        conv: &rules.conv,
+        origin,
+        max_range: rules.max_range,
+        window,
+        cut_end_free: false,
+    };
+    let (mut free, mut occupied) = match window {
+        Some((lo, hi)) => (
+            KeySetOrder::with_window(lo, hi),
+            KeySetOrder::with_window(lo, hi),
+        ),
+        None => (KeySetOrder::new(), KeySetOrder::new()),
+    };
+    for part in rays.walk_all(&[], points) {
+        free.append(&part.keys);
+    }
+    for p in points {
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
+            || max_range_end_f32(origin, p, rules.max_range).is_some()
+        {
+            continue;
+        }
+        if let Some(key) = rules.conv.point_to_key(&p.cast::<f64>()) {
+            occupied.insert(key);
+        }
+    }
+    let free: Vec<Key> = free
+        .order()
+        .into_iter()
+        .filter(|k| !occupied.contains(k))
+        .collect();
+    let occupied = occupied.order();
+    for &k in &free {
+        tree.update_node(k, Update::Miss, inner);
+    }
+    for &k in &occupied {
+        tree.update_node(k, Update::Hit, inner);
+    }
+    (free.len(), occupied.len())
 }
 
 /// The frame's point count as the filters' `u32` index channel holds it

@@ -352,6 +352,62 @@ impl ColorOcTree {
         self.base.update_inner_occupancy(Color::average_of);
     }
 
+    /// The node at exactly `depth` holding `key`, with its colour (`None` when no node exists
+    /// there): a node handed out by `search`, `getNodeChild` or an iterator, looked up again.
+    pub fn node_at_depth(&self, key: Key, depth: u8) -> Option<ColorNodeInfo> {
+        let node = self.base.tree.node_at_depth(key, depth)?;
+        Some(ColorNodeInfo {
+            node,
+            color: self.color_of(node_id(key, depth)),
+        })
+    }
+
+    /// Child `i` (0..8: bit 0 x, bit 1 y, bit 2 z) of the node at exactly `depth` holding
+    /// `key`, with its colour (OctoMap's `getNodeChild`); `None` when either does not exist.
+    pub fn node_child(&self, key: Key, depth: u8, i: usize) -> Option<ColorNodeInfo> {
+        self.base.tree.node_child(key, depth, i)?;
+        self.node_at_depth(OcTree::child_key(key, depth, i)?, depth + 1)
+    }
+
+    /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight
+    /// children with its occupancy and colour (`copyData`); inner nodes above are not
+    /// refreshed. `false`, changing nothing, when there is no such node, it has children or
+    /// it is a voxel.
+    pub fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+        self.base.expand_node(key, depth)
+    }
+
+    /// OctoMap's `ColorOcTree::isNodeCollapsible`: the node at exactly `depth` holding `key`
+    /// has eight childless children of equal occupancy (colours are not compared).
+    pub fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+        self.base.is_node_collapsible(key, depth)
+    }
+
+    /// OctoMap's `ColorOcTree::pruneNode`: a collapsible node loses its children and takes
+    /// child 0's occupancy and colour, or their average colour when child 0 has one. Returns
+    /// whether it pruned.
+    pub fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+        self.base.prune_node(key, depth)
+    }
+
+    /// OctoMap's `createNodeChild`: child `i` of the node at exactly `depth` holding `key`,
+    /// new with log-odds 0 and no colour (white); `None` when it exists already, the node does
+    /// not, or it is a voxel.
+    pub fn create_node_child(&mut self, key: Key, depth: u8, i: usize) -> Option<ColorNodeInfo> {
+        let node = self.base.create_node_child(key, depth, i)?;
+        Some(ColorNodeInfo {
+            node,
+            color: Color::WHITE,
+        })
+    }
+
+    /// OctoMap's `deleteNodeChild`: child `i` of the node at exactly `depth` holding `key` and
+    /// its subtree go, with their colours; inner nodes above are not refreshed. Returns the
+    /// nodes removed (0 when the child does not exist).
+    pub fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+        self.base.delete_node_child(key, depth, i)
+    }
+
     /// Delete the node at `depth` holding `key` with its subtree (OctoMap's `deleteNode`, see
     /// [`OcTree::delete_node`]); the colours of the deleted nodes go with them, and pruned
     /// nodes expanded on the way hand theirs to their children. Returns whether anything was

@@ -183,3 +183,57 @@ fn colour_runs_are_single_merges_in_turn() {
         assert!(many.node_color(k(100, 100, 100)).is_none());
     }
 }
+
+/// Node surgery as OctoMap defines it on a `ColorOcTree`: `expandNode` copies the node's
+/// colour to its eight new children (`copyData`), `pruneNode` collapses children of equal
+/// occupancy whatever their colours (child 0's colour, the average when child 0 has one),
+/// `createNodeChild` makes a white child, and `deleteNodeChild` takes the subtree's colours
+/// with it.
+#[test]
+fn node_surgery_follows_the_colour_rules() {
+    let base = k(32768, 32768, 32768);
+    let vox = siblings(base);
+    let mut t = ColorOcTree::new(0.1).unwrap();
+    for v in vox {
+        t.set_node_value(v, 1.0, InnerNodes::Refresh).unwrap();
+    }
+    // eight equal voxels were pruned into their depth-15 parent as they were set
+    let leaf = t.search(base, TREE_DEPTH).unwrap();
+    assert_eq!(leaf.node.depth, 15);
+    t.set_color_at(base, 15, Color::new(10, 20, 30));
+    assert!(!t.is_node_collapsible(base, 15), "no children");
+    assert!(t.expand_node(base, 15));
+    assert!(!t.expand_node(base, 15), "has children now");
+    assert!(!t.expand_node(base, 16), "a voxel");
+    for (i, v) in vox.iter().enumerate() {
+        let c = t.node_child(base, 15, i).unwrap();
+        assert_eq!((c.node.depth, c.color), (16, Color::new(10, 20, 30)));
+        assert_eq!(t.node_at_depth(*v, 16), Some(c));
+    }
+    // other colours below: still collapsible, and child 0 is coloured, so the average
+    t.set_color_at(vox[1], 16, Color::new(90, 20, 30));
+    assert!(t.is_node_collapsible(base, 15));
+    assert!(t.prune_node(base, 15));
+    assert_eq!(t.node_color(vox[7]), Some(Color::new(20, 20, 30)));
+    assert_eq!(t.num_colored_nodes(), 1);
+    // a new child is white and has log-odds 0; its deletion takes its colour
+    assert!(t.expand_node(base, 15));
+    let size = t.size();
+    assert!(t.create_node_child(base, 15, 0).is_none(), "exists");
+    assert_eq!(t.delete_node_child(base, 15, 0), 1);
+    assert_eq!(t.size(), size - 1);
+    assert_eq!(t.num_colored_nodes(), 8, "the parent and seven children");
+    assert!(!t.is_node_collapsible(base, 15), "a child is missing");
+    assert!(!t.prune_node(base, 15));
+    let c = t.create_node_child(base, 15, 0).unwrap();
+    assert_eq!((c.node.value, c.color), (0.0, Color::WHITE));
+    assert!(!t.is_node_collapsible(base, 15), "log-odds differ");
+    assert_eq!(t.delete_node_child(base, 15, 0), 1);
+    assert_eq!(t.delete_node_child(base, 15, 0), 0, "gone");
+    // a whole subtree: the depth-14 node's child holding `base` goes with its eight voxels
+    let up = base.at_depth(14);
+    let i = base.child_index(14);
+    assert_eq!(t.delete_node_child(up, 14, i), 8);
+    assert_eq!(t.num_colored_nodes(), 0);
+    assert!(t.node_at_depth(base, 15).is_none());
+}

@@ -358,6 +358,59 @@ impl<P: NodePayload> PayloadTree<P> {
         )
     }
 
+    /// OctoMap's `expandNode` on the childless node at exactly `depth` holding `key`: eight
+    /// children with its occupancy and its payload (`copyData`). `false`, changing nothing,
+    /// when there is no such node, it has children or it is a voxel.
+    pub(crate) fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+        if !self.tree.expand_node(key, depth) {
+            return false;
+        }
+        copy_to_children(&mut self.payloads, node_id(key, depth));
+        true
+    }
+
+    /// OctoMap's `isNodeCollapsible` for the payload type: the node at exactly `depth` holding
+    /// `key` has eight childless children of equal occupancy, and their payloads allow the
+    /// collapse ([`NodePayload::may_collapse`], OctoMap's node comparison).
+    pub(crate) fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+        self.tree.is_node_collapsible(key, depth)
+            && payloads_may_collapse(&self.payloads, node_id(key, depth))
+    }
+
+    /// OctoMap's `pruneNode` for the payload type: when the node is collapsible
+    /// ([`PayloadTree::is_node_collapsible`]), its children go and it takes their occupancy
+    /// and [`NodePayload::collapsed`] of their payloads. Returns whether it pruned.
+    pub(crate) fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+        if !self.is_node_collapsible(key, depth) || !self.tree.prune_node(key, depth) {
+            return false;
+        }
+        collapse_into(&mut self.payloads, node_id(key, depth));
+        true
+    }
+
+    /// OctoMap's `createNodeChild`: child `i` of the node at exactly `depth` holding `key`,
+    /// new with log-odds 0 and an unset payload; `None` when it exists already, the node does
+    /// not, or it is a voxel.
+    pub(crate) fn create_node_child(&mut self, key: Key, depth: u8, i: usize) -> Option<NodeInfo> {
+        // no entry to clear: the table holds payloads of existing nodes only
+        self.tree.create_node_child(key, depth, i)
+    }
+
+    /// OctoMap's `deleteNodeChild`: child `i` of the node at exactly `depth` holding `key` and
+    /// its subtree go, with their payloads. Returns the nodes removed (0 when the child does
+    /// not exist).
+    pub(crate) fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+        if self.tree.node_child_exists(key, depth, i) != Some(true) {
+            return 0;
+        }
+        let Some(child) = OcTree::child_key(key, depth, i) else {
+            return 0;
+        };
+        self.forget_subtree(child, depth + 1);
+        self.payloads.remove(node_id(child, depth + 1));
+        self.tree.delete_node_child(key, depth, i)
+    }
+
     /// Remove the payloads of the strict descendants of the node at `depth` holding `key`.
     fn forget_subtree(&mut self, key: Key, depth: u8) {
         if self.payloads.is_empty() {
