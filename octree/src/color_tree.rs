@@ -352,6 +352,17 @@ impl ColorOcTree {
         self.base.update_inner_occupancy(Color::average_of);
     }
 
+    /// Enable or disable change detection (OctoMap's `enableChangeDetection`), as
+    /// [`OcTree::enable_change_detection`]: read the record through the occupancy tree.
+    pub fn enable_change_detection(&mut self, enable: bool) {
+        self.base.tree.enable_change_detection(enable);
+    }
+
+    /// Forget the changes recorded so far (OctoMap's `resetChangeDetection`).
+    pub fn reset_change_detection(&mut self) {
+        self.base.tree.reset_change_detection();
+    }
+
     /// The node at exactly `depth` holding `key`, with its colour (`None` when no node exists
     /// there): a node handed out by `search`, `getNodeChild` or an iterator, looked up again.
     pub fn node_at_depth(&self, key: Key, depth: u8) -> Option<ColorNodeInfo> {

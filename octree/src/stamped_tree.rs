@@ -160,6 +160,11 @@ impl StampedOcTree {
         self.base.tree.params()
     }
 
+    /// Replace the sensor model; node values and stamps are kept.
+    pub fn set_params(&mut self, params: OccupancyParams) {
+        self.base.tree.set_params(params);
+    }
+
     /// Number of nodes.
     pub fn size(&self) -> usize {
         self.base.tree.size()
@@ -407,6 +412,17 @@ impl StampedOcTree {
             self.base.set(node_id(key, left.depth), now);
         }
         true
+    }
+
+    /// Enable or disable change detection (OctoMap's `enableChangeDetection`), as
+    /// [`OcTree::enable_change_detection`]: read the record through the occupancy tree.
+    pub fn enable_change_detection(&mut self, enable: bool) {
+        self.base.tree.enable_change_detection(enable);
+    }
+
+    /// Forget the changes recorded so far (OctoMap's `resetChangeDetection`).
+    pub fn reset_change_detection(&mut self) {
+        self.base.tree.reset_change_detection();
     }
 
     /// Every node with its stamp, pre-order (children in OctoMap's order 0..8): depth,

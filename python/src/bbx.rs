@@ -60,28 +60,27 @@ fn norm(d: [f32; 3]) -> f64 {
     ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64).sqrt()
 }
 
-/// OctoMap 1.10's `insertPointCloud` while the BBX limit is on (octomap-python bundles 1.10;
-/// 1.9 differed): an end point inside the box and within `max_range` (negative = none) marks
-/// its voxel occupied; every ray, cut to `max_range`, frees its voxels from the origin until
-/// the first voxel outside the box. Occupied wins over free; every voxel is updated once,
-/// misses first.
-pub fn insert_point_cloud(
-    tree: &mut OcTree,
+/// The keys OctoMap 1.10's `computeUpdate` inserts into its two `KeySet`s while the BBX
+/// limit is on (octomap-python bundles 1.10; 1.9 differed), one `insert` each, in its order,
+/// repeats kept: an end point inside the box and within `max_range` (negative = none) gives
+/// its voxel to the occupied set; every ray, cut to `max_range`, gives its voxels from the
+/// origin until the first voxel outside the box to the free set. With `discretize`, the rays
+/// go to the end-point voxels' centres, one per voxel (`computeDiscreteUpdate`).
+pub fn key_sequences(
+    conv: &KeyConverter,
     bbx: &Bbx,
     points: &[Point3<f32>],
     origin: &Point3<f32>,
     max_range: f64,
-    lazy: bool,
     discretize: bool,
-) {
+) -> (Vec<Key>, Vec<Key>) {
     let discretized;
     let points = if discretize {
-        discretized = engine::discretize(tree, points);
+        discretized = engine::discretize(conv, points);
         &discretized[..]
     } else {
         points
     };
-    let conv = tree.converter().clone();
     let mut free = Vec::new();
     let mut occupied = Vec::new();
     let mut ray = Vec::new();
@@ -106,16 +105,47 @@ pub fn insert_point_cloud(
         } else {
             *p
         };
-        if engine::ray_keys(tree, origin, &end, &mut ray) {
+        if engine::ray_keys(conv, origin, &end, &mut ray) {
             free.extend(ray.iter().take_while(|k| bbx.contains_key(k)));
         }
     }
+    (free, occupied)
+}
+
+/// OctoMap 1.10's `insertPointCloud` while the BBX limit is on, into a plain tree: the sets of
+/// [`key_sequences`], occupied winning over free, every voxel updated once, misses first.
+pub fn insert_point_cloud(
+    tree: &mut OcTree,
+    bbx: &Bbx,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: f64,
+    lazy: bool,
+    discretize: bool,
+) {
+    let (free, occupied) =
+        sorted_sets(tree.converter(), bbx, points, origin, max_range, discretize);
+    tree.update_keys(&free, Update::Miss, InnerNodes::from_lazy(lazy));
+    tree.update_keys(&occupied, Update::Hit, InnerNodes::from_lazy(lazy));
+}
+
+/// The sets of [`key_sequences`] in Morton order, each key once, the occupied keys left out
+/// of the free ones: for trees whose result does not depend on the order (all but
+/// `ColorOcTree`).
+pub fn sorted_sets(
+    conv: &KeyConverter,
+    bbx: &Bbx,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: f64,
+    discretize: bool,
+) -> (Vec<Key>, Vec<Key>) {
+    let (mut free, mut occupied) = key_sequences(conv, bbx, points, origin, max_range, discretize);
     let by_morton = |a: &Key, b: &Key| a.morton().cmp(&b.morton());
     occupied.sort_unstable_by(by_morton);
     occupied.dedup();
     free.sort_unstable_by(by_morton);
     free.dedup();
     free.retain(|k| occupied.binary_search_by(|o| by_morton(o, k)).is_err());
-    tree.update_keys(&free, Update::Miss, InnerNodes::from_lazy(lazy));
-    tree.update_keys(&occupied, Update::Hit, InnerNodes::from_lazy(lazy));
+    (free, occupied)
 }

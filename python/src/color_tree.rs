@@ -1,17 +1,21 @@
 //! `octoquant.ColorOcTree` and `ColorOcTreeNode`: octomap-python's `ColorOcTree` (same names,
 //! signatures and `.ot` bytes) over the Rust library's colour tree.
 
+use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
-    self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, TREE_DEPTH,
+    self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, OcTree,
+    OccupancyParams, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
+use crate::node::node_address;
 use crate::node::PyKey;
+use crate::occupancy_api::{occupancy_api, OccupancyHost};
 use crate::tree::{
-    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
-    CastArrays, Target,
+    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, child_idx, iterator_items, keys_arg,
+    not_in_tree, target, update_arg, CastArrays, Target,
 };
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -51,6 +55,13 @@ impl PyColorNode {
                 .unwrap_or(Color::WHITE),
             tree,
         }
+    }
+}
+
+impl PyColorNode {
+    /// The node's key and depth (where it sits in its tree) and log-odds.
+    pub(crate) fn address(&self) -> (Key, u8, f32) {
+        (self.key, self.depth, self.value)
     }
 }
 
@@ -147,6 +158,8 @@ pub struct PyColorOcTree {
     /// Boxed: the tree's blocks are cache-line aligned (64 bytes), more than Python's
     /// allocator guarantees for the object that holds it.
     tree: Box<ColorOcTree>,
+    /// The query box of ``insertPointCloud`` (``setBBXMin``, ``useBBXLimit``, ...).
+    bbx: Bbx,
 }
 
 impl PyColorOcTree {
@@ -154,6 +167,7 @@ impl PyColorOcTree {
     pub(crate) fn wrap(tree: ColorOcTree) -> Self {
         PyColorOcTree {
             tree: Box::new(tree),
+            bbx: Bbx::default(),
         }
     }
 
@@ -234,18 +248,14 @@ impl PyColorOcTree {
         } else {
             Self::load(py, arg)?
         };
-        Ok(PyColorOcTree {
-            tree: Box::new(tree),
-        })
+        Ok(Self::wrap(tree))
     }
 
     /// Read a ColorOcTree from a ``.ot`` file or the bytes ``write()`` returned. Raises
     /// OSError (FileNotFoundError, ...) or ValueError (damaged file, other tree type).
     #[staticmethod]
     fn read(py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<Self> {
-        Ok(PyColorOcTree {
-            tree: Box::new(Self::load(py, filename)?),
-        })
+        Ok(Self::wrap(Self::load(py, filename)?))
     }
 
     /// ``.ot`` bytes of the tree (every node's log-odds and colour), or write them to
@@ -543,5 +553,257 @@ impl PyColorOcTree {
         }
         let deleted = self.tree.delete_node(key, d);
         Ok(deleted && self.tree.occupancy().nodes().nth(1).is_none())
+    }
+}
+
+impl OccupancyHost for PyColorOcTree {
+    fn occ(&self) -> &OcTree {
+        self.tree.occupancy()
+    }
+    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
+        let mut p = *self.tree.params();
+        f(&mut p);
+        self.tree.set_params(p);
+    }
+    fn bbx(&self) -> &Bbx {
+        &self.bbx
+    }
+    fn bbx_mut(&mut self) -> &mut Bbx {
+        &mut self.bbx
+    }
+    fn enable_changes(&mut self, enable: bool) {
+        self.tree.enable_change_detection(enable);
+    }
+    fn reset_changes(&mut self) {
+        self.tree.reset_change_detection();
+    }
+}
+
+occupancy_api!(PyColorOcTree);
+
+impl PyColorOcTree {
+    /// The key and depth of a node argument that still exists at its depth in this tree.
+    fn live_node(&self, node: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
+        let (key, d) = node_address(node)?;
+        if self.tree.node_at_depth(key, d).is_none() {
+            return Err(not_in_tree(key, d));
+        }
+        Ok((key, d))
+    }
+
+    /// A Python node of `slf` for the node `info` at `key`.
+    fn node_of(slf: &Bound<'_, Self>, info: NodeInfo, key: Key) -> PyColorNode {
+        PyColorNode::found(slf.clone().unbind(), &slf.borrow().tree, info, key)
+    }
+}
+
+/// octomap-python's `ColorOcTree` calls from `OccupancyOcTreeBase` and `OcTreeBaseImpl`:
+/// scans, batches, node surgery and `.bt` files.
+#[pymethods]
+impl PyColorOcTree {
+    /// Integrate a scan as OctoMap's ``insertPointCloud`` does on a ``ColorOcTree``:
+    /// ``pointcloud`` (N, 3) end points and the sensor ``origin`` in the map frame; a miss on
+    /// every free voxel, then a hit on every occupied one, each voxel once per scan, in the
+    /// order of OctoMap's key sets (colours move with the tree's structure, so the order
+    /// matters: a node pruned and expanded again hands its children the average colour). No
+    /// colour is set. ``maxrange`` < 0: no limit; ``lazy_eval``: skip inner-node upkeep;
+    /// ``discretize``: one ray per end-point voxel; with ``useBBXLimit(True)``, only the box's
+    /// voxels. NaN/inf points are skipped. Releases the GIL.
+    #[pyo3(
+        name = "insertPointCloud",
+        signature = (pointcloud, origin, maxrange=-1.0, lazy_eval=false, discretize=false)
+    )]
+    fn insert_point_cloud(
+        &mut self,
+        py: Python<'_>,
+        pointcloud: &Bound<'_, PyAny>,
+        origin: &Bound<'_, PyAny>,
+        maxrange: f64,
+        lazy_eval: bool,
+        discretize: bool,
+    ) -> PyResult<()> {
+        let (points, origin) = convert::scan_args(pointcloud, origin, maxrange)?;
+        let (tree, bbx) = (&mut self.tree, self.bbx);
+        py.detach(|| {
+            if bbx.enabled {
+                let (free, occupied) = bbx::key_sequences(
+                    tree.converter(),
+                    &bbx,
+                    &points,
+                    &origin,
+                    maxrange,
+                    discretize,
+                );
+                engine::update_color_key_sets(tree, &free, &occupied, lazy_eval);
+            } else {
+                let max_range = (maxrange >= 0.0).then_some(maxrange);
+                engine::insert_color_point_cloud(
+                    tree, &points, &origin, max_range, lazy_eval, discretize,
+                );
+            }
+        });
+        Ok(())
+    }
+
+    /// ``updateNode`` for many keys or points (a sequence, or an (N, 3) array of points), in
+    /// order. Points outside the map are skipped.
+    #[pyo3(name = "updateNodes", signature = (values, update, lazy_eval=false))]
+    fn update_nodes(
+        &mut self,
+        py: Python<'_>,
+        values: &Bound<'_, PyAny>,
+        update: &Bound<'_, PyAny>,
+        lazy_eval: bool,
+    ) -> PyResult<()> {
+        let u = update_arg(update)?;
+        if values.is_none() {
+            return Ok(());
+        }
+        let keys = keys_arg(self.tree.converter(), values)?;
+        let tree = &mut self.tree;
+        let inner = InnerNodes::from_lazy(lazy_eval);
+        py.detach(|| {
+            for k in keys {
+                tree.update_node(k, u, inner);
+            }
+        });
+        Ok(())
+    }
+
+    /// Replace this tree by a ``.bt`` file (or ``.bt`` bytes): the occupancy and resolution of
+    /// the file, every node white; the sensor model is kept. Returns True; raises OSError or
+    /// ValueError instead of returning False.
+    #[pyo3(name = "readBinary")]
+    fn read_binary(&mut self, py: Python<'_>, filename: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (data, name) = source(filename, "filename")?.bytes()?;
+        let mut tree = py
+            .detach(|| engine::read_bt(&data))
+            .map_err(|e| convert::value_error(&name, &e))?;
+        tree.set_params(*self.tree.params());
+        *self.tree = ColorOcTree::from_occupancy(tree);
+        Ok(true)
+    }
+
+    /// ``.bt`` bytes of the tree's occupancy (no colours), or write them to ``filename`` and
+    /// return True. Like OctoMap, converts the tree to max-likelihood and prunes it first
+    /// (with the colour rules).
+    #[pyo3(name = "writeBinary", signature = (filename=None))]
+    fn write_binary<'py>(
+        &mut self,
+        py: Python<'py>,
+        filename: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let tree = &mut self.tree;
+        let data = py
+            .detach(|| engine::write_color_bt(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        bytes_or_true(py, data, filename)
+    }
+
+    /// Give a childless node eight children with its value and colour (OctoMap's
+    /// ``expandNode``; inner nodes above are not refreshed). ``ValueError`` when the node is
+    /// no longer in the tree at its depth, already has children, or is a voxel (depth 16).
+    #[pyo3(name = "expandNode")]
+    fn expand_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<()> {
+        let (key, d) = self.live_node(node)?;
+        if d >= TREE_DEPTH {
+            return Err(PyValueError::new_err(
+                "expandNode: a voxel (depth 16) has no children",
+            ));
+        }
+        if !self.tree.expand_node(key, d) {
+            return Err(PyValueError::new_err(
+                "expandNode: the node already has children",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Collapse a node whose eight children are leaves of equal log-odds into one leaf
+    /// (``ColorOcTree::pruneNode``: child 0's colour, or the children's average colour when
+    /// child 0 has one). Returns whether it did.
+    #[pyo3(name = "pruneNode")]
+    fn prune_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.prune_node(key, d))
+    }
+
+    /// Whether a node has all eight children, none with children, all with equal log-odds
+    /// (colours are not compared, as in OctoMap's ``ColorOcTree``).
+    #[pyo3(name = "isNodeCollapsible")]
+    fn is_node_collapsible(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.is_node_collapsible(key, d))
+    }
+
+    /// Whether a node has children now (OctoMap's ``nodeHasChildren``).
+    #[pyo3(name = "nodeHasChildren")]
+    fn node_has_children(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self
+            .tree
+            .node_at_depth(key, d)
+            .is_some_and(|n| n.node.has_children))
+    }
+
+    /// Whether child ``idx`` (0..8: bit 0 x, bit 1 y, bit 2 z) of a node exists (OctoMap's
+    /// ``nodeChildExists``).
+    #[pyo3(name = "nodeChildExists")]
+    fn node_child_exists(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<bool> {
+        let (key, d) = self.live_node(node)?;
+        Ok(self.tree.node_child(key, d, child_idx(idx)?).is_some())
+    }
+
+    /// Child ``idx`` (0..8) of a node with its colour, or None when it does not exist.
+    #[pyo3(name = "getNodeChild")]
+    fn get_node_child(
+        slf: &Bound<'_, Self>,
+        node: &Bound<'_, PyAny>,
+        idx: i64,
+    ) -> PyResult<Option<PyColorNode>> {
+        let i = child_idx(idx)?;
+        let (key, d) = slf.borrow().live_node(node)?;
+        let child = slf.borrow().tree.node_child(key, d, i);
+        Ok(child
+            .zip(OcTree::child_key(key, d, i))
+            .map(|(c, k)| Self::node_of(slf, c.node, k)))
+    }
+
+    /// Create child ``idx`` (0..8) of a node with log-odds 0 and no colour, as OctoMap's
+    /// ``createNodeChild``; returns it. ``ValueError`` when the child exists already or the
+    /// node is a voxel.
+    #[pyo3(name = "createNodeChild")]
+    fn create_node_child(
+        slf: &Bound<'_, Self>,
+        node: &Bound<'_, PyAny>,
+        idx: i64,
+    ) -> PyResult<PyColorNode> {
+        let i = child_idx(idx)?;
+        let (key, d) = slf.borrow().live_node(node)?;
+        if d >= TREE_DEPTH {
+            return Err(PyValueError::new_err(
+                "createNodeChild: a voxel (depth 16) has no children",
+            ));
+        }
+        let child = slf.borrow_mut().tree.create_node_child(key, d, i);
+        let (c, k) = child.zip(OcTree::child_key(key, d, i)).ok_or_else(|| {
+            PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
+        })?;
+        Ok(Self::node_of(slf, c.node, k))
+    }
+
+    /// Delete child ``idx`` (0..8) of a node with its subtree and their colours (OctoMap's
+    /// ``deleteNodeChild``; ``size()`` drops by the whole subtree). ``ValueError`` when the
+    /// child does not exist.
+    #[pyo3(name = "deleteNodeChild")]
+    fn delete_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<()> {
+        let i = child_idx(idx)?;
+        let (key, d) = self.live_node(node)?;
+        if self.tree.delete_node_child(key, d, i) == 0 {
+            return Err(PyValueError::new_err(format!(
+                "deleteNodeChild: child {i} does not exist"
+            )));
+        }
+        Ok(())
     }
 }

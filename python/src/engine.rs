@@ -215,25 +215,67 @@ pub fn insert_stamped_point_cloud(
     );
 }
 
+/// OctoMap's `insertPointCloud(scan, origin, maxrange, lazy_eval, discretize)` on a
+/// `ColorOcTree`: the updates in the order of OctoMap's `KeySet`s, which the colours depend
+/// on. Non-finite points are skipped.
+pub fn insert_color_point_cloud(
+    tree: &mut ColorOcTree,
+    points: &[Point3<f32>],
+    origin: &Point3<f32>,
+    max_range: Option<f64>,
+    lazy: bool,
+    discretize: bool,
+) {
+    octoquant::color_map::insert_point_cloud(
+        tree,
+        points,
+        origin,
+        max_range,
+        InnerNodes::from_lazy(lazy),
+        discretize,
+    );
+}
+
+/// One miss per key of `free`, then one hit per key of `occupied`, on a `ColorOcTree`, in the
+/// iteration order of OctoMap's `KeySet`s filled by one `insert` per key of each sequence in
+/// turn (repeats change nothing); the free keys that are occupied are left out.
+pub fn update_color_key_sets(tree: &mut ColorOcTree, free: &[Key], occupied: &[Key], lazy: bool) {
+    use octoquant::keyset_order::KeySetOrder;
+    let (mut f, mut o) = (KeySetOrder::new(), KeySetOrder::new());
+    for &k in free {
+        f.insert(k);
+    }
+    for &k in occupied {
+        o.insert(k);
+    }
+    let inner = InnerNodes::from_lazy(lazy);
+    for k in f.order().into_iter().filter(|k| !o.contains(k)) {
+        tree.update_node(k, Update::Miss, inner);
+    }
+    for k in o.order() {
+        tree.update_node(k, Update::Hit, inner);
+    }
+}
+
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
 /// `false` when an end is outside the map.
 pub fn ray_keys(
-    tree: &OcTree,
+    conv: &KeyConverter,
     origin: &Point3<f32>,
     end: &Point3<f32>,
     out: &mut Vec<Key>,
 ) -> bool {
     let mut ray = raycast::KeyRay::new();
-    let ok = raycast::compute_ray_keys_f32(tree.converter(), origin, end, &mut ray);
+    let ok = raycast::compute_ray_keys_f32(conv, origin, end, &mut ray);
     out.clear();
     out.extend_from_slice(ray.keys());
     ok
 }
 
 /// OctoMap's `discretize` pre-pass: one voxel centre per end-point voxel, first-seen order.
-pub fn discretize(tree: &OcTree, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
+pub fn discretize(conv: &KeyConverter, points: &[Point3<f32>]) -> Vec<Point3<f32>> {
     let mut centres = Vec::new();
-    raycast::discretize_f32(tree.converter(), points, &mut centres);
+    raycast::discretize_f32(conv, points, &mut centres);
     centres
 }
 
@@ -271,6 +313,17 @@ pub fn read_color_ot(bytes: &[u8]) -> Result<ColorOcTree, OctreeError> {
 pub fn write_color_ot(tree: &ColorOcTree) -> std::io::Result<Vec<u8>> {
     let mut out = Vec::new();
     io::write_color_ot(tree, &mut out)?;
+    Ok(out)
+}
+
+/// `.bt` bytes of a `ColorOcTree` (OctoMap's `writeBinary` on one): the tree is converted to
+/// max-likelihood and pruned by the colour rules first, then its occupancy written under
+/// `id ColorOcTree` (a `.bt` holds no colours).
+pub fn write_color_bt(tree: &mut ColorOcTree) -> std::io::Result<Vec<u8>> {
+    tree.to_max_likelihood();
+    tree.prune();
+    let mut out = Vec::new();
+    io::write_bt_const_typed(tree.occupancy(), "ColorOcTree", &mut out)?;
     Ok(out)
 }
 

@@ -298,6 +298,12 @@ pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
     if let Ok(n) = obj.cast::<PyNode>() {
         return Ok(n.get().value);
     }
+    if let Ok(n) = obj.cast::<crate::color_tree::PyColorNode>() {
+        return Ok(n.borrow().address().2);
+    }
+    if let Ok(n) = obj.cast::<crate::stamped_tree::PyStampedNode>() {
+        return Ok(n.get().address().2);
+    }
     if let Ok(it) = obj.cast::<IteratorBase>() {
         return it.borrow().current().map(|n| n.value);
     }
@@ -307,7 +313,7 @@ pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
         ));
     }
     Err(PyTypeError::new_err(format!(
-        "expected an OcTreeNode or an iterator, got {}",
+        "expected a tree node (OcTreeNode, ColorOcTreeNode or OcTreeNodeStamped) or an iterator, got {}",
         obj.get_type()
             .name()
             .map(|n| n.to_string())

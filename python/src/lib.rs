@@ -21,6 +21,7 @@ mod engine;
 mod iter;
 mod mapper;
 mod node;
+mod occupancy_api;
 mod segment;
 mod stamped_mapper;
 mod stamped_tree;

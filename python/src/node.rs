@@ -184,13 +184,21 @@ pub fn node_address(obj: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
         let n = n.get();
         return Ok((n.key, n.depth));
     }
+    if let Ok(n) = obj.cast::<crate::color_tree::PyColorNode>() {
+        let (key, depth, _) = n.borrow().address();
+        return Ok((key, depth));
+    }
+    if let Ok(n) = obj.cast::<crate::stamped_tree::PyStampedNode>() {
+        let (key, depth, _) = n.get().address();
+        return Ok((key, depth));
+    }
     if obj.is_none() {
         return Err(crate::NullPointerException::new_err(
             "no node (search found unknown space)",
         ));
     }
     Err(PyTypeError::new_err(format!(
-        "expected an OcTreeNode, got {}",
+        "expected a tree node (OcTreeNode, ColorOcTreeNode or OcTreeNodeStamped), got {}",
         obj.get_type()
             .name()
             .map(|n| n.to_string())

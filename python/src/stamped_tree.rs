@@ -4,14 +4,17 @@
 //! the names are those of OctoMap's C++ API, in octomap-python's style where the calls are
 //! shared with `OcTree`.
 
+use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
-    self, probability, InnerNodes, Key, NodeInfo, NodeItem, StampedOcTree, TREE_DEPTH,
+    self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, OccupancyParams, StampedOcTree,
+    TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
 use crate::node::PyKey;
+use crate::occupancy_api::{occupancy_api, OccupancyHost};
 use crate::tree::{
     bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
     CastArrays, Target,
@@ -46,6 +49,13 @@ impl PyStampedNode {
             },
             timestamp,
         }
+    }
+}
+
+impl PyStampedNode {
+    /// The node's key and depth (where it sits in its tree) and log-odds.
+    pub(crate) fn address(&self) -> (Key, u8, f32) {
+        (self.key, self.depth, self.value)
     }
 }
 
@@ -118,6 +128,8 @@ pub struct PyStampedOcTree {
     /// Boxed: the tree's blocks are cache-line aligned (64 bytes), more than Python's
     /// allocator guarantees for the object that holds it.
     tree: Box<StampedOcTree>,
+    /// The query box of ``insertPointCloud`` (``setBBXMin``, ``useBBXLimit``, ...).
+    bbx: Bbx,
 }
 
 /// A time in whole seconds as OctoMap stores it (`unsigned int`): ValueError naming `name`
@@ -144,6 +156,7 @@ impl PyStampedOcTree {
     pub(crate) fn wrap(tree: StampedOcTree) -> Self {
         PyStampedOcTree {
             tree: Box::new(tree),
+            bbx: Bbx::default(),
         }
     }
 
@@ -326,11 +339,24 @@ impl PyStampedOcTree {
         let (points, origin) = convert::scan_args(pointcloud, origin, maxrange)?;
         let now = clock(now)?;
         let max_range = (maxrange >= 0.0).then_some(maxrange);
-        let tree = &mut self.tree;
+        let (tree, bbx) = (&mut self.tree, self.bbx);
         py.detach(|| {
-            engine::insert_stamped_point_cloud(
-                tree, &points, &origin, max_range, lazy_eval, discretize, now,
-            )
+            if bbx.enabled {
+                let (free, occupied) = bbx::sorted_sets(
+                    tree.converter(),
+                    &bbx,
+                    &points,
+                    &origin,
+                    maxrange,
+                    discretize,
+                );
+                let inner = InnerNodes::from_lazy(lazy_eval);
+                tree.insert_update_at(free, occupied, inner, now);
+            } else {
+                engine::insert_stamped_point_cloud(
+                    tree, &points, &origin, max_range, lazy_eval, discretize, now,
+                )
+            }
         });
         Ok(())
     }
@@ -552,3 +578,28 @@ impl PyStampedOcTree {
         )
     }
 }
+
+impl OccupancyHost for PyStampedOcTree {
+    fn occ(&self) -> &OcTree {
+        self.tree.occupancy()
+    }
+    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
+        let mut p = *self.tree.params();
+        f(&mut p);
+        self.tree.set_params(p);
+    }
+    fn bbx(&self) -> &Bbx {
+        &self.bbx
+    }
+    fn bbx_mut(&mut self) -> &mut Bbx {
+        &mut self.bbx
+    }
+    fn enable_changes(&mut self, enable: bool) {
+        self.tree.enable_change_detection(enable);
+    }
+    fn reset_changes(&mut self) {
+        self.tree.reset_change_detection();
+    }
+}
+
+occupancy_api!(PyStampedOcTree);

@@ -3,14 +3,15 @@
 
 use crate::bbx::{self, Bbx};
 use crate::cloud;
-use crate::convert::{self, array3, array_n3, depth, path, source, vec3, vec3_f32};
+use crate::convert::{self, array_n3, depth, path, source, vec3, vec3_f32};
 use crate::engine::{
-    self, logodds, probability, InnerNodes, Key, OcTree, OccupancyParams, Update, TREE_DEPTH,
+    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
 use crate::node::{key_arg, node_address, PyKey, PyNode};
+use crate::occupancy_api::{occupancy_api, OccupancyHost};
 use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
@@ -71,8 +72,40 @@ pub(crate) fn update_arg(obj: &Bound<'_, PyAny>) -> PyResult<Update> {
     Ok(Update::LogOdds(v))
 }
 
+/// The keys of ``updateNodes``' ``values`` (a sequence of keys and points, or an (N, 3)
+/// array of points), in order; points outside the map are skipped.
+pub(crate) fn keys_arg(conv: &KeyConverter, values: &Bound<'_, PyAny>) -> PyResult<Vec<Key>> {
+    Ok(match convert::points_f32(values, "values") {
+        Ok(points) => points
+            .iter()
+            .filter_map(|p| conv.point_to_key(&p.cast::<f64>()))
+            .collect(),
+        Err(_) => {
+            let mut keys = Vec::new();
+            for v in values.try_iter()? {
+                match target(&v?, "values")? {
+                    Target::Key(k) => keys.push(k),
+                    Target::Point(p) => {
+                        keys.extend(conv.point_to_key(&p.cast::<f32>().cast::<f64>()))
+                    }
+                }
+            }
+            keys
+        }
+    })
+}
+
+/// The error for a node argument that is no longer in the tree at its depth.
+pub(crate) fn not_in_tree(key: Key, d: u8) -> PyErr {
+    PyValueError::new_err(format!(
+        "the node (depth {d}, key ({}, {}, {})) is not in this tree (deleted, pruned, or from \
+         another tree)",
+        key[0], key[1], key[2]
+    ))
+}
+
 /// A child index argument: 0..8.
-fn child_idx(i: i64) -> PyResult<usize> {
+pub(crate) fn child_idx(i: i64) -> PyResult<usize> {
     if (0..8).contains(&i) {
         Ok(i as usize)
     } else {
@@ -83,7 +116,7 @@ fn child_idx(i: i64) -> PyResult<usize> {
 }
 
 /// A probability for a sensor-model setter: strictly between 0 and 1.
-fn prob(p: f64, name: &str) -> PyResult<f32> {
+pub(crate) fn prob(p: f64, name: &str) -> PyResult<f32> {
     if p.is_finite() && p > 0.0 && p < 1.0 {
         Ok(logodds(p))
     } else {
@@ -140,11 +173,7 @@ impl PyOcTree {
     fn live_node(&self, node: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
         let (key, d) = node_address(node)?;
         if self.tree.node_at_depth(key, d).is_none() {
-            return Err(PyValueError::new_err(format!(
-                "the node (depth {d}, key ({}, {}, {})) is not in this tree (deleted, pruned, or \
-                 from another tree)",
-                key[0], key[1], key[2]
-            )));
+            return Err(not_in_tree(key, d));
         }
         Ok((key, d))
     }
@@ -153,17 +182,36 @@ impl PyOcTree {
         self.tree.converter().point_to_key(p)
     }
 
-    fn set_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
-        let mut p = *self.tree.params();
-        f(&mut p);
-        self.tree.set_params(p);
-    }
-
     fn iterator_base(&self, py: Python<'_>, nodes: bool, d: u8) -> IteratorBase {
         let items = iterator_items(py, &self.tree, nodes, d);
         IteratorBase::new(items, self.tree.converter().clone(), d)
     }
 }
+
+impl OccupancyHost for PyOcTree {
+    fn occ(&self) -> &OcTree {
+        &self.tree
+    }
+    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
+        let mut p = *self.tree.params();
+        f(&mut p);
+        self.tree.set_params(p);
+    }
+    fn bbx(&self) -> &Bbx {
+        &self.bbx
+    }
+    fn bbx_mut(&mut self) -> &mut Bbx {
+        &mut self.bbx
+    }
+    fn enable_changes(&mut self, enable: bool) {
+        self.tree.enable_change_detection(enable);
+    }
+    fn reset_changes(&mut self) {
+        self.tree.reset_change_detection();
+    }
+}
+
+occupancy_api!(PyOcTree);
 
 #[pymethods]
 impl PyOcTree {
@@ -379,12 +427,6 @@ impl PyOcTree {
         Ok(self.tree.params().is_occupied(node_value(node)?))
     }
 
-    /// Whether a node's log-odds sits at either clamping bound.
-    #[pyo3(name = "isNodeAtThreshold")]
-    fn is_node_at_threshold(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        Ok(self.tree.params().is_at_threshold(node_value(node)?))
-    }
-
     /// Integrate one observation of the voxel at ``value`` (OcTreeKey or point):
     /// ``update`` True = hit, False = miss, a float = log-odds delta. Returns the updated
     /// node, or None for a point outside the map.
@@ -422,25 +464,7 @@ impl PyOcTree {
         if values.is_none() {
             return Ok(());
         }
-        let conv = self.tree.converter().clone();
-        let keys: Vec<Key> = match convert::points_f32(values, "values") {
-            Ok(points) => points
-                .iter()
-                .filter_map(|p| conv.point_to_key(&p.cast::<f64>()))
-                .collect(),
-            Err(_) => {
-                let mut keys = Vec::new();
-                for v in values.try_iter()? {
-                    match target(&v?, "values")? {
-                        Target::Key(k) => keys.push(k),
-                        Target::Point(p) => {
-                            keys.extend(conv.point_to_key(&p.cast::<f32>().cast::<f64>()))
-                        }
-                    }
-                }
-                keys
-            }
-        };
+        let keys = keys_arg(self.tree.converter(), values)?;
         let tree = &mut self.tree;
         py.detach(|| tree.update_keys(&keys, u, InnerNodes::from_lazy(lazy_eval)));
         Ok(())
@@ -796,78 +820,11 @@ impl PyOcTree {
         self.tree.size()
     }
 
-    /// Number of nodes, counted by walking the tree.
-    #[pyo3(name = "calcNumNodes")]
-    fn calc_num_nodes(&self, py: Python<'_>) -> usize {
-        let tree = &self.tree;
-        py.detach(|| tree.counts().nodes)
-    }
-
     /// Number of leaves.
     #[pyo3(name = "getNumLeafNodes")]
     fn get_num_leaf_nodes(&self, py: Python<'_>) -> usize {
         let tree = &self.tree;
         py.detach(|| tree.num_leaves())
-    }
-
-    /// 16.
-    #[pyo3(name = "getTreeDepth")]
-    fn get_tree_depth(&self) -> u8 {
-        TREE_DEPTH
-    }
-
-    /// Lower corner of the bounding box of all leaves (zeros for an empty tree).
-    #[pyo3(name = "getMetricMin")]
-    fn get_metric_min<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let b = self
-            .tree
-            .metric_bounds()
-            .map_or([0.0; 3], |(lo, _)| lo.into());
-        array3(py, b)
-    }
-
-    /// Upper corner of the bounding box of all leaves (zeros for an empty tree).
-    #[pyo3(name = "getMetricMax")]
-    fn get_metric_max<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let b = self
-            .tree
-            .metric_bounds()
-            .map_or([0.0; 3], |(_, hi)| hi.into());
-        array3(py, b)
-    }
-
-    /// Edge lengths of the bounding box of all leaves.
-    #[pyo3(name = "getMetricSize")]
-    fn get_metric_size<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        array3(py, self.tree.metric_size())
-    }
-
-    /// Volume of the bounding box of all leaves.
-    fn volume(&self) -> f64 {
-        self.tree.volume()
-    }
-
-    /// Bytes this tree's storage holds (octoquant's, not OctoMap's formula).
-    #[pyo3(name = "memoryUsage")]
-    fn memory_usage(&self) -> usize {
-        self.tree.memory_usage()
-    }
-
-    /// Bytes per node in OctoMap (16 on 64-bit machines), for formulas written against it.
-    #[pyo3(name = "memoryUsageNode")]
-    fn memory_usage_node(&self) -> usize {
-        16
-    }
-
-    /// Bytes a dense float grid over the map's bounding box would take (OctoMap's formula).
-    #[pyo3(name = "memoryFullGrid")]
-    fn memory_full_grid(&self) -> usize {
-        if self.tree.is_empty() {
-            return 0;
-        }
-        let f = 1.0 / self.tree.resolution();
-        let s = self.tree.metric_size();
-        ((f * s[0]).ceil() * (f * s[1]).ceil() * (f * s[2]).ceil()) as usize * 4
     }
 
     /// Give a childless node (from ``search``, ``getRoot``, ``getNodeChild``, ...) eight
@@ -984,181 +941,6 @@ impl PyOcTree {
         })
     }
 
-    /// Key of a point (taken as float32), unchecked like OctoMap: outside the map it wraps.
-    /// With ``depth``, the key of the coarser node at that depth.
-    #[pyo3(name = "coordToKey", signature = (coord, depth=None))]
-    fn coord_to_key(&self, coord: &Bound<'_, PyAny>, depth: Option<i64>) -> PyResult<PyKey> {
-        let p = vec3_f32(coord, "coord")?.cast::<f64>();
-        let conv = self.tree.converter();
-        let key = match depth {
-            None => conv.point_to_key_unchecked(&p),
-            Some(d) => {
-                let d = convert::depth(d, "depth")?;
-                Key::new(
-                    conv.coord_to_key_at_depth(p.x, d),
-                    conv.coord_to_key_at_depth(p.y, d),
-                    conv.coord_to_key_at_depth(p.z, d),
-                )
-            }
-        };
-        Ok(PyKey::new(key))
-    }
-
-    /// ``(True, key)`` for a point inside the map, ``(False, None)`` outside.
-    #[pyo3(name = "coordToKeyChecked", signature = (coord, depth=None))]
-    fn coord_to_key_checked(
-        &self,
-        coord: &Bound<'_, PyAny>,
-        depth: Option<i64>,
-    ) -> PyResult<(bool, Option<PyKey>)> {
-        let p = vec3_f32(coord, "coord")?.cast::<f64>();
-        let d = depth.map(|d| convert::depth(d, "depth")).transpose()?;
-        Ok(match self.key_of_point(&p) {
-            Some(k) => (true, Some(PyKey::new(d.map_or(k, |d| k.at_depth(d))))),
-            None => (false, None),
-        })
-    }
-
-    /// Centre of the voxel (or of the node at ``depth``) with this key, float32 precision.
-    #[pyo3(name = "keyToCoord", signature = (key, depth=None))]
-    fn key_to_coord<'py>(
-        &self,
-        py: Python<'py>,
-        key: &Bound<'py, PyAny>,
-        depth: Option<i64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let k = key_arg(key, "key")?;
-        let d = depth.map(|d| convert::depth(d, "depth")).transpose()?;
-        let conv = self.tree.converter();
-        let d = d.unwrap_or(TREE_DEPTH);
-        let c = [0, 1, 2].map(|a| conv.key_to_coord_at_depth(k[a], d) as f32 as f64);
-        Ok(array3(py, c))
-    }
-
-    /// The key of the node at ``depth`` that contains ``key``.
-    #[pyo3(name = "adjustKeyAtDepth")]
-    fn adjust_key_at_depth(&self, key: &Bound<'_, PyAny>, depth: i64) -> PyResult<PyKey> {
-        let k = key_arg(key, "key")?;
-        Ok(PyKey::new(k.at_depth(convert::depth(depth, "depth")?)))
-    }
-
-    // ---- the sensor model ----
-
-    /// Probability added by a hit.
-    #[pyo3(name = "getProbHit")]
-    fn get_prob_hit(&self) -> f64 {
-        probability(self.tree.params().hit as f64)
-    }
-    /// Log-odds added by a hit.
-    #[pyo3(name = "getProbHitLog")]
-    fn get_prob_hit_log(&self) -> f32 {
-        self.tree.params().hit
-    }
-    /// Probability of a miss.
-    #[pyo3(name = "getProbMiss")]
-    fn get_prob_miss(&self) -> f64 {
-        probability(self.tree.params().miss as f64)
-    }
-    /// Log-odds added by a miss.
-    #[pyo3(name = "getProbMissLog")]
-    fn get_prob_miss_log(&self) -> f32 {
-        self.tree.params().miss
-    }
-    /// Lower clamping bound (probability).
-    #[pyo3(name = "getClampingThresMin")]
-    fn get_clamping_thres_min(&self) -> f64 {
-        probability(self.tree.params().clamp_min as f64)
-    }
-    /// Lower clamping bound (log-odds).
-    #[pyo3(name = "getClampingThresMinLog")]
-    fn get_clamping_thres_min_log(&self) -> f32 {
-        self.tree.params().clamp_min
-    }
-    /// Upper clamping bound (probability).
-    #[pyo3(name = "getClampingThresMax")]
-    fn get_clamping_thres_max(&self) -> f64 {
-        probability(self.tree.params().clamp_max as f64)
-    }
-    /// Upper clamping bound (log-odds).
-    #[pyo3(name = "getClampingThresMaxLog")]
-    fn get_clamping_thres_max_log(&self) -> f32 {
-        self.tree.params().clamp_max
-    }
-    /// Occupancy threshold (probability).
-    #[pyo3(name = "getOccupancyThres")]
-    fn get_occupancy_thres(&self) -> f64 {
-        probability(self.tree.params().occupancy_threshold as f64)
-    }
-    /// Occupancy threshold (log-odds).
-    #[pyo3(name = "getOccupancyThresLog")]
-    fn get_occupancy_thres_log(&self) -> f32 {
-        self.tree.params().occupancy_threshold
-    }
-
-    /// Set the hit probability (0.5 <= p < 1).
-    #[pyo3(name = "setProbHit")]
-    fn set_prob_hit(&mut self, prob_: f64) -> PyResult<()> {
-        let l = prob(prob_, "prob")?;
-        if l < 0.0 {
-            return Err(PyValueError::new_err(format!(
-                "a hit must not lower occupancy: prob must be >= 0.5, got {prob_}"
-            )));
-        }
-        self.set_params(|p| p.hit = l);
-        Ok(())
-    }
-
-    /// Set the miss probability (0 < p <= 0.5).
-    #[pyo3(name = "setProbMiss")]
-    fn set_prob_miss(&mut self, prob_: f64) -> PyResult<()> {
-        let l = prob(prob_, "prob")?;
-        if l > 0.0 {
-            return Err(PyValueError::new_err(format!(
-                "a miss must not raise occupancy: prob must be <= 0.5, got {prob_}"
-            )));
-        }
-        self.set_params(|p| p.miss = l);
-        Ok(())
-    }
-
-    /// Set the lower clamping bound (a probability, at most the upper bound).
-    #[pyo3(name = "setClampingThresMin")]
-    #[allow(non_snake_case)]
-    fn set_clamping_thres_min(&mut self, thresProb: f64) -> PyResult<()> {
-        let l = prob(thresProb, "thresProb")?;
-        if l > self.tree.params().clamp_max {
-            return Err(PyValueError::new_err(format!(
-                "the lower clamping bound {thresProb} exceeds the upper one {}",
-                probability(self.tree.params().clamp_max as f64)
-            )));
-        }
-        self.set_params(|p| p.clamp_min = l);
-        Ok(())
-    }
-
-    /// Set the upper clamping bound (a probability, at least the lower bound).
-    #[pyo3(name = "setClampingThresMax")]
-    #[allow(non_snake_case)]
-    fn set_clamping_thres_max(&mut self, thresProb: f64) -> PyResult<()> {
-        let l = prob(thresProb, "thresProb")?;
-        if l < self.tree.params().clamp_min {
-            return Err(PyValueError::new_err(format!(
-                "the upper clamping bound {thresProb} is below the lower one {}",
-                probability(self.tree.params().clamp_min as f64)
-            )));
-        }
-        self.set_params(|p| p.clamp_max = l);
-        Ok(())
-    }
-
-    /// Set the occupancy threshold (a probability).
-    #[pyo3(name = "setOccupancyThres")]
-    fn set_occupancy_thres(&mut self, prob_: f64) -> PyResult<()> {
-        let l = prob(prob_, "prob")?;
-        self.set_params(|p| p.occupancy_threshold = l);
-        Ok(())
-    }
-
     // ---- iteration ----
 
     /// Iterator over every node, inner ones too, down to ``maxDepth`` (0 = 16).
@@ -1207,112 +989,6 @@ impl PyOcTree {
     /// An iterator past the last leaf of a box.
     fn end_leafs_bbx(&self, py: Python<'_>) -> PyResult<Py<LeafBbxIterator>> {
         LeafBbxIterator::create(py, self.empty_iterator())
-    }
-
-    // ---- bounding box ----
-
-    /// Limit ``insertPointCloud`` to the box set with ``setBBXMin``/``setBBXMax``.
-    #[pyo3(name = "useBBXLimit")]
-    fn use_bbx_limit(&mut self, enable: bool) {
-        self.bbx.enabled = enable;
-    }
-
-    /// Whether the box limit is on.
-    #[pyo3(name = "bbxSet")]
-    fn bbx_set(&self) -> bool {
-        self.bbx.enabled
-    }
-
-    /// Set the lower corner of the box (ValueError outside the map).
-    #[pyo3(name = "setBBXMin")]
-    fn set_bbx_min(&mut self, min: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p = vec3_f32(min, "min")?;
-        if !self.bbx.set_min(self.tree.converter(), p) {
-            return Err(PyValueError::new_err(format!(
-                "box corner {p:?} is outside the map"
-            )));
-        }
-        Ok(())
-    }
-
-    /// Set the upper corner of the box (ValueError outside the map).
-    #[pyo3(name = "setBBXMax")]
-    fn set_bbx_max(&mut self, max: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p = vec3_f32(max, "max")?;
-        if !self.bbx.set_max(self.tree.converter(), p) {
-            return Err(PyValueError::new_err(format!(
-                "box corner {p:?} is outside the map"
-            )));
-        }
-        Ok(())
-    }
-
-    /// Lower corner of the box.
-    #[pyo3(name = "getBBXMin")]
-    fn get_bbx_min<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        array3(py, self.bbx.min.cast::<f64>().into())
-    }
-
-    /// Upper corner of the box.
-    #[pyo3(name = "getBBXMax")]
-    fn get_bbx_max<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        array3(py, self.bbx.max.cast::<f64>().into())
-    }
-
-    /// Half the box's edge lengths.
-    #[pyo3(name = "getBBXBounds")]
-    fn get_bbx_bounds<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let b = (self.bbx.max - self.bbx.min) / 2.0;
-        array3(py, [b.x as f64, b.y as f64, b.z as f64])
-    }
-
-    /// Centre of the box.
-    #[pyo3(name = "getBBXCenter")]
-    fn get_bbx_center<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let c = self.bbx.min + (self.bbx.max - self.bbx.min) / 2.0;
-        array3(py, [c.x as f64, c.y as f64, c.z as f64])
-    }
-
-    /// Whether a point lies inside the box (borders included).
-    #[pyo3(name = "inBBX")]
-    fn in_bbx(&self, p: &Bound<'_, PyAny>) -> PyResult<bool> {
-        Ok(self.bbx.contains(&vec3_f32(p, "p")?))
-    }
-
-    // ---- change detection ----
-
-    /// Record every voxel that is created or whose occupancy flips from now on.
-    #[pyo3(name = "enableChangeDetection")]
-    fn enable_change_detection(&mut self, enable: bool) {
-        self.tree.enable_change_detection(enable);
-    }
-
-    /// Whether change detection is on.
-    #[pyo3(name = "isChangeDetectionEnabled")]
-    fn is_change_detection_enabled(&self) -> bool {
-        self.tree.is_change_detection_enabled()
-    }
-
-    /// Forget the changes recorded so far.
-    #[pyo3(name = "resetChangeDetection")]
-    fn reset_change_detection(&mut self) {
-        self.tree.reset_change_detection();
-    }
-
-    /// Number of changed voxels recorded.
-    #[pyo3(name = "numChangesDetected")]
-    fn num_changes_detected(&self) -> usize {
-        self.tree.num_changes_detected()
-    }
-
-    /// The changed voxels in key order: ``[(OcTreeKey, is_new), ...]``; ``is_new`` is True
-    /// for a voxel that did not exist before, False for one whose occupancy flipped.
-    #[pyo3(name = "changedKeys")]
-    fn changed_keys(&self) -> Vec<(PyKey, bool)> {
-        self.tree
-            .changed_keys()
-            .map(|(k, new)| (PyKey::new(k), new))
-            .collect()
     }
 
     fn __repr__(&self) -> String {

@@ -281,3 +281,167 @@ def test_cast_ray_matches(octomap, colored_pair):
         ea = np.zeros(3)
         assert bool(hv) == a.castRay(origin, d, ea, ignoreUnknownCells=True)
         assert e.tolist() == ea.tolist()
+
+
+@pytest.fixture(scope="module")
+def colored_base(octomap, data_dir):
+    """The `.ot` bytes of octomap-python's ColorOcTree at 0.02 m over the table scene, with
+    many voxels at the clamp (the scan inserted six times) and coloured end points: a tree
+    whose later updates prune and expand nodes with coloured children."""
+    xyz, rgb = table_scene(data_dir)
+    a = octomap.ColorOcTree(0.02)
+    pts = xyz[::4].astype(np.float64)
+    for _ in range(6):
+        a.insertPointCloud(pts, np.zeros(3))
+    for p, c in zip(xyz[::7].astype(np.float64), rgb[::7].tolist()):
+        a.averageNodeColor(p, *c)
+    return a.write(), xyz
+
+
+def pair_from(octomap, data):
+    """octomap-python's and octoquant's ColorOcTree read from the same `.ot` bytes."""
+    a = octomap.ColorOcTree(0.1)
+    assert a.readBinary is not None
+    return octomap.ColorOcTree.read(data), octoquant.ColorOcTree.read(data)
+
+
+@pytest.mark.parametrize(
+    "maxrange, lazy, discretize",
+    [(-1.0, False, False), (0.9, False, False), (-1.0, True, False), (-1.0, False, True)],
+)
+def test_insert_point_cloud_into_a_coloured_tree_matches(
+    octomap, colored_base, maxrange, lazy, discretize
+):
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    assert b.write() == data
+    colored = sum(n.getColor() != (255, 255, 255) for n in b.begin_tree())
+    assert colored > 1_000
+    # a shifted copy of the scene: other rays through the same space, a different origin
+    pts = (xyz[1::3] + np.float32(0.013)).astype(np.float64)
+    origin = np.array([0.01, -0.02, 0.005])
+    a.insertPointCloud(pts, origin, maxrange, lazy, discretize)
+    b.insertPointCloud(pts, origin, maxrange, lazy, discretize)
+    ours = b.write()
+    assert ours != data
+    assert ours == a.write()
+    if lazy:
+        a.updateInnerOccupancy()
+        b.updateInnerOccupancy()
+        assert b.write() == a.write()
+
+
+def test_insert_point_cloud_in_a_box_matches(octomap, colored_base):
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    lo, hi = np.array([-0.3, -0.2, 0.5]), np.array([0.2, 0.25, 1.1])
+    for t in (a, b):
+        t.setBBXMin(lo)
+        t.setBBXMax(hi)
+        t.useBBXLimit(True)
+    assert b.bbxSet() and a.bbxSet()
+    assert b.getBBXMin().tolist() == list(a.getBBXMin())
+    assert b.getBBXCenter().tolist() == pytest.approx(list(a.getBBXCenter()))
+    assert b.inBBX(np.array([0.0, 0.0, 0.8])) and not b.inBBX(np.array([0.0, 0.0, 2.0]))
+    pts = (xyz[2::3] - np.float32(0.011)).astype(np.float64)
+    a.insertPointCloud(pts, np.zeros(3), 1.0)
+    b.insertPointCloud(pts, np.zeros(3), 1.0)
+    assert b.write() != data
+    assert b.write() == a.write()
+
+
+def test_update_nodes_and_binary_files_match(octomap, colored_base, tmp_path):
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    pts = xyz[5::11].astype(np.float64)
+    for update in (False, True, False):
+        a.updateNodes(pts, update)
+        b.updateNodes(pts, update)
+    assert b.write() == a.write()
+    # writeBinary: max-likelihood and pruned by the colour rules first, like OctoMap's
+    bt = b.writeBinary()
+    assert bt == a.writeBinary()
+    assert b"id ColorOcTree" in bt.split(b"\ndata\n")[0]
+    assert b.write() == a.write()
+    path = tmp_path / "t.bt"
+    path.write_bytes(bt)
+    ra, rb = octomap.ColorOcTree(0.1), octoquant.ColorOcTree(0.1)
+    assert ra.readBinary(str(path).encode()) and rb.readBinary(str(path))
+    assert rb.getResolution() == 0.02
+    assert rb.write() == ra.write()
+    assert all(n.getColor() == (255, 255, 255) for n in rb.begin_tree())
+
+
+def test_node_surgery_matches(octomap, colored_base):
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    rng = np.random.default_rng(3)
+    done = {"expand": 0, "prune": 0, "create": 0, "delete": 0}
+    for i, p in enumerate(xyz[rng.choice(len(xyz), 1500, replace=False)].astype(np.float64)):
+        depth = int(rng.integers(11, 17))
+        nb = b.search(p, depth)
+        na = om_node(octomap, a.search(p, depth))
+        assert (nb is None) == (na is None)
+        if nb is None:
+            continue
+        assert b.isNodeCollapsible(nb) == a.isNodeCollapsible(na)
+        kind = i % 4
+        if kind == 0 and not nb.hasChildren() and nb.getDepth() < 16:
+            a.expandNode(na)
+            b.expandNode(nb)
+            done["expand"] += 1
+        elif kind == 1 and nb.hasChildren():
+            assert b.pruneNode(nb) == a.pruneNode(na)
+            done["prune"] += 1
+        elif kind == 2 and nb.getDepth() < 16:
+            j = int(rng.integers(0, 8))
+            if b.nodeChildExists(nb, j):
+                cb, ca = b.getNodeChild(nb, j), a.getNodeChild(na, j)
+                assert (cb.getValue(), cb.getColor()) == (ca.getValue(), tuple(ca.getColor()))
+                b.deleteNodeChild(nb, j)
+                a.deleteNodeChild(na, j)
+                done["delete"] += 1
+            elif nb.hasChildren():
+                cb, ca = b.createNodeChild(nb, j), a.createNodeChild(na, j)
+                assert (cb.getValue(), cb.getColor()) == (ca.getValue(), tuple(ca.getColor()))
+                done["create"] += 1
+    assert min(done.values()) > 20, done
+    # (OctoMap's deleteNodeChild takes one node off size(), whatever the subtree, and the
+    # header of write() gives that size)
+    assert b.calcNumNodes() == a.calcNumNodes()
+    body = b.write().split(b"\ndata\n", 1)[1]
+    assert len(body) > 50_000
+    assert body == a.write().split(b"\ndata\n", 1)[1]
+
+
+def test_shared_calls_match(octomap, colored_base):
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    for name in ("getMetricMin", "getMetricMax", "getMetricSize"):
+        assert getattr(b, name)().tolist() == pytest.approx(list(getattr(a, name)()))
+    assert b.volume() == pytest.approx(a.volume())
+    assert b.getTreeDepth() == a.getTreeDepth() == 16
+    assert b.calcNumNodes() == a.calcNumNodes() == b.size()
+    assert b.memoryFullGrid() == a.memoryFullGrid()
+    for p in xyz[::20000].astype(np.float64):
+        ka, kb = a.coordToKey(p), b.coordToKey(p)
+        assert list(kb) == [ka[0], ka[1], ka[2]]
+        assert b.keyToCoord(kb).tolist() == list(a.keyToCoord(ka))
+        na, nb = a.search(p), b.search(p)
+        assert b.isNodeAtThreshold(nb) == a.isNodeAtThreshold(na)
+    assert any(b.isNodeAtThreshold(n) for n in b.begin_leafs())
+    for t in (a, b):
+        t.setProbHit(0.8)
+        t.setProbMiss(0.45)
+        t.setClampingThresMin(0.2)
+        t.setClampingThresMax(0.9)
+        t.setOccupancyThres(0.6)
+    for name in ("getProbHit", "getProbMiss", "getClampingThresMin", "getClampingThresMax",
+                 "getOccupancyThres", "getProbHitLog", "getClampingThresMaxLog"):
+        assert getattr(b, name)() == pytest.approx(getattr(a, name)(), rel=1e-6)
+    pts = xyz[3::5].astype(np.float64)
+    a.insertPointCloud(pts, np.zeros(3))
+    b.insertPointCloud(pts, np.zeros(3))
+    assert b.write() == a.write()
+    with pytest.raises(ValueError):
+        b.setProbHit(0.3)

@@ -378,3 +378,38 @@ def test_refusals(data_dir, geb079, tmp_path):
         octoquant.OcTreeStamped.read(plain.read_bytes())
     with pytest.raises(FileNotFoundError, match="nope.ot"):
         octoquant.OcTreeStamped.read(tmp_path / "nope.ot")
+
+
+def test_occupancy_calls_and_the_box_as_on_an_octree(scan_dat):
+    """OcTreeStamped shares OcTree's occupancy calls (keys, metrics, sensor model, query box,
+    change detection): with the same calls, the same occupancy as an OcTree, whose box-limited
+    insertion is checked against octomap-python in test_compat; every voxel updated stamped."""
+    s, o = octoquant.OcTreeStamped(0.1), octoquant.OcTree(0.1)
+    lo, hi = np.array([-4.0, -3.0, -1.0]), np.array([3.0, 4.0, 1.5])
+    for t in (s, o):
+        t.setProbHit(0.8)
+        t.setClampingThresMax(0.95)
+        t.setBBXMin(lo)
+        t.setBBXMax(hi)
+        t.useBBXLimit(True)
+        t.enableChangeDetection(True)
+    pts = scan_dat[::3]
+    s.insertPointCloud(pts, np.zeros(3), 6.0, now=1234)
+    o.insertPointCloud(pts, np.zeros(3), 6.0)
+    assert s.getProbHit() == o.getProbHit() == pytest.approx(0.8)
+    assert s.calcNumNodes() == o.calcNumNodes() > 5_000
+    assert s.write().split(b"\ndata\n", 1)[1] == o.write().split(b"\ndata\n", 1)[1]
+    assert s.getMetricMin().tolist() == o.getMetricMin().tolist()
+    assert (s.getMetricMin() >= lo - 0.2).all() and (s.getMetricMax() <= hi + 0.2).all()
+    assert s.numChangesDetected() == o.numChangesDetected() > 1000
+    assert s.changedKeys()[:50] == o.changedKeys()[:50]
+    s.resetChangeDetection()
+    assert s.numChangesDetected() == 0
+    for p in pts[::500]:
+        assert list(s.coordToKey(p)) == list(o.coordToKey(p))
+        ns, no = s.search(p), o.search(p)
+        assert (ns is None) == (no is None)
+        if ns is not None:
+            assert s.isNodeAtThreshold(ns) == o.isNodeAtThreshold(no)
+            assert ns.getTimestamp() == 1234
+    assert s.getLastUpdateTime() == 1234

@@ -28,6 +28,13 @@ pub fn write_bt<W: Write>(tree: &mut OcTree, w: W) -> std::io::Result<()> {
 pub fn write_bt_typed<W: Write>(tree: &mut OcTree, id: &str, w: W) -> std::io::Result<()> {
     tree.to_max_likelihood();
     tree.prune();
+    write_bt_const_typed(tree, id, w)
+}
+
+/// [`write_bt_const`] with the header naming another OctoMap tree type, as OctoMap's
+/// `writeBinaryConst` names the type of the tree it is called on: for a tree with a payload
+/// per node whose own max-likelihood conversion and prune (by its payload's rules) came first.
+pub fn write_bt_const_typed<W: Write>(tree: &OcTree, id: &str, w: W) -> std::io::Result<()> {
     let mut w = std::io::BufWriter::with_capacity(1 << 16, w);
     write_header_id(&mut w, BT_HEADER, id, tree.size(), tree.resolution())?;
     if !tree.is_empty() {

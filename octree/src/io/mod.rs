@@ -12,7 +12,7 @@ mod ot_color;
 mod ot_stamped;
 mod stream;
 
-pub use bt::{read_bt, write_bt, write_bt_const, write_bt_typed};
+pub use bt::{read_bt, write_bt, write_bt_const, write_bt_const_typed, write_bt_typed};
 pub use header::format_resolution;
 pub use ot::{read_ot, write_ot};
 pub use ot_color::{read_color_ot, write_color_ot, COLOR_OCTREE_ID};

@@ -1,0 +1,447 @@
+//! The calls octomap-python's trees share that read the occupancy, convert keys and points,
+//! or set the sensor model, the query box and change detection, written once for `OcTree`,
+//! `ColorOcTree` and `OcTreeStamped` (octomap-python's `ColorOcTree` has them all through
+//! `OccupancyOcTreeBase`; OctoMap's C++ `OcTreeStamped` too).
+//!
+//! A class implements [`OccupancyHost`] and invokes [`occupancy_api!`], which adds the calls
+//! as a further `#[pymethods]` block (pyo3's `multiple-pymethods`).
+
+use crate::bbx::Bbx;
+use crate::engine::{OcTree, OccupancyParams};
+
+/// What the shared calls need of a tree class: its occupancy tree, and the few changes they
+/// make to it, which a tree with a payload per node lets through itself.
+pub(crate) trait OccupancyHost {
+    /// The occupancy tree.
+    fn occ(&self) -> &OcTree;
+    /// Change the sensor model in place.
+    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams));
+    /// The query box.
+    fn bbx(&self) -> &Bbx;
+    /// The query box, to change.
+    fn bbx_mut(&mut self) -> &mut Bbx;
+    /// OctoMap's `enableChangeDetection`.
+    fn enable_changes(&mut self, enable: bool);
+    /// OctoMap's `resetChangeDetection`.
+    fn reset_changes(&mut self);
+}
+
+/// The shared calls as a `#[pymethods]` block for the class `$ty` (an [`OccupancyHost`]).
+macro_rules! occupancy_api {
+    ($ty:ty) => {
+        #[pyo3::pymethods]
+        impl $ty {
+            /// Number of nodes, counted by walking the tree.
+            #[pyo3(name = "calcNumNodes")]
+            fn calc_num_nodes(&self, py: ::pyo3::Python<'_>) -> usize {
+                let tree = self.occ();
+                py.detach(|| tree.counts().nodes)
+            }
+
+            /// 16.
+            #[pyo3(name = "getTreeDepth")]
+            fn get_tree_depth(&self) -> u8 {
+                $crate::engine::TREE_DEPTH
+            }
+
+            /// Lower corner of the bounding box of all leaves (zeros for an empty tree).
+            #[pyo3(name = "getMetricMin")]
+            fn get_metric_min<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                let b = self
+                    .occ()
+                    .metric_bounds()
+                    .map_or([0.0; 3], |(lo, _)| lo.into());
+                $crate::convert::array3(py, b)
+            }
+
+            /// Upper corner of the bounding box of all leaves (zeros for an empty tree).
+            #[pyo3(name = "getMetricMax")]
+            fn get_metric_max<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                let b = self
+                    .occ()
+                    .metric_bounds()
+                    .map_or([0.0; 3], |(_, hi)| hi.into());
+                $crate::convert::array3(py, b)
+            }
+
+            /// Edge lengths of the bounding box of all leaves.
+            #[pyo3(name = "getMetricSize")]
+            fn get_metric_size<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                $crate::convert::array3(py, self.occ().metric_size())
+            }
+
+            /// Volume of the bounding box of all leaves.
+            fn volume(&self) -> f64 {
+                self.occ().volume()
+            }
+
+            /// Bytes this tree's storage holds (octoquant's, not OctoMap's formula).
+            #[pyo3(name = "memoryUsage")]
+            fn memory_usage(&self) -> usize {
+                self.occ().memory_usage()
+            }
+
+            /// Bytes per node in OctoMap (16 on 64-bit machines), for formulas written against it.
+            #[pyo3(name = "memoryUsageNode")]
+            fn memory_usage_node(&self) -> usize {
+                16
+            }
+
+            /// Bytes a dense float grid over the map's bounding box would take, by OctoMap's
+            /// formula: the three sizes in voxels multiplied in `f64` (no rounding up), times
+            /// 4, truncated.
+            #[pyo3(name = "memoryFullGrid")]
+            fn memory_full_grid(&self) -> usize {
+                if self.occ().is_empty() {
+                    return 0;
+                }
+                let r = self.occ().resolution();
+                let s = self.occ().metric_size();
+                ((s[0] / r) * (s[1] / r) * (s[2] / r) * 4.0) as usize
+            }
+
+            /// Key of a point (taken as float32), unchecked like OctoMap: outside the map it wraps.
+            /// With ``depth``, the key of the coarser node at that depth.
+            #[pyo3(name = "coordToKey", signature = (coord, depth=None))]
+            fn coord_to_key(
+                &self,
+                coord: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                depth: Option<i64>,
+            ) -> ::pyo3::PyResult<$crate::node::PyKey> {
+                let p = $crate::convert::vec3_f32(coord, "coord")?.cast::<f64>();
+                let conv = self.occ().converter();
+                let key = match depth {
+                    None => conv.point_to_key_unchecked(&p),
+                    Some(d) => {
+                        let d = $crate::convert::depth(d, "depth")?;
+                        $crate::engine::Key::new(
+                            conv.coord_to_key_at_depth(p.x, d),
+                            conv.coord_to_key_at_depth(p.y, d),
+                            conv.coord_to_key_at_depth(p.z, d),
+                        )
+                    }
+                };
+                Ok($crate::node::PyKey::new(key))
+            }
+
+            /// ``(True, key)`` for a point inside the map, ``(False, None)`` outside.
+            #[pyo3(name = "coordToKeyChecked", signature = (coord, depth=None))]
+            fn coord_to_key_checked(
+                &self,
+                coord: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                depth: Option<i64>,
+            ) -> ::pyo3::PyResult<(bool, Option<$crate::node::PyKey>)> {
+                let p = $crate::convert::vec3_f32(coord, "coord")?.cast::<f64>();
+                let d = depth
+                    .map(|d| $crate::convert::depth(d, "depth"))
+                    .transpose()?;
+                Ok(match self.occ().converter().point_to_key(&p) {
+                    Some(k) => (
+                        true,
+                        Some($crate::node::PyKey::new(d.map_or(k, |d| k.at_depth(d)))),
+                    ),
+                    None => (false, None),
+                })
+            }
+
+            /// Centre of the voxel (or of the node at ``depth``) with this key, float32 precision.
+            #[pyo3(name = "keyToCoord", signature = (key, depth=None))]
+            fn key_to_coord<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+                key: &::pyo3::Bound<'py, ::pyo3::PyAny>,
+                depth: Option<i64>,
+            ) -> ::pyo3::PyResult<::pyo3::Bound<'py, ::numpy::PyArray1<f64>>> {
+                let k = $crate::node::key_arg(key, "key")?;
+                let d = depth
+                    .map(|d| $crate::convert::depth(d, "depth"))
+                    .transpose()?;
+                let conv = self.occ().converter();
+                let d = d.unwrap_or($crate::engine::TREE_DEPTH);
+                let c = [0, 1, 2].map(|a| conv.key_to_coord_at_depth(k[a], d) as f32 as f64);
+                Ok($crate::convert::array3(py, c))
+            }
+
+            /// The key of the node at ``depth`` that contains ``key``.
+            #[pyo3(name = "adjustKeyAtDepth")]
+            fn adjust_key_at_depth(
+                &self,
+                key: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                depth: i64,
+            ) -> ::pyo3::PyResult<$crate::node::PyKey> {
+                let k = $crate::node::key_arg(key, "key")?;
+                Ok($crate::node::PyKey::new(
+                    k.at_depth($crate::convert::depth(depth, "depth")?),
+                ))
+            }
+
+            /// Probability added by a hit.
+            #[pyo3(name = "getProbHit")]
+            fn get_prob_hit(&self) -> f64 {
+                $crate::engine::probability(self.occ().params().hit as f64)
+            }
+
+            /// Log-odds added by a hit.
+            #[pyo3(name = "getProbHitLog")]
+            fn get_prob_hit_log(&self) -> f32 {
+                self.occ().params().hit
+            }
+
+            /// Probability of a miss.
+            #[pyo3(name = "getProbMiss")]
+            fn get_prob_miss(&self) -> f64 {
+                $crate::engine::probability(self.occ().params().miss as f64)
+            }
+
+            /// Log-odds added by a miss.
+            #[pyo3(name = "getProbMissLog")]
+            fn get_prob_miss_log(&self) -> f32 {
+                self.occ().params().miss
+            }
+
+            /// Lower clamping bound (probability).
+            #[pyo3(name = "getClampingThresMin")]
+            fn get_clamping_thres_min(&self) -> f64 {
+                $crate::engine::probability(self.occ().params().clamp_min as f64)
+            }
+
+            /// Lower clamping bound (log-odds).
+            #[pyo3(name = "getClampingThresMinLog")]
+            fn get_clamping_thres_min_log(&self) -> f32 {
+                self.occ().params().clamp_min
+            }
+
+            /// Upper clamping bound (probability).
+            #[pyo3(name = "getClampingThresMax")]
+            fn get_clamping_thres_max(&self) -> f64 {
+                $crate::engine::probability(self.occ().params().clamp_max as f64)
+            }
+
+            /// Upper clamping bound (log-odds).
+            #[pyo3(name = "getClampingThresMaxLog")]
+            fn get_clamping_thres_max_log(&self) -> f32 {
+                self.occ().params().clamp_max
+            }
+
+            /// Occupancy threshold (probability).
+            #[pyo3(name = "getOccupancyThres")]
+            fn get_occupancy_thres(&self) -> f64 {
+                $crate::engine::probability(self.occ().params().occupancy_threshold as f64)
+            }
+
+            /// Occupancy threshold (log-odds).
+            #[pyo3(name = "getOccupancyThresLog")]
+            fn get_occupancy_thres_log(&self) -> f32 {
+                self.occ().params().occupancy_threshold
+            }
+
+            /// Set the hit probability (0.5 <= p < 1).
+            #[pyo3(name = "setProbHit")]
+            fn set_prob_hit(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
+                let l = $crate::tree::prob(prob_, "prob")?;
+                if l < 0.0 {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "a hit must not lower occupancy: prob must be >= 0.5, got {prob_}"
+                    )));
+                }
+                self.update_params(|p| p.hit = l);
+                Ok(())
+            }
+
+            /// Set the miss probability (0 < p <= 0.5).
+            #[pyo3(name = "setProbMiss")]
+            fn set_prob_miss(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
+                let l = $crate::tree::prob(prob_, "prob")?;
+                if l > 0.0 {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "a miss must not raise occupancy: prob must be <= 0.5, got {prob_}"
+                    )));
+                }
+                self.update_params(|p| p.miss = l);
+                Ok(())
+            }
+
+            /// Set the lower clamping bound (a probability, at most the upper bound).
+            #[pyo3(name = "setClampingThresMin")]
+            #[allow(non_snake_case)]
+            fn set_clamping_thres_min(&mut self, thresProb: f64) -> ::pyo3::PyResult<()> {
+                let l = $crate::tree::prob(thresProb, "thresProb")?;
+                if l > self.occ().params().clamp_max {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "the lower clamping bound {thresProb} exceeds the upper one {}",
+                        $crate::engine::probability(self.occ().params().clamp_max as f64)
+                    )));
+                }
+                self.update_params(|p| p.clamp_min = l);
+                Ok(())
+            }
+
+            /// Set the upper clamping bound (a probability, at least the lower bound).
+            #[pyo3(name = "setClampingThresMax")]
+            #[allow(non_snake_case)]
+            fn set_clamping_thres_max(&mut self, thresProb: f64) -> ::pyo3::PyResult<()> {
+                let l = $crate::tree::prob(thresProb, "thresProb")?;
+                if l < self.occ().params().clamp_min {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "the upper clamping bound {thresProb} is below the lower one {}",
+                        $crate::engine::probability(self.occ().params().clamp_min as f64)
+                    )));
+                }
+                self.update_params(|p| p.clamp_max = l);
+                Ok(())
+            }
+
+            /// Set the occupancy threshold (a probability).
+            #[pyo3(name = "setOccupancyThres")]
+            fn set_occupancy_thres(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
+                let l = $crate::tree::prob(prob_, "prob")?;
+                self.update_params(|p| p.occupancy_threshold = l);
+                Ok(())
+            }
+
+            /// Whether a node's log-odds sits at either clamping bound.
+            #[pyo3(name = "isNodeAtThreshold")]
+            fn is_node_at_threshold(
+                &self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<bool> {
+                Ok(self
+                    .occ()
+                    .params()
+                    .is_at_threshold($crate::iter::node_value(node)?))
+            }
+
+            /// Limit ``insertPointCloud`` to the box set with ``setBBXMin``/``setBBXMax``.
+            #[pyo3(name = "useBBXLimit")]
+            fn use_bbx_limit(&mut self, enable: bool) {
+                self.bbx_mut().enabled = enable;
+            }
+
+            /// Whether the box limit is on.
+            #[pyo3(name = "bbxSet")]
+            fn bbx_set(&self) -> bool {
+                self.bbx().enabled
+            }
+
+            /// Set the lower corner of the box (ValueError outside the map).
+            #[pyo3(name = "setBBXMin")]
+            fn set_bbx_min(
+                &mut self,
+                min: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<()> {
+                let p = $crate::convert::vec3_f32(min, "min")?;
+                let conv = self.occ().converter().clone();
+                if !self.bbx_mut().set_min(&conv, p) {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "box corner {p:?} is outside the map"
+                    )));
+                }
+                Ok(())
+            }
+
+            /// Set the upper corner of the box (ValueError outside the map).
+            #[pyo3(name = "setBBXMax")]
+            fn set_bbx_max(
+                &mut self,
+                max: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<()> {
+                let p = $crate::convert::vec3_f32(max, "max")?;
+                let conv = self.occ().converter().clone();
+                if !self.bbx_mut().set_max(&conv, p) {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "box corner {p:?} is outside the map"
+                    )));
+                }
+                Ok(())
+            }
+
+            /// Lower corner of the box.
+            #[pyo3(name = "getBBXMin")]
+            fn get_bbx_min<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                $crate::convert::array3(py, self.bbx().min.cast::<f64>().into())
+            }
+
+            /// Upper corner of the box.
+            #[pyo3(name = "getBBXMax")]
+            fn get_bbx_max<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                $crate::convert::array3(py, self.bbx().max.cast::<f64>().into())
+            }
+
+            /// Half the box's edge lengths.
+            #[pyo3(name = "getBBXBounds")]
+            fn get_bbx_bounds<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                let b = (self.bbx().max - self.bbx().min) / 2.0;
+                $crate::convert::array3(py, [b.x as f64, b.y as f64, b.z as f64])
+            }
+
+            /// Centre of the box.
+            #[pyo3(name = "getBBXCenter")]
+            fn get_bbx_center<'py>(
+                &self,
+                py: ::pyo3::Python<'py>,
+            ) -> ::pyo3::Bound<'py, ::numpy::PyArray1<f64>> {
+                let c = self.bbx().min + (self.bbx().max - self.bbx().min) / 2.0;
+                $crate::convert::array3(py, [c.x as f64, c.y as f64, c.z as f64])
+            }
+
+            /// Whether a point lies inside the box (borders included).
+            #[pyo3(name = "inBBX")]
+            fn in_bbx(&self, p: &::pyo3::Bound<'_, ::pyo3::PyAny>) -> ::pyo3::PyResult<bool> {
+                Ok(self.bbx().contains(&$crate::convert::vec3_f32(p, "p")?))
+            }
+
+            /// Record every voxel that is created or whose occupancy flips from now on.
+            #[pyo3(name = "enableChangeDetection")]
+            fn enable_change_detection(&mut self, enable: bool) {
+                self.enable_changes(enable);
+            }
+
+            /// Whether change detection is on.
+            #[pyo3(name = "isChangeDetectionEnabled")]
+            fn is_change_detection_enabled(&self) -> bool {
+                self.occ().is_change_detection_enabled()
+            }
+
+            /// Forget the changes recorded so far.
+            #[pyo3(name = "resetChangeDetection")]
+            fn reset_change_detection(&mut self) {
+                self.reset_changes();
+            }
+
+            /// Number of changed voxels recorded.
+            #[pyo3(name = "numChangesDetected")]
+            fn num_changes_detected(&self) -> usize {
+                self.occ().num_changes_detected()
+            }
+
+            /// The changed voxels in key order: ``[(OcTreeKey, is_new), ...]``; ``is_new`` is True
+            /// for a voxel that did not exist before, False for one whose occupancy flipped.
+            #[pyo3(name = "changedKeys")]
+            fn changed_keys(&self) -> Vec<($crate::node::PyKey, bool)> {
+                self.occ()
+                    .changed_keys()
+                    .map(|(k, new)| ($crate::node::PyKey::new(k), new))
+                    .collect()
+            }
+        }
+    };
+}
+pub(crate) use occupancy_api;
