@@ -135,6 +135,11 @@ impl ColorOcTree {
         self.base.tree.params()
     }
 
+    /// Change the leaf size (OctoMap's `setResolution`, see [`OcTree::set_resolution`]).
+    pub fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.base.tree.set_resolution(resolution)
+    }
+
     /// Replace the sensor model; node values and colours are kept.
     pub fn set_params(&mut self, params: OccupancyParams) {
         self.base.tree.set_params(params);

@@ -160,6 +160,11 @@ impl StampedOcTree {
         self.base.tree.params()
     }
 
+    /// Change the leaf size (OctoMap's `setResolution`, see [`OcTree::set_resolution`]).
+    pub fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.base.tree.set_resolution(resolution)
+    }
+
     /// Replace the sensor model; node values and stamps are kept.
     pub fn set_params(&mut self, params: OccupancyParams) {
         self.base.tree.set_params(params);

@@ -138,6 +138,15 @@ impl OcTree {
         self.conv.resolution()
     }
 
+    /// Change the leaf size to `resolution` (OctoMap's `setResolution`): every node keeps its
+    /// key and value, so the map is scaled about the centre of the key range (coordinates of
+    /// the keys, metric bounds and files change; the structure does not). Errors, changing
+    /// nothing, as [`KeyConverter::new`] does for a resolution that is not finite and positive.
+    pub fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.conv = KeyConverter::new(resolution)?;
+        Ok(())
+    }
+
     /// The coordinate <-> key converter for this tree's resolution.
     pub fn converter(&self) -> &KeyConverter {
         &self.conv

@@ -383,3 +383,22 @@ fn probability_at_a_point() {
     assert!(n.depth < TREE_DEPTH, "not pruned");
     assert_eq!(t.probability_at(&centre), Some(oracle(n.value)));
 }
+
+/// `set_resolution` keeps every node's key and value (OctoMap's `setResolution` only changes
+/// the leaf size), so a voxel's centre moves with the scale; a bad size changes nothing.
+#[test]
+fn set_resolution_keeps_keys_and_values() {
+    let mut t = OcTree::new(0.1).unwrap();
+    let k = Key::new(32800, 32700, 32768);
+    t.update_node(k, Update::Hit, InnerNodes::Refresh);
+    let (size, v) = (t.size(), t.search(k, 16).unwrap().value);
+    t.set_resolution(0.25).unwrap();
+    assert_eq!(t.resolution(), 0.25);
+    assert_eq!((t.size(), t.search(k, 16).unwrap().value), (size, v));
+    // the voxel 32 keys above the centre on x now lies 32.5 leaves of 0.25 m out
+    assert_eq!(t.converter().key_to_coord(k.x()), 32.5 * 0.25);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(t.set_resolution(bad).is_err());
+        assert_eq!(t.resolution(), 0.25);
+    }
+}

@@ -5,7 +5,7 @@ use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
     self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, OcTree,
-    OccupancyParams, TREE_DEPTH,
+    OccupancyParams, OctreeError, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
@@ -576,6 +576,9 @@ impl OccupancyHost for PyColorOcTree {
     }
     fn reset_changes(&mut self) {
         self.tree.reset_change_detection();
+    }
+    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.tree.set_resolution(resolution)
     }
 }
 

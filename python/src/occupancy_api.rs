@@ -7,7 +7,7 @@
 //! as a further `#[pymethods]` block (pyo3's `multiple-pymethods`).
 
 use crate::bbx::Bbx;
-use crate::engine::{OcTree, OccupancyParams};
+use crate::engine::{OcTree, OccupancyParams, OctreeError};
 
 /// What the shared calls need of a tree class: its occupancy tree, and the few changes they
 /// make to it, which a tree with a payload per node lets through itself.
@@ -24,6 +24,8 @@ pub(crate) trait OccupancyHost {
     fn enable_changes(&mut self, enable: bool);
     /// OctoMap's `resetChangeDetection`.
     fn reset_changes(&mut self);
+    /// OctoMap's `setResolution`.
+    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError>;
 }
 
 /// The shared calls as a `#[pymethods]` block for the class `$ty` (an [`OccupancyHost`]).
@@ -36,6 +38,15 @@ macro_rules! occupancy_api {
             fn calc_num_nodes(&self, py: ::pyo3::Python<'_>) -> usize {
                 let tree = self.occ();
                 py.detach(|| tree.counts().nodes)
+            }
+
+            /// Change the leaf size (OctoMap's ``setResolution``): every node keeps its key
+            /// and value, so the map scales about the centre of the key range. ``ValueError``
+            /// unless ``resolution`` is finite and positive.
+            #[pyo3(name = "setResolution")]
+            fn set_resolution(&mut self, resolution: f64) -> ::pyo3::PyResult<()> {
+                self.set_leaf_size(resolution)
+                    .map_err(|e| $crate::convert::value_error("setResolution", &e))
             }
 
             /// 16.

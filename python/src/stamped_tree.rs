@@ -7,8 +7,8 @@
 use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
-    self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, OccupancyParams, StampedOcTree,
-    TREE_DEPTH,
+    self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, OccupancyParams, OctreeError,
+    StampedOcTree, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
@@ -599,6 +599,9 @@ impl OccupancyHost for PyStampedOcTree {
     }
     fn reset_changes(&mut self) {
         self.tree.reset_change_detection();
+    }
+    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.tree.set_resolution(resolution)
     }
 }
 

@@ -5,7 +5,8 @@ use crate::bbx::{self, Bbx};
 use crate::cloud;
 use crate::convert::{self, array_n3, depth, path, source, vec3, vec3_f32};
 use crate::engine::{
-    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update, TREE_DEPTH,
+    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, OctreeError, Update,
+    TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
@@ -208,6 +209,12 @@ impl OccupancyHost for PyOcTree {
     }
     fn reset_changes(&mut self) {
         self.tree.reset_change_detection();
+    }
+    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.tree.set_resolution(resolution)?;
+        // a distance map made at the old size would answer in the wrong units
+        self.edt = None;
+        Ok(())
     }
 }
 

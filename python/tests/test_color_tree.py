@@ -449,3 +449,28 @@ def test_shared_calls_match(octomap, colored_base):
     assert at == [a.isNodeAtThreshold(n) for n in a.begin_leafs()]
     with pytest.raises(ValueError):
         b.setProbHit(0.3)
+
+
+def test_set_resolution_matches(octomap, colored_base):
+    """``setResolution`` keeps every node's key and value: the map scales about the centre of
+    the key range, on the plain tree and the colour tree alike."""
+    data, xyz = colored_base
+    a, b = pair_from(octomap, data)
+    pa, pb = octomap.OcTree(0.02), octoquant.OcTree(0.02)
+    pts = xyz[::9].astype(np.float64)
+    pa.insertPointCloud(pts, np.zeros(3))
+    pb.insertPointCloud(pts, np.zeros(3))
+    for ta, tb in ((a, b), (pa, pb)):
+        ta.setResolution(0.05)
+        tb.setResolution(0.05)
+        assert tb.getResolution() == ta.getResolution() == 0.05
+        assert tb.write() == ta.write()
+        assert tb.getMetricMax().tolist() == pytest.approx(list(ta.getMetricMax()))
+        # a leaf's centre, scaled with the map (a point of the scan now lies elsewhere)
+        p = np.array(next(iter(tb.begin_leafs())).getCoordinate(), dtype=np.float64)
+        ka = ta.coordToKey(p)  # (octomap-python's key has no end for list())
+        assert list(tb.coordToKey(p)) == [ka[0], ka[1], ka[2]]
+        assert tb.search(p).getValue() == ta.search(p).getValue()
+        with pytest.raises(ValueError, match="setResolution"):
+            tb.setResolution(0.0)
+        assert tb.getResolution() == 0.05
