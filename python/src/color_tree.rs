@@ -795,6 +795,38 @@ impl PyColorOcTree {
         Ok(Self::node_of(slf, c.node, k))
     }
 
+    fn __copy__(&self) -> Self {
+        PyColorOcTree {
+            tree: self.tree.clone(),
+            bbx: self.bbx,
+        }
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, pyo3::types::PyDict>) -> Self {
+        self.__copy__()
+    }
+
+    /// Pickling: the ``.ot`` bytes (occupancy and colours) and the sensor model.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        let tree = &self.tree;
+        let data = py
+            .detach(|| engine::write_color_ot(tree))
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        let p = self.tree.params();
+        let restore = py
+            .import("octoquant._octoquant")?
+            .getattr("_restore_color")?;
+        let args = (
+            PyBytes::new(py, &data),
+            p.hit,
+            p.miss,
+            p.clamp_min,
+            p.clamp_max,
+            p.occupancy_threshold,
+        );
+        pyo3::types::PyTuple::new(py, [restore.into_any(), args.into_pyobject(py)?.into_any()])
+    }
+
     /// Delete child ``idx`` (0..8) of a node with its subtree and their colours (OctoMap's
     /// ``deleteNodeChild``; ``size()`` drops by the whole subtree). ``ValueError`` when the
     /// child does not exist.
@@ -809,4 +841,28 @@ impl PyColorOcTree {
         }
         Ok(())
     }
+}
+
+/// Unpickling a ``ColorOcTree``: the tree from its `.ot` bytes and its sensor model (log-odds).
+#[pyfunction]
+pub fn _restore_color(
+    py: Python<'_>,
+    data: &[u8],
+    hit: f32,
+    miss: f32,
+    clamp_min: f32,
+    clamp_max: f32,
+    threshold: f32,
+) -> PyResult<PyColorOcTree> {
+    let mut tree = py
+        .detach(|| engine::read_color_ot(data))
+        .map_err(|e| convert::value_error("pickled ColorOcTree", &e))?;
+    tree.set_params(OccupancyParams {
+        hit,
+        miss,
+        clamp_min,
+        clamp_max,
+        occupancy_threshold: threshold,
+    });
+    Ok(PyColorOcTree::wrap(tree))
 }

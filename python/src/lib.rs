@@ -355,6 +355,7 @@ fn _octoquant(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.py().get_type::<NullPointerException>(),
     )?;
     m.add_function(wrap_pyfunction!(tree::_restore, m)?)?;
+    m.add_function(wrap_pyfunction!(color_tree::_restore_color, m)?)?;
     m.add_function(wrap_pyfunction!(read_frames, m)?)?;
     m.add_function(wrap_pyfunction!(count_frames, m)?)?;
     m.add_function(wrap_pyfunction!(write_frames, m)?)?;

@@ -606,3 +606,18 @@ impl OccupancyHost for PyStampedOcTree {
 }
 
 occupancy_api!(PyStampedOcTree);
+
+/// Copies (stamps included; pickling is not offered, as ``.ot`` files hold no stamps).
+#[pymethods]
+impl PyStampedOcTree {
+    fn __copy__(&self) -> Self {
+        PyStampedOcTree {
+            tree: self.tree.clone(),
+            bbx: self.bbx,
+        }
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, pyo3::types::PyDict>) -> Self {
+        self.__copy__()
+    }
+}

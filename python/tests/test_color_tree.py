@@ -474,3 +474,19 @@ def test_set_resolution_matches(octomap, colored_base):
         with pytest.raises(ValueError, match="setResolution"):
             tb.setResolution(0.0)
         assert tb.getResolution() == 0.05
+
+
+def test_copies_and_pickles_keep_colours_and_the_sensor_model(colored_base):
+    import copy
+    import pickle
+
+    data, xyz = colored_base
+    b = octoquant.ColorOcTree.read(data)
+    b.setProbHit(0.8)
+    b.setClampingThresMin(0.2)
+    for c in (pickle.loads(pickle.dumps(b)), copy.copy(b), copy.deepcopy(b)):
+        assert c.write() == data
+        assert (c.getProbHit(), c.getClampingThresMin()) == (b.getProbHit(), b.getClampingThresMin())
+        p = xyz[0].astype(np.float64)
+        c.setNodeColor(p, 1, 2, 3)
+        assert b.search(p).getColor() != (1, 2, 3), "a copy is independent"

@@ -413,3 +413,17 @@ def test_occupancy_calls_and_the_box_as_on_an_octree(scan_dat):
             assert s.isNodeAtThreshold(ns) == o.isNodeAtThreshold(no)
             assert ns.getTimestamp() == 1234
     assert s.getLastUpdateTime() == 1234
+
+
+def test_copies_keep_the_stamps(scan_dat):
+    import copy
+    import pickle
+
+    s = octoquant.OcTreeStamped(0.2)
+    s.insertPointCloud(scan_dat[::50], np.zeros(3), now=77)
+    for c in (copy.copy(s), copy.deepcopy(s)):
+        assert c.write() == s.write() and c.getLastUpdateTime() == 77
+        c.insertPointCloud(scan_dat[1::50], np.zeros(3), now=99)
+        assert c.getLastUpdateTime() == 99 and s.getLastUpdateTime() == 77
+    with pytest.raises(TypeError):
+        pickle.dumps(s)
