@@ -40,6 +40,7 @@ fn main() {
     distance_map(&mut seeds);
     stamped_ops(&mut seeds);
     frame_pairs(&mut seeds);
+    color_point_clouds(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
     tiles(&mut seeds);
@@ -1060,6 +1061,15 @@ fn frame_pairs(s: &mut Seeds) {
         s,
         "frame_pairs",
         0x9e37_79b9_7f4a_7c15,
+        &[64, 256, 1024, 4096],
+    );
+}
+
+fn color_point_clouds(s: &mut Seeds) {
+    random_seeds(
+        s,
+        "color_point_clouds",
+        0xd1b5_4a32_d192_ed03,
         &[64, 256, 1024, 4096],
     );
 }
