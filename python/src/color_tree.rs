@@ -5,17 +5,16 @@ use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
     self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, OcTree,
-    OccupancyParams, OctreeError, TREE_DEPTH,
+    OccupancyParams, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
-use crate::node::node_address;
 use crate::node::PyKey;
-use crate::occupancy_api::{occupancy_api, OccupancyHost};
+use crate::occupancy_api::{live_node, occupancy_api, surgery_api, OccupancyHost};
 use crate::tree::{
     bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, child_idx, iterator_items, keys_arg,
-    not_in_tree, target, update_arg, CastArrays, Target,
+    target, update_arg, CastArrays, Target,
 };
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -556,44 +555,10 @@ impl PyColorOcTree {
     }
 }
 
-impl OccupancyHost for PyColorOcTree {
-    fn occ(&self) -> &OcTree {
-        self.tree.occupancy()
-    }
-    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
-        let mut p = *self.tree.params();
-        f(&mut p);
-        self.tree.set_params(p);
-    }
-    fn bbx(&self) -> &Bbx {
-        &self.bbx
-    }
-    fn bbx_mut(&mut self) -> &mut Bbx {
-        &mut self.bbx
-    }
-    fn enable_changes(&mut self, enable: bool) {
-        self.tree.enable_change_detection(enable);
-    }
-    fn reset_changes(&mut self) {
-        self.tree.reset_change_detection();
-    }
-    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
-        self.tree.set_resolution(resolution)
-    }
-}
-
-occupancy_api!(PyColorOcTree);
+surgery_api!(PyColorOcTree);
+occupancy_api!(PyColorOcTree, ColorOcTree);
 
 impl PyColorOcTree {
-    /// The key and depth of a node argument that still exists at its depth in this tree.
-    fn live_node(&self, node: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
-        let (key, d) = node_address(node)?;
-        if self.tree.node_at_depth(key, d).is_none() {
-            return Err(not_in_tree(key, d));
-        }
-        Ok((key, d))
-    }
-
     /// A Python node of `slf` for the node `info` at `key`.
     fn node_of(slf: &Bound<'_, Self>, info: NodeInfo, key: Key) -> PyColorNode {
         PyColorNode::found(slf.clone().unbind(), &slf.borrow().tree, info, key)
@@ -703,60 +668,6 @@ impl PyColorOcTree {
         bytes_or_true(py, data, filename)
     }
 
-    /// Give a childless node eight children with its value and colour (OctoMap's
-    /// ``expandNode``; inner nodes above are not refreshed). ``ValueError`` when the node is
-    /// no longer in the tree at its depth, already has children, or is a voxel (depth 16).
-    #[pyo3(name = "expandNode")]
-    fn expand_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<()> {
-        let (key, d) = self.live_node(node)?;
-        if d >= TREE_DEPTH {
-            return Err(PyValueError::new_err(
-                "expandNode: a voxel (depth 16) has no children",
-            ));
-        }
-        if !self.tree.expand_node(key, d) {
-            return Err(PyValueError::new_err(
-                "expandNode: the node already has children",
-            ));
-        }
-        Ok(())
-    }
-
-    /// Collapse a node whose eight children are leaves of equal log-odds into one leaf
-    /// (``ColorOcTree::pruneNode``: child 0's colour, or the children's average colour when
-    /// child 0 has one). Returns whether it did.
-    #[pyo3(name = "pruneNode")]
-    fn prune_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.prune_node(key, d))
-    }
-
-    /// Whether a node has all eight children, none with children, all with equal log-odds
-    /// (colours are not compared, as in OctoMap's ``ColorOcTree``).
-    #[pyo3(name = "isNodeCollapsible")]
-    fn is_node_collapsible(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.is_node_collapsible(key, d))
-    }
-
-    /// Whether a node has children now (OctoMap's ``nodeHasChildren``).
-    #[pyo3(name = "nodeHasChildren")]
-    fn node_has_children(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self
-            .tree
-            .node_at_depth(key, d)
-            .is_some_and(|n| n.node.has_children))
-    }
-
-    /// Whether child ``idx`` (0..8: bit 0 x, bit 1 y, bit 2 z) of a node exists (OctoMap's
-    /// ``nodeChildExists``).
-    #[pyo3(name = "nodeChildExists")]
-    fn node_child_exists(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.node_child(key, d, child_idx(idx)?).is_some())
-    }
-
     /// Child ``idx`` (0..8) of a node with its colour, or None when it does not exist.
     #[pyo3(name = "getNodeChild")]
     fn get_node_child(
@@ -765,7 +676,7 @@ impl PyColorOcTree {
         idx: i64,
     ) -> PyResult<Option<PyColorNode>> {
         let i = child_idx(idx)?;
-        let (key, d) = slf.borrow().live_node(node)?;
+        let (key, d) = live_node(&*slf.borrow().tree, node)?;
         let child = slf.borrow().tree.node_child(key, d, i);
         Ok(child
             .zip(OcTree::child_key(key, d, i))
@@ -782,7 +693,7 @@ impl PyColorOcTree {
         idx: i64,
     ) -> PyResult<PyColorNode> {
         let i = child_idx(idx)?;
-        let (key, d) = slf.borrow().live_node(node)?;
+        let (key, d) = live_node(&*slf.borrow().tree, node)?;
         if d >= TREE_DEPTH {
             return Err(PyValueError::new_err(
                 "createNodeChild: a voxel (depth 16) has no children",
@@ -825,21 +736,6 @@ impl PyColorOcTree {
             p.occupancy_threshold,
         );
         pyo3::types::PyTuple::new(py, [restore.into_any(), args.into_pyobject(py)?.into_any()])
-    }
-
-    /// Delete child ``idx`` (0..8) of a node with its subtree and their colours (OctoMap's
-    /// ``deleteNodeChild``; ``size()`` drops by the whole subtree). ``ValueError`` when the
-    /// child does not exist.
-    #[pyo3(name = "deleteNodeChild")]
-    fn delete_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<()> {
-        let i = child_idx(idx)?;
-        let (key, d) = self.live_node(node)?;
-        if self.tree.delete_node_child(key, d, i) == 0 {
-            return Err(PyValueError::new_err(format!(
-                "deleteNodeChild: child {i} does not exist"
-            )));
-        }
-        Ok(())
     }
 }
 

@@ -7,29 +7,201 @@
 //! as a further `#[pymethods]` block (pyo3's `multiple-pymethods`).
 
 use crate::bbx::Bbx;
-use crate::engine::{OcTree, OccupancyParams, OctreeError};
+use crate::engine::{ColorOcTree, Key, OcTree, OccupancyParams, OctreeError, StampedOcTree};
 
-/// What the shared calls need of a tree class: its occupancy tree, and the few changes they
-/// make to it, which a tree with a payload per node lets through itself.
-pub(crate) trait OccupancyHost {
+/// The settings the shared calls change on a tree, which the Rust tree types have under the
+/// same names.
+pub(crate) trait TreeSettings {
     /// The occupancy tree.
-    fn occ(&self) -> &OcTree;
-    /// Change the sensor model in place.
-    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams));
+    fn occupancy(&self) -> &OcTree;
+    /// Replace the sensor model.
+    fn set_params(&mut self, params: OccupancyParams);
+    /// OctoMap's `enableChangeDetection`.
+    fn enable_change_detection(&mut self, enable: bool);
+    /// OctoMap's `resetChangeDetection`.
+    fn reset_change_detection(&mut self);
+    /// OctoMap's `setResolution`.
+    fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError>;
+}
+
+impl TreeSettings for OcTree {
+    fn occupancy(&self) -> &OcTree {
+        self
+    }
+    fn set_params(&mut self, params: OccupancyParams) {
+        OcTree::set_params(self, params);
+    }
+    fn enable_change_detection(&mut self, enable: bool) {
+        OcTree::enable_change_detection(self, enable);
+    }
+    fn reset_change_detection(&mut self) {
+        OcTree::reset_change_detection(self);
+    }
+    fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        OcTree::set_resolution(self, resolution)
+    }
+}
+
+/// [`TreeSettings`] for the trees with a payload per node, which pass them to their
+/// occupancy tree.
+macro_rules! payload_settings {
+    ($($t:ident),*) => {$(
+        impl TreeSettings for $t {
+            fn occupancy(&self) -> &OcTree {
+                $t::occupancy(self)
+            }
+            fn set_params(&mut self, params: OccupancyParams) {
+                $t::set_params(self, params);
+            }
+            fn enable_change_detection(&mut self, enable: bool) {
+                $t::enable_change_detection(self, enable);
+            }
+            fn reset_change_detection(&mut self) {
+                $t::reset_change_detection(self);
+            }
+            fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
+                $t::set_resolution(self, resolution)
+            }
+        }
+    )*};
+}
+payload_settings!(ColorOcTree, StampedOcTree);
+
+/// OctoMap's node surgery on a tree, by a node's key and depth, as the Rust tree types have it
+/// (the colour tree with its colour rules).
+pub(crate) trait NodeSurgery {
+    /// Whether a node exists at exactly `depth` holding `key`, and whether it has children.
+    fn node_state(&self, key: Key, depth: u8) -> Option<bool>;
+    /// OctoMap's `expandNode`.
+    fn expand_node(&mut self, key: Key, depth: u8) -> bool;
+    /// OctoMap's `pruneNode`.
+    fn prune_node(&mut self, key: Key, depth: u8) -> bool;
+    /// OctoMap's `isNodeCollapsible`.
+    fn is_node_collapsible(&self, key: Key, depth: u8) -> bool;
+    /// OctoMap's `nodeChildExists`.
+    fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool;
+    /// OctoMap's `deleteNodeChild`: the nodes removed.
+    fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize;
+}
+
+impl NodeSurgery for OcTree {
+    fn node_state(&self, key: Key, depth: u8) -> Option<bool> {
+        self.node_at_depth(key, depth).map(|n| n.has_children)
+    }
+    fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+        OcTree::expand_node(self, key, depth)
+    }
+    fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+        OcTree::prune_node(self, key, depth)
+    }
+    fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+        OcTree::is_node_collapsible(self, key, depth)
+    }
+    fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool {
+        OcTree::node_child_exists(self, key, depth, i) == Some(true)
+    }
+    fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+        OcTree::delete_node_child(self, key, depth, i)
+    }
+}
+
+impl NodeSurgery for ColorOcTree {
+    fn node_state(&self, key: Key, depth: u8) -> Option<bool> {
+        self.node_at_depth(key, depth).map(|n| n.node.has_children)
+    }
+    fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+        ColorOcTree::expand_node(self, key, depth)
+    }
+    fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+        ColorOcTree::prune_node(self, key, depth)
+    }
+    fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+        ColorOcTree::is_node_collapsible(self, key, depth)
+    }
+    fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool {
+        self.node_child(key, depth, i).is_some()
+    }
+    fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+        ColorOcTree::delete_node_child(self, key, depth, i)
+    }
+}
+
+/// The key and depth of a node argument that still exists at its depth in `tree`.
+pub(crate) fn live_node(
+    tree: &impl NodeSurgery,
+    node: &pyo3::Bound<'_, pyo3::PyAny>,
+) -> pyo3::PyResult<(Key, u8)> {
+    let (key, d) = crate::node::node_address(node)?;
+    if tree.node_state(key, d).is_none() {
+        return Err(crate::tree::not_in_tree(key, d));
+    }
+    Ok((key, d))
+}
+
+/// What the shared calls need of a tree class: its tree and its query box.
+pub(crate) trait OccupancyHost {
+    /// The Rust tree the class wraps.
+    type Tree: TreeSettings;
+    /// The tree.
+    fn tree(&self) -> &Self::Tree;
+    /// The tree, to change.
+    fn tree_mut(&mut self) -> &mut Self::Tree;
     /// The query box.
     fn bbx(&self) -> &Bbx;
     /// The query box, to change.
     fn bbx_mut(&mut self) -> &mut Bbx;
+    /// Called after `setResolution` changed the leaf size (what was derived at the old size
+    /// goes).
+    fn resolution_changed(&mut self) {}
+
+    /// The occupancy tree.
+    fn occ(&self) -> &OcTree {
+        self.tree().occupancy()
+    }
+    /// Change the sensor model in place.
+    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
+        let mut p = *self.occ().params();
+        f(&mut p);
+        self.tree_mut().set_params(p);
+    }
     /// OctoMap's `enableChangeDetection`.
-    fn enable_changes(&mut self, enable: bool);
+    fn enable_changes(&mut self, enable: bool) {
+        self.tree_mut().enable_change_detection(enable);
+    }
     /// OctoMap's `resetChangeDetection`.
-    fn reset_changes(&mut self);
+    fn reset_changes(&mut self) {
+        self.tree_mut().reset_change_detection();
+    }
     /// OctoMap's `setResolution`.
-    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError>;
+    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
+        self.tree_mut().set_resolution(resolution)?;
+        self.resolution_changed();
+        Ok(())
+    }
 }
 
-/// The shared calls as a `#[pymethods]` block for the class `$ty` (an [`OccupancyHost`]).
+/// The shared calls as a `#[pymethods]` block for the class `$ty` (an [`OccupancyHost`]);
+/// with `$tree`, also the class's [`OccupancyHost`] impl over its `tree` and `bbx` fields.
 macro_rules! occupancy_api {
+    // a class with fields `tree: Box<$tree>` and `bbx: Bbx`: the host too
+    ($ty:ty, $tree:ty) => {
+        impl $crate::occupancy_api::OccupancyHost for $ty {
+            type Tree = $tree;
+            fn tree(&self) -> &$tree {
+                &self.tree
+            }
+            fn tree_mut(&mut self) -> &mut $tree {
+                &mut self.tree
+            }
+            fn bbx(&self) -> &$crate::bbx::Bbx {
+                &self.bbx
+            }
+            fn bbx_mut(&mut self) -> &mut $crate::bbx::Bbx {
+                &mut self.bbx
+            }
+        }
+        $crate::occupancy_api::occupancy_api!($ty);
+    };
     ($ty:ty) => {
         #[pyo3::pymethods]
         impl $ty {
@@ -456,3 +628,120 @@ macro_rules! occupancy_api {
     };
 }
 pub(crate) use occupancy_api;
+
+/// OctoMap's node surgery calls that return no node, as a `#[pymethods]` block for the class
+/// `$ty` (an [`OccupancyHost`] whose tree has [`NodeSurgery`]).
+macro_rules! surgery_api {
+    ($ty:ty) => {
+        #[pyo3::pymethods]
+        impl $ty {
+            /// Give a childless node (from ``search``, ``getRoot``, ``getNodeChild``, ...) eight
+            /// children with its value (and colour; OctoMap's ``expandNode``; inner nodes above
+            /// are not refreshed). ``ValueError`` when the node is no longer in the tree at its
+            /// depth, already has children, or is a voxel (depth 16).
+            #[pyo3(name = "expandNode")]
+            fn expand_node(
+                &mut self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<()> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                if d >= $crate::engine::TREE_DEPTH {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(
+                        "expandNode: a voxel (depth 16) has no children",
+                    ));
+                }
+                if !$crate::occupancy_api::NodeSurgery::expand_node(self.tree_mut(), key, d) {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(
+                        "expandNode: the node already has children",
+                    ));
+                }
+                Ok(())
+            }
+
+            /// Collapse a node whose eight children are leaves of equal log-odds into one leaf
+            /// (OctoMap's ``pruneNode``; a colour tree's node takes child 0's colour, or the
+            /// children's average colour when child 0 has one). Returns whether it did.
+            #[pyo3(name = "pruneNode")]
+            fn prune_node(
+                &mut self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<bool> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                Ok($crate::occupancy_api::NodeSurgery::prune_node(
+                    self.tree_mut(),
+                    key,
+                    d,
+                ))
+            }
+
+            /// Whether a node has all eight children, none with children, all with equal
+            /// log-odds (OctoMap's ``isNodeCollapsible``; colours are not compared).
+            #[pyo3(name = "isNodeCollapsible")]
+            fn is_node_collapsible(
+                &self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<bool> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                Ok($crate::occupancy_api::NodeSurgery::is_node_collapsible(
+                    self.tree(),
+                    key,
+                    d,
+                ))
+            }
+
+            /// Whether a node has children now (OctoMap's ``nodeHasChildren``; the node
+            /// object's ``hasChildren()`` tells how it was when it was looked up).
+            #[pyo3(name = "nodeHasChildren")]
+            fn node_has_children(
+                &self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+            ) -> ::pyo3::PyResult<bool> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                Ok(
+                    $crate::occupancy_api::NodeSurgery::node_state(self.tree(), key, d)
+                        == Some(true),
+                )
+            }
+
+            /// Whether child ``idx`` (0..8: bit 0 x, bit 1 y, bit 2 z) of a node exists
+            /// (OctoMap's ``nodeChildExists``).
+            #[pyo3(name = "nodeChildExists")]
+            fn node_child_exists(
+                &self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                idx: i64,
+            ) -> ::pyo3::PyResult<bool> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                let i = $crate::tree::child_idx(idx)?;
+                Ok($crate::occupancy_api::NodeSurgery::node_child_exists(
+                    self.tree(),
+                    key,
+                    d,
+                    i,
+                ))
+            }
+
+            /// Delete child ``idx`` (0..8) of a node with its subtree (and their colours;
+            /// OctoMap's ``deleteNodeChild``; ``size()`` drops by the whole subtree).
+            /// ``ValueError`` when the child does not exist.
+            #[pyo3(name = "deleteNodeChild")]
+            fn delete_node_child(
+                &mut self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                idx: i64,
+            ) -> ::pyo3::PyResult<()> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                let i = $crate::tree::child_idx(idx)?;
+                if $crate::occupancy_api::NodeSurgery::delete_node_child(self.tree_mut(), key, d, i)
+                    == 0
+                {
+                    return Err(::pyo3::exceptions::PyValueError::new_err(format!(
+                        "deleteNodeChild: child {i} does not exist"
+                    )));
+                }
+                Ok(())
+            }
+        }
+    };
+}
+pub(crate) use surgery_api;

@@ -7,8 +7,7 @@
 use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
-    self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, OccupancyParams, OctreeError,
-    StampedOcTree, TREE_DEPTH,
+    self, probability, InnerNodes, Key, NodeInfo, NodeItem, StampedOcTree, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
@@ -579,33 +578,7 @@ impl PyStampedOcTree {
     }
 }
 
-impl OccupancyHost for PyStampedOcTree {
-    fn occ(&self) -> &OcTree {
-        self.tree.occupancy()
-    }
-    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
-        let mut p = *self.tree.params();
-        f(&mut p);
-        self.tree.set_params(p);
-    }
-    fn bbx(&self) -> &Bbx {
-        &self.bbx
-    }
-    fn bbx_mut(&mut self) -> &mut Bbx {
-        &mut self.bbx
-    }
-    fn enable_changes(&mut self, enable: bool) {
-        self.tree.enable_change_detection(enable);
-    }
-    fn reset_changes(&mut self) {
-        self.tree.reset_change_detection();
-    }
-    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
-        self.tree.set_resolution(resolution)
-    }
-}
-
-occupancy_api!(PyStampedOcTree);
+occupancy_api!(PyStampedOcTree, StampedOcTree);
 
 /// Copies (stamps included; pickling is not offered, as ``.ot`` files hold no stamps).
 #[pymethods]

@@ -5,14 +5,13 @@ use crate::bbx::{self, Bbx};
 use crate::cloud;
 use crate::convert::{self, array_n3, depth, path, source, vec3, vec3_f32};
 use crate::engine::{
-    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, OctreeError, Update,
-    TREE_DEPTH,
+    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
-use crate::node::{key_arg, node_address, PyKey, PyNode};
-use crate::occupancy_api::{occupancy_api, OccupancyHost};
+use crate::node::{key_arg, PyKey, PyNode};
+use crate::occupancy_api::{live_node, occupancy_api, surgery_api, OccupancyHost};
 use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
@@ -170,15 +169,6 @@ impl PyOcTree {
         self.tree.search(key, d).map(|n| PyNode::found(n, key))
     }
 
-    /// The key and depth of a node argument that still exists at its depth in this tree.
-    fn live_node(&self, node: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
-        let (key, d) = node_address(node)?;
-        if self.tree.node_at_depth(key, d).is_none() {
-            return Err(not_in_tree(key, d));
-        }
-        Ok((key, d))
-    }
-
     fn key_of_point(&self, p: &Point3<f64>) -> Option<Key> {
         self.tree.converter().point_to_key(p)
     }
@@ -190,13 +180,12 @@ impl PyOcTree {
 }
 
 impl OccupancyHost for PyOcTree {
-    fn occ(&self) -> &OcTree {
+    type Tree = OcTree;
+    fn tree(&self) -> &OcTree {
         &self.tree
     }
-    fn update_params(&mut self, f: impl FnOnce(&mut OccupancyParams)) {
-        let mut p = *self.tree.params();
-        f(&mut p);
-        self.tree.set_params(p);
+    fn tree_mut(&mut self) -> &mut OcTree {
+        &mut self.tree
     }
     fn bbx(&self) -> &Bbx {
         &self.bbx
@@ -204,20 +193,13 @@ impl OccupancyHost for PyOcTree {
     fn bbx_mut(&mut self) -> &mut Bbx {
         &mut self.bbx
     }
-    fn enable_changes(&mut self, enable: bool) {
-        self.tree.enable_change_detection(enable);
-    }
-    fn reset_changes(&mut self) {
-        self.tree.reset_change_detection();
-    }
-    fn set_leaf_size(&mut self, resolution: f64) -> Result<(), OctreeError> {
-        self.tree.set_resolution(resolution)?;
+    fn resolution_changed(&mut self) {
         // a distance map made at the old size would answer in the wrong units
         self.edt = None;
-        Ok(())
     }
 }
 
+surgery_api!(PyOcTree);
 occupancy_api!(PyOcTree);
 
 #[pymethods]
@@ -834,66 +816,11 @@ impl PyOcTree {
         py.detach(|| tree.num_leaves())
     }
 
-    /// Give a childless node (from ``search``, ``getRoot``, ``getNodeChild``, ...) eight
-    /// children with its value (OctoMap's ``expandNode``; inner nodes above are not
-    /// refreshed). ``ValueError`` when the node is no longer in the tree at its depth, already
-    /// has children, or is a voxel (depth 16).
-    #[pyo3(name = "expandNode")]
-    fn expand_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<()> {
-        let (key, d) = self.live_node(node)?;
-        if d >= TREE_DEPTH {
-            return Err(PyValueError::new_err(
-                "expandNode: a voxel (depth 16) has no children",
-            ));
-        }
-        if !self.tree.expand_node(key, d) {
-            return Err(PyValueError::new_err(
-                "expandNode: the node already has children",
-            ));
-        }
-        Ok(())
-    }
-
-    /// Collapse a node whose eight children are equal leaves into one leaf with their value
-    /// (OctoMap's ``pruneNode``). Returns whether it did.
-    #[pyo3(name = "pruneNode")]
-    fn prune_node(&mut self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.prune_node(key, d))
-    }
-
-    /// Whether a node has all eight children, none with children, all with equal log-odds
-    /// (OctoMap's ``isNodeCollapsible``).
-    #[pyo3(name = "isNodeCollapsible")]
-    fn is_node_collapsible(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.is_node_collapsible(key, d))
-    }
-
-    /// Whether a node has children now (OctoMap's ``nodeHasChildren``; the node object's
-    /// ``hasChildren()`` tells how it was when it was looked up).
-    #[pyo3(name = "nodeHasChildren")]
-    fn node_has_children(&self, node: &Bound<'_, PyAny>) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self
-            .tree
-            .node_at_depth(key, d)
-            .is_some_and(|n| n.has_children))
-    }
-
-    /// Whether child ``idx`` (0..8: bit 0 x, bit 1 y, bit 2 z) of a node exists (OctoMap's
-    /// ``nodeChildExists``).
-    #[pyo3(name = "nodeChildExists")]
-    fn node_child_exists(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<bool> {
-        let (key, d) = self.live_node(node)?;
-        Ok(self.tree.node_child_exists(key, d, child_idx(idx)?) == Some(true))
-    }
-
     /// Child ``idx`` (0..8) of a node, or None when it does not exist (octomap-python returns a
     /// null node).
     #[pyo3(name = "getNodeChild")]
     fn get_node_child(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<Option<PyNode>> {
-        let (key, d) = self.live_node(node)?;
+        let (key, d) = live_node(&*self.tree, node)?;
         let i = child_idx(idx)?;
         let child = self.tree.node_child(key, d, i);
         Ok(child
@@ -906,7 +833,7 @@ impl PyOcTree {
     /// node is a voxel.
     #[pyo3(name = "createNodeChild")]
     fn create_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<PyNode> {
-        let (key, d) = self.live_node(node)?;
+        let (key, d) = live_node(&*self.tree, node)?;
         let i = child_idx(idx)?;
         if d >= TREE_DEPTH {
             return Err(PyValueError::new_err(
@@ -921,20 +848,6 @@ impl PyOcTree {
             PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
         })?;
         Ok(PyNode::found(info, k))
-    }
-
-    /// Delete child ``idx`` (0..8) of a node with its subtree (OctoMap's ``deleteNodeChild``;
-    /// ``size()`` drops by the whole subtree). ``ValueError`` when the child does not exist.
-    #[pyo3(name = "deleteNodeChild")]
-    fn delete_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<()> {
-        let (key, d) = self.live_node(node)?;
-        let i = child_idx(idx)?;
-        if self.tree.delete_node_child(key, d, i) == 0 {
-            return Err(PyValueError::new_err(format!(
-                "deleteNodeChild: child {i} does not exist"
-            )));
-        }
-        Ok(())
     }
 
     /// The root node, or None for an empty tree.
