@@ -47,6 +47,9 @@ enum Op {
     Expand,
     MaxLikelihood,
     Inner,
+    /// Node surgery on one node (`expandNode`, `pruneNode`, `createNodeChild`,
+    /// `deleteNodeChild`).
+    Surgery(common::Surgery),
     /// Several operations in a row.
     Many(Vec<Op>),
 }
@@ -121,6 +124,7 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
         1 => Just(Op::Expand),
         1 => Just(Op::MaxLikelihood),
         2 => Just(Op::Inner),
+        10 => common::surgery_strategy(k()).prop_map(Op::Surgery),
     ]
 }
 
@@ -201,6 +205,7 @@ fn apply_ops(tree: &mut ColorOcTree, ops: &[Op]) {
             Op::Expand => tree.expand(),
             Op::MaxLikelihood => tree.to_max_likelihood(),
             Op::Inner => tree.update_inner_occupancy(),
+            Op::Surgery(ref c) => c.apply(tree),
         }
     }
 }
@@ -264,6 +269,7 @@ fn script_ops(s: &mut String, ops: &[Op]) {
             Op::Expand => s.push_str("expand\n"),
             Op::MaxLikelihood => s.push_str("ml\n"),
             Op::Inner => s.push_str("inner\n"),
+            Op::Surgery(ref c) => s.push_str(&c.line()),
         }
     }
 }

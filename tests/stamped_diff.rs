@@ -38,6 +38,9 @@ enum Op {
     Expand,
     MaxLikelihood,
     Inner,
+    /// Node surgery on one node (`expandNode`, `pruneNode`, `createNodeChild`,
+    /// `deleteNodeChild`; no clock is read).
+    Surgery(common::Surgery),
     Many(Vec<Op>),
     /// One scan's sets at one time (`insert_update_at`): a miss on each free key, then a
     /// hit on each occupied one, eager.
@@ -80,8 +83,16 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
             .prop_map(|(key, hit, repeat, lazy)| Op::Update { key, hit, repeat, lazy }),
         // the eight voxels of one depth-15 node, five times each: they reach a clamp
         // together and prune only if their stamps agree
-        8 => (k(), any::<bool>(), prop::bool::weighted(0.1), prop::collection::vec(0u32..2, 8))
-            .prop_map(|(key, hit, lazy, ticks)| {
+        // and then, now and then, node surgery on their parent or grandparent (pruned or
+        // not: a stamp goes down with an expansion and up with a prune)
+        8 => (
+            k(),
+            any::<bool>(),
+            prop::bool::weighted(0.1),
+            prop::collection::vec(0u32..2, 8),
+            prop::collection::vec((0u8..4, 14u8..=15, 0u8..8), 0..4),
+        )
+            .prop_map(|(key, hit, lazy, ticks, calls)| {
                 let mut ops = Vec::new();
                 for (i, t) in (0..8u16).zip(ticks) {
                     ops.push(Op::Tick(t));
@@ -96,6 +107,10 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
                         lazy,
                     });
                 }
+                for (kind, depth, child) in calls {
+                    ops.push(Op::Tick(1));
+                    ops.push(Op::Surgery(common::Surgery { kind, key, depth, child }));
+                }
                 Op::Many(ops)
             }),
         4 => (k(), -4.0f32..4.0, prop::bool::weighted(0.2))
@@ -106,6 +121,7 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
         1 => Just(Op::Expand),
         1 => Just(Op::MaxLikelihood),
         2 => Just(Op::Inner),
+        8 => common::surgery_strategy(k()).prop_map(Op::Surgery),
         // a scan's sets, in Morton order as computed (or not), repeated keys and all
         6 => (prop::collection::vec(k(), 1..60), prop::collection::vec(k(), 0..8), any::<bool>())
             .prop_map(|(mut free, mut occupied, sorted)| {
@@ -241,6 +257,10 @@ fn apply(tree: &mut StampedOcTree, ops: &[Op], now: &mut u32, s: &mut String) {
             Op::Inner => {
                 tree.update_inner_occupancy_at(*now);
                 s.push_str("inner\n");
+            }
+            Op::Surgery(ref c) => {
+                c.apply(tree);
+                s.push_str(&c.line());
             }
             Op::Batch {
                 ref free,

@@ -371,18 +371,15 @@ impl ColorOcTree {
     /// The node at exactly `depth` holding `key`, with its colour (`None` when no node exists
     /// there): a node handed out by `search`, `getNodeChild` or an iterator, looked up again.
     pub fn node_at_depth(&self, key: Key, depth: u8) -> Option<ColorNodeInfo> {
-        let node = self.base.tree.node_at_depth(key, depth)?;
-        Some(ColorNodeInfo {
-            node,
-            color: self.color_of(node_id(key, depth)),
-        })
+        let (node, color) = self.base.node_at_depth(key, depth)?;
+        Some(ColorNodeInfo { node, color })
     }
 
     /// Child `i` (0..8: bit 0 x, bit 1 y, bit 2 z) of the node at exactly `depth` holding
     /// `key`, with its colour (OctoMap's `getNodeChild`); `None` when either does not exist.
     pub fn node_child(&self, key: Key, depth: u8, i: usize) -> Option<ColorNodeInfo> {
-        self.base.tree.node_child(key, depth, i)?;
-        self.node_at_depth(OcTree::child_key(key, depth, i)?, depth + 1)
+        let (node, color) = self.base.node_child(key, depth, i)?;
+        Some(ColorNodeInfo { node, color })
     }
 
     /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight

@@ -358,6 +358,20 @@ impl<P: NodePayload> PayloadTree<P> {
         )
     }
 
+    /// The node at exactly `depth` holding `key`, with its payload (`None` when no node exists
+    /// there).
+    pub(crate) fn node_at_depth(&self, key: Key, depth: u8) -> Option<(NodeInfo, P)> {
+        let node = self.tree.node_at_depth(key, depth)?;
+        Some((node, self.get(node_id(key, depth))))
+    }
+
+    /// Child `i` of the node at exactly `depth` holding `key`, with its payload; `None` when
+    /// either does not exist.
+    pub(crate) fn node_child(&self, key: Key, depth: u8, i: usize) -> Option<(NodeInfo, P)> {
+        self.tree.node_child(key, depth, i)?;
+        self.node_at_depth(OcTree::child_key(key, depth, i)?, depth + 1)
+    }
+
     /// OctoMap's `expandNode` on the childless node at exactly `depth` holding `key`: eight
     /// children with its occupancy and its payload (`copyData`). `false`, changing nothing,
     /// when there is no such node, it has children or it is a voxel.

@@ -430,6 +430,54 @@ impl StampedOcTree {
         self.base.tree.reset_change_detection();
     }
 
+    /// The node at exactly `depth` holding `key`, with its stamp (`None` when no node exists
+    /// there).
+    pub fn node_at_depth(&self, key: Key, depth: u8) -> Option<StampedNodeInfo> {
+        let (node, timestamp) = self.base.node_at_depth(key, depth)?;
+        Some(StampedNodeInfo { node, timestamp })
+    }
+
+    /// Child `i` (0..8: bit 0 x, bit 1 y, bit 2 z) of the node at exactly `depth` holding
+    /// `key`, with its stamp (OctoMap's `getNodeChild`); `None` when either does not exist.
+    pub fn node_child(&self, key: Key, depth: u8, i: usize) -> Option<StampedNodeInfo> {
+        let (node, timestamp) = self.base.node_child(key, depth, i)?;
+        Some(StampedNodeInfo { node, timestamp })
+    }
+
+    /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight
+    /// children with its occupancy and stamp (`copyData`; no clock is read). `false`, changing
+    /// nothing, when there is no such node, it has children or it is a voxel.
+    pub fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+        self.base.expand_node(key, depth)
+    }
+
+    /// OctoMap's `isNodeCollapsible` on an `OcTreeStamped`: eight childless children of equal
+    /// occupancy and equal stamps (its node comparison).
+    pub fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+        self.base.is_node_collapsible(key, depth)
+    }
+
+    /// OctoMap's `pruneNode`: a collapsible node loses its children and takes child 0's
+    /// occupancy and stamp. Returns whether it pruned.
+    pub fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+        self.base.prune_node(key, depth)
+    }
+
+    /// OctoMap's `createNodeChild`: child `i` of the node at exactly `depth` holding `key`,
+    /// new with log-odds 0 and stamp 0; `None` when it exists already, the node does not, or
+    /// it is a voxel.
+    pub fn create_node_child(&mut self, key: Key, depth: u8, i: usize) -> Option<StampedNodeInfo> {
+        let node = self.base.create_node_child(key, depth, i)?;
+        Some(StampedNodeInfo { node, timestamp: 0 })
+    }
+
+    /// OctoMap's `deleteNodeChild`: child `i` of the node at exactly `depth` holding `key` and
+    /// its subtree go, with their stamps. Returns the nodes removed (0 when the child does not
+    /// exist).
+    pub fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+        self.base.delete_node_child(key, depth, i)
+    }
+
     /// Every node with its stamp, pre-order (children in OctoMap's order 0..8): depth,
     /// smallest voxel key, log-odds, stamp. For comparing with OctoMap node by node.
     pub fn nodes_with_stamps(&self) -> Vec<(u8, Key, f32, u32)> {

@@ -105,26 +105,32 @@ impl NodeSurgery for OcTree {
     }
 }
 
-impl NodeSurgery for ColorOcTree {
-    fn node_state(&self, key: Key, depth: u8) -> Option<bool> {
-        self.node_at_depth(key, depth).map(|n| n.node.has_children)
-    }
-    fn expand_node(&mut self, key: Key, depth: u8) -> bool {
-        ColorOcTree::expand_node(self, key, depth)
-    }
-    fn prune_node(&mut self, key: Key, depth: u8) -> bool {
-        ColorOcTree::prune_node(self, key, depth)
-    }
-    fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
-        ColorOcTree::is_node_collapsible(self, key, depth)
-    }
-    fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool {
-        self.node_child(key, depth, i).is_some()
-    }
-    fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
-        ColorOcTree::delete_node_child(self, key, depth, i)
-    }
+/// [`NodeSurgery`] for the trees with a payload per node (their payload rules included).
+macro_rules! payload_surgery {
+    ($($t:ident),*) => {$(
+        impl NodeSurgery for $t {
+            fn node_state(&self, key: Key, depth: u8) -> Option<bool> {
+                self.node_at_depth(key, depth).map(|n| n.node.has_children)
+            }
+            fn expand_node(&mut self, key: Key, depth: u8) -> bool {
+                $t::expand_node(self, key, depth)
+            }
+            fn prune_node(&mut self, key: Key, depth: u8) -> bool {
+                $t::prune_node(self, key, depth)
+            }
+            fn is_node_collapsible(&self, key: Key, depth: u8) -> bool {
+                $t::is_node_collapsible(self, key, depth)
+            }
+            fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool {
+                self.node_child(key, depth, i).is_some()
+            }
+            fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
+                $t::delete_node_child(self, key, depth, i)
+            }
+        }
+    )*};
 }
+payload_surgery!(ColorOcTree, StampedOcTree);
 
 /// The key and depth of a node argument that still exists at its depth in `tree`.
 pub(crate) fn live_node(

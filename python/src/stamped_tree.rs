@@ -7,16 +7,16 @@
 use crate::bbx::{self, Bbx};
 use crate::convert::{self, source};
 use crate::engine::{
-    self, probability, InnerNodes, Key, NodeInfo, NodeItem, StampedOcTree, TREE_DEPTH,
+    self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, StampedOcTree, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
 };
 use crate::node::PyKey;
-use crate::occupancy_api::{occupancy_api, OccupancyHost};
+use crate::occupancy_api::{live_node, occupancy_api, surgery_api, OccupancyHost};
 use crate::tree::{
-    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
-    CastArrays, Target,
+    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, child_idx, iterator_items, target,
+    update_arg, CastArrays, Target,
 };
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -578,7 +578,43 @@ impl PyStampedOcTree {
     }
 }
 
+surgery_api!(PyStampedOcTree);
 occupancy_api!(PyStampedOcTree, StampedOcTree);
+
+/// OctoMap's node surgery calls that return a node (the others come from `surgery_api!`).
+#[pymethods]
+impl PyStampedOcTree {
+    /// Child ``idx`` (0..8) of a node with its stamp, or None when it does not exist.
+    #[pyo3(name = "getNodeChild")]
+    fn get_node_child(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<Option<PyStampedNode>> {
+        let i = child_idx(idx)?;
+        let (key, d) = live_node(&*self.tree, node)?;
+        Ok(self
+            .tree
+            .node_child(key, d, i)
+            .zip(OcTree::child_key(key, d, i))
+            .map(|(c, k)| PyStampedNode::found(c.node, k, c.timestamp)))
+    }
+
+    /// Create child ``idx`` (0..8) of a node with log-odds 0 and stamp 0, as OctoMap's
+    /// ``createNodeChild`` (no clock is read); returns it. ``ValueError`` when the child
+    /// exists already or the node is a voxel.
+    #[pyo3(name = "createNodeChild")]
+    fn create_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<PyStampedNode> {
+        let i = child_idx(idx)?;
+        let (key, d) = live_node(&*self.tree, node)?;
+        if d >= TREE_DEPTH {
+            return Err(PyValueError::new_err(
+                "createNodeChild: a voxel (depth 16) has no children",
+            ));
+        }
+        let child = self.tree.create_node_child(key, d, i);
+        let (c, k) = child.zip(OcTree::child_key(key, d, i)).ok_or_else(|| {
+            PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
+        })?;
+        Ok(PyStampedNode::found(c.node, k, c.timestamp))
+    }
+}
 
 /// Copies (stamps included; pickling is not offered, as ``.ot`` files hold no stamps).
 #[pymethods]

@@ -427,3 +427,44 @@ def test_copies_keep_the_stamps(scan_dat):
         assert c.getLastUpdateTime() == 99 and s.getLastUpdateTime() == 77
     with pytest.raises(TypeError):
         pickle.dumps(s)
+
+
+def test_node_surgery_follows_the_stamp_rules():
+    """OctoMap's node surgery on an OcTreeStamped (checked against liboctomap by the Rust
+    tests' reference scripts): an expansion copies the node's stamp to its children, a prune
+    needs equal stamps and keeps child 0's, a created child has stamp 0; no clock is read."""
+    t = octoquant.OcTreeStamped(0.1)
+    base = np.array([0.05, 0.05, 0.05])
+    # the eight voxels of one depth-15 node, all at the clamp at the same time: pruned
+    for i in range(8):
+        p = base + 0.1 * np.array([i & 1, i >> 1 & 1, i >> 2 & 1])
+        for _ in range(5):
+            t.updateNode(p, True, now=50)
+    parent = t.search(base, 15)
+    assert parent.getDepth() == 15 and not t.nodeHasChildren(parent)
+    assert parent.getTimestamp() == 50
+    t.expandNode(parent)
+    kids = [t.getNodeChild(parent, i) for i in range(8)]
+    assert [k.getTimestamp() for k in kids] == [50] * 8
+    assert t.isNodeCollapsible(parent)
+    # another stamp on one child stops the collapse; deleting it and creating it anew gives
+    # a child of log-odds 0 and stamp 0
+    t.updateNode(kids[3].getKey(), False, now=60)
+    assert t.search(base, 16).getTimestamp() == 50
+    assert t.getNodeChild(parent, 3).getTimestamp() == 60
+    assert not t.isNodeCollapsible(parent) and not t.pruneNode(parent)
+    t.deleteNodeChild(parent, 3)
+    assert not t.nodeChildExists(parent, 3)
+    c = t.createNodeChild(parent, 3)
+    assert (c.getValue(), c.getTimestamp()) == (0.0, 0)
+    with pytest.raises(ValueError, match="exists already"):
+        t.createNodeChild(parent, 3)
+    t.deleteNodeChild(parent, 3)
+    t.createNodeChild(parent, 3)
+    t.updateNode(t.getNodeChild(parent, 3).getKey(), float(kids[0].getValue()), True, now=50)
+    # (the lazy update set log-odds and stamp 50 like its siblings, and pruned nothing:
+    # collapsible again)
+    assert t.getNodeChild(parent, 3).getTimestamp() == 50
+    assert t.isNodeCollapsible(parent) and t.pruneNode(parent)
+    assert t.search(base, 16).getDepth() == 15
+    assert t.search(base, 16).getTimestamp() == 50

@@ -115,3 +115,107 @@ pub fn first_diff(a: &[u8], b: &[u8]) -> String {
         b.len()
     )
 }
+
+/// OctoMap's node surgery, one call on the node at exactly a depth, as the reference
+/// program's `expand_node`, `prune_node`, `create_child` and `delete_child` commands make it:
+/// skipped, on both sides alike, where there is no such node or OctoMap would assert, and
+/// `delete_child` on a leaf child only.
+#[derive(Debug, Clone, Copy)]
+pub struct Surgery {
+    /// 0 expand, 1 prune, 2 create a child, 3 delete a child.
+    pub kind: u8,
+    pub key: octoquant::Key,
+    pub depth: u8,
+    pub child: u8,
+}
+
+/// The trees with a payload per node, as the surgery calls see them.
+pub trait SurgeryTree {
+    /// Whether the node at exactly `depth` holding `key` exists, and whether it has children.
+    fn state(&self, key: octoquant::Key, depth: u8) -> Option<bool>;
+    /// Whether child `i` exists, and whether it has children.
+    fn child_state(&self, key: octoquant::Key, depth: u8, i: usize) -> Option<bool>;
+    fn expand(&mut self, key: octoquant::Key, depth: u8) -> bool;
+    fn prune(&mut self, key: octoquant::Key, depth: u8) -> bool;
+    fn create(&mut self, key: octoquant::Key, depth: u8, i: usize) -> bool;
+    fn delete(&mut self, key: octoquant::Key, depth: u8, i: usize) -> usize;
+}
+
+macro_rules! surgery_tree {
+    ($t:ty) => {
+        impl SurgeryTree for $t {
+            fn state(&self, key: octoquant::Key, depth: u8) -> Option<bool> {
+                self.node_at_depth(key, depth).map(|n| n.node.has_children)
+            }
+            fn child_state(&self, key: octoquant::Key, depth: u8, i: usize) -> Option<bool> {
+                self.node_child(key, depth, i).map(|n| n.node.has_children)
+            }
+            fn expand(&mut self, key: octoquant::Key, depth: u8) -> bool {
+                self.expand_node(key, depth)
+            }
+            fn prune(&mut self, key: octoquant::Key, depth: u8) -> bool {
+                self.prune_node(key, depth)
+            }
+            fn create(&mut self, key: octoquant::Key, depth: u8, i: usize) -> bool {
+                self.create_node_child(key, depth, i).is_some()
+            }
+            fn delete(&mut self, key: octoquant::Key, depth: u8, i: usize) -> usize {
+                self.delete_node_child(key, depth, i)
+            }
+        }
+    };
+}
+surgery_tree!(octoquant::octree::ColorOcTree);
+surgery_tree!(octoquant::octree::StampedOcTree);
+
+impl Surgery {
+    /// Apply the call to `tree` as the reference program does.
+    pub fn apply(&self, tree: &mut impl SurgeryTree) {
+        let (k, d, i) = (self.key, self.depth, usize::from(self.child));
+        let Some(has_children) = tree.state(k, d) else {
+            return;
+        };
+        match self.kind {
+            0 if d < 16 && !has_children => {
+                assert!(tree.expand(k, d));
+            }
+            1 if has_children => {
+                tree.prune(k, d);
+            }
+            2 if d < 16 && tree.child_state(k, d, i).is_none() => {
+                assert!(tree.create(k, d, i));
+            }
+            3 if tree.child_state(k, d, i) == Some(false) => {
+                assert_eq!(tree.delete(k, d, i), 1);
+            }
+            _ => {}
+        }
+    }
+
+    /// The reference program's command line for the call.
+    pub fn line(&self) -> String {
+        let (k, d) = (self.key, self.depth);
+        let cmd =
+            ["expand_node", "prune_node", "create_child", "delete_child"][usize::from(self.kind)];
+        let child = if self.kind >= 2 {
+            format!(" {}", self.child)
+        } else {
+            String::new()
+        };
+        format!("{cmd} {} {} {} {d}{child}\n", k.x(), k.y(), k.z())
+    }
+}
+
+/// A strategy for [`Surgery`] calls on the nodes holding the keys of `keys`, at depths 12
+/// to 16.
+pub fn surgery_strategy(
+    keys: impl proptest::strategy::Strategy<Value = octoquant::Key>,
+) -> impl proptest::strategy::Strategy<Value = Surgery> {
+    use proptest::prelude::*;
+    (0u8..4, keys, 12u8..=16, 0u8..8).prop_map(|(kind, key, depth, child)| Surgery {
+        kind,
+        key,
+        depth,
+        child,
+    })
+}

@@ -19,6 +19,13 @@
 //   set KX KY KZ HEXBITS LAZY         setNodeValue(key, float, lazy)
 //   delete KX KY KZ DEPTH             deleteNode(key, depth)
 //   prune | expand | ml | inner       prune(), expand(), toMaxLikelihood(), updateInnerOccupancy()
+//   expand_node|prune_node KX KY KZ DEPTH, create_child|delete_child KX KY KZ DEPTH I
+//                                     expandNode / pruneNode / createNodeChild / deleteNodeChild
+//                                     on the node at exactly DEPTH holding the key (walked down
+//                                     child by child); skipped when there is no such node or
+//                                     OctoMap would assert (expanding a node with children or a
+//                                     voxel, creating an existing child, deleting a missing one);
+//                                     delete_child deletes a leaf child only
 //   write_ot PATH                     tree.write(PATH)
 //   write_bt PATH                     tree.writeBinary(PATH)  (ML + prune, mutates)
 //   write_bt_const PATH               tree.writeBinaryConst(PATH)
@@ -301,6 +308,20 @@ static void insert_colored_scans(ColorOcTree& tree, const std::string& frames_pa
   }
 }
 
+// The node at exactly DEPTH holding the key, walked down from the root child by child
+// (search() would stop at a pruned leaf above it); NULL when there is none.
+template <class TREE>
+static typename TREE::NodeType* node_at_depth(TREE& tree, const OcTreeKey& key, unsigned depth) {
+  typename TREE::NodeType* n = tree.getRoot();
+  if (!n || depth > 16) return nullptr;
+  for (unsigned d = 0; d < depth; ++d) {
+    unsigned idx = computeChildIdx(key, 15 - d);
+    if (!tree.nodeChildExists(n, idx)) return nullptr;
+    n = tree.getNodeChild(n, idx);
+  }
+  return n;
+}
+
 // TREE is OcTree ("script"), ColorOcTree ("color-script") or OcTreeStamped
 // ("stamped-script").
 template <class TREE>
@@ -345,6 +366,30 @@ static int run_script(std::istream& in) {
       unsigned depth = 0;
       ls >> depth;
       tree->deleteNode(k, depth);
+    } else if (cmd == "expand_node" || cmd == "prune_node" || cmd == "create_child" ||
+               cmd == "delete_child") {
+      // node surgery on the node at exactly DEPTH holding the key; a call OctoMap would
+      // assert on or that has nothing to act on is skipped (the Rust side skips it too)
+      OcTreeKey k = key_from(ls);
+      unsigned depth = 0, idx = 0;
+      if (!(ls >> depth)) die(cmd + " needs KX KY KZ DEPTH");
+      if (cmd == "create_child" || cmd == "delete_child") {
+        if (!(ls >> idx) || idx > 7) die(cmd + " needs a child index 0..7");
+      }
+      auto* n = node_at_depth(*tree, k, depth);
+      if (!n) continue;
+      if (cmd == "expand_node") {
+        if (depth < 16 && !tree->nodeHasChildren(n)) tree->expandNode(n);
+      } else if (cmd == "prune_node") {
+        if (tree->nodeHasChildren(n)) tree->pruneNode(n);
+      } else if (cmd == "create_child") {
+        if (depth < 16 && !tree->nodeChildExists(n, idx)) tree->createNodeChild(n, idx);
+      } else if (tree->nodeChildExists(n, idx) &&
+                 !tree->nodeHasChildren(tree->getNodeChild(n, idx))) {
+        // a leaf child only: OctoMap's deleteNodeChild takes one node off size() whatever
+        // the subtree, so a deeper subtree would leave its size (in the .ot header) wrong
+        tree->deleteNodeChild(n, idx);
+      }
     } else if (cmd == "prune") {
       tree->prune();
     } else if (cmd == "expand") {
