@@ -8,8 +8,9 @@ package, not its uncompiled source folder, is imported).
 Inserts OctoMap's scan.dat (88206 points of a 3D laser scan, one frame) with
 octomap-python's ``insertPointCloud`` and with octoquant (``OcTree.insertPointCloud`` on all
 cores, ``Mapper`` in exact mode with one thread, and quantized mode against octomap-python's
-``discretize=True``), checks that the ``.bt`` bytes are identical, and prints the median
-times and the ratios of one run.
+``discretize=True``), and into a ``ColorOcTree`` with both (OctoMap's updates in its key sets'
+order), checks that the ``.bt`` (colour tree: ``.ot``) bytes are identical, and prints the
+median times and the ratios of one run.
 """
 
 import argparse
@@ -61,8 +62,9 @@ def main():
     def run(name, make, insert, reference=None):
         t, tree = median_time(make, insert, args.repeat)
         tree = tree.tree if isinstance(tree, octoquant.Mapper) else tree
-        data = tree.writeBinary()
-        same = "" if reference is None else ("identical .bt" if data == reference else "DIFFERENT .bt")
+        data = tree.write() if "ColorOcTree" in name else tree.writeBinary()
+        kind = ".ot" if "ColorOcTree" in name else ".bt"
+        same = "" if reference is None else (f"identical {kind}" if data == reference else f"DIFFERENT {kind}")
         rows.append((name, t, same))
         return t, data
 
@@ -100,9 +102,26 @@ def main():
         lambda m: m.insert(pts, origin),
     )
 
+    t_omc, ot_omc = run(
+        "octomap-python ColorOcTree.insertPointCloud",
+        lambda: octomap.ColorOcTree(res),
+        lambda t: t.insertPointCloud(pts, origin),
+    )
+    run(
+        "octoquant ColorOcTree.insertPointCloud (all cores)",
+        lambda: octoquant.ColorOcTree(res),
+        lambda t: t.insertPointCloud(pts, origin),
+        ot_omc,
+    )
+
     width = max(len(r[0]) for r in rows)
     for name, t, same in rows:
-        base = t_omd if "discretize" in name or "quantized" in name else t_om
+        if "ColorOcTree" in name:
+            base = t_omc
+        elif "discretize" in name or "quantized" in name:
+            base = t_omd
+        else:
+            base = t_om
         print(f"{name:<{width}}  {t * 1000:9.1f} ms  {base / t:6.1f}x  {same}")
 
 
