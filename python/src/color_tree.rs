@@ -2,7 +2,7 @@
 //! signatures and `.ot` bytes) over the Rust library's colour tree.
 
 use crate::bbx::{self, Bbx};
-use crate::convert::{self, source};
+use crate::convert::{self, child_idx, source};
 use crate::engine::{
     self, probability, Color, ColorOcTree, InnerNodes, Key, NodeInfo, NodeItem, OcTree,
     OccupancyParams, TREE_DEPTH,
@@ -13,8 +13,8 @@ use crate::iter::{
 use crate::node::PyKey;
 use crate::occupancy_api::{live_node, occupancy_api, surgery_api, OccupancyHost};
 use crate::tree::{
-    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, child_idx, iterator_items, keys_arg,
-    target, update_arg, CastArrays, Target,
+    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, keys_arg, target,
+    update_arg, CastArrays, Target,
 };
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -54,13 +54,6 @@ impl PyColorNode {
                 .unwrap_or(Color::WHITE),
             tree,
         }
-    }
-}
-
-impl PyColorNode {
-    /// The node's key and depth (where it sits in its tree) and log-odds.
-    pub(crate) fn address(&self) -> (Key, u8, f32) {
-        (self.key, self.depth, self.value)
     }
 }
 

@@ -2,7 +2,7 @@
 //! library's errors as Python exceptions. Every check happens here, before any Rust call, so a
 //! bad argument is a clear `TypeError`/`ValueError`, never a panic.
 
-use crate::engine::{Color, OctreeError};
+use crate::engine::{logodds, Color, Key, OctreeError};
 use nalgebra::Point3;
 use numpy::ndarray::Array2;
 use numpy::{
@@ -348,4 +348,35 @@ pub fn rgb_rows(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Color>> {
         .into_iter()
         .map(|r| Color::new(r[0], r[1], r[2]))
         .collect())
+}
+
+/// A child index argument: 0..8.
+pub(crate) fn child_idx(i: i64) -> PyResult<usize> {
+    if (0..8).contains(&i) {
+        Ok(i as usize)
+    } else {
+        Err(pyo3::exceptions::PyIndexError::new_err(format!(
+            "child index must be between 0 and 7, got {i}"
+        )))
+    }
+}
+
+/// A probability for a sensor-model setter: strictly between 0 and 1.
+pub(crate) fn prob(p: f64, name: &str) -> PyResult<f32> {
+    if p.is_finite() && p > 0.0 && p < 1.0 {
+        Ok(logodds(p))
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name} must lie strictly between 0 and 1, got {p}"
+        )))
+    }
+}
+
+/// The error for a node argument that is no longer in the tree at its depth.
+pub(crate) fn not_in_tree(key: Key, d: u8) -> PyErr {
+    PyValueError::new_err(format!(
+        "the node (depth {d}, key ({}, {}, {})) is not in this tree (deleted, pruned, or from \
+         another tree)",
+        key[0], key[1], key[2]
+    ))
 }

@@ -298,14 +298,17 @@ pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
     if let Ok(n) = obj.cast::<PyNode>() {
         return Ok(n.get().value);
     }
-    if let Ok(n) = obj.cast::<crate::color_tree::PyColorNode>() {
-        return Ok(n.borrow().address().2);
-    }
-    if let Ok(n) = obj.cast::<crate::stamped_tree::PyStampedNode>() {
-        return Ok(n.get().address().2);
-    }
     if let Ok(it) = obj.cast::<IteratorBase>() {
         return it.borrow().current().map(|n| n.value);
+    }
+    // the other trees' nodes (ColorOcTreeNode, OcTreeNodeStamped) by what they answer
+    if !obj.is_none() {
+        if let Ok(v) = obj
+            .call_method0("getValue")
+            .and_then(|v| v.extract::<f32>())
+        {
+            return Ok(v);
+        }
     }
     if obj.is_none() {
         return Err(crate::NullPointerException::new_err(

@@ -184,13 +184,13 @@ pub fn node_address(obj: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
         let n = n.get();
         return Ok((n.key, n.depth));
     }
-    if let Ok(n) = obj.cast::<crate::color_tree::PyColorNode>() {
-        let (key, depth, _) = n.borrow().address();
-        return Ok((key, depth));
-    }
-    if let Ok(n) = obj.cast::<crate::stamped_tree::PyStampedNode>() {
-        let (key, depth, _) = n.get().address();
-        return Ok((key, depth));
+    // the other trees' nodes (ColorOcTreeNode, OcTreeNodeStamped) by what they answer
+    if let (Ok(k), Ok(d)) = (obj.call_method0("getKey"), obj.call_method0("getDepth")) {
+        if let (Ok(key), Ok(depth)) = (key_arg(&k, "node key"), d.extract::<u8>()) {
+            if depth <= 16 {
+                return Ok((key, depth));
+            }
+        }
     }
     if obj.is_none() {
         return Err(crate::NullPointerException::new_err(

@@ -139,7 +139,7 @@ pub(crate) fn live_node(
 ) -> pyo3::PyResult<(Key, u8)> {
     let (key, d) = crate::node::node_address(node)?;
     if tree.node_state(key, d).is_none() {
-        return Err(crate::tree::not_in_tree(key, d));
+        return Err(crate::convert::not_in_tree(key, d));
     }
     Ok((key, d))
 }
@@ -436,7 +436,7 @@ macro_rules! occupancy_api {
             /// Set the hit probability (0.5 <= p < 1).
             #[pyo3(name = "setProbHit")]
             fn set_prob_hit(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
-                let l = $crate::tree::prob(prob_, "prob")?;
+                let l = $crate::convert::prob(prob_, "prob")?;
                 if l < 0.0 {
                     return Err(::pyo3::exceptions::PyValueError::new_err(format!(
                         "a hit must not lower occupancy: prob must be >= 0.5, got {prob_}"
@@ -449,7 +449,7 @@ macro_rules! occupancy_api {
             /// Set the miss probability (0 < p <= 0.5).
             #[pyo3(name = "setProbMiss")]
             fn set_prob_miss(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
-                let l = $crate::tree::prob(prob_, "prob")?;
+                let l = $crate::convert::prob(prob_, "prob")?;
                 if l > 0.0 {
                     return Err(::pyo3::exceptions::PyValueError::new_err(format!(
                         "a miss must not raise occupancy: prob must be <= 0.5, got {prob_}"
@@ -463,7 +463,7 @@ macro_rules! occupancy_api {
             #[pyo3(name = "setClampingThresMin")]
             #[allow(non_snake_case)]
             fn set_clamping_thres_min(&mut self, thresProb: f64) -> ::pyo3::PyResult<()> {
-                let l = $crate::tree::prob(thresProb, "thresProb")?;
+                let l = $crate::convert::prob(thresProb, "thresProb")?;
                 if l > self.occ().params().clamp_max {
                     return Err(::pyo3::exceptions::PyValueError::new_err(format!(
                         "the lower clamping bound {thresProb} exceeds the upper one {}",
@@ -478,7 +478,7 @@ macro_rules! occupancy_api {
             #[pyo3(name = "setClampingThresMax")]
             #[allow(non_snake_case)]
             fn set_clamping_thres_max(&mut self, thresProb: f64) -> ::pyo3::PyResult<()> {
-                let l = $crate::tree::prob(thresProb, "thresProb")?;
+                let l = $crate::convert::prob(thresProb, "thresProb")?;
                 if l < self.occ().params().clamp_min {
                     return Err(::pyo3::exceptions::PyValueError::new_err(format!(
                         "the upper clamping bound {thresProb} is below the lower one {}",
@@ -492,7 +492,7 @@ macro_rules! occupancy_api {
             /// Set the occupancy threshold (a probability).
             #[pyo3(name = "setOccupancyThres")]
             fn set_occupancy_thres(&mut self, prob_: f64) -> ::pyo3::PyResult<()> {
-                let l = $crate::tree::prob(prob_, "prob")?;
+                let l = $crate::convert::prob(prob_, "prob")?;
                 self.update_params(|p| p.occupancy_threshold = l);
                 Ok(())
             }
@@ -718,7 +718,7 @@ macro_rules! surgery_api {
                 idx: i64,
             ) -> ::pyo3::PyResult<bool> {
                 let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
-                let i = $crate::tree::child_idx(idx)?;
+                let i = $crate::convert::child_idx(idx)?;
                 Ok($crate::occupancy_api::NodeSurgery::node_child_exists(
                     self.tree(),
                     key,
@@ -737,7 +737,7 @@ macro_rules! surgery_api {
                 idx: i64,
             ) -> ::pyo3::PyResult<()> {
                 let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
-                let i = $crate::tree::child_idx(idx)?;
+                let i = $crate::convert::child_idx(idx)?;
                 if $crate::occupancy_api::NodeSurgery::delete_node_child(self.tree_mut(), key, d, i)
                     == 0
                 {

@@ -5,7 +5,7 @@
 //! shared with `OcTree`.
 
 use crate::bbx::{self, Bbx};
-use crate::convert::{self, source};
+use crate::convert::{self, child_idx, source};
 use crate::engine::{
     self, probability, InnerNodes, Key, NodeInfo, NodeItem, OcTree, StampedOcTree, TREE_DEPTH,
 };
@@ -15,8 +15,8 @@ use crate::iter::{
 use crate::node::PyKey;
 use crate::occupancy_api::{live_node, occupancy_api, surgery_api, OccupancyHost};
 use crate::tree::{
-    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, child_idx, iterator_items, target,
-    update_arg, CastArrays, Target,
+    bbx_items, bytes_or_true, cast_ray_into, cast_rays_arrays, iterator_items, target, update_arg,
+    CastArrays, Target,
 };
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -48,13 +48,6 @@ impl PyStampedNode {
             },
             timestamp,
         }
-    }
-}
-
-impl PyStampedNode {
-    /// The node's key and depth (where it sits in its tree) and log-odds.
-    pub(crate) fn address(&self) -> (Key, u8, f32) {
-        (self.key, self.depth, self.value)
     }
 }
 

@@ -3,9 +3,9 @@
 
 use crate::bbx::{self, Bbx};
 use crate::cloud;
-use crate::convert::{self, array_n3, depth, path, source, vec3, vec3_f32};
+use crate::convert::{self, array_n3, child_idx, depth, path, source, vec3, vec3_f32};
 use crate::engine::{
-    self, logodds, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update, TREE_DEPTH,
+    self, InnerNodes, Key, KeyConverter, OcTree, OccupancyParams, Update, TREE_DEPTH,
 };
 use crate::iter::{
     max_depth, node_value, IteratorBase, LeafBbxIterator, LeafIterator, TreeIterator,
@@ -93,37 +93,6 @@ pub(crate) fn keys_arg(conv: &KeyConverter, values: &Bound<'_, PyAny>) -> PyResu
             keys
         }
     })
-}
-
-/// The error for a node argument that is no longer in the tree at its depth.
-pub(crate) fn not_in_tree(key: Key, d: u8) -> PyErr {
-    PyValueError::new_err(format!(
-        "the node (depth {d}, key ({}, {}, {})) is not in this tree (deleted, pruned, or from \
-         another tree)",
-        key[0], key[1], key[2]
-    ))
-}
-
-/// A child index argument: 0..8.
-pub(crate) fn child_idx(i: i64) -> PyResult<usize> {
-    if (0..8).contains(&i) {
-        Ok(i as usize)
-    } else {
-        Err(pyo3::exceptions::PyIndexError::new_err(format!(
-            "child index must be between 0 and 7, got {i}"
-        )))
-    }
-}
-
-/// A probability for a sensor-model setter: strictly between 0 and 1.
-pub(crate) fn prob(p: f64, name: &str) -> PyResult<f32> {
-    if p.is_finite() && p > 0.0 && p < 1.0 {
-        Ok(logodds(p))
-    } else {
-        Err(PyValueError::new_err(format!(
-            "{name} must lie strictly between 0 and 1, got {p}"
-        )))
-    }
 }
 
 pub(crate) fn bytes_or_true<'py>(
