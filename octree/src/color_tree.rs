@@ -382,6 +382,17 @@ impl ColorOcTree {
         Some(ColorNodeInfo { node, color })
     }
 
+    /// OctoMap's `setValue` on a node in hand (see [`OcTree::set_node_raw_value`]); its
+    /// payload is kept.
+    pub fn set_node_raw_value(
+        &mut self,
+        key: Key,
+        depth: u8,
+        value: f32,
+    ) -> Result<bool, OctreeError> {
+        self.base.tree.set_node_raw_value(key, depth, value)
+    }
+
     /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight
     /// children with its occupancy and colour (`copyData`); inner nodes above are not
     /// refreshed. `false`, changing nothing, when there is no such node, it has children or

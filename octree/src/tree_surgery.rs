@@ -92,6 +92,27 @@ impl OcTree {
         })
     }
 
+    /// Set the log-odds of the node at exactly `depth` holding `key` to `value`, as OctoMap's
+    /// `OcTreeNode::setValue` / `setLogOdds` on a node in hand: no clamping, no early exit, no
+    /// change detection, and no ancestor refreshed or pruned (the caller's business, as in
+    /// OctoMap). `Ok(false)`, changing nothing, when no node exists there; NaN is an error
+    /// (the store marks absent slots with it).
+    pub fn set_node_raw_value(
+        &mut self,
+        key: Key,
+        depth: u8,
+        value: f32,
+    ) -> Result<bool, crate::OctreeError> {
+        if value.is_nan() {
+            return Err(crate::OctreeError::NanValue);
+        }
+        let Some(n) = self.node_ref_at(key, depth) else {
+            return Ok(false);
+        };
+        self.store.set_value(n, value);
+        Ok(true)
+    }
+
     /// Collapse the node at `depth` holding `key` when it is collapsible (OctoMap's
     /// `pruneNode`): it takes its children's value and loses them. Returns whether it did.
     pub fn prune_node(&mut self, key: Key, depth: u8) -> bool {

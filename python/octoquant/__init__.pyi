@@ -44,6 +44,12 @@ class OcTreeNode:
         """The node's depth (16 = voxel)."""
     def getKey(self) -> OcTreeKey:
         """The node's key at its depth."""
+    def setValue(self, v: float) -> None:
+        """Set the node's log-odds in its tree (no clamping, no inner upkeep)."""
+    def setLogOdds(self, v: float) -> None: ...
+    def addValue(self, p: float) -> None: ...
+    def childExists(self, i: int) -> bool: ...
+
 
 class iterator_base:
     """A position in a tree traversal; the accessors describe the current node."""
@@ -330,6 +336,12 @@ class ColorOcTreeNode:
         """Mean colour of the children that have one; white when none has."""
     def setColor(self, r: int, g: int, b: int) -> None:
         """Set the node's colour in its tree (ValueError when the node is gone from it)."""
+    def setValue(self, v: float) -> None:
+        """Set the node's log-odds in its tree (no clamping, no inner upkeep)."""
+    def setLogOdds(self, v: float) -> None: ...
+    def addValue(self, p: float) -> None: ...
+    def childExists(self, i: int) -> bool: ...
+
 
 class ColorOcTree(_OccupancyCalls):
     """OctoMap's ColorOcTree: occupancy plus an RGB colour per node, built by octoquant.

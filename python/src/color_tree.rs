@@ -35,6 +35,17 @@ pub struct PyColorNode {
 }
 
 impl PyColorNode {
+    /// Call the tree's `method` on this node with `arg`, then keep the log-odds it returns.
+    fn write_through(slf: &Bound<'_, Self>, method: &str, arg: f32) -> PyResult<()> {
+        let tree = slf.borrow().tree.clone_ref(slf.py());
+        let v: f32 = tree
+            .bind(slf.py())
+            .call_method1(method, (slf, arg))?
+            .extract()?;
+        slf.borrow_mut().value = v;
+        Ok(())
+    }
+
     /// The node `info` found with `key` in `tree`, with its colours read from `t` (the same
     /// tree, borrowed).
     fn found(tree: Py<PyColorOcTree>, t: &ColorOcTree, info: NodeInfo, key: Key) -> Self {
@@ -128,6 +139,35 @@ impl PyColorNode {
         }
         self.color = c;
         Ok(())
+    }
+
+    /// Set the node's log-odds in its tree as OctoMap's ``setValue`` does on the live node:
+    /// as given, no clamping, no inner node refreshed; its colour stays. ``ValueError`` for
+    /// NaN or a node no longer in its tree.
+    #[pyo3(name = "setValue")]
+    fn set_value(slf: &Bound<'_, Self>, v: f32) -> PyResult<()> {
+        Self::write_through(slf, "_set_node_value", v)
+    }
+
+    /// Same as ``setValue``.
+    #[pyo3(name = "setLogOdds")]
+    fn set_log_odds(slf: &Bound<'_, Self>, v: f32) -> PyResult<()> {
+        Self::write_through(slf, "_set_node_value", v)
+    }
+
+    /// Add ``p`` to the node's log-odds in its tree (OctoMap's ``addValue``: no clamping).
+    #[pyo3(name = "addValue")]
+    fn add_value(slf: &Bound<'_, Self>, p: f32) -> PyResult<()> {
+        Self::write_through(slf, "_add_node_value", p)
+    }
+
+    /// Whether child ``i`` (0..8) of the node exists now in its tree.
+    #[pyo3(name = "childExists")]
+    fn child_exists(slf: &Bound<'_, Self>, i: i64) -> PyResult<bool> {
+        let tree = slf.borrow().tree.clone_ref(slf.py());
+        tree.bind(slf.py())
+            .call_method1("nodeChildExists", (slf, i))?
+            .extract()
     }
 
     fn __repr__(&self) -> String {

@@ -296,7 +296,7 @@ pub fn max_depth(d: u8) -> u8 {
 /// knows nothing of iterators.
 pub fn node_value(obj: &Bound<'_, PyAny>) -> PyResult<f32> {
     if let Ok(n) = obj.cast::<PyNode>() {
-        return Ok(n.get().value);
+        return Ok(n.borrow().value);
     }
     if let Ok(it) = obj.cast::<IteratorBase>() {
         return it.borrow().current().map(|n| n.value);

@@ -1,7 +1,7 @@
 //! `OcTreeKey` and `OcTreeNode`, octomap-python's key and node objects.
 
 use crate::engine::{probability, Key, NodeInfo};
-use pyo3::exceptions::{PyIndexError, PyTypeError};
+use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -99,9 +99,9 @@ pub fn key_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Key> {
 }
 
 /// A node of the tree as it was when it was looked up (octomap-python's `OcTreeNode` points
-/// into the live tree instead; see the migration notes).
-#[pyclass(module = "octoquant", name = "OcTreeNode", frozen)]
-#[derive(Clone, Copy)]
+/// into the live tree instead; see the migration notes). Its setters (`setValue`,
+/// `setLogOdds`, `addValue`) write through to the node of its tree by key and depth.
+#[pyclass(module = "octoquant", name = "OcTreeNode")]
 pub struct PyNode {
     /// The node's log-odds.
     pub value: f32,
@@ -111,11 +111,13 @@ pub struct PyNode {
     pub depth: u8,
     /// Its key at that depth (the voxel key at depth 16).
     pub key: Key,
+    /// The tree it came from, for the setters (any tree class with `_set_node_value`).
+    pub tree: Option<Py<PyAny>>,
 }
 
 impl PyNode {
-    /// A node from a search result and the key it was searched with.
-    pub fn found(info: NodeInfo, key: Key) -> Self {
+    /// A node from a search result and the key it was searched with, in `tree`.
+    pub fn found(info: NodeInfo, key: Key, tree: Option<Py<PyAny>>) -> Self {
         PyNode {
             value: info.value,
             has_children: info.has_children,
@@ -125,7 +127,22 @@ impl PyNode {
             } else {
                 key
             },
+            tree,
         }
+    }
+
+    /// Call the tree's `method` on this node with `arg`, then keep the log-odds it returns.
+    fn write_through(slf: &Bound<'_, Self>, method: &str, arg: f32) -> PyResult<()> {
+        let py = slf.py();
+        let tree = slf
+            .borrow()
+            .tree
+            .as_ref()
+            .map(|t| t.clone_ref(py))
+            .ok_or_else(|| PyValueError::new_err("the node belongs to no tree"))?;
+        let v: f32 = tree.bind(py).call_method1(method, (slf, arg))?.extract()?;
+        slf.borrow_mut().value = v;
+        Ok(())
     }
 }
 
@@ -167,6 +184,41 @@ impl PyNode {
         PyKey::new(self.key)
     }
 
+    /// Set the node's log-odds in its tree as OctoMap's ``setValue`` does on the live node:
+    /// as given, no clamping, no inner node refreshed (``updateInnerOccupancy`` does that).
+    /// ``ValueError`` for NaN or a node no longer in its tree.
+    #[pyo3(name = "setValue")]
+    fn set_value(slf: &Bound<'_, Self>, v: f32) -> PyResult<()> {
+        Self::write_through(slf, "_set_node_value", v)
+    }
+
+    /// Same as ``setValue``.
+    #[pyo3(name = "setLogOdds")]
+    fn set_log_odds(slf: &Bound<'_, Self>, v: f32) -> PyResult<()> {
+        Self::write_through(slf, "_set_node_value", v)
+    }
+
+    /// Add ``p`` to the node's log-odds in its tree (OctoMap's ``addValue``: no clamping).
+    #[pyo3(name = "addValue")]
+    fn add_value(slf: &Bound<'_, Self>, p: f32) -> PyResult<()> {
+        Self::write_through(slf, "_add_node_value", p)
+    }
+
+    /// Whether child ``i`` (0..8) of the node exists now in its tree.
+    #[pyo3(name = "childExists")]
+    fn child_exists(slf: &Bound<'_, Self>, i: i64) -> PyResult<bool> {
+        let py = slf.py();
+        let tree = slf
+            .borrow()
+            .tree
+            .as_ref()
+            .map(|t| t.clone_ref(py))
+            .ok_or_else(|| PyValueError::new_err("the node belongs to no tree"))?;
+        tree.bind(py)
+            .call_method1("nodeChildExists", (slf, i))?
+            .extract()
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "OcTreeNode(log_odds={}, depth={}, has_children={})",
@@ -181,7 +233,7 @@ impl PyNode {
 /// (unknown space) raises NullPointerException.
 pub fn node_address(obj: &Bound<'_, PyAny>) -> PyResult<(Key, u8)> {
     if let Ok(n) = obj.cast::<PyNode>() {
-        let n = n.get();
+        let n = n.borrow();
         return Ok((n.key, n.depth));
     }
     // the other trees' nodes (ColorOcTreeNode, OcTreeNodeStamped) by what they answer

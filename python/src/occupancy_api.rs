@@ -82,6 +82,10 @@ pub(crate) trait NodeSurgery {
     fn node_child_exists(&self, key: Key, depth: u8, i: usize) -> bool;
     /// OctoMap's `deleteNodeChild`: the nodes removed.
     fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize;
+    /// The log-odds of the node at exactly `depth` holding `key`.
+    fn node_value(&self, key: Key, depth: u8) -> Option<f32>;
+    /// OctoMap's `setValue` on a node in hand (no clamping, no ancestor upkeep).
+    fn set_node_raw_value(&mut self, key: Key, depth: u8, v: f32) -> Result<bool, OctreeError>;
 }
 
 impl NodeSurgery for OcTree {
@@ -102,6 +106,12 @@ impl NodeSurgery for OcTree {
     }
     fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
         OcTree::delete_node_child(self, key, depth, i)
+    }
+    fn node_value(&self, key: Key, depth: u8) -> Option<f32> {
+        self.node_at_depth(key, depth).map(|n| n.value)
+    }
+    fn set_node_raw_value(&mut self, key: Key, depth: u8, v: f32) -> Result<bool, OctreeError> {
+        OcTree::set_node_raw_value(self, key, depth, v)
     }
 }
 
@@ -126,6 +136,17 @@ macro_rules! payload_surgery {
             }
             fn delete_node_child(&mut self, key: Key, depth: u8, i: usize) -> usize {
                 $t::delete_node_child(self, key, depth, i)
+            }
+            fn node_value(&self, key: Key, depth: u8) -> Option<f32> {
+                self.node_at_depth(key, depth).map(|n| n.node.value)
+            }
+            fn set_node_raw_value(
+                &mut self,
+                key: Key,
+                depth: u8,
+                v: f32,
+            ) -> Result<bool, OctreeError> {
+                $t::set_node_raw_value(self, key, depth, v)
             }
         }
     )*};
@@ -725,6 +746,49 @@ macro_rules! surgery_api {
                     d,
                     i,
                 ))
+            }
+
+            /// OctoMap's ``node.setValue(value)`` on a node in hand (what the node objects'
+            /// ``setValue`` and ``setLogOdds`` call): the node's log-odds set as given, no
+            /// clamping, no ancestor refreshed. Returns the value. ``ValueError`` for NaN and
+            /// for a node no longer in the tree.
+            #[pyo3(name = "_set_node_value")]
+            fn set_node_value_in_hand(
+                &mut self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                value: f32,
+            ) -> ::pyo3::PyResult<f32> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                $crate::occupancy_api::NodeSurgery::set_node_raw_value(
+                    self.tree_mut(),
+                    key,
+                    d,
+                    value,
+                )
+                .map_err(|e| $crate::convert::value_error("setValue", &e))?;
+                Ok(value)
+            }
+
+            /// OctoMap's ``node.addValue(delta)`` on a node in hand: its log-odds now plus
+            /// ``delta``, set as ``_set_node_value`` sets it. Returns the new value.
+            #[pyo3(name = "_add_node_value")]
+            fn add_node_value_in_hand(
+                &mut self,
+                node: &::pyo3::Bound<'_, ::pyo3::PyAny>,
+                delta: f32,
+            ) -> ::pyo3::PyResult<f32> {
+                let (key, d) = $crate::occupancy_api::live_node(self.tree(), node)?;
+                let now = $crate::occupancy_api::NodeSurgery::node_value(self.tree(), key, d)
+                    .unwrap_or(0.0);
+                let value = now + delta;
+                $crate::occupancy_api::NodeSurgery::set_node_raw_value(
+                    self.tree_mut(),
+                    key,
+                    d,
+                    value,
+                )
+                .map_err(|e| $crate::convert::value_error("addValue", &e))?;
+                Ok(value)
             }
 
             /// Delete child ``idx`` (0..8) of a node with its subtree (and their colours;

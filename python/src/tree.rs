@@ -134,8 +134,10 @@ impl PyOcTree {
         .map_err(|e| convert::value_error(&name, &e))
     }
 
-    fn node_at(&self, key: Key, d: u8) -> Option<PyNode> {
-        self.tree.search(key, d).map(|n| PyNode::found(n, key))
+    /// The node `search` finds for `key` down to depth `d`, as a Python node of `slf`.
+    fn node_at(slf: &Bound<'_, Self>, key: Key, d: u8) -> Option<PyNode> {
+        let found = slf.borrow().tree.search(key, d);
+        found.map(|n| PyNode::found(n, key, Some(slf.clone().into_any().unbind())))
     }
 
     fn key_of_point(&self, p: &Point3<f64>) -> Option<Key> {
@@ -366,16 +368,20 @@ impl PyOcTree {
     /// (0 = 16, the voxel level): the node, the pruned leaf covering it, or None in unknown
     /// space or outside the map.
     #[pyo3(signature = (value, depth=0))]
-    fn search(&self, value: &Bound<'_, PyAny>, depth: i64) -> PyResult<Option<PyNode>> {
+    fn search(
+        slf: &Bound<'_, Self>,
+        value: &Bound<'_, PyAny>,
+        depth: i64,
+    ) -> PyResult<Option<PyNode>> {
         let d = convert::depth(depth, "depth")?;
         let key = match target(value, "value")? {
             Target::Key(k) => k,
-            Target::Point(p) => match self.key_of_point(&p) {
+            Target::Point(p) => match slf.borrow().key_of_point(&p) {
                 Some(k) => k,
                 None => return Ok(None),
             },
         };
-        Ok(self.node_at(key, d))
+        Ok(Self::node_at(slf, key, d))
     }
 
     /// Whether a node (from ``search``/``updateNode``, or an iterator) is occupied under the
@@ -390,7 +396,7 @@ impl PyOcTree {
     /// node, or None for a point outside the map.
     #[pyo3(name = "updateNode", signature = (value, update, lazy_eval=false))]
     fn update_node(
-        &mut self,
+        slf: &Bound<'_, Self>,
         value: &Bound<'_, PyAny>,
         update: &Bound<'_, PyAny>,
         lazy_eval: bool,
@@ -398,14 +404,15 @@ impl PyOcTree {
         let u = update_arg(update)?;
         let key = match target(value, "value")? {
             Target::Key(k) => k,
-            Target::Point(p) => match self.key_of_point(&p.cast::<f32>().cast::<f64>()) {
+            Target::Point(p) => match slf.borrow().key_of_point(&p.cast::<f32>().cast::<f64>()) {
                 Some(k) => k,
                 None => return Ok(None),
             },
         };
-        self.tree
+        slf.borrow_mut()
+            .tree
             .update_node(key, u, InnerNodes::from_lazy(lazy_eval));
-        Ok(self.node_at(key, TREE_DEPTH))
+        Ok(Self::node_at(slf, key, TREE_DEPTH))
     }
 
     /// ``updateNode`` for many keys or points (a sequence, or an (N, 3) array of points), in
@@ -788,45 +795,61 @@ impl PyOcTree {
     /// Child ``idx`` (0..8) of a node, or None when it does not exist (octomap-python returns a
     /// null node).
     #[pyo3(name = "getNodeChild")]
-    fn get_node_child(&self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<Option<PyNode>> {
-        let (key, d) = live_node(&*self.tree, node)?;
+    fn get_node_child(
+        slf: &Bound<'_, Self>,
+        node: &Bound<'_, PyAny>,
+        idx: i64,
+    ) -> PyResult<Option<PyNode>> {
         let i = child_idx(idx)?;
-        let child = self.tree.node_child(key, d, i);
+        let (key, d) = live_node(&*slf.borrow().tree, node)?;
+        let child = slf.borrow().tree.node_child(key, d, i);
+        let tree = || Some(slf.clone().into_any().unbind());
         Ok(child
             .zip(OcTree::child_key(key, d, i))
-            .map(|(info, k)| PyNode::found(info, k)))
+            .map(|(info, k)| PyNode::found(info, k, tree())))
     }
 
     /// Create child ``idx`` (0..8) of a node with log-odds 0, as OctoMap's
     /// ``createNodeChild``; returns it. ``ValueError`` when the child exists already or the
     /// node is a voxel.
     #[pyo3(name = "createNodeChild")]
-    fn create_node_child(&mut self, node: &Bound<'_, PyAny>, idx: i64) -> PyResult<PyNode> {
-        let (key, d) = live_node(&*self.tree, node)?;
+    fn create_node_child(
+        slf: &Bound<'_, Self>,
+        node: &Bound<'_, PyAny>,
+        idx: i64,
+    ) -> PyResult<PyNode> {
+        let (key, d) = live_node(&*slf.borrow().tree, node)?;
         let i = child_idx(idx)?;
         if d >= TREE_DEPTH {
             return Err(PyValueError::new_err(
                 "createNodeChild: a voxel (depth 16) has no children",
             ));
         }
-        let child = self
+        let child = slf
+            .borrow_mut()
             .tree
             .create_node_child(key, d, i)
             .zip(OcTree::child_key(key, d, i));
         let (info, k) = child.ok_or_else(|| {
             PyValueError::new_err(format!("createNodeChild: child {i} exists already"))
         })?;
-        Ok(PyNode::found(info, k))
+        Ok(PyNode::found(
+            info,
+            k,
+            Some(slf.clone().into_any().unbind()),
+        ))
     }
 
     /// The root node, or None for an empty tree.
     #[pyo3(name = "getRoot")]
-    fn get_root(&self) -> Option<PyNode> {
-        self.tree.root_value().map(|v| PyNode {
+    fn get_root(slf: &Bound<'_, Self>) -> Option<PyNode> {
+        let this = slf.borrow();
+        this.tree.root_value().map(|v| PyNode {
             value: v,
-            has_children: self.tree.size() > 1,
+            has_children: this.tree.size() > 1,
             depth: 0,
             key: Key::new(0, 0, 0),
+            tree: Some(slf.clone().into_any().unbind()),
         })
     }
 

@@ -178,3 +178,49 @@ def test_expand_of_a_childless_root_is_refused(cls):
     with pytest.raises(MemoryError, match=f"limit of {2**35} nodes"):
         t.expand(max_nodes=10**15)
     assert t.size() == 1
+
+
+@pytest.mark.parametrize("kind", ["OcTree", "ColorOcTree"])
+def test_node_setters_write_through(octomap, kind):
+    """``setValue``, ``setLogOdds`` and ``addValue`` on nodes in hand change the node in the
+    tree as octomap-python's live nodes do (no clamping, no inner upkeep), at any depth;
+    ``childExists`` answers for the tree as it is now."""
+    a, b = getattr(octomap, kind)(0.1), getattr(octoquant, kind)(0.1)
+    rng = np.random.default_rng(9)
+    pts = np.round(rng.uniform(-1, 1, size=(400, 3)), 1) + 0.05
+    for p in pts:
+        hit = bool(rng.integers(0, 2))
+        a.updateNode(p, hit)
+        b.updateNode(p, hit)
+    assert b.write() == a.write()
+    changed = 0
+    for i, p in enumerate(pts[::3]):
+        depth = (16, 15, 14, 12, 0)[i % 5]
+        na, nb = a.search(p, depth), b.search(p, depth)
+        assert nb.getValue() == na.getValue()
+        assert [nb.childExists(j) for j in range(8)] == [na.childExists(j) for j in range(8)]
+        v = float(np.float32(rng.uniform(-6, 6)))  # beyond the clamps too
+        op = i % 3
+        if op == 0:
+            na.setValue(v)
+            nb.setValue(v)
+        elif op == 1:
+            na.setLogOdds(v)
+            nb.setLogOdds(v)
+        else:
+            na.addValue(v)
+            nb.addValue(v)
+        assert nb.getValue() == pytest.approx(na.getValue(), abs=0)
+        assert b.search(p, depth).getValue() == nb.getValue()
+        changed += 1
+    assert changed > 100
+    assert b.write() == a.write()
+    a.updateInnerOccupancy()
+    b.updateInnerOccupancy()
+    assert b.write() == a.write()
+    n = b.search(pts[0])
+    with pytest.raises(ValueError, match="setValue"):
+        n.setValue(float("nan"))
+    b.clear()
+    with pytest.raises(ValueError, match="not in this tree"):
+        n.setValue(1.0)
