@@ -2,8 +2,8 @@
 //! (`color_map::insert_point_cloud`: rays in the SIMD lanes, keys handed on ray by ray into
 //! `KeySet`s kept as their history) against the same insertion written plainly from OctoMap's
 //! `computeUpdate`: each ray walked one key at a time (`walk_ray_keys_f32`) into one `KeySet`,
-//! each end point's key into another, then one update per key in the sets' order. A few small
-//! frames (any `f32` coordinates, NaN, infinities and points outside the key range included;
+//! each end point's key into another, then one update per key in the sets' order. Up to 4
+//! frames of up to 32 points (any `f32` coordinates, NaN, infinities and points outside the key range included;
 //! empty frames; origins anywhere), with colours set on the nodes of some end points between
 //! the frames so that the structure's changes move them; an optional maximum range, lazy
 //! updates, `discretize`. No call may panic, and the coloured `.ot` bytes must be equal.
@@ -94,10 +94,29 @@ fuzz_target!(|input: Input| {
     let conv = KeyConverter::new(resolution).expect("a valid resolution");
     let mut ours = ColorOcTree::new(resolution).expect("a valid resolution");
     let mut theirs = ours.clone();
-    for f in input.frames.iter().take(6) {
-        let origin = f.origin.point();
-        let points: Vec<Point3<f32>> = f.points.iter().take(64).map(|p| p.point()).collect();
-        for (p, [r, g, b]) in points.iter().zip(&f.colors) {
+    let frames: Vec<(Point3<f32>, Vec<Point3<f32>>, &[[u8; 3]])> = input
+        .frames
+        .iter()
+        .take(4)
+        .map(|f| {
+            let points = f.points.iter().take(32).map(|p| p.point()).collect();
+            (f.origin.point(), points, &f.colors[..])
+        })
+        .collect();
+    // rays may cross the whole key range, and both insertions update every voxel one by one:
+    // inputs whose rays sum to more than this many voxels would outlast libFuzzer's 5 s
+    let voxels: f64 = frames
+        .iter()
+        .flat_map(|(o, ps, _)| ps.iter().map(move |p| f64::from((p - o).norm())))
+        .filter(|d| d.is_finite())
+        .map(|d| max_range.map_or(d, |m| d.min(m)) / resolution)
+        .sum();
+    if voxels > 100_000.0 {
+        return;
+    }
+    for (origin, points, colors) in &frames {
+        let (origin, f_colors) = (*origin, *colors);
+        for (p, [r, g, b]) in points.iter().zip(f_colors) {
             if let Some(k) = conv.point_to_key(&p.cast::<f64>()) {
                 for t in [&mut ours, &mut theirs] {
                     t.set_node_color(k, Color::new(*r, *g, *b));
@@ -106,7 +125,7 @@ fuzz_target!(|input: Input| {
         }
         insert_point_cloud(
             &mut ours,
-            &points,
+            points,
             &origin,
             max_range,
             inner,
@@ -114,7 +133,7 @@ fuzz_target!(|input: Input| {
         );
         plain_insert(
             &mut theirs,
-            &points,
+            points,
             &origin,
             max_range.unwrap_or(-1.0),
             inner,
