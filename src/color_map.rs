@@ -497,13 +497,7 @@ impl ScanRules {
             window,
             cut_end_free: true,
         };
-        let (mut free, mut occupied) = match window {
-            Some((lo, hi)) => (
-                KeySetOrder::with_window(lo, hi),
-                KeySetOrder::with_window(lo, hi),
-            ),
-            None => (KeySetOrder::new(), KeySetOrder::new()),
-        };
+        let (mut free, mut occupied) = (key_set(window), key_set(window));
         for part in rays.walk_all(ground, points) {
             free.append(&part.keys);
             st.outside_map += part.outside_map;
@@ -627,11 +621,9 @@ pub fn insert_point_cloud(
     discretize: bool,
 ) -> (usize, usize) {
     let conv = tree.converter().clone();
-    let centres;
+    let mut centres = Vec::new();
     let points = if discretize {
-        let mut c = Vec::new();
-        octoquant_raycast::discretize_f32(&conv, points, &mut c);
-        centres = c;
+        octoquant_raycast::discretize_f32(&conv, points, &mut centres);
         &centres[..]
     } else {
         points
@@ -649,13 +641,7 @@ pub fn insert_point_cloud(
         window,
         cut_end_free: false,
     };
-    let (mut free, mut occupied) = match window {
-        Some((lo, hi)) => (
-            KeySetOrder::with_window(lo, hi),
-            KeySetOrder::with_window(lo, hi),
-        ),
-        None => (KeySetOrder::new(), KeySetOrder::new()),
-    };
+    let (mut free, mut occupied) = (key_set(window), key_set(window));
     for part in rays.walk_all(&[], points) {
         free.append(&part.keys);
     }
@@ -682,6 +668,15 @@ pub fn insert_point_cloud(
         tree.update_node(k, Update::Hit, inner);
     }
     (free.len(), occupied.len())
+}
+
+/// An empty key set, with a membership window over the scan's key box when it has one
+/// ([`ScanRules::key_box`]).
+fn key_set(window: Option<(Key, Key)>) -> KeySetOrder {
+    match window {
+        Some((lo, hi)) => KeySetOrder::with_window(lo, hi),
+        None => KeySetOrder::new(),
+    }
 }
 
 /// The frame's point count as the filters' `u32` index channel holds it

@@ -131,16 +131,22 @@ impl PyNode {
         }
     }
 
-    /// Call the tree's `method` on this node with `arg`, then keep the log-odds it returns.
-    fn write_through(slf: &Bound<'_, Self>, method: &str, arg: f32) -> PyResult<()> {
-        let py = slf.py();
-        let tree = slf
-            .borrow()
+    /// The tree the node came from.
+    fn tree_of(slf: &Bound<'_, Self>) -> PyResult<Py<PyAny>> {
+        slf.borrow()
             .tree
             .as_ref()
-            .map(|t| t.clone_ref(py))
-            .ok_or_else(|| PyValueError::new_err("the node belongs to no tree"))?;
-        let v: f32 = tree.bind(py).call_method1(method, (slf, arg))?.extract()?;
+            .map(|t| t.clone_ref(slf.py()))
+            .ok_or_else(|| PyValueError::new_err("the node belongs to no tree"))
+    }
+
+    /// Call the tree's `method` on this node with `arg`, then keep the log-odds it returns.
+    fn write_through(slf: &Bound<'_, Self>, method: &str, arg: f32) -> PyResult<()> {
+        let tree = Self::tree_of(slf)?;
+        let v: f32 = tree
+            .bind(slf.py())
+            .call_method1(method, (slf, arg))?
+            .extract()?;
         slf.borrow_mut().value = v;
         Ok(())
     }
@@ -207,14 +213,8 @@ impl PyNode {
     /// Whether child ``i`` (0..8) of the node exists now in its tree.
     #[pyo3(name = "childExists")]
     fn child_exists(slf: &Bound<'_, Self>, i: i64) -> PyResult<bool> {
-        let py = slf.py();
-        let tree = slf
-            .borrow()
-            .tree
-            .as_ref()
-            .map(|t| t.clone_ref(py))
-            .ok_or_else(|| PyValueError::new_err("the node belongs to no tree"))?;
-        tree.bind(py)
+        let tree = Self::tree_of(slf)?;
+        tree.bind(slf.py())
             .call_method1("nodeChildExists", (slf, i))?
             .extract()
     }
