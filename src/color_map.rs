@@ -586,12 +586,8 @@ fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameSta
             ColorMerge::Integrate => tree.integrate_node_colors(key, run),
         };
     }
-    for &k in &free {
-        tree.update_node(k, Update::Miss, InnerNodes::Refresh);
-    }
-    for &k in &occupied {
-        tree.update_node(k, Update::Hit, InnerNodes::Refresh);
-    }
+    tree.update_keys(&free, Update::Miss, InnerNodes::Refresh);
+    tree.update_keys(&occupied, Update::Hit, InnerNodes::Refresh);
     tree.prune();
     st.free = free.len();
     st.occupied = occupied.len();
@@ -661,12 +657,8 @@ pub fn insert_point_cloud(
         .filter(|k| !occupied.contains(k))
         .collect();
     let occupied = occupied.order();
-    for &k in &free {
-        tree.update_node(k, Update::Miss, inner);
-    }
-    for &k in &occupied {
-        tree.update_node(k, Update::Hit, inner);
-    }
+    tree.update_keys(&free, Update::Miss, inner);
+    tree.update_keys(&occupied, Update::Hit, inner);
     (free.len(), occupied.len())
 }
 

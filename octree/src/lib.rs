@@ -27,6 +27,7 @@
 
 mod brick;
 mod color;
+mod color_batch;
 mod color_tree;
 mod compare;
 mod crop;

@@ -185,6 +185,13 @@ pub(crate) fn key_bricks(keys: impl IntoIterator<Item = Key>) -> impl Iterator<I
     Coalesce::new(keys.into_iter().map(brick_of))
 }
 
+/// Sorted, distinct voxel Morton codes as the bricks [`OcTree::update_bricks`] walks.
+pub(crate) fn morton_bricks(
+    codes: impl IntoIterator<Item = u64>,
+) -> impl Iterator<Item = (u64, u64)> {
+    Coalesce::new(codes.into_iter().map(|c| (c >> 6, 1 << (c & 63))))
+}
+
 /// Groups a sequence of single-voxel bricks into runs: consecutive voxels of one brick become
 /// one mask, and a voxel already in the pending mask closes it (so duplicates stay separate
 /// updates, in order).

@@ -663,11 +663,7 @@ impl PyColorOcTree {
         let keys = keys_arg(self.tree.converter(), values)?;
         let tree = &mut self.tree;
         let inner = InnerNodes::from_lazy(lazy_eval);
-        py.detach(|| {
-            for k in keys {
-                tree.update_node(k, u, inner);
-            }
-        });
+        py.detach(|| tree.update_keys(&keys, u, inner));
         Ok(())
     }
 

@@ -249,12 +249,9 @@ pub fn update_color_key_sets(tree: &mut ColorOcTree, free: &[Key], occupied: &[K
         o.insert(k);
     }
     let inner = InnerNodes::from_lazy(lazy);
-    for k in f.order().into_iter().filter(|k| !o.contains(k)) {
-        tree.update_node(k, Update::Miss, inner);
-    }
-    for k in o.order() {
-        tree.update_node(k, Update::Hit, inner);
-    }
+    let free: Vec<Key> = f.order().into_iter().filter(|k| !o.contains(k)).collect();
+    tree.update_keys(&free, Update::Miss, inner);
+    tree.update_keys(&o.order(), Update::Hit, inner);
 }
 
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
