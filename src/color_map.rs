@@ -651,15 +651,14 @@ pub fn insert_point_cloud(
             occupied.insert(key);
         }
     }
-    let free: Vec<Key> = free
-        .order()
-        .into_iter()
-        .filter(|k| !occupied.contains(k))
-        .collect();
-    let occupied = occupied.order();
-    tree.update_keys(&free, Update::Miss, inner);
-    tree.update_keys(&occupied, Update::Hit, inner);
-    (free.len(), occupied.len())
+    // the KeySets' order is built only if a colour can depend on it
+    let only_free = |keys: Vec<Key>| -> Vec<Key> {
+        keys.into_iter().filter(|k| !occupied.contains(k)).collect()
+    };
+    let free_keys = only_free(free.keys().to_vec());
+    tree.update_key_set(&free_keys, || only_free(free.order()), Update::Miss, inner);
+    tree.update_key_set(occupied.keys(), || occupied.order(), Update::Hit, inner);
+    (free_keys.len(), occupied.len())
 }
 
 /// An empty key set, with a membership window over the scan's key box when it has one

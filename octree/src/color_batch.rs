@@ -59,6 +59,21 @@ impl ColorOcTree {
     /// others in the plain tree's batched walk. Keys given twice make it one update per key.
     /// A NaN delta changes nothing.
     pub fn update_keys(&mut self, keys: &[Key], update: Update, inner: InnerNodes) {
+        self.update_key_set(keys, || keys.to_vec(), update, inner)
+    }
+
+    /// [`ColorOcTree::update_keys`] over the keys `order()` lists, for a caller that holds
+    /// them (`keys`, the same keys in any order) more cheaply than in their order: `order` is
+    /// called only when the order can change a colour. A scan's `KeySet` order costs more
+    /// than its updates, and a pass into a tree without a node that a prune could undo (an
+    /// empty tree, or deferred inner nodes) needs none.
+    pub fn update_key_set(
+        &mut self,
+        keys: &[Key],
+        order: impl FnOnce() -> Vec<Key>,
+        update: Update,
+        inner: InnerNodes,
+    ) {
         let tree = &self.base.tree;
         let delta = tree.delta(update);
         if delta.is_nan() || keys.is_empty() {
@@ -68,31 +83,33 @@ impl ColorOcTree {
         codes.sort_unstable();
         if codes.windows(2).any(|w| w[0] == w[1]) {
             // a voxel updated twice in one pass is outside the hazard test's argument
-            for &k in keys {
+            for k in order() {
                 self.update_node(k, update, inner);
             }
             return;
         }
-        let hazards = if inner.is_deferred() {
-            Vec::new()
-        } else {
-            let rule = Rule {
-                delta,
-                cmin: tree.params().clamp_min,
-                cmax: tree.params().clamp_max,
-            };
-            collapse_hazards(tree, rule, &codes)
-        };
-        if hazards.is_empty() {
+        if inner.is_deferred() {
+            // nothing is pruned, so nothing is undone
             self.walk(&codes, update, inner);
             return;
         }
-        // each hazard's keys, in the given order
+        let rule = Rule {
+            delta,
+            cmin: tree.params().clamp_min,
+            cmax: tree.params().clamp_max,
+        };
+        // without the order: the nodes that might be hazards in some order
+        let suspects = HazardSearch::new(tree, rule).run(&codes);
+        if suspects.is_empty() {
+            self.walk(&codes, update, inner);
+            return;
+        }
+        let order = order();
+        let hazards = HazardSearch::new(tree, rule).narrow(&suspects, &order);
+        // each hazard's keys, in order
         let mut ordered: Vec<Vec<Key>> = vec![Vec::new(); hazards.len()];
-        for &k in keys {
-            let c = k.morton();
-            let h = hazards.partition_point(|&(_, hi)| hi <= c);
-            if h < hazards.len() && hazards[h].0 <= c {
+        for &k in &order {
+            if let Some(h) = span_of(&hazards, k.morton()) {
                 ordered[h].push(k);
             }
         }
@@ -121,6 +138,12 @@ impl ColorOcTree {
         base.tree
             .update_brick_iter(morton_bricks(codes.iter().copied()), update, inner, hooks);
     }
+}
+
+/// The index of the span of `spans` (sorted, disjoint `[lo, hi)`) holding `code`.
+fn span_of(spans: &[(u64, u64)], code: u64) -> Option<usize> {
+    let h = spans.partition_point(|&(_, hi)| hi <= code);
+    (h < spans.len() && spans[h].0 <= code).then_some(h)
 }
 
 /// The batched walk's hooks for colours: an expansion copies the node's colour to its
@@ -170,14 +193,16 @@ impl Rule {
     }
 }
 
-/// A value every voxel of a subtree allows, and whether a voxel of it reaches the value (is
-/// updated to it, so a prune check may find the subtree uniform at it) or leaves it (is
-/// updated from it, so it would expand a node pruned at it).
+/// A value every voxel of a subtree allows, with the last place in the pass's order of a
+/// voxel that reaches it from another value (after which a prune check may find the subtree
+/// uniform at it) and the first of a voxel that leaves it (which would expand a node pruned
+/// at it). Without the order every voxel reaches at place 0 and leaves at place 1, so that
+/// any pair counts.
 #[derive(Debug, Clone, Copy, Default)]
 struct Candidate {
     value: f32,
-    reached: bool,
-    left: bool,
+    reach: Option<u32>,
+    leave: Option<u32>,
 }
 
 /// The values every voxel of a subtree allows (at most two: a voxel allows its value before
@@ -193,8 +218,8 @@ impl Allowed {
     const NONE: Allowed = Allowed {
         values: [Candidate {
             value: 0.0,
-            reached: false,
-            left: false,
+            reach: None,
+            leave: None,
         }; 2],
         len: 0,
     };
@@ -210,8 +235,8 @@ impl Allowed {
         &self.values[..self.len]
     }
 
-    /// The values both allow (compared as OctoMap compares node values), with the voxels of
-    /// both reaching and leaving them.
+    /// The values both allow (compared as OctoMap compares node values), with the later
+    /// reach and the earlier leave of the two.
     fn meet(&self, other: &Allowed) -> Allowed {
         let mut out = Allowed::NONE;
         for a in self.candidates() {
@@ -219,8 +244,11 @@ impl Allowed {
                 if a.value == b.value {
                     out.values[out.len] = Candidate {
                         value: a.value,
-                        reached: a.reached || b.reached,
-                        left: a.left || b.left,
+                        reach: a.reach.max(b.reach),
+                        leave: match (a.leave, b.leave) {
+                            (Some(x), Some(y)) => Some(x.min(y)),
+                            (x, y) => x.or(y),
+                        },
                     };
                     out.len += 1;
                 }
@@ -229,39 +257,112 @@ impl Allowed {
         out
     }
 
-    /// Whether a node with these voxels might be pruned during the pass and expanded again.
+    /// Whether a node with these voxels might be pruned during the pass and expanded again:
+    /// every voxel that must come before the check (it reaches the value) does so before the
+    /// first that leaves it.
     fn is_hazard(&self) -> bool {
-        self.candidates().iter().any(|c| c.reached && c.left)
+        self.candidates().iter().any(|c| match (c.reach, c.leave) {
+            (Some(r), Some(l)) => r < l,
+            _ => false,
+        })
     }
 }
 
-/// The topmost hazards of a pass of `rule` over the voxels `codes` (sorted, distinct Morton
-/// codes) on `tree` as it is before the pass, as spans `[lo, hi)` of voxel codes, in order.
-fn collapse_hazards(tree: &OcTree, rule: Rule, codes: &[u64]) -> Vec<(u64, u64)> {
-    let mut search = HazardSearch {
-        tree,
-        rule,
-        found: Vec::new(),
-    };
-    let root = tree.store.root_val.map(|_| NodeRef::ROOT);
-    search.subtree(root, 0, codes);
-    search.found
-}
-
-/// The state of [`collapse_hazards`]: the tree, the rule and the hazards found so far.
+/// The search for a pass's hazards on the tree as it is before the pass.
 struct HazardSearch<'a> {
     tree: &'a OcTree,
     rule: Rule,
+    /// The topmost hazards found so far, as spans `[lo, hi)` of voxel codes, in order.
     found: Vec<(u64, u64)>,
+    /// An update that changes nothing was met: it both checks and expands, which the places
+    /// in the order do not model, so the search without the order stands.
+    degenerate: bool,
 }
 
-impl HazardSearch<'_> {
+impl<'a> HazardSearch<'a> {
+    fn new(tree: &'a OcTree, rule: Rule) -> Self {
+        HazardSearch {
+            tree,
+            rule,
+            found: Vec::new(),
+            degenerate: false,
+        }
+    }
+
+    /// The topmost nodes that might be hazards in some order of the voxels `codes` (sorted,
+    /// distinct Morton codes).
+    fn run(mut self, codes: &[u64]) -> Vec<(u64, u64)> {
+        let root = self.tree.store.root_val.map(|_| NodeRef::ROOT);
+        self.subtree(root, 0, codes, None);
+        self.found
+    }
+
+    /// The spans of `suspects` (what [`HazardSearch::run`] found for the same pass) that hold
+    /// a hazard when the voxels come in `order`. A suspect is kept whole: the walks on either
+    /// side of it leave its ancestors refreshed and may prune them early, which only the
+    /// search without the order shows to be harmless, so a node between a hazard and its
+    /// suspect must not be split by a walk.
+    fn narrow(mut self, suspects: &[(u64, u64)], order: &[Key]) -> Vec<(u64, u64)> {
+        let mut placed: Vec<(u64, u32)> = order
+            .iter()
+            .enumerate()
+            .filter_map(|(i, k)| {
+                let c = k.morton();
+                span_of(suspects, c).map(|_| (c, i as u32))
+            })
+            .collect();
+        placed.sort_unstable();
+        let (codes, places): (Vec<u64>, Vec<u32>) = placed.into_iter().unzip();
+        let mut kept = Vec::new();
+        for &(lo, hi) in suspects {
+            let a = codes.partition_point(|&c| c < lo);
+            let b = codes.partition_point(|&c| c < hi);
+            let depth = TREE_DEPTH - ((hi - lo).trailing_zeros() / 3) as u8;
+            let node = self.node_at(lo, depth);
+            self.found.clear();
+            self.subtree(node, depth, &codes[a..b], Some(&places[a..b]));
+            if !self.found.is_empty() {
+                kept.push((lo, hi));
+            }
+        }
+        if self.degenerate || order.len() > u32::MAX as usize {
+            return suspects.to_vec();
+        }
+        kept
+    }
+
+    /// The node at `depth` on the way to voxel `code`, if it exists.
+    fn node_at(&self, code: u64, depth: u8) -> Option<NodeRef> {
+        let store = &self.tree.store;
+        self.tree.store.root_val?;
+        let mut n = NodeRef::ROOT;
+        for d in 0..depth {
+            let shift = 3 * u32::from(TREE_DEPTH - 1 - d);
+            n = store.child(n, ((code >> shift) & 7) as usize)?;
+        }
+        Some(n)
+    }
+
     /// What the voxels below node `n` at `depth` (`None`: not in the tree) allow, where
-    /// `codes` (not empty) are the pass's voxels below it; records the hazards at and below
-    /// it, only the topmost.
-    fn subtree(&mut self, n: Option<NodeRef>, depth: u8, codes: &[u64]) -> Allowed {
+    /// `codes` (not empty) are the pass's voxels below it and `places` their places in the
+    /// order (`None`: unknown); records the hazards at and below it, only the topmost.
+    fn subtree(
+        &mut self,
+        n: Option<NodeRef>,
+        depth: u8,
+        codes: &[u64],
+        places: Option<&[u32]>,
+    ) -> Allowed {
         let bits = 3 * u32::from(TREE_DEPTH - depth);
         let all = codes.len() as u64 == 1u64 << bits;
+        // the last and the first place of the voxels; without the order, any pair counts
+        let (last, first) = match places {
+            Some(p) => (
+                p.iter().copied().max().unwrap_or(0),
+                p.iter().copied().min().unwrap_or(0),
+            ),
+            None => (0, 1),
+        };
         let store = &self.tree.store;
         let Some(n) = n else {
             // unknown space: the updates create voxels at `apply(0)`; a voxel left out never
@@ -269,37 +370,43 @@ impl HazardSearch<'_> {
             return if all {
                 Allowed::one(Candidate {
                     value: self.rule.apply(0.0),
-                    reached: true,
-                    left: false,
+                    reach: Some(last),
+                    leave: None,
                 })
             } else {
                 Allowed::NONE
             };
         };
         if depth == TREE_DEPTH || !store.has_children(n) {
-            return self.leaf(store.value(n), all);
+            return self.leaf(store.value(n), all, last, first);
         }
         let mark = self.found.len();
         let shift = bits - 3;
         let mut allowed: Option<Allowed> = None;
         let mut rest = codes;
+        let mut rest_places = places;
         for i in 0..8 {
             let end = rest.partition_point(|&c| ((c >> shift) & 7) as usize <= i);
             let (mine, after) = rest.split_at(end);
             rest = after;
+            let my_places = rest_places.map(|p| {
+                let (m, a) = p.split_at(end);
+                rest_places = Some(a);
+                m
+            });
             let child = store.child(n, i);
             let a = if mine.is_empty() {
                 match child {
                     // untouched: a leaf keeps its value; a node with children keeps them
                     Some(c) if !store.has_children(c) => Allowed::one(Candidate {
                         value: store.value(c),
-                        reached: false,
-                        left: false,
+                        reach: None,
+                        leave: None,
                     }),
                     _ => Allowed::NONE,
                 }
             } else {
-                self.subtree(child, depth + 1, mine)
+                self.subtree(child, depth + 1, mine, my_places)
             };
             allowed = Some(match allowed {
                 None => a,
@@ -317,12 +424,13 @@ impl HazardSearch<'_> {
     }
 
     /// What the voxels below a leaf of value `v` allow (a voxel, or a pruned node whose voxels
-    /// all hold `v`); `all`: the pass updates every one of them.
-    fn leaf(&self, v: f32, all: bool) -> Allowed {
+    /// all hold `v`); `all`: the pass updates every one of them; `last`, `first`: the last and
+    /// first place of those it updates.
+    fn leaf(&mut self, v: f32, all: bool, last: u32, first: u32) -> Allowed {
         let stays = Candidate {
             value: v,
-            reached: false,
-            left: false,
+            reach: None,
+            leave: None,
         };
         if self.rule.exits_at(v) {
             return Allowed::one(stays);
@@ -330,14 +438,15 @@ impl HazardSearch<'_> {
         let f = self.rule.apply(v);
         if f == v {
             // an update that changes nothing still checks the ancestors for pruning
+            self.degenerate = true;
             return Allowed::one(Candidate {
-                reached: true,
-                left: true,
+                reach: Some(0),
+                leave: Some(1),
                 ..stays
             });
         }
         let left = Candidate {
-            left: true,
+            leave: Some(first),
             ..stays
         };
         if all {
@@ -346,8 +455,8 @@ impl HazardSearch<'_> {
                     left,
                     Candidate {
                         value: f,
-                        reached: true,
-                        left: false,
+                        reach: Some(last),
+                        leave: None,
                     },
                 ],
                 len: 2,

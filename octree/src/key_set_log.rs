@@ -83,6 +83,11 @@ impl KeySetLog {
         self.keys.is_empty()
     }
 
+    /// The keys in the order they were first inserted (cheap, unlike [`KeySetLog::order`]).
+    pub fn keys(&self) -> &[Key] {
+        &self.keys
+    }
+
     /// Whether `key` is in the set.
     pub fn contains(&self, key: &Key) -> bool {
         self.seen.contains(*key)

@@ -9,7 +9,8 @@ Inserts OctoMap's scan.dat (88206 points of a 3D laser scan, one frame) with
 octomap-python's ``insertPointCloud`` and with octoquant (``OcTree.insertPointCloud`` on all
 cores, ``Mapper`` in exact mode with one thread, and quantized mode against octomap-python's
 ``discretize=True``), and into a ``ColorOcTree`` with both (OctoMap's updates in its key sets'
-order), checks that the ``.bt`` (colour tree: ``.ot``) bytes are identical, and prints the
+order), into an empty one and, from another origin, into one whose leaves all have colours
+of their own (where the order shows), checks that the ``.bt`` (colour tree: ``.ot``) bytes are identical, and prints the
 median times and the ratios of one run.
 """
 
@@ -114,9 +115,31 @@ def main():
         ot_omc,
     )
 
+    # a second scan, from another origin, into a tree whose leaves all have colours of their
+    # own: prunes and re-expansions move colours, so OctoMap's order is followed where it shows
+    base = octomap.ColorOcTree(res)
+    base.insertPointCloud(pts, origin)
+    for i, it in enumerate(base.begin_leafs()):
+        base.setNodeColor(it.getCoordinate(), i % 251, (7 * i) % 253, (13 * i) % 255)
+    colored = base.write()
+    second = np.array([0.3, 0.2, 0.1])
+    t_oms, ot_oms = run(
+        "octomap-python ColorOcTree, 2nd scan, coloured tree",
+        lambda: octomap.ColorOcTree.read(colored),
+        lambda t: t.insertPointCloud(pts, second),
+    )
+    run(
+        "octoquant ColorOcTree, 2nd scan, coloured tree",
+        lambda: octoquant.ColorOcTree.read(colored),
+        lambda t: t.insertPointCloud(pts, second),
+        ot_oms,
+    )
+
     width = max(len(r[0]) for r in rows)
     for name, t, same in rows:
-        if "ColorOcTree" in name:
+        if "2nd scan" in name:
+            base = t_oms
+        elif "ColorOcTree" in name:
             base = t_omc
         elif "discretize" in name or "quantized" in name:
             base = t_omd
