@@ -41,6 +41,7 @@ fn main() {
     stamped_ops(&mut seeds);
     frame_pairs(&mut seeds);
     color_point_clouds(&mut seeds);
+    color_passes(&mut seeds);
     binvox(&mut seeds);
     count_frames(&mut seeds);
     tiles(&mut seeds);
@@ -1070,6 +1071,15 @@ fn color_point_clouds(s: &mut Seeds) {
         s,
         "color_point_clouds",
         0xd1b5_4a32_d192_ed03,
+        &[64, 256, 1024, 4096],
+    );
+}
+
+fn color_passes(s: &mut Seeds) {
+    random_seeds(
+        s,
+        "color_passes",
+        0x2545_f491_4f6c_dd1d,
         &[64, 256, 1024, 4096],
     );
 }
