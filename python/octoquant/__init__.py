@@ -6,6 +6,8 @@ Rust library, with the GIL released during heavy calls. See ``python/README.md``
 migration table.
 """
 
+import abc
+
 from octoquant._octoquant import (
     ColorMapper,
     ColorOcTree,
@@ -33,6 +35,26 @@ from octoquant._octoquant import (
     write_frames,
 )
 
+
+
+class OccupancyOcTreeBase(abc.ABC):
+    """The occupancy trees' common base, as octomap-python's ``OccupancyOcTreeBase``:
+    ``isinstance(t, OccupancyOcTreeBase)`` holds for every ``OcTree``, ``ColorOcTree`` and
+    ``OcTreeStamped``, so that code checking for octomap-python's base runs unchanged. It is
+    not a tree: constructing it raises TypeError (octomap-python's gives an object whose calls
+    have no tree behind them)."""
+
+    def __new__(cls, *args, **kwargs):
+        raise TypeError(
+            "OccupancyOcTreeBase is the trees' common base; construct OcTree, ColorOcTree or "
+            "OcTreeStamped"
+        )
+
+
+for _tree in (OcTree, ColorOcTree, OcTreeStamped):
+    OccupancyOcTreeBase.register(_tree)
+del _tree
+
 __all__ = [
     "ColorMapper",
     "ColorOcTree",
@@ -40,6 +62,7 @@ __all__ = [
     "DensityReducer",
     "Mapper",
     "NullPointerException",
+    "OccupancyOcTreeBase",
     "OcTree",
     "OcTreeKey",
     "OcTreeNode",

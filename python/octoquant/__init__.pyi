@@ -1,5 +1,6 @@
 """Type stubs for octoquant (the extension module octoquant._octoquant)."""
 
+import abc
 import os
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, Literal, Optional, Union, overload
@@ -96,10 +97,14 @@ class leaf_bbx_iterator(iterator_base):
     def __iter__(self) -> Iterator[leaf_bbx_iterator]: ...
     def __next__(self) -> leaf_bbx_iterator: ...
 
-class _OccupancyCalls:
+class OccupancyOcTreeBase(abc.ABC):
     """The calls every tree class shares (octomap-python's ``OccupancyOcTreeBase``): keys and
     points, metrics, the sensor model, the query box of ``insertPointCloud`` and change
-    detection. Only in this stub: at run time each class has them itself."""
+    detection. At run time an abstract base that ``OcTree``, ``ColorOcTree`` and
+    ``OcTreeStamped`` are registered with (``isinstance`` holds), each class having the calls
+    itself; constructing it raises TypeError."""
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> OccupancyOcTreeBase: ...
 
     def isNodeAtThreshold(
         self, node: Union[OcTreeNode, ColorOcTreeNode, OcTreeNodeStamped, iterator_base, None]
@@ -151,7 +156,7 @@ class _OccupancyCalls:
     def numChangesDetected(self) -> int: ...
     def changedKeys(self) -> list[tuple[OcTreeKey, bool]]: ...
 
-class OcTree(_OccupancyCalls):
+class OcTree(OccupancyOcTreeBase):
     """OctoMap's probabilistic occupancy octree, built by octoquant.
 
     ``OcTree(resolution)`` is an empty tree; ``OcTree(filename)`` reads a ``.bt``/``.ot`` file
@@ -343,7 +348,7 @@ class ColorOcTreeNode:
     def childExists(self, i: int) -> bool: ...
 
 
-class ColorOcTree(_OccupancyCalls):
+class ColorOcTree(OccupancyOcTreeBase):
     """OctoMap's ColorOcTree: occupancy plus an RGB colour per node, built by octoquant.
 
     ``ColorOcTree(resolution)`` is an empty tree; ``ColorOcTree(filename)`` reads a ``.ot``
@@ -529,7 +534,7 @@ class OcTreeNodeStamped:
         """Whole seconds of the node's last update (OctoMap's ``getTimestamp``); 0 if never
         stamped, e.g. in a tree read from a file."""
 
-class OcTreeStamped(_OccupancyCalls):
+class OcTreeStamped(OccupancyOcTreeBase):
     """OctoMap's OcTreeStamped: occupancy plus the time (whole seconds) of each node's last
     update, built by octoquant.
 

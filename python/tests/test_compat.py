@@ -402,3 +402,19 @@ def test_frames_read_by_the_rust_readers(octomap, data_dir, scan_dat):
         b.insertPointCloud(pts, origin, 8.0)
     assert_same_tree(a, b)
     assert b.writeBinary() == a.writeBinary()
+
+
+def test_the_common_base_is_octomap_pythons(octomap):
+    """``OccupancyOcTreeBase`` relates to the tree classes as octomap-python's does, and is no
+    tree of its own."""
+    pairs = [(octomap.OcTree, octoquant.OcTree), (octomap.ColorOcTree, octoquant.ColorOcTree)]
+    for theirs, ours in pairs:
+        assert isinstance(theirs(0.1), octomap.OccupancyOcTreeBase)
+        assert isinstance(ours(0.1), octoquant.OccupancyOcTreeBase)
+        assert issubclass(ours, octoquant.OccupancyOcTreeBase)
+    # OctoMap's OcTreeStamped derives from OccupancyOcTreeBase too
+    assert isinstance(octoquant.OcTreeStamped(0.1), octoquant.OccupancyOcTreeBase)
+    for other in (octoquant.OcTreeNode, octoquant.Mapper, octoquant.OcTreeKey):
+        assert not issubclass(other, octoquant.OccupancyOcTreeBase)
+    with pytest.raises(TypeError, match="common base"):
+        octoquant.OccupancyOcTreeBase()
