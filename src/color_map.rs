@@ -14,7 +14,9 @@
 //!    octomap_server sees the cloud), as are points outside the map;
 //! 2. one miss per free voxel (the rays' voxels that are not end-point voxels), then one hit
 //!    per end-point voxel, eager (`updateNode(key, occupied)`, pruning on the way), with the
-//!    colour bookkeeping of every expansion and pruning ([`ColorOcTree::update_node`]);
+//!    colour bookkeeping of every expansion and pruning ([`ColorOcTree::update_keys`]: the
+//!    same result as [`ColorOcTree::update_node`] on each key in turn, through the plain
+//!    tree's batched walk except below the few nodes a prune could undo within the pass);
 //! 3. `prune()` (octomap_server's default `compress_map`).
 //!
 //! The free and occupied voxel sets are those of OctoMap's `computeUpdate`, built as
@@ -602,7 +604,9 @@ fn apply(tree: &mut ColorOcTree, merge: ColorMerge, scan: ColorScan) -> FrameSta
 /// order of OctoMap's `KeySet`s, `inner` as `lazy_eval` asks, and no `prune()`. Colours change
 /// only through the structure (expansions copy a node's colour down, prunes average the
 /// children's), which is why the order is OctoMap's: a node pruned by one update and expanded
-/// by a later one hands its children the average colour.
+/// by a later one hands its children the average colour. The updates go through
+/// [`ColorOcTree::update_key_set`], which builds the `KeySet`s' order only when some node
+/// could be pruned and expanded again within the pass (never on an empty tree).
 ///
 /// `max_range` as OctoMap's `maxrange` (`None` for its -1): a farther point frees its ray cut
 /// there, without the cut end's voxel and without an occupied voxel. Points with a NaN or
