@@ -172,8 +172,10 @@ proptest! {
         update in prop_oneof![Just(Update::Hit), Just(Update::Miss), Just(Update::LogOdds(0.0))],
         lazy: bool,
         twice: bool,
+        track: bool,
     ) {
-        let t = build(&steps);
+        let mut t = build(&steps);
+        t.enable_change_detection(track);
         let mut keys: Vec<Key> = Vec::new();
         for i in pass {
             let k = brick_voxel(i);
@@ -188,6 +190,9 @@ proptest! {
         prop_assert_eq!(a.size(), b.size());
         prop_assert_eq!(a.num_colored_nodes(), b.num_colored_nodes());
         prop_assert!(ot(&a) == ot(&b));
+        // change detection records the same voxels (their set does not depend on the order)
+        let changes = |t: &ColorOcTree| t.occupancy().changed_keys().collect::<Vec<_>>();
+        prop_assert_eq!(changes(&a), changes(&b));
     }
 }
 
