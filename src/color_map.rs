@@ -655,7 +655,19 @@ pub fn insert_point_cloud(
             occupied.insert(key);
         }
     }
-    // the KeySets' order is built only if a colour can depend on it
+    update_key_sets(tree, &free, &occupied, inner)
+}
+
+/// `insertPointCloud`'s updates of a scan's `KeySet`s on a [`ColorOcTree`]: one miss per key of
+/// `free` that `occupied` does not hold, then one hit per key of `occupied`, each set in the
+/// order OctoMap's `KeySet` iterates it, which is built only if a colour can depend on it
+/// ([`ColorOcTree::update_key_set`]). Returns the counts of free and occupied voxels updated.
+pub fn update_key_sets(
+    tree: &mut ColorOcTree,
+    free: &KeySetOrder,
+    occupied: &KeySetOrder,
+    inner: InnerNodes,
+) -> (usize, usize) {
     let only_free = |keys: Vec<Key>| -> Vec<Key> {
         keys.into_iter().filter(|k| !occupied.contains(k)).collect()
     };

@@ -248,14 +248,7 @@ pub fn update_color_key_sets(tree: &mut ColorOcTree, free: &[Key], occupied: &[K
     for &k in occupied {
         o.insert(k);
     }
-    let inner = InnerNodes::from_lazy(lazy);
-    // the KeySets' order is built only if a colour can depend on it
-    let only_free = |keys: Vec<Key>| -> Vec<Key> {
-        keys.into_iter().filter(|k| !o.contains(k)).collect()
-    };
-    let free_keys = only_free(f.keys().to_vec());
-    tree.update_key_set(&free_keys, || only_free(f.order()), Update::Miss, inner);
-    tree.update_key_set(o.keys(), || o.order(), Update::Hit, inner);
+    octoquant::color_map::update_key_sets(tree, &f, &o, InnerNodes::from_lazy(lazy));
 }
 
 /// The voxels a segment crosses by OctoMap's DDA (`computeRayKeys`), end voxel excluded;
