@@ -147,7 +147,7 @@ fn build(steps: &[Build]) -> ColorOcTree {
                         .unwrap();
                 }
                 for j in first..first + span {
-                    let shade = c.wrapping_add(j as u8 * 37);
+                    let shade = c.wrapping_add((j as u8).wrapping_mul(37));
                     t.set_node_color(brick_voxel(j), Color::new(shade, 255 - shade, j as u8));
                 }
             }
