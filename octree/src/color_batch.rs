@@ -31,14 +31,26 @@
 //! The test ignores the rest of the structure (a child must be a leaf too), so it may name a
 //! node that is never pruned: that costs time, never exactness.
 //!
+//! With the order, the same search is sharper: every voxel that leaves `c` must come after
+//! the check and every voxel that reaches `c` from another value no later than it, so a node
+//! is a hazard only if the last such voxel to reach `c` comes before the first to leave it.
+//! The order is asked for only when the search without it finds a node (a scan's `KeySet`
+//! order costs more than its updates; an empty tree never needs it).
+//!
 //! # The pass
 //!
-//! The voxels below the topmost hazards are updated one at a time in the given order, with
-//! OctoMap's per-voxel ascent; every other stretch of voxels (sorted by Morton code) goes
-//! through the batched walk, whose hooks copy colours down on expansion and average them on
-//! collapse. Each walk leaves every node it touched refreshed, and an early prune of a node
-//! that is no hazard is its final prune (a later update below it would make it one). With
-//! deferred inner nodes nothing is pruned, so the walk takes the whole pass.
+//! The voxels below the topmost nodes found without the order that hold a hazard in the
+//! given order are updated one at a time in that order, with OctoMap's per-voxel ascent;
+//! every other stretch of voxels (sorted by Morton code) goes through the batched walk, whose
+//! hooks copy colours down on expansion and average them on collapse. Such a node is kept
+//! whole, not cut down to the hazard inside it: the walks on either side of it leave its
+//! ancestors refreshed, and may prune them, before the updates below it are done, which only
+//! the search without the order (any order) shows to be harmless. Each walk leaves every node
+//! it touched refreshed, and an early prune of a node that is no hazard in any order is its
+//! final prune (a later update below it would make it one). A node inside one walk is pruned
+//! only when the walk leaves it for good, after all its updates, so for it no hazard in the
+//! given order suffices. With deferred inner nodes nothing is pruned, so the walk takes the
+//! whole pass.
 
 use crate::color::Color;
 use crate::color_tree::ColorOcTree;
