@@ -104,8 +104,6 @@ class OccupancyOcTreeBase(abc.ABC):
     ``OcTreeStamped`` are registered with (``isinstance`` holds), each class having the calls
     itself; constructing it raises TypeError."""
 
-    def __new__(cls, *args: Any, **kwargs: Any) -> OccupancyOcTreeBase: ...
-
     def isNodeAtThreshold(
         self, node: Union[OcTreeNode, ColorOcTreeNode, OcTreeNodeStamped, iterator_base, None]
     ) -> bool: ...
