@@ -58,6 +58,8 @@ struct Buffers {
     order: Vec<(u64, usize)>,
     /// The points of the `f64` doors ([`crate::compute_update`]) narrowed to `f32`.
     narrowed: Vec<Point3<f32>>,
+    /// Cast on the calling thread alone, whatever the rayon pool ([`ScanUpdate::set_serial`]).
+    serial: bool,
 }
 
 impl ScanUpdate {
@@ -133,6 +135,17 @@ impl ScanUpdate {
     /// scan is applied.
     pub fn pass_buffers(&mut self, other: &mut ScanUpdate) {
         std::mem::swap(&mut self.work, &mut other.work);
+    }
+
+    /// Cast the rays of later scans on the calling thread alone (`true`), or split a large
+    /// scan's rays across the threads of the rayon pool it runs in (`false`, the default).
+    /// For callers that cast several scans at once, a thread each, as [`ScanUpdate`]s of their
+    /// own: a scan split across threads ends with a serial merge of the threads' sets, and a
+    /// thread that joins a split scan late keeps working on it after it is needed elsewhere.
+    /// The sets are the same either way. The setting belongs to the working buffers:
+    /// [`ScanUpdate::pass_buffers`] hands it on with them.
+    pub fn set_serial(&mut self, serial: bool) {
+        self.work.serial = serial;
     }
 
     /// Empty both voxel sets, keeping the allocations of the sets.
@@ -749,7 +762,7 @@ fn compute(
     let origin_key = key_of(conv, origin).map(coded);
     let mut plan = std::mem::take(&mut out.work.plan);
     let threads = rayon::current_num_threads();
-    let parallel = threads > 1 && points.len() >= PARALLEL_MIN_POINTS;
+    let parallel = !out.work.serial && threads > 1 && points.len() >= PARALLEL_MIN_POINTS;
     let skips: Skips<'_> = match grid {
         Some(g)
             if model == RayModel::Dda
