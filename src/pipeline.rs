@@ -60,8 +60,9 @@ pub struct Mapper {
     resumed_from: Option<PathBuf>,
 }
 
-/// When the pipelined insertion ([`Mapper::insert_frames`], [`Mapper::insert_stream`]
-/// without checkpoints) casts two frames at once, each on a thread of its own, instead of one
+/// When the pipelined insertion in steps ([`Mapper::insert_frames`] on fewer than
+/// [`FLOW_MIN_FRAMES`] frames; longer runs and streams are free-running, every frame cast on a
+/// thread of its own) casts two frames at once, each on a thread of its own, instead of one
 /// frame at a time on all threads. Pairs keep both threads busy on frames whose casting is
 /// short or has serial parts (depth images: about 5 ms a frame, where a split frame's second
 /// thread joins late), at the cost of the working buffers (hash tables, sorted sets) of two
@@ -86,6 +87,13 @@ pub enum FramePairs {
 /// ten thousand), not norlab's LiDAR frames (about 180 000 at 0.2 m, 700 000 at 0.1 m).
 pub const SMALL_FRAME_BRICKS: usize = 1 << 16;
 
+/// Runs of this many frames in memory and more, and every stream, go through the free-running
+/// pipeline ([`Mapper::insert_frames`]): each thread casts whole frames, so the first and last
+/// frames keep a thread each busy while the others wait; shorter runs are cast frame by frame
+/// on all threads. On norlab's LiDAR frames at 0.2 m, two threads, the free-running pipeline
+/// was as fast or faster from 5 frames on, mixed at 3 (BENCHMARKS.md, history session 37).
+pub const FLOW_MIN_FRAMES: usize = 4;
+
 /// The buffers of one frame in flight: its key sets and scratch, and its quantized end points.
 type Slot = (ScanUpdate, Vec<Point3<f32>>);
 
@@ -102,7 +110,8 @@ pub enum RunError {
 }
 
 /// Frames read ahead of insertion by [`Mapper::insert_stream`]'s reader thread, at most: with
-/// the frames being cast (one, or two in [`FramePairs`]), the frames in memory at any moment.
+/// the frames in the pipeline (at most two more than threads), the frames in memory at any
+/// moment.
 pub const READ_AHEAD: usize = 2;
 
 impl Mapper {
@@ -141,8 +150,10 @@ impl Mapper {
         self
     }
 
-    /// This mapper with `pairs` as the policy for casting two frames at once (see
-    /// [`FramePairs`]; the default is [`FramePairs::Auto`]).
+    /// This mapper with `pairs` as the policy for casting two frames at once in runs of fewer
+    /// than [`FLOW_MIN_FRAMES`] frames (see [`FramePairs`]; the default is
+    /// [`FramePairs::Auto`]). Longer runs and streams cast every frame on a thread of its own
+    /// whatever the policy.
     pub fn with_frame_pairs(mut self, pairs: FramePairs) -> Self {
         self.frame_pairs = pairs;
         self
@@ -220,14 +231,17 @@ impl Mapper {
 
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
-    /// byte), but pipelined: while one thread applies frame `i` to the tree, the rays of frame
-    /// `i + 1` are cast on the others, or, for small frames or cheap tree updates, two frames are
-    /// cast at once, a thread each ([`FramePairs`]). With one rayon thread it is a plain loop.
+    /// byte), but pipelined. From [`FLOW_MIN_FRAMES`] frames on, each thread casts whole frames
+    /// and whichever thread finds the tree free applies the next one (the free-running
+    /// pipeline, module `pipeline_flow`); a shorter run casts frame by frame on all threads
+    /// while one thread applies the frame before, or, for small frames or cheap tree updates,
+    /// casts two frames at once, a thread each ([`FramePairs`]). With one rayon thread it is a
+    /// plain loop.
     ///
     /// Each frame's `seconds` is its share of the wall time from the end of the previous
-    /// step's tree updates to the end of its own (one frame per step, or the two of a pair:
-    /// the sum over frames is the run's time); `ray_seconds` and `tree_seconds` are measured
-    /// inside each stage and overlap between frames.
+    /// tree update to the end of its own (the two of a pair share their step's: the sum over
+    /// frames is the run's time); `ray_seconds` and `tree_seconds` are measured inside each
+    /// stage and overlap between frames.
     pub fn insert_frames(&mut self, frames: &[Frame]) -> Vec<FrameStats> {
         if self.options.mode == InsertMode::Simple
             || rayon::current_num_threads() < 2
@@ -244,6 +258,7 @@ impl Mapper {
                 Ok(())
             },
             true,
+            frames.len() >= FLOW_MIN_FRAMES,
         );
         // frames in memory cannot fail to read, and collecting the stats cannot fail
         debug_assert!(done.is_ok());
@@ -309,12 +324,12 @@ impl Mapper {
     /// first error of their source), of which the first `stats().frames` are already in the
     /// tree (none for a new mapper; the checkpoint's position for a resumed one, whose
     /// skipped frames must have the checkpoint's fingerprint). Only a few frames are in memory
-    /// at any time: with two or more rayon threads a reader thread reads at most
-    /// [`READ_AHEAD`] frames ahead while one frame's rays are cast (or two, see [`FramePairs`];
-    /// not with `checkpoint`) and the previous ones are applied to the tree (the pipelining of
-    /// [`Mapper::insert_frames`]; a frame is dropped once cast); with one thread,
-    /// frames are read, cast and applied in turn. The tree is the same, byte for byte, either
-    /// way and for any number of frames.
+    /// at any time: with `n` ≥ 2 rayon threads a reader thread reads at most [`READ_AHEAD`]
+    /// frames ahead of the pipeline, which holds at most `n + 2` frames between taking and
+    /// counting them (the free-running pipeline of [`Mapper::insert_frames`]: a frame cast by
+    /// every thread, one in the tree, one waiting; a frame is dropped once cast, its key sets
+    /// kept until it is in the tree); with one thread, frames are read, cast and applied in
+    /// turn. The tree is the same, byte for byte, either way and for any number of frames.
     ///
     /// With `checkpoint`, a checkpoint of the run `identity` is saved every `every` frames and
     /// after the last, so that a killed run can be resumed ([`Mapper::resume`]) and ends with
@@ -424,7 +439,7 @@ impl Mapper {
         } else {
             // a checkpoint must hold exactly the frames counted, so frames are applied one per
             // step then
-            self.pipeline(frames, &mut after, checkpoint.is_none())?;
+            self.pipeline(frames, &mut after, checkpoint.is_none(), true)?;
         }
         if let Some((c, identity)) = checkpoint {
             // the last frame (or a run with none, or resumed after its last) ends checkpointed
@@ -438,16 +453,18 @@ impl Mapper {
     }
 
     /// The pipelined loop of [`Mapper::insert_frames`] and [`Mapper::insert_stream`] (frames
-    /// owned or borrowed): while frame `i` is applied to the tree, the rays of frame `i + 1`
-    /// are cast (or, in pairs, frames `i` and `i + 1` are applied while `i + 2` and `i + 3`
-    /// are cast; see [`FramePairs`]); `after` runs with each frame's stats once it is in the
-    /// tree. Without `pairs` the tree then holds exactly the frames counted (checkpoints need
-    /// that); with them, the other frame of its pair may be in it too.
-    fn pipeline<F: Borrow<Frame> + Sync>(
+    /// owned or borrowed): with `flow` the free-running pipeline (module `pipeline_flow`),
+    /// else in steps: while frame `i` is applied to the tree, the rays of frame `i + 1` are
+    /// cast (or, in pairs, frames `i` and `i + 1` are applied while `i + 2` and `i + 3` are
+    /// cast; see [`FramePairs`]). `after` runs with each frame's stats once it is in the tree.
+    /// Without `pairs` the tree then holds exactly the frames counted (checkpoints need that);
+    /// with them, other frames may be in it too.
+    fn pipeline<F: Borrow<Frame> + Send + Sync>(
         &mut self,
         frames: &mut dyn Iterator<Item = Result<F, RunError>>,
         after: &mut dyn FnMut(&mut Mapper, &FrameStats) -> Result<(), RunError>,
         pairs: bool,
+        flow: bool,
     ) -> Result<(), RunError> {
         // the buffers of the frames in flight: the mapper's two, and those kept from pairs
         // before (the steps make more when pairs need them)
@@ -471,7 +488,11 @@ impl Mapper {
         } else {
             FramePairs::Never
         };
-        let done = self.pipeline_steps(frames, after, policy, &mut slots);
+        let done = if flow {
+            self.pipeline_flow(frames, after, !pairs, &mut slots)
+        } else {
+            self.pipeline_steps(frames, after, policy, &mut slots)
+        };
         // every slot is back in `slots` (the steps return them before any error)
         let mut back = slots.into_iter().flatten();
         let mut put = |u: &mut ScanUpdate, c: &mut Vec<Point3<f32>>| {
@@ -996,6 +1017,10 @@ fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
 /// The coloured and stamped mappers' sensor-frame insertions against their naive definition:
 /// the points outside the crop box in the sensor's own axes, moved into the world by
 /// `pose * p` in `f64` narrowed once, inserted from the pose's translation.
+#[path = "pipeline_flow.rs"]
+mod flow;
+pub use flow::LARGE_FRAME_BRICKS;
+
 #[cfg(test)]
 #[path = "pipeline_sensor_tests.rs"]
 mod sensor_frame_tests;

@@ -3,7 +3,9 @@
 //! number of frames (odd or even, so that a pair is left open at the end), the mode and the
 //! input; pairs apply their frames in order; each frame gets its own statistics, in order; a
 //! source error stops the run after the frames before it, also in the middle of a pair;
-//! progress is reported once per frame.
+//! progress is reported once per frame. Runs of `FLOW_MIN_FRAMES` frames and more, and the
+//! streams, go through the free-running pipeline whatever the policy (tests/pipeline_flow.rs),
+//! so the prefixes of every length here cover both.
 
 use crate::common::{self, first_diff};
 use octoquant::formats::{read_frames, ReadOptions};

@@ -21,6 +21,7 @@ mod merge;
 mod octree_diff;
 mod output_failures;
 mod peers;
+mod pipeline_flow;
 mod query;
 mod raycast_diff;
 mod reduce;
