@@ -1,9 +1,11 @@
 //! Structure-aware: a few small frames (any `f32` coordinates, NaN, infinities and points
 //! outside the key range included; empty frames; origins anywhere) inserted by
 //! `Mapper::insert_frames` on two threads with frames cast in pairs (`FramePairs::Always`)
-//! and one at a time (`FramePairs::Never`), and by one `Mapper::insert` per frame. No call may
-//! panic, all three must give the same `.ot` bytes, and the pipelined runs the serial run's
-//! per-frame counts, in order.
+//! and one at a time (`FramePairs::Never`) (from `FLOW_MIN_FRAMES` frames on, the
+//! free-running pipeline, whatever the policy), by `Mapper::insert_stream` (always
+//! free-running) on two and three threads, and by one `Mapper::insert` per frame. No call may
+//! panic, all must give the same `.ot` bytes, and the pipelined runs the serial run's
+//! per-frame counts, in order (progress, for the streams).
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
@@ -69,5 +71,20 @@ fuzz_target!(|input: Input| {
         );
         let got_stats: Vec<[usize; 6]> = stats.iter().map(frame_counts).collect();
         assert_eq!(got_stats, want_stats, "{pairs:?}: other per-frame counts");
+    }
+    for threads in [2, 3] {
+        let (got, seen) = pool(threads).install(|| {
+            let mut m = Mapper::new(options.clone()).expect("a valid resolution");
+            let source = frames.iter().cloned().map(Ok::<Frame, std::io::Error>);
+            let mut seen = Vec::new();
+            m.insert_stream(source, None, |s| seen.push(s.frames))
+                .expect("frames in memory do not fail");
+            (written(|w| write_ot(m.tree(), w)), seen)
+        });
+        assert!(
+            got == want,
+            "streamed, {threads} threads: another tree than one insert per frame"
+        );
+        assert_eq!(seen, (1..=frames.len()).collect::<Vec<_>>());
     }
 });

@@ -136,18 +136,19 @@ pub fn frame_counts(s: &octoquant::pipeline::FrameStats) -> [usize; 6] {
 /// A rayon pool of `threads` threads, made once per thread count and kept (a target's every
 /// input runs on the same pools).
 pub fn pool(threads: usize) -> &'static rayon::ThreadPool {
-    static POOLS: OnceLock<[rayon::ThreadPool; 2]> = OnceLock::new();
+    static POOLS: OnceLock<[rayon::ThreadPool; 3]> = OnceLock::new();
     let make = |n| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .expect("a thread pool")
     };
-    let pools = POOLS.get_or_init(|| [make(1), make(2)]);
+    let pools = POOLS.get_or_init(|| [make(1), make(2), make(3)]);
     match threads {
         1 => &pools[0],
         2 => &pools[1],
-        _ => panic!("the fuzz targets use pools of one or two threads"),
+        3 => &pools[2],
+        _ => panic!("the fuzz targets use pools of one to three threads"),
     }
 }
 
