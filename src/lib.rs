@@ -90,6 +90,4 @@ pub use octoquant_raycast as raycast;
 /// tile, applied per tile, joined; see [`tiled`] for frames in, tile lists out.
 pub use octoquant_tiles as tiles;
 pub use parry3d;
-pub use pipeline::{
-    FramePairs, Mapper, MapperOptions, FLOW_MIN_FRAMES, LARGE_FRAME_BRICKS, SMALL_FRAME_BRICKS,
-};
+pub use pipeline::{FramePairs, Mapper, MapperOptions, FLOW_MIN_FRAMES, SMALL_FRAME_BRICKS};

@@ -60,9 +60,9 @@ pub struct Mapper {
     resumed_from: Option<PathBuf>,
 }
 
-/// When the pipelined insertion in steps ([`Mapper::insert_frames`] on fewer than
-/// [`FLOW_MIN_FRAMES`] frames; longer runs and streams are free-running, every frame cast on a
-/// thread of its own) casts two frames at once, each on a thread of its own, instead of one
+/// When the pipelined insertion in steps (every run that is not free-running: see
+/// [`FLOW_MIN_FRAMES`]; a free-running run casts every frame on a thread of its own) casts two
+/// frames at once, each on a thread of its own, instead of one
 /// frame at a time on all threads. Pairs keep both threads busy on frames whose casting is
 /// short or has serial parts (depth images: about 5 ms a frame, where a split frame's second
 /// thread joins late), at the cost of the working buffers (hash tables, sorted sets) of two
@@ -88,10 +88,16 @@ pub enum FramePairs {
 pub const SMALL_FRAME_BRICKS: usize = 1 << 16;
 
 /// Runs of this many frames in memory and more, and every stream, go through the free-running
-/// pipeline ([`Mapper::insert_frames`]): each thread casts whole frames, so the first and last
-/// frames keep a thread each busy while the others wait; shorter runs are cast frame by frame
-/// on all threads. On norlab's LiDAR frames at 0.2 m, two threads, the free-running pipeline
-/// was as fast or faster from 5 frames on, mixed at 3 (BENCHMARKS.md, history session 37).
+/// pipeline ([`Mapper::insert_frames`]) in [`InsertMode::Exact`]: each thread casts whole
+/// frames, so the first and last frames keep a thread each busy while the others wait;
+/// shorter runs are cast frame by frame on all threads. On norlab's LiDAR frames at 0.2 m, two
+/// threads, the free-running pipeline was as fast or faster from 5 frames on, mixed at 3.
+///
+/// Why `exact` only: it pays off where casting is the larger part of a frame, as an exact ray
+/// for every point is. The other modes cast one ray per end voxel, and on LiDAR frames at 0.1
+/// m their tree update is the larger part; there, a casting beside every tree update (instead
+/// of a split casting that ends early) made the tree update a tenth slower, and two threads
+/// gained less over one than in steps (1.5x against 1.75x; BENCHMARKS.md, history session 37).
 pub const FLOW_MIN_FRAMES: usize = 4;
 
 /// The buffers of one frame in flight: its key sets and scratch, and its quantized end points.
@@ -110,7 +116,7 @@ pub enum RunError {
 }
 
 /// Frames read ahead of insertion by [`Mapper::insert_stream`]'s reader thread, at most: with
-/// the frames in the pipeline (at most two more than threads), the frames in memory at any
+/// the frames in the pipeline (see [`Mapper::insert_stream`]), the frames in memory at any
 /// moment.
 pub const READ_AHEAD: usize = 2;
 
@@ -150,9 +156,9 @@ impl Mapper {
         self
     }
 
-    /// This mapper with `pairs` as the policy for casting two frames at once in runs of fewer
-    /// than [`FLOW_MIN_FRAMES`] frames (see [`FramePairs`]; the default is
-    /// [`FramePairs::Auto`]). Longer runs and streams cast every frame on a thread of its own
+    /// This mapper with `pairs` as the policy for casting two frames at once in runs that are
+    /// not free-running (see [`FLOW_MIN_FRAMES`] and [`FramePairs`]; the default is
+    /// [`FramePairs::Auto`]). Free-running runs cast every frame on a thread of its own
     /// whatever the policy.
     pub fn with_frame_pairs(mut self, pairs: FramePairs) -> Self {
         self.frame_pairs = pairs;
@@ -231,12 +237,12 @@ impl Mapper {
 
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
-    /// byte), but pipelined. From [`FLOW_MIN_FRAMES`] frames on, each thread casts whole frames
-    /// and whichever thread finds the tree free applies the next one (the free-running
-    /// pipeline, module `pipeline_flow`); a shorter run casts frame by frame on all threads
-    /// while one thread applies the frame before, or, for small frames or cheap tree updates,
-    /// casts two frames at once, a thread each ([`FramePairs`]). With one rayon thread it is a
-    /// plain loop.
+    /// byte), but pipelined. In [`InsertMode::Exact`], from [`FLOW_MIN_FRAMES`] frames on, each
+    /// thread casts whole frames and whichever thread finds the tree free applies the next one
+    /// (the free-running pipeline, module `pipeline_flow`); other runs cast frame by frame on
+    /// all threads while one thread applies the frame before, or, for small frames or cheap
+    /// tree updates, cast two frames at once, a thread each ([`FramePairs`]). With one rayon
+    /// thread it is a plain loop.
     ///
     /// Each frame's `seconds` is its share of the wall time from the end of the previous
     /// tree update to the end of its own (the two of a pair share their step's: the sum over
@@ -258,7 +264,7 @@ impl Mapper {
                 Ok(())
             },
             true,
-            frames.len() >= FLOW_MIN_FRAMES,
+            frames.len() >= FLOW_MIN_FRAMES && self.options.mode == InsertMode::Exact,
         );
         // frames in memory cannot fail to read, and collecting the stats cannot fail
         debug_assert!(done.is_ok());
@@ -325,11 +331,13 @@ impl Mapper {
     /// tree (none for a new mapper; the checkpoint's position for a resumed one, whose
     /// skipped frames must have the checkpoint's fingerprint). Only a few frames are in memory
     /// at any time: with `n` ≥ 2 rayon threads a reader thread reads at most [`READ_AHEAD`]
-    /// frames ahead of the pipeline, which holds at most `n + 2` frames between taking and
-    /// counting them (the free-running pipeline of [`Mapper::insert_frames`]: a frame cast by
-    /// every thread, one in the tree, one waiting; a frame is dropped once cast, its key sets
-    /// kept until it is in the tree); with one thread, frames are read, cast and applied in
-    /// turn. The tree is the same, byte for byte, either way and for any number of frames.
+    /// frames ahead of the pipeline of [`Mapper::insert_frames`], which holds at most `2n + 1`
+    /// frames between taking and counting them in [`InsertMode::Exact`] (free-running: one in
+    /// each thread's hand, one in each of `n` result slots, one waiting) and at most four in
+    /// the other modes (steps: one or two being cast, one or two waiting for the tree); a frame
+    /// is dropped once cast, its key sets kept until it is in the tree. With one thread, frames
+    /// are read, cast and applied in turn. The tree is the same, byte for byte, either way and
+    /// for any number of frames.
     ///
     /// With `checkpoint`, a checkpoint of the run `identity` is saved every `every` frames and
     /// after the last, so that a killed run can be resumed ([`Mapper::resume`]) and ends with
@@ -439,7 +447,8 @@ impl Mapper {
         } else {
             // a checkpoint must hold exactly the frames counted, so frames are applied one per
             // step then
-            self.pipeline(frames, &mut after, checkpoint.is_none(), true)?;
+            let flow = self.options.mode == InsertMode::Exact;
+            self.pipeline(frames, &mut after, checkpoint.is_none(), flow)?;
         }
         if let Some((c, identity)) = checkpoint {
             // the last frame (or a run with none, or resumed after its last) ends checkpointed
@@ -1019,7 +1028,6 @@ fn apply(tree: &mut OcTree, update: &ScanUpdate, lazy: bool) -> f64 {
 /// `pose * p` in `f64` narrowed once, inserted from the pose's translation.
 #[path = "pipeline_flow.rs"]
 mod flow;
-pub use flow::LARGE_FRAME_BRICKS;
 
 #[cfg(test)]
 #[path = "pipeline_sensor_tests.rs"]

@@ -1,14 +1,23 @@
-//! The free-running pipeline of [`Mapper::insert_frames`] and [`Mapper::insert_stream`]: every
-//! frame is cast whole by one thread, and whichever thread finds the tree free and the next
-//! frame cast applies it. No thread waits while there is a frame to cast or to apply.
+//! The free-running pipeline of [`Mapper::insert_frames`] and [`Mapper::insert_stream`] in
+//! `exact` mode (see [`super::FLOW_MIN_FRAMES`] for why only there): every frame is cast whole
+//! by one thread, and whichever thread finds the tree free and the next frame cast applies
+//! it. No thread waits while there is a frame to cast or to apply.
 //!
 //! Why not each frame split across all threads, the tree update of one frame beside the
-//! casting of the next, as before: a split frame ends with work only one thread can do (each
+//! casting of the next, as in steps: a split frame ends with work only one thread can do (each
 //! thread sorts its own set, the larger one last, then the sets are merged), and in lock step
 //! each casting waited for the tree update beside it, and the other way round. On norlab's
 //! LiDAR frames at 0.2 m (tree update about 17 ms, casting 26 ms on one thread) a step took
 //! 24 ms, two of them with one thread idle. Cast whole, a frame needs no merge, and the two
 //! kinds of work interleave freely: about (tree + casting) / threads per frame.
+//!
+//! Memory: each thread casts into working buffers of its own (a hash table the size of a
+//! frame) and keeps the frame's sets there, unsorted, until one of the `n` result slots is
+//! free ([`ScanUpdate::set_deferred`]); so a thread casts the next frame while the slots wait
+//! for the tree, and only `n` frames' sorted sets exist at once. With a spare slot instead,
+//! `map`'s peak memory on norlab's 14 frames at 0.1 m rose from 243 to 291 MB, beyond issue
+//! 28's bound (273 MB); this way it is 262 MB. A frame takes a slot only if as many stay free
+//! as frames before it still want one, so the frame the tree waits for always finds one.
 //!
 //! The tree takes the same key sets in the same order as [`Mapper::insert`] on each frame in
 //! turn, so it is the same, byte for byte, for any number of threads. The caller's thread
@@ -21,11 +30,11 @@ use crate::checkpoint::frame_digest;
 use crate::frame::Frame;
 use crate::map_stats::FrameStats;
 use crate::mapper_options::MapperOptions;
-use nalgebra::UnitQuaternion;
+use nalgebra::{Point3, UnitQuaternion};
 use octoquant_octree::{KeyConverter, OcTree};
 use octoquant_raycast::ScanUpdate;
 use std::borrow::Borrow;
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Instant;
 
@@ -36,8 +45,11 @@ type Outcome = (FrameStats, Option<u64>);
 struct Flow<F> {
     /// Frames read and not yet taken by a thread, with their places in the run, in order.
     todo: VecDeque<(usize, F)>,
-    /// Buffers free for a casting.
+    /// Result buffers free for a frame cast.
     free: Vec<Slot>,
+    /// Places of the frames taken and not yet in a slot (being cast, or cast and waiting for
+    /// one).
+    unslotted: BTreeSet<usize>,
     /// Frames cast, by place, waiting for the tree.
     cast: BTreeMap<usize, (Slot, Outcome)>,
     /// The tree, when no thread is applying a frame to it.
@@ -54,46 +66,13 @@ struct Flow<F> {
     end: bool,
     /// The run stops: threads leave without taking more work.
     stop: bool,
-    /// Slots to free rather than reuse, once frames turn out large (see [`LARGE_FRAME_BRICKS`]).
-    surplus: usize,
-    /// A frame of at least [`LARGE_FRAME_BRICKS`] bricks has been cast.
-    large: bool,
 }
 
-/// Frames of this many bricks (of 4x4x4 voxels) or more keep one slot fewer in circulation: a
-/// slot per thread instead of one more. Each thread keeps a hash table the size of a whole
-/// frame (as a frame split across threads does not), and each slot a frame's key sets; with
-/// norlab's frames at 0.1 m (about 700 000 bricks: a 32 MB table and 11 MB of sets) the spare
-/// slot and the second table took `map`'s peak memory on its 14 frames from 243 to 291 MB,
-/// beyond issue 28's bound for it (1.5x the tree plus 64 MB, 273 MB), and without the slot it
-/// is 258 MB. Without it a thread that has cast a frame waits, while the tree takes the one
-/// before, for the slot that frame frees; on those frames that costs what the spare slot
-/// gained (BENCHMARKS.md, history session 37). Frames at 0.2 m (about 180 000 bricks) and
-/// depth images keep it.
-pub const LARGE_FRAME_BRICKS: usize = 1 << 19;
-
 impl<F> Flow<F> {
-    /// A frame was cast into `slot`: if it is the first large one, one slot goes.
-    /// (Runs of one thread do not come here; with two or more there are always two slots
-    /// left.)
-    fn note_cast(&mut self, slot: &Slot) {
-        let bricks = slot.0.free_bricks().len() + slot.0.occupied_bricks().len();
-        if !self.large && bricks >= LARGE_FRAME_BRICKS {
-            self.large = true;
-            // a free slot goes now, else the next one the tree frees
-            if self.free.pop().is_none() {
-                self.surplus = 1;
-            }
-        }
-    }
-
-    /// The tree is done with `slot`: it is free again, unless one slot is to go.
-    fn release(&mut self, slot: Slot) {
-        if self.surplus > 0 {
-            self.surplus -= 1;
-        } else {
-            self.free.push(slot);
-        }
+    /// Whether the frame at `place`, cast, may take a free slot: only if as many stay free as
+    /// frames before it still want one, so that the frame the tree waits for always finds one.
+    fn slot_for(&self, place: usize) -> bool {
+        self.free.len() > self.unslotted.range(..place).count()
     }
 }
 
@@ -152,31 +131,42 @@ enum Step<'a, F> {
     Idle(MutexGuard<'a, Flow<F>>),
 }
 
-impl Worker<'_> {
-    /// Cast `frame` into `slot` with the working buffers of `work`, on this thread alone.
-    fn cast<F: Borrow<Frame>>(&self, frame: &F, slot: &mut Slot, work: &mut ScanUpdate) -> Outcome {
-        // files carry no sensor orientation: the filters' sensor frame has the world's axes
-        let identity = UnitQuaternion::identity();
-        slot.0.pass_buffers(work);
-        let st = prepare(
-            self.conv,
-            self.options,
-            frame.borrow(),
-            &identity,
-            &mut slot.0,
-            &mut slot.1,
-        );
-        slot.0.pass_buffers(work);
-        (st, self.track.then(|| frame_digest(frame.borrow())))
+/// A thread's own buffers: the working buffers it casts with, the end points of quantized
+/// modes, and the frame it has cast and not yet listed into a slot (its sets still in the
+/// working buffers' tables: see [`ScanUpdate::set_deferred`]).
+struct Hand {
+    work: ScanUpdate,
+    centres: Vec<Point3<f32>>,
+    held: Option<(usize, Outcome)>,
+}
+
+impl Hand {
+    fn new<F>(shared: &Shared<F>) -> Self {
+        let mut work = shared.lock().works.pop().unwrap_or_default();
+        work.set_serial(true);
+        work.set_deferred(true);
+        Hand {
+            work,
+            centres: Vec::new(),
+            held: None,
+        }
     }
 
+    /// Give the working buffers back for the mapper to keep.
+    fn put_back<F>(self, shared: &Shared<F>) {
+        shared.lock().works.push(self.work);
+    }
+}
+
+impl Worker<'_> {
     /// One piece of work, the tree first: apply the next frame when it is cast and the tree is
-    /// free (and `may_apply`), else cast the next frame read when buffers are free.
+    /// free (and `may_apply`); else list the frame in hand into a free slot, when it may take
+    /// one; else cast the next frame read, when the hand is empty.
     fn step<'a, F: Borrow<Frame>>(
         &self,
         shared: &'a Shared<F>,
         mut g: MutexGuard<'a, Flow<F>>,
-        work: &mut ScanUpdate,
+        hand: &mut Hand,
         may_apply: bool,
     ) -> Step<'a, F> {
         if may_apply && g.tree.is_some() && g.cast.contains_key(&g.next) {
@@ -194,24 +184,56 @@ impl Worker<'_> {
             g.tree = Some(tree);
             g.next += 1;
             g.applied.push_back((st, digest));
-            g.release(slot);
+            g.free.push(slot);
             shared.changed.notify_all();
             return Step::Worked(g);
         }
-        if g.todo.is_empty() || g.free.is_empty() {
-            return Step::Idle(g);
+        if let Some((place, _)) = hand.held {
+            if !g.slot_for(place) {
+                return Step::Idle(g);
+            }
+            let (Some(mut slot), Some((place, (mut st, digest)))) =
+                (g.free.pop(), hand.held.take())
+            else {
+                return Step::Idle(g);
+            };
+            drop(g);
+            let start = Instant::now();
+            slot.0.pass_buffers(&mut hand.work);
+            let done = slot.0.finish_pending();
+            slot.0.pass_buffers(&mut hand.work);
+            if let Some(done) = done {
+                st.free = done.free;
+                st.occupied = done.occupied;
+            }
+            st.ray_seconds += start.elapsed().as_secs_f64();
+            let mut g = shared.lock();
+            g.unslotted.remove(&place);
+            g.cast.insert(place, (slot, (st, digest)));
+            shared.changed.notify_all();
+            return Step::Worked(g);
         }
-        let (Some((place, frame)), Some(mut slot)) = (g.todo.pop_front(), g.free.pop()) else {
+        let Some((place, frame)) = g.todo.pop_front() else {
             return Step::Idle(g);
         };
-        drop(g);
-        let outcome = self.cast(&frame, &mut slot, work);
-        drop(frame);
-        let mut g = shared.lock();
-        g.note_cast(&slot);
-        g.cast.insert(place, (slot, outcome));
+        g.unslotted.insert(place);
+        // the reader may top the queue up
         shared.changed.notify_all();
-        Step::Worked(g)
+        drop(g);
+        // files carry no sensor orientation: the filters' sensor frame has the world's axes
+        let identity = UnitQuaternion::identity();
+        let st = prepare(
+            self.conv,
+            self.options,
+            frame.borrow(),
+            &identity,
+            &mut hand.work,
+            &mut hand.centres,
+        );
+        let digest = self.track.then(|| frame_digest(frame.borrow()));
+        drop(frame);
+        hand.held = Some((place, (st, digest)));
+        Step::Worked(shared.lock())
     }
 
     /// A thread of the pool: cast and apply until the run ends or stops.
@@ -220,19 +242,20 @@ impl Worker<'_> {
             shared,
             only_on_panic: true,
         };
+        let mut hand = Hand::new(shared);
         let mut g = shared.lock();
-        let mut work = g.works.pop().unwrap_or_default();
-        work.set_serial(true);
         loop {
-            if g.stop || (g.end && g.todo.is_empty() && (!may_apply || g.cast.is_empty())) {
+            let idle = hand.held.is_none() && g.todo.is_empty();
+            if g.stop || (g.end && idle && (!may_apply || g.cast.is_empty())) {
                 break;
             }
-            g = match self.step(shared, g, &mut work, may_apply) {
+            g = match self.step(shared, g, &mut hand, may_apply) {
                 Step::Worked(g) => g,
                 Step::Idle(g) => shared.wait(g),
             };
         }
-        g.works.push(work);
+        drop(g);
+        hand.put_back(shared);
     }
 }
 
@@ -254,10 +277,11 @@ impl Mapper {
         } else {
             threads
         };
-        // a slot per thread casting, and one for the frame the tree takes
-        let slots_used = threads + 1;
+        // a slot of results per thread: a thread casts into its own working buffers and lists
+        // the frame into a slot once one is free, so the threads cast on while the slots wait
+        // for the tree (and the results of no more frames than threads are in memory)
         let mut free: Vec<Slot> = slots.drain(..).flatten().collect();
-        free.resize_with(slots_used, Slot::default);
+        free.resize_with(threads.max(2), Slot::default);
         // the working buffers go to the threads; the slots keep only results
         let works: Vec<ScanUpdate> = free
             .iter_mut()
@@ -278,6 +302,7 @@ impl Mapper {
             flow: Mutex::new(Flow {
                 todo: VecDeque::new(),
                 free,
+                unslotted: BTreeSet::new(),
                 cast: BTreeMap::new(),
                 tree,
                 next: 0,
@@ -286,8 +311,6 @@ impl Mapper {
                 works,
                 end: false,
                 stop: false,
-                surplus: 0,
-                large: false,
             }),
             changed: Condvar::new(),
         };
@@ -305,7 +328,9 @@ impl Mapper {
                 shared: &shared,
                 only_on_panic: false,
             };
-            self.lead(frames, after, &shared, &worker, slots_used + 1, strict)
+            // frames between reading and counting: one in each thread's hand, one in each
+            // slot, and one waiting to be taken
+            self.lead(frames, after, &shared, &worker, 2 * threads + 1, strict)
         });
         // the helpers have left: every slot, working buffer and the tree are back
         let mut flow = shared.lock();
@@ -320,6 +345,7 @@ impl Mapper {
                 slot.0.pass_buffers(&mut w);
             }
             slot.0.set_serial(false);
+            slot.0.set_deferred(false);
         }
         slots.extend(back.into_iter().map(Some));
         done
@@ -337,8 +363,7 @@ impl Mapper {
         in_flight: usize,
         strict: bool,
     ) -> Result<(), RunError> {
-        let mut work = shared.lock().works.pop().unwrap_or_default();
-        work.set_serial(true);
+        let mut hand = Hand::new(shared);
         // frames read, and counted (in the tree, `after` run)
         let (mut read, mut counted) = (0, 0);
         let mut failed = None;
@@ -380,7 +405,7 @@ impl Mapper {
                 st.seconds = g.mark.elapsed().as_secs_f64();
                 g.mark = Instant::now();
                 g.next += 1;
-                g.release(slot);
+                g.free.push(slot);
                 shared.changed.notify_all();
                 drop(g);
                 self.account(digest, &st);
@@ -406,12 +431,12 @@ impl Mapper {
             if g.next == read && g.end {
                 break failed.map_or(Ok(()), Err);
             }
-            match worker.step(shared, g, &mut work, !strict) {
+            match worker.step(shared, g, &mut hand, !strict) {
                 Step::Worked(_) => {}
                 Step::Idle(g) => drop(shared.wait(g)),
             }
         };
-        shared.lock().works.push(work);
+        hand.put_back(shared);
         done
     }
 }

@@ -6,7 +6,7 @@
 use crate::common::{self, first_diff, scratch};
 use octoquant::formats::{count_frames, frame_stream, read_frames, ReadOptions};
 use octoquant::octree::io::write_bt;
-use octoquant::pipeline::{FramePairs, Mapper, MapperOptions, READ_AHEAD};
+use octoquant::pipeline::{FramePairs, InsertMode, Mapper, MapperOptions, READ_AHEAD};
 use octoquant::scene::{
     scan_lidar, scan_terrestrial, ScanOptions, Scene, SpinningLidar, TerrestrialScanner,
 };
@@ -125,19 +125,21 @@ fn announced_frame_counts_are_the_frames_read() {
 
 /// However many frames the source yields, `insert_stream` has pulled at most a few more
 /// than it has inserted: the frames in memory are bounded by [`READ_AHEAD`] plus the
-/// pipeline's (a frame cast by each of `n` threads, one in the tree, one waiting: `n + 2`;
-/// only the key sets of those cast are kept), whatever the pairs policy (which streams do not
-/// use), counted at every frame, not timed.
+/// pipeline's: in `exact` mode, free-running, one in each of `n` threads' hands, one in each
+/// of `n` slots and one waiting (`2n + 1`, whatever the pairs policy, which it does not use;
+/// only the key sets of those cast are kept); in the other modes, in steps, one frame being
+/// cast and one waiting (two each in pairs). Counted at every frame, not timed.
 #[test]
 fn stream_holds_a_bounded_number_of_frames() {
     let base = scene_frames();
     let policies = [
-        (1, FramePairs::Auto, 0),
-        (2, FramePairs::Never, READ_AHEAD + 4),
-        (2, FramePairs::Always, READ_AHEAD + 4),
-        (3, FramePairs::Auto, READ_AHEAD + 5),
+        (InsertMode::Exact, 1, FramePairs::Auto, 0),
+        (InsertMode::Exact, 2, FramePairs::Never, READ_AHEAD + 5),
+        (InsertMode::Exact, 3, FramePairs::Always, READ_AHEAD + 7),
+        (InsertMode::Quantized, 2, FramePairs::Never, READ_AHEAD + 2),
+        (InsertMode::Quantized, 2, FramePairs::Always, READ_AHEAD + 4),
     ];
-    for (threads, pairs, bound) in policies {
+    for (mode, threads, pairs, bound) in policies {
         for n in [50usize, 1000] {
             let pulled = AtomicUsize::new(0);
             let source = (0..n).map(|i| {
@@ -157,6 +159,7 @@ fn stream_holds_a_bounded_number_of_frames() {
             pool.install(|| {
                 let mut m = Mapper::new(MapperOptions {
                     resolution: 0.5,
+                    mode,
                     ..MapperOptions::default()
                 })
                 .unwrap()
@@ -169,7 +172,7 @@ fn stream_holds_a_bounded_number_of_frames() {
             });
             assert!(
                 most <= bound,
-                "{threads} threads, {pairs:?}, {n} frames: {most} frames pulled ahead of insertion"
+                "{mode:?}, {threads} threads, {pairs:?}, {n} frames: {most} frames pulled ahead of insertion"
             );
         }
     }

@@ -60,6 +60,11 @@ struct Buffers {
     narrowed: Vec<Point3<f32>>,
     /// Cast on the calling thread alone, whatever the rayon pool ([`ScanUpdate::set_serial`]).
     serial: bool,
+    /// Leave a scan's sets in the tables until [`ScanUpdate::finish_pending`]
+    /// ([`ScanUpdate::set_deferred`]).
+    deferred: bool,
+    /// The statistics of a scan cast with `deferred` and not yet finished.
+    pending: Option<ScanStats>,
 }
 
 impl ScanUpdate {
@@ -148,6 +153,30 @@ impl ScanUpdate {
         self.work.serial = serial;
     }
 
+    /// With `true`, a scan cast on one thread (see [`ScanUpdate::set_serial`]) leaves its sets
+    /// in the working buffers' tables, unsorted, and its statistics without the free and
+    /// occupied counts; [`ScanUpdate::finish_pending`] then lists them into an update's
+    /// results. For a caller that casts a scan before it has results buffers to spare for it
+    /// (the free-running pipeline casts the next frame while the buffers of the frames before
+    /// are still the tree's), then hands the working buffers with [`ScanUpdate::pass_buffers`]
+    /// to an update whose results are free. A scan split across threads is finished at once
+    /// whatever the setting. Like `set_serial`, the setting travels with the working buffers.
+    pub fn set_deferred(&mut self, deferred: bool) {
+        self.work.deferred = deferred;
+    }
+
+    /// List the sets of the scan the working buffers hold unfinished (see
+    /// [`ScanUpdate::set_deferred`]) into this update's results, as the scan would have, and
+    /// return its statistics, counts included; `None` (and nothing changed) when no scan is
+    /// pending.
+    pub fn finish_pending(&mut self) -> Option<ScanStats> {
+        let mut stats = self.work.pending.take()?;
+        self.free = OnceLock::new();
+        self.occupied = OnceLock::new();
+        finish(self, &mut stats);
+        Some(stats)
+    }
+
     /// Empty both voxel sets, keeping the allocations of the sets.
     pub fn clear(&mut self) {
         self.free = OnceLock::new();
@@ -156,6 +185,7 @@ impl ScanUpdate {
         self.occ_bricks.clear();
         self.work.free_set.clear();
         self.work.occ_set.clear();
+        self.work.pending = None;
     }
 }
 
@@ -858,6 +888,10 @@ fn compute(
         model,
     );
     out.work.plan = plan;
+    if out.work.deferred {
+        out.work.pending = Some(stats);
+        return stats;
+    }
     finish(out, &mut stats);
     stats
 }

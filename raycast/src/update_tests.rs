@@ -504,3 +504,50 @@ proptest! {
         prop_assert_eq!(got, want);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// A scan cast with `set_deferred`, its working buffers handed to another update (whose
+    /// results held another scan) and finished there, gives that update the naive sets of
+    /// facts §3.2 and the counts a plain scan reports; the casting update keeps no results,
+    /// and a second `finish_pending` finds nothing.
+    #[test]
+    fn a_deferred_scan_finishes_in_another_update(
+        res in prop::sample::select(vec![0.05, 0.1, 0.25]),
+        pts in prop::collection::vec(point_strategy(), 0..300),
+        other in prop::collection::vec(point_strategy(), 1..50),
+        o in prop::array::uniform3(-0.5f32..0.5),
+        max_range in prop::sample::select(vec![-1.0, 0.7, 100.0]),
+    ) {
+        let c = conv(res);
+        let origin = Point3::from(o);
+        let m = if max_range < 0.0 { None } else { Some(max_range) };
+        let mut cast = ScanUpdate::new();
+        cast.set_serial(true);
+        cast.set_deferred(true);
+        let partial = compute_update_f32(&c, &pts, &origin, m, &mut cast);
+        prop_assert!(cast.free_bricks().is_empty() && cast.occupied_bricks().is_empty());
+        // the results' update held another scan, listed as keys too
+        let mut results = ScanUpdate::new();
+        compute_update_f32(&c, &other, &origin, m, &mut results);
+        let _ = results.free();
+        results.pass_buffers(&mut cast);
+        let done = results.finish_pending();
+        prop_assert!(done.is_some());
+        prop_assert!(results.finish_pending().is_none());
+        results.pass_buffers(&mut cast);
+        let mut plain = ScanUpdate::new();
+        let want = compute_update_f32(&c, &pts, &origin, m, &mut plain);
+        let done = done.unwrap_or_default();
+        prop_assert_eq!((done.free, done.occupied), (want.free, want.occupied));
+        prop_assert_eq!((partial.rays, partial.points), (want.rays, want.points));
+        prop_assert_eq!(results.free_bricks(), plain.free_bricks());
+        prop_assert_eq!(results.occupied_bricks(), plain.occupied_bricks());
+        let (free, occ) = naive_update(&c, &pts, &origin, max_range);
+        let f: HashSet<Key> = results.free().iter().copied().collect();
+        let oc: HashSet<Key> = results.occupied().iter().copied().collect();
+        prop_assert_eq!(f, free);
+        prop_assert_eq!(oc, occ);
+    }
+}
