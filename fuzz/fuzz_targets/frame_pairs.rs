@@ -1,9 +1,9 @@
 //! Structure-aware: a few small frames (any `f32` coordinates, NaN, infinities and points
 //! outside the key range included; empty frames; origins anywhere) inserted by
 //! `Mapper::insert_frames` on two threads with frames cast in pairs (`FramePairs::Always`)
-//! and one at a time (`FramePairs::Never`) (from `FLOW_MIN_FRAMES` frames on, the
-//! free-running pipeline, whatever the policy), by `Mapper::insert_stream` (always
-//! free-running) on two and three threads, and by one `Mapper::insert` per frame. No call may
+//! and one at a time (`FramePairs::Never`) (in `exact` mode from `FLOW_MIN_FRAMES` frames
+//! on, the free-running pipeline, whatever the policy), by `Mapper::insert_stream` (in `exact`
+//! mode free-running) on two and three threads, and by one `Mapper::insert` per frame. No call may
 //! panic, all must give the same `.ot` bytes, and the pipelined runs the serial run's
 //! per-frame counts, in order (progress, for the streams).
 #![no_main]
