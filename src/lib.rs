@@ -90,4 +90,6 @@ pub use octoquant_raycast as raycast;
 /// tile, applied per tile, joined; see [`tiled`] for frames in, tile lists out.
 pub use octoquant_tiles as tiles;
 pub use parry3d;
-pub use pipeline::{FramePairs, Mapper, MapperOptions, FLOW_MIN_FRAMES, SMALL_FRAME_BRICKS};
+pub use pipeline::{
+    FramePairs, Mapper, MapperOptions, FLOW_MAX_THREADS, FLOW_MIN_FRAMES, SMALL_FRAME_BRICKS,
+};

@@ -100,6 +100,20 @@ pub const SMALL_FRAME_BRICKS: usize = 1 << 16;
 /// gained less over one than in steps (1.5x against 1.75x; BENCHMARKS.md, history session 37).
 pub const FLOW_MIN_FRAMES: usize = 4;
 
+/// Pools of more threads than this run in steps even in [`InsertMode::Exact`]: free-running,
+/// every thread holds a table the size of a frame and every result slot a frame's sets (about
+/// 43 MB a thread on norlab's frames at 0.1 m), where the steps split one frame's tables across
+/// the threads; and with the tree update serial, a third or fourth thread casting whole frames
+/// already leaves the tree the bottleneck on LiDAR frames, while the steps put every thread on
+/// each frame's casting. Measured only with two threads (the development host has two cores).
+pub const FLOW_MAX_THREADS: usize = 4;
+
+/// Whether a run of `mode` on the current rayon pool goes free-running (see
+/// [`FLOW_MIN_FRAMES`] and [`FLOW_MAX_THREADS`]; the frame count is checked by the caller).
+fn free_running(mode: InsertMode) -> bool {
+    mode == InsertMode::Exact && rayon::current_num_threads() <= FLOW_MAX_THREADS
+}
+
 /// The buffers of one frame in flight: its key sets and scratch, and its quantized end points.
 type Slot = (ScanUpdate, Vec<Point3<f32>>);
 
@@ -237,8 +251,8 @@ impl Mapper {
 
     /// Insert a sequence of frames, in order, with the same result as [`Mapper::insert`] on
     /// each in turn (the same key sets applied in the same order, so the same tree, byte for
-    /// byte), but pipelined. In [`InsertMode::Exact`], from [`FLOW_MIN_FRAMES`] frames on, each
-    /// thread casts whole frames and whichever thread finds the tree free applies the next one
+    /// byte), but pipelined. In [`InsertMode::Exact`], from [`FLOW_MIN_FRAMES`] frames on and
+    /// on at most [`FLOW_MAX_THREADS`] threads, each thread casts whole frames and whichever thread finds the tree free applies the next one
     /// (the free-running pipeline, module `pipeline_flow`); other runs cast frame by frame on
     /// all threads while one thread applies the frame before, or, for small frames or cheap
     /// tree updates, cast two frames at once, a thread each ([`FramePairs`]). With one rayon
@@ -264,7 +278,7 @@ impl Mapper {
                 Ok(())
             },
             true,
-            frames.len() >= FLOW_MIN_FRAMES && self.options.mode == InsertMode::Exact,
+            frames.len() >= FLOW_MIN_FRAMES && free_running(self.options.mode),
         );
         // frames in memory cannot fail to read, and collecting the stats cannot fail
         debug_assert!(done.is_ok());
@@ -447,7 +461,7 @@ impl Mapper {
         } else {
             // a checkpoint must hold exactly the frames counted, so frames are applied one per
             // step then
-            let flow = self.options.mode == InsertMode::Exact;
+            let flow = free_running(self.options.mode);
             self.pipeline(frames, &mut after, checkpoint.is_none(), flow)?;
         }
         if let Some((c, identity)) = checkpoint {

@@ -1,17 +1,20 @@
-//! The free-running pipeline (`exact` mode: `Mapper::insert_frames` from `FLOW_MIN_FRAMES`
-//! frames on, and every `insert_stream`): each thread casts whole frames and whichever thread
-//! finds the tree free applies the next one. On real LiDAR frames it gives the tree of one `Mapper::insert`
-//! per frame, byte for byte in `.ot` (log-odds), and each frame's own statistics, in every
-//! mode, lazily or not, on 2 to 4 threads, in memory and streamed, and when called from a
-//! thread outside the pool; a checkpoint that cannot be saved stops the run with the frames
-//! before it in the tree.
+//! The free-running pipeline (`exact` mode on at most `FLOW_MAX_THREADS` threads:
+//! `Mapper::insert_frames` from `FLOW_MIN_FRAMES` frames on, and every `insert_stream`): each
+//! thread casts whole frames and whichever thread finds the tree free applies the next one.
+//! On real LiDAR frames it gives the tree of one `Mapper::insert` per frame, byte for byte in
+//! `.ot` (log-odds), and each frame's own statistics, lazily or not, with a maximum range or
+//! not, on 2 to `FLOW_MAX_THREADS` threads (and beyond, where the run goes in steps), in
+//! memory and streamed, and when called from a thread outside the pool; a checkpoint that
+//! cannot be saved stops the run with the frames before it in the tree; a panicking progress
+//! callback comes back as a panic.
 
 use crate::common::{self, first_diff, scratch};
 use octoquant::checkpoint::RunIdentity;
 use octoquant::formats::{frame_stream, ReadOptions};
 use octoquant::octree::io::write_ot;
 use octoquant::pipeline::{
-    CheckpointOptions, FrameStats, InsertMode, Mapper, MapperOptions, FLOW_MIN_FRAMES,
+    CheckpointOptions, FrameStats, InsertMode, Mapper, MapperOptions, FLOW_MAX_THREADS,
+    FLOW_MIN_FRAMES,
 };
 use octoquant::Frame;
 
@@ -83,7 +86,8 @@ fn free_running_pipeline_gives_the_tree_of_one_insert_per_frame_on_norlab() {
             ..MapperOptions::default()
         };
         let want = serial(&frames, &options);
-        for threads in [2, 3, 4] {
+        // up to FLOW_MAX_THREADS free-running, beyond in steps
+        for threads in [2, 3, FLOW_MAX_THREADS, FLOW_MAX_THREADS + 2] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
