@@ -69,6 +69,16 @@ struct Flow<F> {
 }
 
 impl<F> Flow<F> {
+    /// The tree has taken the next frame, whose buffers were `slot`: its `seconds` run from
+    /// the previous frame's end to now, the tree waits for the frame after, and the slot is
+    /// free again.
+    fn took(&mut self, slot: Slot, st: &mut FrameStats) {
+        st.seconds = self.mark.elapsed().as_secs_f64();
+        self.mark = Instant::now();
+        self.next += 1;
+        self.free.push(slot);
+    }
+
     /// Whether the frame at `place`, cast, may take a free slot: only if as many stay free as
     /// frames before it still want one, so that the frame the tree waits for always finds one.
     fn slot_for(&self, place: usize) -> bool {
@@ -125,7 +135,7 @@ struct Worker<'a> {
 
 /// What one step of a thread did.
 enum Step<'a, F> {
-    /// Applied a frame or cast one: the flow may have more.
+    /// Applied, listed or cast a frame: the flow may have more.
     Worked(MutexGuard<'a, Flow<F>>),
     /// Nothing to do now.
     Idle(MutexGuard<'a, Flow<F>>),
@@ -179,12 +189,9 @@ impl Worker<'_> {
             drop(g);
             st.tree_seconds = apply(&mut tree, &slot.0, self.options.lazy);
             let mut g = shared.lock();
-            st.seconds = g.mark.elapsed().as_secs_f64();
-            g.mark = Instant::now();
             g.tree = Some(tree);
-            g.next += 1;
+            g.took(slot, &mut st);
             g.applied.push_back((st, digest));
-            g.free.push(slot);
             shared.changed.notify_all();
             return Step::Worked(g);
         }
@@ -369,9 +376,8 @@ impl Mapper {
         let mut failed = None;
         let mut source_done = false;
         let done = 'run: loop {
-            // at most `in_flight` frames between reading and counting: a slot's worth for
-            // every thread, the tree's, and one waiting for the next free slot. The source may
-            // block, so it is read without the lock.
+            // at most `in_flight` frames between reading and counting (see `pipeline_flow`).
+            // The source may block, so it is read without the lock.
             while !source_done && failed.is_none() && read - counted < in_flight {
                 match frames.next() {
                     Some(Ok(f)) => {
@@ -401,13 +407,8 @@ impl Mapper {
                 };
                 drop(g);
                 st.tree_seconds = apply(&mut self.tree, &slot.0, self.options.lazy);
-                let mut g = shared.lock();
-                st.seconds = g.mark.elapsed().as_secs_f64();
-                g.mark = Instant::now();
-                g.next += 1;
-                g.free.push(slot);
+                shared.lock().took(slot, &mut st);
                 shared.changed.notify_all();
-                drop(g);
                 self.account(digest, &st);
                 counted += 1;
                 if let Err(e) = after(self, &st) {
