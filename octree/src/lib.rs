@@ -43,6 +43,7 @@ mod merge;
 mod node_id;
 mod params;
 mod payload_tree;
+mod slab_index;
 mod stamped_tree;
 mod store;
 mod tree;

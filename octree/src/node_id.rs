@@ -5,6 +5,7 @@
 use crate::free_list::place;
 use crate::key::{Key, TREE_DEPTH};
 use crate::key_hasher::KeyHashing;
+use crate::slab_index::SlabIndex;
 use std::collections::HashMap;
 
 /// The side table's key for a node: its depth and smallest voxel key.
@@ -37,20 +38,21 @@ const SLAB_MIN_DEPTH: u8 = TREE_DEPTH - 2;
 
 /// The side tables' map from node ids to payloads, holding no entry for `unset` (white, stamp
 /// 0): the payloads of the nodes at depths 14 to 16, most of the entries, in slabs of a 4x4x4
-/// block of same-depth nodes each, the others in a hash map (both hashed by
-/// [`crate::key_hasher::KeyHasher`]).
+/// block of same-depth nodes each (found through a [`SlabIndex`]), the others in a hash map
+/// (hashed by [`crate::key_hasher::KeyHasher`]).
 ///
 /// Why slabs: a voxel update reads its seven siblings' payloads (may the eight be collapsed?)
 /// and writes its own, and the same one level up; with a hash entry per node each of those was
 /// a cache miss of its own (the entries of neighbours land anywhere), with a slab per block
-/// they share one or two cache lines.
+/// they share one or two cache lines. The two misses left per brick (the index, then the
+/// slab) a batched walk hides by looking its bricks' slabs up ahead ([`NodeMap::look_ahead`]).
 #[derive(Debug, Clone)]
 pub(crate) struct NodeMap<P> {
     unset: P,
     /// Nodes above depth 14.
     inner: HashMap<NodeId, P, KeyHashing>,
     /// Block code (see [`slab_of`]) to slab index.
-    bricks: HashMap<u64, u32, KeyHashing>,
+    bricks: SlabIndex,
     /// A block's payloads (`unset`: none) and how many are set.
     slabs: Vec<([P; BRICK_VOXELS], u8)>,
     /// Slabs no brick uses.
@@ -61,6 +63,31 @@ pub(crate) struct NodeMap<P> {
     /// index ([`NO_SLAB`] for none): a batched walk goes through the tree in Morton order, so
     /// most look-ups repeat the one before at their depth.
     recent: [(u64, u32); 3],
+    /// Slabs of depths 15 and 16 looked up ahead of use ([`NodeMap::look_ahead`]),
+    /// direct-mapped by block code: `(code, slab)`, [`NO_SLAB_IDX`] when the block had none.
+    /// Kept true: a slab made or freed updates its entry.
+    hints: [(u64, u32); HINTS],
+    /// Block codes (depths 15 and 16) whose index slot is being loaded ([`NodeMap::look_ahead`]'s
+    /// first stage), oldest at `staged_at`; [`NO_SLAB`] for none.
+    staged: [u64; STAGE],
+    /// The oldest entry of `staged`.
+    staged_at: usize,
+    /// The last depth-15 block code staged.
+    staged_15: u64,
+}
+
+/// How many look-aheads pass between loading a block's index slot and reading it.
+const STAGE: usize = 8;
+
+/// Entries of [`NodeMap::hints`] (a power of two).
+const HINTS: usize = 32;
+/// A hint's slab index for a block known to have no slab.
+const NO_SLAB_IDX: u32 = u32::MAX;
+
+/// The hint entry of block `code`.
+#[inline(always)]
+fn hint_of(code: u64) -> usize {
+    (code ^ (code >> 14) ^ (code >> 28)) as usize & (HINTS - 1)
 }
 
 /// A block code no slab has (codes have 45 bits).
@@ -86,17 +113,35 @@ fn slab_of(id: NodeId) -> (u64, usize) {
     (code, slot)
 }
 
+/// Start loading the cache lines of slab `slab` (a hint; no effect on results).
+#[inline(always)]
+fn prefetch_slab<P>(slab: &([P; BRICK_VOXELS], u8)) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        for i in (0..BRICK_VOXELS).step_by(64 / std::mem::size_of::<P>().max(1)) {
+            safe_arch::prefetch_t0(&slab.0[i]);
+        }
+        safe_arch::prefetch_t0(&slab.1);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = slab;
+}
+
 impl<P: Copy + PartialEq> NodeMap<P> {
     /// An empty map whose absent entries read as `unset`.
     pub(crate) fn new(unset: P) -> Self {
         NodeMap {
             unset,
             inner: HashMap::default(),
-            bricks: HashMap::default(),
+            bricks: SlabIndex::new(),
             slabs: Vec::new(),
             free: Vec::new(),
             len: 0,
             recent: [(NO_SLAB, 0); 3],
+            hints: [(NO_SLAB, 0); HINTS],
+            staged: [NO_SLAB; STAGE],
+            staged_at: 0,
+            staged_15: NO_SLAB,
         }
     }
 
@@ -118,6 +163,42 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         self.free.clear();
         self.len = 0;
         self.recent = [(NO_SLAB, 0); 3];
+        self.hints = [(NO_SLAB, 0); HINTS];
+        self.staged = [NO_SLAB; STAGE];
+        self.staged_15 = NO_SLAB;
+    }
+
+    /// Prepare, ahead of their use, the slabs of the voxels and depth-15 nodes around `key`:
+    /// a batched walk calls this for each brick some bricks before it reaches it, in order,
+    /// so that the cache misses of the slabs' look-ups overlap the walk instead of stalling
+    /// it. In two stages: now the index slot of each block is asked for; about [`STAGE`]
+    /// blocks later it is read (a hint for [`NodeMap::find_slab`]) and the slab itself is
+    /// asked for. A depth-15 block serves eight bricks in a row, so it is staged once.
+    #[inline]
+    pub(crate) fn look_ahead(&mut self, key: Key) {
+        let (code16, _) = slab_of(node_id(key, TREE_DEPTH));
+        let (code15, _) = slab_of(node_id(key, TREE_DEPTH - 1));
+        if self.staged_15 != code15 {
+            self.staged_15 = code15;
+            self.stage(code15);
+        }
+        self.stage(code16);
+    }
+
+    /// [`NodeMap::look_ahead`]'s stages for one block code.
+    #[inline(always)]
+    fn stage(&mut self, code: u64) {
+        self.bricks.prefetch(code);
+        let older = std::mem::replace(&mut self.staged[self.staged_at], code);
+        self.staged_at = (self.staged_at + 1) % STAGE;
+        if older == NO_SLAB {
+            return;
+        }
+        let s = self.bricks.get(older).unwrap_or(NO_SLAB_IDX);
+        self.hints[hint_of(older)] = (older, s);
+        if let Some(slab) = self.slabs.get(s as usize) {
+            prefetch_slab(slab);
+        }
     }
 
     /// The slab of block `code` at depth `depth` (14 to 16), if it has one; remembered for
@@ -128,7 +209,12 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         if r.0 == code {
             return Some(r.1);
         }
-        let s = *self.bricks.get(&code)?;
+        let h = self.hints[hint_of(code)];
+        let s = if h.0 == code {
+            Some(h.1).filter(|&s| s != NO_SLAB_IDX)?
+        } else {
+            self.bricks.get(code)?
+        };
         *r = (code, s);
         Some(s)
     }
@@ -140,7 +226,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         if r.0 == code {
             return Some(r.1);
         }
-        self.bricks.get(&code).copied()
+        self.bricks.get(code)
     }
 
     /// The slab of block `code` at depth `depth`, made when it has none.
@@ -153,6 +239,10 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         let s = place(&mut self.slabs, &mut self.free, fresh);
         self.bricks.insert(code, s);
         self.recent[usize::from(depth - SLAB_MIN_DEPTH)] = (code, s);
+        let h = &mut self.hints[hint_of(code)];
+        if h.0 == code {
+            h.1 = s;
+        }
         s
     }
 
@@ -160,12 +250,16 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     #[inline]
     fn release_if_empty(&mut self, code: u64, s: u32) {
         if self.slabs[s as usize].1 == 0 {
-            self.bricks.remove(&code);
+            self.bricks.remove(code);
             self.free.push(s);
             for r in &mut self.recent {
                 if r.0 == code {
                     *r = (NO_SLAB, 0);
                 }
+            }
+            let h = &mut self.hints[hint_of(code)];
+            if h.0 == code {
+                h.1 = NO_SLAB_IDX;
             }
         }
     }
@@ -301,7 +395,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// The ids with an entry, in no particular order.
     #[cfg(test)]
     pub(crate) fn ids(&self) -> impl Iterator<Item = NodeId> + '_ {
-        let slabbed = self.bricks.iter().flat_map(move |(&code, &s)| {
+        let slabbed = self.bricks.iter().flat_map(move |(code, s)| {
             let up = (code >> 42) as u8;
             let lo = |shift: u32| ((code >> shift) as u16 & 0x3fff) << 2;
             let base = [lo(0), lo(14), lo(28)];
@@ -326,11 +420,12 @@ mod tests {
 
     proptest! {
         /// The map holds what a plain hash map of the set entries holds (setting the unset
-        /// payload removes), through slabs emptied and reused.
+        /// payload removes), through slabs emptied and reused, with look-aheads (whose hints
+        /// must stay true as slabs come and go) between any two operations.
         #[test]
         fn holds_what_a_hash_map_holds(
             ops in prop::collection::vec(
-                (0u8..6, 12u8..=16, 0u16..24, 0u16..24, 0u16..8, 0u32..4),
+                (0u8..8, 12u8..=16, 0u16..24, 0u16..24, 0u16..8, 0u32..4),
                 0..300,
             )
         ) {
@@ -357,6 +452,12 @@ mod tests {
                         }
                     }
                     2 => prop_assert_eq!(m.remove(id), naive.remove(&id)),
+                    6 | 7 => {
+                        // enough times that the block's hint is read in (its second stage)
+                        for _ in 0..=STAGE {
+                            m.look_ahead(id.1);
+                        }
+                    }
                     _ if depth == 16 => {}
                     3 => {
                         let want: Vec<u32> =

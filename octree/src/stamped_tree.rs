@@ -539,6 +539,10 @@ impl WalkHooks for StampHooks<'_> {
     fn refreshed(&mut self, id: NodeId) {
         self.stamps.insert(id, self.now);
     }
+
+    fn ahead(&mut self, code: u64) {
+        self.stamps.look_ahead(Key::from_morton(code << 6));
+    }
 }
 
 /// After an eager ascent from `key` that left it held at depth `held` (`None`: deferred, no

@@ -46,6 +46,11 @@ pub(crate) trait WalkHooks {
 
     /// Node `id` kept its children and was set to their max (`updateOccupancyChildren`).
     fn refreshed(&mut self, id: NodeId);
+
+    /// The walk will reach brick `code` (its depth-14 node's Morton code) a few bricks from
+    /// now: a side table may start loading what it will need there.
+    #[inline(always)]
+    fn ahead(&mut self, _code: u64) {}
 }
 
 /// The plain tree's hooks: nothing to tell.
@@ -80,6 +85,8 @@ fn id_at(voxel: u64, depth: usize) -> NodeId {
 
 /// Depth of the nodes a brick covers: 4x4x4 voxels below each.
 const BRICK_DEPTH: usize = TREE_DEPTH as usize - 2;
+/// How many bricks ahead of the walk a side table hears of them ([`WalkHooks::ahead`]).
+const LOOK_AHEAD: usize = 16;
 /// The bits of a brick code: three per level from the root to [`BRICK_DEPTH`].
 const BRICK_CODE_MASK: u64 = (1 << (3 * BRICK_DEPTH)) - 1;
 
@@ -154,7 +161,36 @@ impl OcTree {
         };
         // change detection costs a value read before and after each update: compiled in
         // only when it is on
-        if self.is_change_detection_enabled() {
+        let track = self.is_change_detection_enabled();
+        if !H::PLAIN {
+            // the hooks hear of each brick LOOK_AHEAD bricks before the walk reaches it: a
+            // ring of the bricks heard of and not yet walked, oldest at `at`
+            let mut bricks = bricks;
+            let mut ring = [(0u64, 0u64); LOOK_AHEAD];
+            let mut held = 0;
+            for b in bricks.by_ref().take(LOOK_AHEAD) {
+                walk.hooks.ahead(b.0 & BRICK_CODE_MASK);
+                ring[held] = b;
+                held += 1;
+            }
+            let mut at = 0;
+            while held > 0 {
+                let (code, mask) = ring[at];
+                match bricks.next() {
+                    Some(b) => {
+                        walk.hooks.ahead(b.0 & BRICK_CODE_MASK);
+                        ring[at] = b;
+                    }
+                    None => held -= 1,
+                }
+                at = (at + 1) % LOOK_AHEAD;
+                if track {
+                    walk.brick::<true>(self, code & BRICK_CODE_MASK, mask);
+                } else {
+                    walk.brick::<false>(self, code & BRICK_CODE_MASK, mask);
+                }
+            }
+        } else if track {
             for (code, mask) in bricks {
                 walk.brick::<true>(self, code & BRICK_CODE_MASK, mask);
             }
