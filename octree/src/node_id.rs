@@ -35,8 +35,8 @@ const BRICK_VOXELS: usize = 64;
 
 /// The shallowest depth whose nodes are kept in slabs (12 to 16: nearly all of a tree's nodes).
 /// Depths 12 and 13 joined in session 38: a walk refreshes (and stamps) each ancestor it
-/// leaves, and hash entries there cost a miss each (`map --stamped` on norlab at 0.1 m 8 %
-/// faster, 6 % less memory).
+/// leaves, and hash entries there cost a miss each (`map --stamped` on norlab at 0.1 m about
+/// 8 % faster).
 const SLAB_MIN_DEPTH: u8 = TREE_DEPTH - 4;
 /// The slabbed depths.
 const SLABBED: usize = (TREE_DEPTH - SLAB_MIN_DEPTH + 1) as usize;

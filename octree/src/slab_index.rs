@@ -11,7 +11,8 @@
 /// A code no block has (block codes have 45 bits): marks an empty slot.
 const EMPTY: u64 = u64::MAX;
 
-/// Block code to slab index; linear probing, at most half full, deletion by backward shift
+/// Block code to slab index; linear probing, at most three quarters full (half full cost
+/// 8 % more peak memory on a stamped run and was no faster), deletion by backward shift
 /// (no tombstones, so probes stay short however many slabs come and go).
 #[derive(Debug, Clone)]
 pub(crate) struct SlabIndex {
@@ -83,7 +84,7 @@ impl SlabIndex {
     /// Give `code` the slab `slab` (replacing any it had).
     pub(crate) fn insert(&mut self, code: u64, slab: u32) {
         debug_assert_ne!(code, EMPTY);
-        if 2 * (self.len + 1) > self.slots.len() {
+        if 4 * (self.len + 1) > 3 * self.slots.len() {
             self.grow();
         }
         let mask = self.slots.len() - 1;
