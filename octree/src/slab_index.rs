@@ -61,24 +61,28 @@ impl SlabIndex {
         safe_arch::prefetch_t0(&self.slots[self.home(code)]);
     }
 
+    /// The slot holding `code` (`Ok`), or the empty slot that ends its probe run (`Err`).
+    /// The table must have slots; it always has an empty one (it grows at three quarters).
+    #[inline]
+    fn probe(&self, code: u64) -> Result<usize, usize> {
+        let mask = self.slots.len() - 1;
+        let mut i = self.home(code);
+        loop {
+            match self.slots[i].0 {
+                c if c == code => return Ok(i),
+                EMPTY => return Err(i),
+                _ => i = (i + 1) & mask,
+            }
+        }
+    }
+
     /// The slab of `code`, if it has one.
     #[inline]
     pub(crate) fn get(&self, code: u64) -> Option<u32> {
         if self.slots.is_empty() {
             return None;
         }
-        let mask = self.slots.len() - 1;
-        let mut i = self.home(code);
-        loop {
-            let (c, s) = self.slots[i];
-            if c == code {
-                return Some(s);
-            }
-            if c == EMPTY {
-                return None;
-            }
-            i = (i + 1) & mask;
-        }
+        self.probe(code).ok().map(|i| self.slots[i].1)
     }
 
     /// Give `code` the slab `slab` (replacing any it had).
@@ -87,16 +91,12 @@ impl SlabIndex {
         if 4 * (self.len + 1) > 3 * self.slots.len() {
             self.grow();
         }
-        let mask = self.slots.len() - 1;
-        let mut i = self.home(code);
-        loop {
-            let c = self.slots[i].0;
-            if c == code || c == EMPTY {
-                self.len += usize::from(c == EMPTY);
+        match self.probe(code) {
+            Ok(i) => self.slots[i].1 = slab,
+            Err(i) => {
                 self.slots[i] = (code, slab);
-                return;
+                self.len += 1;
             }
-            i = (i + 1) & mask;
         }
     }
 
@@ -105,20 +105,11 @@ impl SlabIndex {
         if self.slots.is_empty() {
             return None;
         }
-        let mask = self.slots.len() - 1;
-        let mut i = self.home(code);
-        loop {
-            let (c, s) = self.slots[i];
-            if c == EMPTY {
-                return None;
-            }
-            if c == code {
-                self.len -= 1;
-                self.close_gap(i);
-                return Some(s);
-            }
-            i = (i + 1) & mask;
-        }
+        let i = self.probe(code).ok()?;
+        let s = self.slots[i].1;
+        self.len -= 1;
+        self.close_gap(i);
+        Some(s)
     }
 
     /// Slot `gap` was just vacated: move later entries of its probe run back into it, as long
