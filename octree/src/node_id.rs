@@ -291,10 +291,17 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// expansion).
     #[inline]
     pub(crate) fn set_children(&mut self, id: NodeId, p: P) {
+        self.set_children_where(id, 0xff, p);
+    }
+
+    /// Give the children of `id` selected by `which` (bit `i`: child `i`, as [`child_id`])
+    /// the payload `p`, which is set: one slab look-up for children at depths 12 to 16.
+    #[inline]
+    pub(crate) fn set_children_where(&mut self, id: NodeId, which: u8, p: P) {
         debug_assert!(p != self.unset);
         let first = child_id(id, 0);
         if first.0 < SLAB_MIN_DEPTH {
-            for i in 0..8 {
+            for i in (0..8).filter(|i| which >> i & 1 == 1) {
                 self.insert(child_id(id, i), p);
             }
             return;
@@ -302,7 +309,10 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         let (code, slot) = slab_of(first);
         let s = self.slab_for(code, first.0);
         let (vals, count) = &mut self.slabs[s as usize];
-        for off in CHILD_SLOT {
+        for (i, off) in CHILD_SLOT.into_iter().enumerate() {
+            if which >> i & 1 == 0 {
+                continue;
+            }
             let v = &mut vals[slot + off];
             if *v == self.unset {
                 *count += 1;
@@ -430,7 +440,7 @@ mod tests {
         #[test]
         fn holds_what_a_hash_map_holds(
             ops in prop::collection::vec(
-                (0u8..8, 9u8..=16, 0u16..24, 0u16..24, 0u16..8, 0u32..4),
+                (0u8..9, 9u8..=16, 0u16..24, 0u16..24, 0u16..8, 0u32..4),
                 0..300,
             )
         ) {
@@ -474,6 +484,17 @@ mod tests {
                         m.set_children(id, p);
                         for &k in &kids {
                             naive.insert(k, p);
+                        }
+                    }
+                    8 => {
+                        // some children, chosen by the coordinates
+                        let which = (x * 37 + y * 11 + z) as u8;
+                        let p = p + 1;
+                        m.set_children_where(id, which, p);
+                        for (i, &k) in kids.iter().enumerate() {
+                            if which >> i & 1 == 1 {
+                                naive.insert(k, p);
+                            }
                         }
                     }
                     _ => {

@@ -528,6 +528,10 @@ impl WalkHooks for StampHooks<'_> {
         self.stamps.insert(id, self.now);
     }
 
+    fn applied_group(&mut self, parent: NodeId, which: u8) {
+        self.stamps.set_children_where(parent, which, self.now);
+    }
+
     fn may_prune(&mut self, id: NodeId) -> bool {
         payloads_may_collapse(self.stamps, id)
     }

@@ -37,6 +37,16 @@ pub(crate) trait WalkHooks {
     /// Voxel `id` took its update (not OctoMap's early exit).
     fn applied(&mut self, id: NodeId);
 
+    /// The voxels below the depth-15 node `parent` selected by `which` (bit `i`: child `i`)
+    /// took their update: [`WalkHooks::applied`] on each, in child order, unless a side table
+    /// can do them at once.
+    #[inline(always)]
+    fn applied_group(&mut self, parent: NodeId, which: u8) {
+        for i in (0..8).filter(|i| which >> i & 1 == 1) {
+            self.applied(crate::node_id::child_id(parent, i));
+        }
+    }
+
     /// Whether node `id`, whose eight children are leaves of equal occupancy, may be collapsed
     /// (OctoMap's node comparison also looks at the payload).
     fn may_prune(&mut self, id: NodeId) -> bool;
@@ -506,7 +516,7 @@ impl<H: WalkHooks> Walk<H> {
                 return g.applied;
             }
         }
-        let mut applied = false;
+        let mut took = 0u8;
         let mut bits = byte;
         while bits != 0 {
             let s = bits.trailing_zeros() as usize;
@@ -525,26 +535,27 @@ impl<H: WalkHooks> Walk<H> {
                 continue;
             };
             t.add_size(usize::from(created));
-            applied = true;
-            if !H::PLAIN {
-                let voxel = (code << 6) | ((j as u64) << 3) | s as u64;
-                self.hooks.applied(id_at(voxel, TREE_DEPTH as usize));
-            }
+            took |= 1 << s;
             if TRACK {
                 let key = Key::from_morton((code << 6) | ((j as u64) << 3) | s as u64);
                 let v = t.store.voxels.get(lb, s);
                 t.record_change(key, old, v, created);
             }
         }
-        if applied && !self.lazy {
-            if !H::PLAIN {
-                let id = id_at((code << 6) | ((j as u64) << 3), TREE_DEPTH as usize - 1);
-                self.refresh_hooked(t, node, id);
-            } else if t.store.refresh_voxel_parent(kb, j, lb) {
-                t.sub_size(8);
-            }
+        if took == 0 {
+            return false;
         }
-        applied
+        if !H::PLAIN {
+            // the voxels that took their update, told together (one slab look-up)
+            let id = id_at((code << 6) | ((j as u64) << 3), TREE_DEPTH as usize - 1);
+            self.hooks.applied_group(id, took);
+            if !self.lazy {
+                self.refresh_hooked(t, node, id);
+            }
+        } else if !self.lazy && t.store.refresh_voxel_parent(kb, j, lb) {
+            t.sub_size(8);
+        }
+        true
     }
 }
 
