@@ -291,16 +291,17 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// expansion).
     #[inline]
     pub(crate) fn set_children(&mut self, id: NodeId, p: P) {
+        debug_assert!(p != self.unset);
         self.set_children_where(id, 0xff, p);
     }
 
     /// Give the children of `id` selected by `which` (bit `i`: child `i`, as [`child_id`])
-    /// the payload `p`, which is set: one slab look-up for children at depths 12 to 16.
+    /// the payload `p` (`unset` removes their entries, as [`NodeMap::insert`]): one slab
+    /// look-up for children at depths 12 to 16 when `p` is set.
     #[inline]
     pub(crate) fn set_children_where(&mut self, id: NodeId, which: u8, p: P) {
-        debug_assert!(p != self.unset);
         let first = child_id(id, 0);
-        if first.0 < SLAB_MIN_DEPTH {
+        if first.0 < SLAB_MIN_DEPTH || p == self.unset {
             for i in (0..8).filter(|i| which >> i & 1 == 1) {
                 self.insert(child_id(id, i), p);
             }
@@ -487,13 +488,17 @@ mod tests {
                         }
                     }
                     8 => {
-                        // some children, chosen by the coordinates
+                        // some children, chosen by the coordinates; `p` may be the unset
+                        // payload (a stamp of time 0), which removes
                         let which = (x * 37 + y * 11 + z) as u8;
-                        let p = p + 1;
                         m.set_children_where(id, which, p);
                         for (i, &k) in kids.iter().enumerate() {
                             if which >> i & 1 == 1 {
-                                naive.insert(k, p);
+                                if p == 0 {
+                                    naive.remove(&k);
+                                } else {
+                                    naive.insert(k, p);
+                                }
                             }
                         }
                     }
