@@ -11,6 +11,7 @@
 //! The comparisons, additions and tie rules are OctoMap's, lane by lane, so every walk visits
 //! exactly the voxels of [`crate::dda::walk_ray_codes_f32`].
 
+use super::brick_walk::lane_start;
 use super::refill::{first_stop, LaneInit, VOXEL_CODE};
 use super::runs::merge_runs_from;
 use crate::brickset::BrickSink;
@@ -256,36 +257,42 @@ const IDLE_BUDGET: u64 = 1 << 62;
 
 impl LaneInits {
     /// The walks of `rays` at their origin voxels, then eight idle lanes writing `idle_code`.
-    /// The arrays keep their capacity from batch to batch.
+    /// The arrays keep their capacity from batch to batch. Each array is filled in a pass of
+    /// its own over the batch (which sits in the first-level cache): an `extend` over a slice
+    /// reserves once, where pushing a ray's fields one by one checked eleven capacities a ray
+    /// (a fourteenth of an Ouster frame's time).
     fn fill(&mut self, rays: &[RaySetup], idle_code: u64) {
-        for v in self.t.iter_mut().chain(&mut self.d).chain([&mut self.len]) {
-            v.clear();
-        }
-        for v in [&mut self.m, &mut self.end, &mut self.flip, &mut self.budget] {
-            v.clear();
-        }
-        for r in rays {
-            self.push(&LaneInit::new(r));
-        }
         let idle = LaneInit::idle(idle_code);
-        for _ in 0..8 {
-            self.push(&idle);
-        }
-    }
-
-    /// Append walk `s`; an idle walk's budget (`i64::MAX`) becomes [`IDLE_BUDGET`].
-    #[inline(always)]
-    fn push(&mut self, s: &LaneInit) {
         for a in 0..3 {
-            self.t[a].push(s.t[a]);
-            self.d[a].push(s.d[a]);
+            refill(&mut self.t[a], rays.iter().map(|r| r.t_max[a]), idle.t[a]);
+            refill(&mut self.d[a], rays.iter().map(|r| r.t_delta[a]), idle.d[a]);
         }
-        self.len.push(s.len);
-        self.m.push(s.m);
-        self.end.push(s.end);
-        self.flip.push(s.flip);
-        self.budget.push((s.budget.max(0) as u64).min(IDLE_BUDGET));
+        refill(&mut self.len, rays.iter().map(|r| r.length), idle.len);
+        refill(
+            &mut self.flip,
+            rays.iter().map(|r| lane_start(r).2),
+            idle.flip,
+        );
+        let flips = &self.flip[..rays.len()];
+        let starts = rays.iter().zip(flips);
+        refill(
+            &mut self.m,
+            starts.clone().map(|(r, f)| r.code_origin ^ f),
+            idle.m,
+        );
+        refill(&mut self.end, starts.map(|(r, f)| r.code_end ^ f), idle.end);
+        // a ray's budget (a `u32`) is far below an idle lane's
+        let budgets = rays.iter().map(|r| u64::from(r.budget).min(IDLE_BUDGET));
+        refill(&mut self.budget, budgets, IDLE_BUDGET);
     }
+}
+
+/// `v` becomes the values of `batch`, then eight times `idle`.
+#[inline(always)]
+fn refill<T: Copy>(v: &mut Vec<T>, batch: impl Iterator<Item = T>, idle: T) {
+    v.clear();
+    v.extend(batch);
+    v.extend([idle; 8]);
 }
 
 /// Eight entries of `v` from `at` (which leaves at least eight), as a register.
