@@ -205,7 +205,7 @@ fn apply_ops(tree: &mut ColorOcTree, ops: &[Op]) {
             Op::Expand => tree.expand(),
             Op::MaxLikelihood => tree.to_max_likelihood(),
             Op::Inner => tree.update_inner_occupancy(),
-            Op::Surgery(ref c) => c.apply(tree),
+            Op::Surgery(ref c) => c.apply(tree, 0),
         }
     }
 }

@@ -36,6 +36,9 @@ enum Op {
     Expand,
     MaxLikelihood,
     Inner,
+    /// One call on one node in hand (expand, prune, create or delete a child, integrate a
+    /// hit or a miss, update its log-odds, set it to its max likelihood).
+    Surgery(common::Surgery),
 }
 
 #[derive(Debug, Clone)]
@@ -78,6 +81,7 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
         1 => Just(Op::Expand),
         1 => Just(Op::MaxLikelihood),
         1 => Just(Op::Inner),
+        6 => common::surgery_strategy(k()).prop_map(Op::Surgery),
     ]
 }
 
@@ -162,6 +166,7 @@ fn apply_ops(tree: &mut OcTree, ops: &[Op]) {
             Op::Expand => tree.expand(),
             Op::MaxLikelihood => tree.to_max_likelihood(),
             Op::Inner => tree.update_inner_occupancy(),
+            Op::Surgery(ref c) => c.apply(tree, 0),
         }
     }
 }
@@ -222,6 +227,7 @@ fn script_for(case: &Case, dir: &Path) -> String {
             Op::Expand => s.push_str("expand\n"),
             Op::MaxLikelihood => s.push_str("ml\n"),
             Op::Inner => s.push_str("inner\n"),
+            Op::Surgery(ref c) => s.push_str(&c.line()),
         }
     }
     let p = |n: &str| dir.join(n).display().to_string();

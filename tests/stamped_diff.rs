@@ -39,8 +39,17 @@ enum Op {
     MaxLikelihood,
     Inner,
     /// Node surgery on one node (`expandNode`, `pruneNode`, `createNodeChild`,
-    /// `deleteNodeChild`; no clock is read).
+    /// `deleteNodeChild`, which read no clock; `integrateHit`, `integrateMiss`,
+    /// `updateNodeLogOdds`, which stamp the node; `nodeToMaxLikelihood`).
     Surgery(common::Surgery),
+    /// A node's stamp by hand (`setTimestamp(t)`, or `updateTimestamp()` with `None`), or
+    /// `integrateMissNoTime` on it (`miss`).
+    Stamp {
+        key: Key,
+        depth: u8,
+        t: Option<u32>,
+        miss: bool,
+    },
     Many(Vec<Op>),
     /// One scan's sets at one time (`insert_update_at`): a miss on each free key, then a
     /// hit on each occupied one, eager.
@@ -90,7 +99,7 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
             any::<bool>(),
             prop::bool::weighted(0.1),
             prop::collection::vec(0u32..2, 8),
-            prop::collection::vec((0u8..4, 14u8..=15, 0u8..8), 0..4),
+            prop::collection::vec((0u8..8, 14u8..=15, 0u8..8), 0..4),
         )
             .prop_map(|(key, hit, lazy, ticks, calls)| {
                 let mut ops = Vec::new();
@@ -109,7 +118,8 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
                 }
                 for (kind, depth, child) in calls {
                     ops.push(Op::Tick(1));
-                    ops.push(Op::Surgery(common::Surgery { kind, key, depth, child }));
+                    let bits = 0.5f32.to_bits();
+                    ops.push(Op::Surgery(common::Surgery { kind, key, depth, child, bits }));
                 }
                 Op::Many(ops)
             }),
@@ -122,6 +132,8 @@ fn op_strategy(base: Key) -> impl Strategy<Value = Op> {
         1 => Just(Op::MaxLikelihood),
         2 => Just(Op::Inner),
         8 => common::surgery_strategy(k()).prop_map(Op::Surgery),
+        4 => (k(), 12u8..=16, prop::option::of(0u32..5), prop::bool::weighted(0.3))
+            .prop_map(|(key, depth, t, miss)| Op::Stamp { key, depth, t, miss }),
         // a scan's sets, in Morton order as computed (or not), repeated keys and all
         6 => (prop::collection::vec(k(), 1..60), prop::collection::vec(k(), 0..8), any::<bool>())
             .prop_map(|(mut free, mut occupied, sorted)| {
@@ -259,8 +271,28 @@ fn apply(tree: &mut StampedOcTree, ops: &[Op], now: &mut u32, s: &mut String) {
                 s.push_str("inner\n");
             }
             Op::Surgery(ref c) => {
-                c.apply(tree);
+                c.apply(tree, *now);
                 s.push_str(&c.line());
+            }
+            Op::Stamp {
+                key,
+                depth,
+                t,
+                miss,
+            } => {
+                let (x, y, z) = (key.x(), key.y(), key.z());
+                let found = if miss {
+                    writeln!(s, "miss_no_time {x} {y} {z} {depth}").unwrap();
+                    tree.integrate_miss_no_time(key, depth).is_some()
+                } else if let Some(t) = t {
+                    // a small stamp: a prune then compares it with the clock's
+                    writeln!(s, "stamp {x} {y} {z} {depth} {t}").unwrap();
+                    tree.set_timestamp(key, depth, t)
+                } else {
+                    writeln!(s, "touch {x} {y} {z} {depth}").unwrap();
+                    tree.set_timestamp(key, depth, *now)
+                };
+                assert_eq!(found, tree.node_at_depth(key, depth).is_some());
             }
             Op::Batch {
                 ref free,

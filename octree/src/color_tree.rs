@@ -393,6 +393,23 @@ impl ColorOcTree {
         self.base.tree.set_node_raw_value(key, depth, value)
     }
 
+    /// OctoMap's `updateNodeLogOdds` (`integrateHit`, `integrateMiss`) on a node in hand (see
+    /// [`OcTree::update_node_log_odds`]); its colour is kept.
+    pub fn update_node_log_odds(
+        &mut self,
+        key: Key,
+        depth: u8,
+        update: Update,
+    ) -> Result<Option<f32>, OctreeError> {
+        self.base.tree.update_node_log_odds(key, depth, update)
+    }
+
+    /// OctoMap's `nodeToMaxLikelihood` on a node in hand (see
+    /// [`OcTree::node_to_max_likelihood`]); its colour is kept.
+    pub fn node_to_max_likelihood(&mut self, key: Key, depth: u8) -> Option<f32> {
+        self.base.tree.node_to_max_likelihood(key, depth)
+    }
+
     /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight
     /// children with its occupancy and colour (`copyData`); inner nodes above are not
     /// refreshed. `false`, changing nothing, when there is no such node, it has children or

@@ -455,6 +455,71 @@ impl StampedOcTree {
         self.base.tree.set_node_raw_value(key, depth, value)
     }
 
+    /// Set the stamp of the node at exactly `depth` holding `key` to `t` (OctoMap's
+    /// `OcTreeNodeStamped::setTimestamp` on a node in hand; 0 is a node never stamped).
+    /// Nothing else changes: no ancestor is stamped, and a later prune compares the new stamp.
+    /// Returns `false`, changing nothing, when no node exists there.
+    pub fn set_timestamp(&mut self, key: Key, depth: u8, t: u32) -> bool {
+        if self.base.tree.node_at_depth(key, depth).is_none() {
+            return false;
+        }
+        self.base.set(node_id(key, depth), t);
+        true
+    }
+
+    /// [`StampedOcTree::set_timestamp`] at the system clock's time (OctoMap's
+    /// `updateTimestamp`).
+    pub fn update_timestamp(&mut self, key: Key, depth: u8) -> bool {
+        self.set_timestamp(key, depth, now_seconds())
+    }
+
+    /// [`StampedOcTree::update_node_log_odds_at`] at the system clock's time.
+    pub fn update_node_log_odds(
+        &mut self,
+        key: Key,
+        depth: u8,
+        update: Update,
+    ) -> Result<Option<f32>, OctreeError> {
+        self.update_node_log_odds_at(key, depth, update, now_seconds())
+    }
+
+    /// OctoMap's `updateNodeLogOdds` on a node of an `OcTreeStamped` in hand (and so its
+    /// `integrateHit` and `integrateMiss`): the node's log-odds as
+    /// [`OcTree::update_node_log_odds`], then its stamp set to `now`; no ancestor is refreshed
+    /// or stamped. Returns the new log-odds, `Ok(None)` when no node exists there, an error
+    /// (nothing changed) when the sum is NaN.
+    pub fn update_node_log_odds_at(
+        &mut self,
+        key: Key,
+        depth: u8,
+        update: Update,
+        now: u32,
+    ) -> Result<Option<f32>, OctreeError> {
+        let v = self.base.tree.update_node_log_odds(key, depth, update)?;
+        if v.is_some() {
+            self.base.set(node_id(key, depth), now);
+        }
+        Ok(v)
+    }
+
+    /// OctoMap's `integrateMissNoTime`: one miss on the node at exactly `depth` holding `key`,
+    /// clamped, its stamp kept (what [`StampedOcTree::degrade_outdated_nodes_at`] gives each
+    /// stale leaf). Returns the new log-odds, `None` when no node exists there.
+    pub fn integrate_miss_no_time(&mut self, key: Key, depth: u8) -> Option<f32> {
+        // a miss is finite, and stored log-odds are never NaN: the sum is never NaN
+        self.base
+            .tree
+            .update_node_log_odds(key, depth, Update::Miss)
+            .ok()
+            .flatten()
+    }
+
+    /// OctoMap's `nodeToMaxLikelihood` on a node in hand (see
+    /// [`OcTree::node_to_max_likelihood`]); the stamp is kept.
+    pub fn node_to_max_likelihood(&mut self, key: Key, depth: u8) -> Option<f32> {
+        self.base.tree.node_to_max_likelihood(key, depth)
+    }
+
     /// OctoMap's `expandNode`: the childless node at exactly `depth` holding `key` gets eight
     /// children with its occupancy and stamp (`copyData`; no clock is read). `false`, changing
     /// nothing, when there is no such node, it has children or it is a voxel.

@@ -1,6 +1,8 @@
 //! Per-node surgery, OctoMap's `expandNode`, `pruneNode`, `isNodeCollapsible`,
 //! `createNodeChild`, `getNodeChild`, `deleteNodeChild`, `nodeChildExists` and
-//! `nodeHasChildren`, with the node named by its key and depth instead of a pointer.
+//! `nodeHasChildren`, and the occupancy calls on a node in hand (`updateNodeLogOdds`,
+//! `integrateHit`, `integrateMiss`, `nodeToMaxLikelihood`, `setValue`), with the node named by
+//! its key and depth instead of a pointer.
 //!
 //! OctoMap hands out raw node pointers and asserts its preconditions; here a node is addressed
 //! by `(key, depth)` (the key of any voxel inside it, depth 0 = root .. 16 = voxel), and a call
@@ -9,8 +11,8 @@
 //! above, as in OctoMap.
 
 use crate::key::{Key, TREE_DEPTH};
-use crate::store::NodeRef;
-use crate::tree::{NodeInfo, OcTree};
+use crate::store::{clamp_sum, NodeRef};
+use crate::tree::{NodeInfo, OcTree, Update};
 
 impl OcTree {
     /// The node at exactly `depth` on the way to `key`; `None` when the tree has no node there
@@ -111,6 +113,52 @@ impl OcTree {
         };
         self.store.set_value(n, value);
         Ok(true)
+    }
+
+    /// Add `update`'s log-odds to the node at exactly `depth` holding `key` and clamp the sum
+    /// to the sensor model's bounds, as OctoMap's `updateNodeLogOdds` on a node in hand
+    /// (`integrateHit` with [`Update::Hit`], `integrateMiss` with [`Update::Miss`]): no early
+    /// exit at a clamp, no change detection, no ancestor refreshed or pruned. Returns the
+    /// node's new log-odds, `Ok(None)` (nothing changed) when no node exists there, and
+    /// [`crate::OctreeError::NanValue`] (nothing changed) when the sum is NaN (a NaN update, or
+    /// infinities of both signs), which OctoMap would store and this tree cannot.
+    pub fn update_node_log_odds(
+        &mut self,
+        key: Key,
+        depth: u8,
+        update: Update,
+    ) -> Result<Option<f32>, crate::OctreeError> {
+        let Some(n) = self.node_ref_at(key, depth) else {
+            return Ok(None);
+        };
+        let p = self.params;
+        let v = clamp_sum(
+            self.store.value(n),
+            self.delta(update),
+            p.clamp_min,
+            p.clamp_max,
+        );
+        if v.is_nan() {
+            return Err(crate::OctreeError::NanValue);
+        }
+        self.store.set_value(n, v);
+        Ok(Some(v))
+    }
+
+    /// Set the node at exactly `depth` holding `key` to the clamp its occupancy points to
+    /// (OctoMap's `nodeToMaxLikelihood` on a node in hand: occupied nodes to the upper clamp,
+    /// the others to the lower), without touching its children or ancestors. Returns the new
+    /// log-odds, `None` when no node exists there.
+    pub fn node_to_max_likelihood(&mut self, key: Key, depth: u8) -> Option<f32> {
+        let n = self.node_ref_at(key, depth)?;
+        let p = self.params;
+        let v = if p.is_occupied(self.store.value(n)) {
+            p.clamp_max
+        } else {
+            p.clamp_min
+        };
+        self.store.set_value(n, v);
+        Some(v)
     }
 
     /// Collapse the node at `depth` holding `key` when it is collapsible (OctoMap's

@@ -377,3 +377,59 @@ proptest! {
         prop_assert_eq!(ca, cb);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// OctoMap's `updateNodeLogOdds` and `nodeToMaxLikelihood` on a node in hand: the node
+    /// at exactly that depth becomes add-then-clamp (no early exit at a clamp) or its clamp,
+    /// every other node keeps its value; a missing node or a NaN sum changes nothing.
+    #[test]
+    fn node_in_hand_updates_change_that_node_alone(
+        ups in prop::collection::vec((keys(), any::<bool>()), 1..60),
+        calls in prop::collection::vec(
+            (keys(), 12u8..=16, prop_oneof![
+                Just(f32::NAN), Just(f32::INFINITY), Just(f32::NEG_INFINITY), -5.0f32..5.0
+            ], any::<bool>()),
+            1..30,
+        ),
+    ) {
+        let mut tree = OcTree::new(0.1).unwrap();
+        for &(k, hit) in &ups {
+            tree.update_node(k, if hit { Update::Hit } else { Update::Miss }, InnerNodes::Refresh);
+        }
+        let p = *tree.params();
+        for &(k, depth, d, ml) in &calls {
+            let before: Vec<_> = tree.nodes().map(|n| (n.depth, n.value.to_bits())).collect();
+            let old = tree.node_at_depth(k, depth).map(|n| n.value);
+            let expected = old.map(|v| {
+                if ml {
+                    if v >= p.occupancy_threshold { p.clamp_max } else { p.clamp_min }
+                } else {
+                    let s = v + d;
+                    if s < p.clamp_min { p.clamp_min } else if s > p.clamp_max { p.clamp_max } else { s }
+                }
+            });
+            let got = if ml {
+                Ok(tree.node_to_max_likelihood(k, depth))
+            } else {
+                tree.update_node_log_odds(k, depth, Update::LogOdds(d))
+            };
+            match expected {
+                Some(e) if e.is_nan() => prop_assert!(got.is_err()),
+                e => prop_assert_eq!(got.unwrap().map(f32::to_bits), e.map(f32::to_bits)),
+            }
+            let now = tree.node_at_depth(k, depth).map(|n| n.value);
+            let changed = expected.filter(|e| !e.is_nan());
+            prop_assert_eq!(now.map(f32::to_bits), changed.or(old).map(f32::to_bits));
+            // no other node changes, and none comes or goes
+            let after: Vec<_> = tree.nodes().map(|n| (n.depth, n.value.to_bits())).collect();
+            prop_assert_eq!(before.len(), after.len());
+            let differ: Vec<_> = before.iter().zip(&after).filter(|(b, a)| b != a).collect();
+            prop_assert!(differ.len() <= 1);
+            prop_assert!(differ.iter().all(|(b, _)| b.0 == depth));
+        }
+        // the ancestors are the caller's business, as in OctoMap
+        assert_well_formed(&tree, InnerNodes::from_lazy(true));
+    }
+}

@@ -117,19 +117,23 @@ pub fn first_diff(a: &[u8], b: &[u8]) -> String {
 }
 
 /// OctoMap's node surgery, one call on the node at exactly a depth, as the reference
-/// program's `expand_node`, `prune_node`, `create_child` and `delete_child` commands make it:
-/// skipped, on both sides alike, where there is no such node or OctoMap would assert, and
-/// `delete_child` on a leaf child only.
+/// program's `expand_node`, `prune_node`, `create_child`, `delete_child`, `integrate_hit`,
+/// `integrate_miss`, `node_ml` and `log_odds` commands make it: skipped, on both sides alike,
+/// where there is no such node or OctoMap would assert, and `delete_child` on a leaf child
+/// only.
 #[derive(Debug, Clone, Copy)]
 pub struct Surgery {
-    /// 0 expand, 1 prune, 2 create a child, 3 delete a child.
+    /// 0 expand, 1 prune, 2 create a child, 3 delete a child, 4 `integrateHit`, 5
+    /// `integrateMiss`, 6 `nodeToMaxLikelihood`, 7 `updateNodeLogOdds` by `bits`.
     pub kind: u8,
     pub key: octoquant::Key,
     pub depth: u8,
     pub child: u8,
+    /// The log-odds update of kind 7, as `f32` bits (finite).
+    pub bits: u32,
 }
 
-/// The trees with a payload per node, as the surgery calls see them.
+/// The trees, as the surgery calls see them.
 pub trait SurgeryTree {
     /// Whether the node at exactly `depth` holding `key` exists, and whether it has children.
     fn state(&self, key: octoquant::Key, depth: u8) -> Option<bool>;
@@ -139,16 +143,26 @@ pub trait SurgeryTree {
     fn prune(&mut self, key: octoquant::Key, depth: u8) -> bool;
     fn create(&mut self, key: octoquant::Key, depth: u8, i: usize) -> bool;
     fn delete(&mut self, key: octoquant::Key, depth: u8, i: usize) -> usize;
+    /// `updateNodeLogOdds` on the node, at time `now` where the tree keeps stamps.
+    fn log_odds(
+        &mut self,
+        key: octoquant::Key,
+        depth: u8,
+        update: octoquant::octree::Update,
+        now: u32,
+    ) -> Option<f32>;
+    /// `nodeToMaxLikelihood` on the node.
+    fn to_ml(&mut self, key: octoquant::Key, depth: u8) -> Option<f32>;
 }
 
 macro_rules! surgery_tree {
-    ($t:ty) => {
+    ($t:ty, $info:ident => $has_children:expr, $log_odds:expr) => {
         impl SurgeryTree for $t {
             fn state(&self, key: octoquant::Key, depth: u8) -> Option<bool> {
-                self.node_at_depth(key, depth).map(|n| n.node.has_children)
+                self.node_at_depth(key, depth).map(|$info| $has_children)
             }
             fn child_state(&self, key: octoquant::Key, depth: u8, i: usize) -> Option<bool> {
-                self.node_child(key, depth, i).map(|n| n.node.has_children)
+                self.node_child(key, depth, i).map(|$info| $has_children)
             }
             fn expand(&mut self, key: octoquant::Key, depth: u8) -> bool {
                 self.expand_node(key, depth)
@@ -162,15 +176,43 @@ macro_rules! surgery_tree {
             fn delete(&mut self, key: octoquant::Key, depth: u8, i: usize) -> usize {
                 self.delete_node_child(key, depth, i)
             }
+            fn log_odds(
+                &mut self,
+                key: octoquant::Key,
+                depth: u8,
+                update: octoquant::octree::Update,
+                now: u32,
+            ) -> Option<f32> {
+                #[allow(clippy::redundant_closure_call)]
+                ($log_odds)(self, key, depth, update, now).expect("a finite update")
+            }
+            fn to_ml(&mut self, key: octoquant::Key, depth: u8) -> Option<f32> {
+                self.node_to_max_likelihood(key, depth)
+            }
         }
     };
 }
-surgery_tree!(octoquant::octree::ColorOcTree);
-surgery_tree!(octoquant::octree::StampedOcTree);
+surgery_tree!(
+    octoquant::octree::ColorOcTree,
+    n => n.node.has_children,
+    |t: &mut octoquant::octree::ColorOcTree, k, d, u, _now| t.update_node_log_odds(k, d, u)
+);
+surgery_tree!(
+    octoquant::octree::StampedOcTree,
+    n => n.node.has_children,
+    |t: &mut octoquant::octree::StampedOcTree, k, d, u, now| t.update_node_log_odds_at(k, d, u, now)
+);
+surgery_tree!(
+    octoquant::octree::OcTree,
+    n => n.has_children,
+    |t: &mut octoquant::octree::OcTree, k, d, u, _now| t.update_node_log_odds(k, d, u)
+);
 
 impl Surgery {
-    /// Apply the call to `tree` as the reference program does.
-    pub fn apply(&self, tree: &mut impl SurgeryTree) {
+    /// Apply the call to `tree` as the reference program does, at time `now` where the tree
+    /// keeps stamps (the reference program's clock).
+    pub fn apply(&self, tree: &mut impl SurgeryTree, now: u32) {
+        use octoquant::octree::Update;
         let (k, d, i) = (self.key, self.depth, usize::from(self.child));
         let Some(has_children) = tree.state(k, d) else {
             return;
@@ -188,6 +230,15 @@ impl Surgery {
             3 if tree.child_state(k, d, i) == Some(false) => {
                 assert_eq!(tree.delete(k, d, i), 1);
             }
+            4..=7 => {
+                let v = match self.kind {
+                    4 => tree.log_odds(k, d, Update::Hit, now),
+                    5 => tree.log_odds(k, d, Update::Miss, now),
+                    6 => tree.to_ml(k, d),
+                    _ => tree.log_odds(k, d, Update::LogOdds(f32::from_bits(self.bits)), now),
+                };
+                assert!(v.is_some(), "the node exists");
+            }
             _ => {}
         }
     }
@@ -195,14 +246,22 @@ impl Surgery {
     /// The reference program's command line for the call.
     pub fn line(&self) -> String {
         let (k, d) = (self.key, self.depth);
-        let cmd =
-            ["expand_node", "prune_node", "create_child", "delete_child"][usize::from(self.kind)];
-        let child = if self.kind >= 2 {
-            format!(" {}", self.child)
-        } else {
-            String::new()
+        let cmd = [
+            "expand_node",
+            "prune_node",
+            "create_child",
+            "delete_child",
+            "integrate_hit",
+            "integrate_miss",
+            "node_ml",
+            "log_odds",
+        ][usize::from(self.kind)];
+        let tail = match self.kind {
+            2 | 3 => format!(" {}", self.child),
+            7 => format!(" {:08x}", self.bits),
+            _ => String::new(),
         };
-        format!("{cmd} {} {} {} {d}{child}\n", k.x(), k.y(), k.z())
+        format!("{cmd} {} {} {} {d}{tail}\n", k.x(), k.y(), k.z())
     }
 }
 
@@ -212,10 +271,12 @@ pub fn surgery_strategy(
     keys: impl proptest::strategy::Strategy<Value = octoquant::Key>,
 ) -> impl proptest::strategy::Strategy<Value = Surgery> {
     use proptest::prelude::*;
-    (0u8..4, keys, 12u8..=16, 0u8..8).prop_map(|(kind, key, depth, child)| Surgery {
+    let kind = prop_oneof![4 => 0u8..4, 3 => 4u8..8];
+    (kind, keys, 12u8..=16, 0u8..8, -5.0f32..5.0).prop_map(|(kind, key, depth, child, v)| Surgery {
         kind,
         key,
         depth,
         child,
+        bits: v.to_bits(),
     })
 }

@@ -26,6 +26,11 @@
 //                                     OctoMap would assert (expanding a node with children or a
 //                                     voxel, creating an existing child, deleting a missing one);
 //                                     delete_child deletes a leaf child only
+//   log_odds KX KY KZ DEPTH HEXBITS, integrate_hit|integrate_miss|node_ml KX KY KZ DEPTH
+//                                     updateNodeLogOdds (float given as f32 bits) /
+//                                     integrateHit / integrateMiss / nodeToMaxLikelihood on the
+//                                     node at exactly DEPTH holding the key; skipped when there
+//                                     is none
 //   write_ot PATH                     tree.write(PATH)
 //   write_bt PATH                     tree.writeBinary(PATH)  (ML + prune, mutates)
 //   write_bt_const PATH               tree.writeBinaryConst(PATH)
@@ -70,6 +75,10 @@
 //   print_nodes                       prints "node DEPTH KX KY KZ VALUEBITS STAMP" per node,
 //                                     pre-order, children 0..7, KX KY KZ the smallest voxel key
 //   insert ... stamps START STEP      frame I is inserted at time START + I * STEP
+//   stamp KX KY KZ DEPTH T, touch|miss_no_time KX KY KZ DEPTH
+//                                     setTimestamp(T) / updateTimestamp() /
+//                                     integrateMissNoTime on the node at exactly DEPTH holding
+//                                     the key; skipped when there is none
 //
 // Binary files are little-endian. frames: "OCTFRAME", u32 version (1 or 2), u32 count, per
 // frame f32 origin[3], u32 n, [version 2: u32 flags, f64 stamp if flags & 1], n x f32[3],
@@ -390,6 +399,27 @@ static int run_script(std::istream& in) {
         // the subtree, so a deeper subtree would leave its size (in the .ot header) wrong
         tree->deleteNodeChild(n, idx);
       }
+    } else if (cmd == "log_odds" || cmd == "integrate_hit" || cmd == "integrate_miss" ||
+               cmd == "node_ml") {
+      OcTreeKey k = key_from(ls);
+      unsigned depth = 0;
+      if (!(ls >> depth)) die(cmd + " needs KX KY KZ DEPTH");
+      float v = 0.0f;
+      if (cmd == "log_odds") {
+        std::string hex;
+        if (!(ls >> hex)) die("log_odds needs KX KY KZ DEPTH HEXBITS");
+        v = bits_to_float(hex);
+      }
+      auto* n = node_at_depth(*tree, k, depth);
+      if (!n) continue;
+      if (cmd == "log_odds")
+        tree->updateNodeLogOdds(n, v);
+      else if (cmd == "integrate_hit")
+        tree->integrateHit(n);
+      else if (cmd == "integrate_miss")
+        tree->integrateMiss(n);
+      else
+        tree->nodeToMaxLikelihood(n);
     } else if (cmd == "prune") {
       tree->prune();
     } else if (cmd == "expand") {
@@ -526,6 +556,21 @@ static int run_script(std::istream& in) {
         unsigned thres = 0;
         if (!(ls >> thres)) die("degrade needs a threshold");
         tree->degradeOutdatedNodes(thres);
+      }
+    } else if (stamped && (cmd == "stamp" || cmd == "touch" || cmd == "miss_no_time")) {
+      if constexpr (stamped) {
+        OcTreeKey k = key_from(ls);
+        unsigned depth = 0, t = 0;
+        if (!(ls >> depth)) die(cmd + " needs KX KY KZ DEPTH");
+        if (cmd == "stamp" && !(ls >> t)) die("stamp needs KX KY KZ DEPTH T");
+        auto* n = node_at_depth(*tree, k, depth);
+        if (!n) continue;
+        if (cmd == "stamp")
+          n->setTimestamp(t);
+        else if (cmd == "touch")
+          n->updateTimestamp();
+        else
+          tree->integrateMissNoTime(n);
       }
     } else if (stamped && cmd == "print_last_update") {
       if constexpr (stamped) {
