@@ -635,6 +635,21 @@ class OcTreeStamped(OccupancyOcTreeBase):
     def createNodeChild(self, node: OcTreeNodeStamped, idx: int) -> OcTreeNodeStamped:
         """Create child ``idx`` with log-odds 0 and stamp 0 (``ValueError`` if it exists)."""
     def deleteNodeChild(self, node: OcTreeNodeStamped, idx: int) -> None: ...
+    def updateNodeLogOdds(
+        self, node: OcTreeNodeStamped, update: float, *, now: Optional[int] = None
+    ) -> float:
+        """Add and clamp the node's log-odds (no early exit, no ancestor refreshed) and stamp
+        it ``now``; the new log-odds (``ValueError`` for a NaN sum)."""
+    def integrateHit(self, node: OcTreeNodeStamped, *, now: Optional[int] = None) -> float: ...
+    def integrateMiss(self, node: OcTreeNodeStamped, *, now: Optional[int] = None) -> float: ...
+    def integrateMissNoTime(self, node: OcTreeNodeStamped) -> float:
+        """One miss, clamped, the stamp kept."""
+    def nodeToMaxLikelihood(self, node: OcTreeNodeStamped) -> float:
+        """The node to the clamp on its side of the threshold, the stamp kept."""
+    def setNodeTimestamp(self, node: OcTreeNodeStamped, timestamp: int) -> int:
+        """OctoMap's ``node->setTimestamp(t)``."""
+    def updateNodeTimestamp(self, node: OcTreeNodeStamped, *, now: Optional[int] = None) -> int:
+        """OctoMap's ``node->updateTimestamp()``: the stamp ``now`` (default the system clock)."""
     def __copy__(self) -> OcTreeStamped: ...
     def __deepcopy__(self, memo: dict[int, Any]) -> OcTreeStamped: ...
 

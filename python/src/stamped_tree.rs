@@ -609,6 +609,101 @@ impl PyStampedOcTree {
     }
 }
 
+/// OctoMap's occupancy and stamp calls on a node in hand. OctoMap's nodes are pointers into
+/// the tree; here a node (from ``search``, ``getRoot``, ``getNodeChild``, ...) names the node at
+/// its key and depth, which must still be in the tree (``ValueError`` otherwise). Each call
+/// returns what it left in the node; the node object, a snapshot, keeps its old values.
+#[pymethods]
+impl PyStampedOcTree {
+    /// Add ``update`` to the node's log-odds and clamp the sum to the sensor model's bounds
+    /// (no early exit at a clamp, no inner node refreshed), then stamp it with ``now``
+    /// (default the system clock), as OctoMap's ``OcTreeStamped::updateNodeLogOdds``. Returns
+    /// the new log-odds. ``ValueError`` when the sum is NaN.
+    #[pyo3(name = "updateNodeLogOdds", signature = (node, update, *, now=None))]
+    fn update_node_log_odds(
+        &mut self,
+        node: &Bound<'_, PyAny>,
+        update: f32,
+        now: Option<i64>,
+    ) -> PyResult<f32> {
+        self.log_odds_in_hand(node, engine::Update::LogOdds(update), now)
+    }
+
+    /// ``updateNodeLogOdds`` with the sensor model's hit (OctoMap's ``integrateHit``).
+    #[pyo3(name = "integrateHit", signature = (node, *, now=None))]
+    fn integrate_hit(&mut self, node: &Bound<'_, PyAny>, now: Option<i64>) -> PyResult<f32> {
+        self.log_odds_in_hand(node, engine::Update::Hit, now)
+    }
+
+    /// ``updateNodeLogOdds`` with the sensor model's miss (OctoMap's ``integrateMiss``).
+    #[pyo3(name = "integrateMiss", signature = (node, *, now=None))]
+    fn integrate_miss(&mut self, node: &Bound<'_, PyAny>, now: Option<i64>) -> PyResult<f32> {
+        self.log_odds_in_hand(node, engine::Update::Miss, now)
+    }
+
+    /// One miss on the node, clamped, its stamp kept (OctoMap's ``integrateMissNoTime``, what
+    /// ``degradeOutdatedNodes`` gives each stale leaf). Returns the new log-odds.
+    #[pyo3(name = "integrateMissNoTime")]
+    fn integrate_miss_no_time(&mut self, node: &Bound<'_, PyAny>) -> PyResult<f32> {
+        let (key, d) = live_node(&*self.tree, node)?;
+        self.tree
+            .integrate_miss_no_time(key, d)
+            .ok_or_else(|| convert::not_in_tree(key, d))
+    }
+
+    /// Set the node to the clamping bound on its side of the threshold, its stamp kept
+    /// (OctoMap's ``nodeToMaxLikelihood``). Returns the new log-odds.
+    #[pyo3(name = "nodeToMaxLikelihood")]
+    fn node_to_max_likelihood(&mut self, node: &Bound<'_, PyAny>) -> PyResult<f32> {
+        let (key, d) = live_node(&*self.tree, node)?;
+        self.tree
+            .node_to_max_likelihood(key, d)
+            .ok_or_else(|| convert::not_in_tree(key, d))
+    }
+
+    /// Set the node's stamp to ``timestamp`` whole seconds (OctoMap's
+    /// ``node->setTimestamp(t)``; 0 is a node never stamped); nothing else changes, and a
+    /// later prune compares the new stamp. Returns it.
+    #[pyo3(name = "setNodeTimestamp")]
+    fn set_node_timestamp(&mut self, node: &Bound<'_, PyAny>, timestamp: i64) -> PyResult<u32> {
+        let t = seconds(timestamp, "timestamp")?;
+        let (key, d) = live_node(&*self.tree, node)?;
+        self.tree.set_timestamp(key, d, t);
+        Ok(t)
+    }
+
+    /// Stamp the node with ``now`` (default the system clock: OctoMap's
+    /// ``node->updateTimestamp()``). Returns the stamp.
+    #[pyo3(name = "updateNodeTimestamp", signature = (node, *, now=None))]
+    fn update_node_timestamp(
+        &mut self,
+        node: &Bound<'_, PyAny>,
+        now: Option<i64>,
+    ) -> PyResult<u32> {
+        let t = clock(now)?;
+        let (key, d) = live_node(&*self.tree, node)?;
+        self.tree.set_timestamp(key, d, t);
+        Ok(t)
+    }
+}
+
+impl PyStampedOcTree {
+    /// `updateNodeLogOdds` of `update` on the live node `node`, stamped `now`.
+    fn log_odds_in_hand(
+        &mut self,
+        node: &Bound<'_, PyAny>,
+        update: engine::Update,
+        now: Option<i64>,
+    ) -> PyResult<f32> {
+        let now = clock(now)?;
+        let (key, d) = live_node(&*self.tree, node)?;
+        self.tree
+            .update_node_log_odds_at(key, d, update, now)
+            .map_err(|e| convert::value_error("updateNodeLogOdds", &e))?
+            .ok_or_else(|| convert::not_in_tree(key, d))
+    }
+}
+
 /// Copies (stamps included; pickling is not offered, as ``.ot`` files hold no stamps).
 #[pymethods]
 impl PyStampedOcTree {

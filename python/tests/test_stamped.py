@@ -468,3 +468,42 @@ def test_node_surgery_follows_the_stamp_rules():
     assert t.isNodeCollapsible(parent) and t.pruneNode(parent)
     assert t.search(base, 16).getDepth() == 15
     assert t.search(base, 16).getTimestamp() == 50
+
+
+def test_node_in_hand_calls_follow_octomap():
+    """OctoMap's calls on a node in hand (checked against liboctomap by the Rust tests'
+    reference scripts): ``updateNodeLogOdds``, ``integrateHit`` and ``integrateMiss`` add and
+    clamp without an early exit and stamp the node alone; ``integrateMissNoTime`` and
+    ``nodeToMaxLikelihood`` keep its stamp; ``setNodeTimestamp``/``updateNodeTimestamp`` set
+    it; none of them refreshes the ancestors."""
+    t = octoquant.OcTreeStamped(0.1)
+    p = np.array([0.05, 0.05, 0.05])
+    t.updateNode(p, True, now=10)
+    # OctoMap's default sensor model, as log-odds
+    hit, miss, lo, hi = (math.log(q / (1 - q)) for q in (0.7, 0.4, 0.1192, 0.971))
+    voxel = t.search(p)
+    assert t.integrateHit(voxel, now=20) == pytest.approx(2 * hit, abs=1e-5)
+    assert (t.search(p).getTimestamp(), t.getLastUpdateTime()) == (20, 10)
+    assert t.integrateMiss(voxel, now=30) == pytest.approx(2 * hit + miss, abs=1e-5)
+    # no early exit at a clamp: the sum is clamped
+    assert t.updateNodeLogOdds(voxel, 100.0, now=40) == pytest.approx(hi, abs=1e-5)
+    assert t.updateNodeLogOdds(voxel, -100.0, now=41) == pytest.approx(lo, abs=1e-5)
+    assert t.search(p).getTimestamp() == 41
+    assert t.integrateMissNoTime(voxel) == pytest.approx(lo, abs=1e-5)
+    assert t.search(p).getTimestamp() == 41
+    t.updateNodeLogOdds(voxel, 3.0, now=42)  # from the lower clamp to occupied
+    assert t.nodeToMaxLikelihood(voxel) == pytest.approx(hi, abs=1e-5)
+    assert t.search(p).getTimestamp() == 42
+    # the root was not refreshed by any of them
+    root = t.getRoot()
+    assert (root.getTimestamp(), root.getValue()) == (10, pytest.approx(hit, abs=1e-5))
+    assert t.setNodeTimestamp(root, 7) == 7 and t.getLastUpdateTime() == 7
+    assert t.updateNodeTimestamp(root, now=99) == 99 and t.getLastUpdateTime() == 99
+    assert t.updateNodeTimestamp(root) >= 1_700_000_000  # the system clock
+    with pytest.raises(ValueError, match="NaN"):
+        t.updateNodeLogOdds(voxel, float("nan"), now=50)
+    with pytest.raises(ValueError, match="whole seconds"):
+        t.setNodeTimestamp(root, -1)
+    t.deleteNode(p, 0, now=60)
+    with pytest.raises(ValueError, match="not in this tree"):
+        t.integrateHit(voxel, now=60)
