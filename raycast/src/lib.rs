@@ -41,6 +41,7 @@
 //! - `update.rs`: a scan's key sets; `discretize.rs`: OctoMap's `discretize` (one point per
 //!   voxel); `stats.rs`: the counts of a scan; `brickset.rs`: the key sets as hashed bricks.
 //! - `ray_order.rs`: many rays' keys handed on ray by ray, in order.
+//! - `point_keys.rs`: the end points' keys, a block of points at a time;
 //! - `pixel_grid.rs`: which stretch of a depth image's rays their neighbours cover;
 //!   `setups.rs`: the DDA set-ups of many rays at once.
 //! - `dda.rs`: OctoMap's DDA, one ray at a time, and the ray set-up every walk starts from;
@@ -103,6 +104,7 @@ mod insert;
 mod lanes;
 mod narrow;
 mod pixel_grid;
+mod point_keys;
 mod ray_order;
 mod setups;
 mod stats;

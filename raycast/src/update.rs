@@ -15,6 +15,7 @@ use crate::dda::{
 };
 use crate::discretize::discretize_into;
 use crate::pixel_grid::{jump, near_key, PixelGrid, SkipPlan};
+use crate::point_keys::{ChunkKeys, CHUNK};
 use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
 use crate::stats::ScanStats;
 use nalgebra::Point3;
@@ -235,6 +236,8 @@ struct RayScratch {
     lines: Vec<(Key, Key)>,
     /// The buffers of the Bresenham lanes.
     line_lanes: crate::lanes::LineScratch,
+    /// The keys of the block of points being queued.
+    keys: ChunkKeys,
 }
 
 /// DDA rays set up before their walks start together (see [`crate::lanes`]).
@@ -522,12 +525,17 @@ fn add_points(
     let skips = skips.filter(|_| model == RayModel::Dda);
     let shared = origin_key.map(|(k, _)| Shared::new(conv, origin, k, skips.map(|s| s.0)));
     for (i, p) in points.iter().enumerate() {
-        if !is_finite(p) {
+        // the keys of the next block of points, found together
+        let j = i % CHUNK;
+        if j == 0 {
+            ray.keys.fill(conv, &points[i..]);
+        }
+        if !ray.keys.finite(j) {
             stats.non_finite += 1;
             continue;
         }
         let diff = sub_f32(p, origin);
-        let hit = key_of(conv, p).map(coded);
+        let hit = ray.keys.hit(j);
         if hit.is_none() {
             stats.outside_map += 1;
         }
