@@ -244,11 +244,17 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         let s = place(&mut self.slabs, &mut self.free, fresh);
         self.bricks.insert(code, s);
         self.recent[usize::from(depth - SLAB_MIN_DEPTH)] = (code, s);
+        self.correct_hint(code, s);
+        s
+    }
+
+    /// Block `code` now has slab `s` ([`NO_SLAB_IDX`]: none): a hint held for it says so.
+    #[inline]
+    fn correct_hint(&mut self, code: u64, s: u32) {
         let h = &mut self.hints[hint_of(code)];
         if h.0 == code {
             h.1 = s;
         }
-        s
     }
 
     /// Slab `s` of block `code` lost an entry: freed when it was the last.
@@ -262,10 +268,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
                     *r = (NO_SLAB, 0);
                 }
             }
-            let h = &mut self.hints[hint_of(code)];
-            if h.0 == code {
-                h.1 = NO_SLAB_IDX;
-            }
+            self.correct_hint(code, NO_SLAB_IDX);
         }
     }
 
