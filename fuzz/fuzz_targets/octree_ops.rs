@@ -1,6 +1,7 @@
 //! Structure-aware: random operation sequences on an `OcTree` (update, batched updates of
 //! bricks with change detection on or off, set, delete, prune, expand, max-likelihood, inner
-//! occupancy, `.bt`/`.ot` write and read back), checked after every step against the tree's
+//! occupancy, `.bt`/`.ot` write and read back, OctoMap's `updateNodeLogOdds` and
+//! `nodeToMaxLikelihood` on a node in hand), checked after every step against the tree's
 //! invariants (`check_well_formed`, strict while no operation has left it lazy) and at the
 //! end against a naive oracle: a map from voxel key to log-odds that every operation updates
 //! the obvious way. (Deleting the root's last child leaves the root as a leaf covering the
@@ -56,6 +57,14 @@ enum Op {
     WriteReadBt,
     WriteReadOt,
     Clear,
+    /// `update_node_log_odds` (or, with `ml`, `node_to_max_likelihood`) on the node at exactly
+    /// `depth` (0 or past 16: 16) holding the key.
+    NodeInHand {
+        key: FuzzKey,
+        depth: u8,
+        update: FuzzUpdate,
+        ml: bool,
+    },
 }
 
 #[derive(Arbitrary, Debug)]
@@ -291,6 +300,68 @@ fuzz_target!(|input: Input| {
                 model.clear();
                 strict = true;
                 model_ok = true;
+            }
+            Op::NodeInHand {
+                key,
+                depth,
+                update,
+                ml,
+            } => {
+                let k = key.key_in(SIDE);
+                let d = if depth == 0 || depth > TREE_DEPTH {
+                    TREE_DEPTH
+                } else {
+                    depth
+                };
+                let before = tree.node_at_depth(k, d);
+                let p = *tree.params();
+                let delta = tree.delta(update.update());
+                let got = if ml {
+                    Ok(tree.node_to_max_likelihood(k, d))
+                } else {
+                    tree.update_node_log_odds(k, d, update.update())
+                };
+                match (before, got) {
+                    (None, got) => assert!(matches!(got, Ok(None)), "a call on no node: {got:?}"),
+                    (Some(n), Err(_)) => {
+                        // refused only for a NaN sum, and then nothing changed
+                        assert!(!ml && (n.value + delta).is_nan());
+                        let now = tree.node_at_depth(k, d).map(|m| m.value.to_bits());
+                        assert_eq!(now, Some(n.value.to_bits()));
+                    }
+                    (Some(n), Ok(v)) => {
+                        // OctoMap's definitions: add then clamp, no early exit; or the clamp
+                        // on the node's side of the threshold
+                        let expected = if ml {
+                            if p.is_occupied(n.value) {
+                                p.clamp_max
+                            } else {
+                                p.clamp_min
+                            }
+                        } else {
+                            let s = n.value + delta;
+                            if s < p.clamp_min {
+                                p.clamp_min
+                            } else if s > p.clamp_max {
+                                p.clamp_max
+                            } else {
+                                s
+                            }
+                        };
+                        let v = v.expect("the node exists");
+                        assert_eq!(v.to_bits(), expected.to_bits());
+                        // a leaf's voxels all take the value; an inner node's keep theirs
+                        if !n.has_children {
+                            for (m, val) in model.iter_mut() {
+                                if same_prefix(*m, k.0, d) {
+                                    *val = v;
+                                }
+                            }
+                        }
+                        // no ancestor is refreshed, as in OctoMap
+                        strict = false;
+                    }
+                }
             }
         }
         if let Err(e) = check_well_formed(&tree, InnerNodes::from_lazy(!strict)) {
