@@ -123,6 +123,17 @@ impl OccupancyParams {
         l >= self.occupancy_threshold
     }
 
+    /// The clamp on the side of the threshold `l` lies (OctoMap's `nodeToMaxLikelihood`):
+    /// the upper clamp for an occupied value, the lower one otherwise.
+    #[inline]
+    pub fn max_likelihood(&self, l: f32) -> f32 {
+        if self.is_occupied(l) {
+            self.clamp_max
+        } else {
+            self.clamp_min
+        }
+    }
+
     /// `true` when the value sits at either clamp (OctoMap's `isNodeAtThreshold`).
     #[inline]
     pub fn is_at_threshold(&self, l: f32) -> bool {

@@ -115,13 +115,7 @@ impl OcTree {
     /// clamp otherwise (OctoMap's `toMaxLikelihood()`). Does not prune.
     pub fn to_max_likelihood(&mut self) {
         let p = *self.params();
-        self.store.map_values(|v| {
-            if p.is_occupied(v) {
-                p.clamp_max
-            } else {
-                p.clamp_min
-            }
-        });
+        self.store.map_values(|v| p.max_likelihood(v));
     }
 
     /// Set every inner node to the maximum of its children, bottom-up; needed after lazy

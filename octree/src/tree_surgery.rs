@@ -151,12 +151,7 @@ impl OcTree {
     /// log-odds, `None` when no node exists there.
     pub fn node_to_max_likelihood(&mut self, key: Key, depth: u8) -> Option<f32> {
         let n = self.node_ref_at(key, depth)?;
-        let p = self.params;
-        let v = if p.is_occupied(self.store.value(n)) {
-            p.clamp_max
-        } else {
-            p.clamp_min
-        };
+        let v = self.params.max_likelihood(self.store.value(n));
         self.store.set_value(n, v);
         Some(v)
     }
