@@ -155,6 +155,13 @@ impl ColorOcTree {
         self.base.tree.is_empty()
     }
 
+    /// Bytes held by the node storage ([`OcTree::memory_usage`]) and the colours' side table:
+    /// what the tree costs in memory, where `occupancy().memory_usage()` leaves the colours
+    /// out.
+    pub fn memory_usage(&self) -> usize {
+        self.base.memory_usage()
+    }
+
     /// Number of nodes whose colour is set (not white).
     pub fn num_colored_nodes(&self) -> usize {
         self.base.payloads.len()

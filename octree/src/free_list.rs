@@ -1,5 +1,5 @@
 //! Elements kept in a vector by slot, with freed slots reused: the storage of
-//! [`crate::KeyTable`]'s entries and of the side tables' slabs.
+//! [`crate::KeyTable`]'s entries.
 
 /// Put `item` in a freed slot of `items` if there is one, else at the end; returns its slot.
 #[inline]

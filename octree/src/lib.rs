@@ -41,6 +41,7 @@ mod key_set_log;
 pub mod key_table;
 mod merge;
 mod node_id;
+mod packed_slabs;
 mod params;
 mod payload_tree;
 mod slab_index;

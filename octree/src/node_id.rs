@@ -2,9 +2,9 @@
 //! voxel key. The side tables of the tree types that carry more than occupancy per node
 //! (`ColorOcTree`'s colours, `OcTreeStamped`'s time stamps) are keyed by it.
 
-use crate::free_list::place;
 use crate::key::{Key, TREE_DEPTH};
 use crate::key_hasher::KeyHashing;
+use crate::packed_slabs::PackedSlabs;
 use crate::slab_index::SlabIndex;
 use std::collections::HashMap;
 
@@ -30,9 +30,6 @@ pub(crate) fn child_id(id: NodeId, i: usize) -> NodeId {
     (depth + 1, k)
 }
 
-/// Nodes per slab: a 4x4x4 block of nodes of one depth.
-const BRICK_VOXELS: usize = 64;
-
 /// The shallowest depth whose nodes are kept in slabs (12 to 16: nearly all of a tree's nodes).
 /// Depths 12 and 13 joined in session 38: a walk refreshes (and stamps) each ancestor it
 /// leaves, and hash entries there cost a miss each (`map --stamped` on norlab at 0.1 m about
@@ -49,8 +46,10 @@ const SLABBED: usize = (TREE_DEPTH - SLAB_MIN_DEPTH + 1) as usize;
 /// Why slabs: a voxel update reads its seven siblings' payloads (may the eight be collapsed?)
 /// and writes its own, and the same one level up; with a hash entry per node each of those was
 /// a cache miss of its own (the entries of neighbours land anywhere), with a slab per block
-/// they share one or two cache lines. The two misses left per brick (the index, then the
-/// slab) a batched walk hides by looking its bricks' slabs up ahead ([`NodeMap::look_ahead`]).
+/// they share one or two cache lines (packed: only the entries a block has,
+/// [`crate::packed_slabs`]). The misses left per brick (the index, the slab's header, its
+/// entries) a batched walk hides by looking its bricks' slabs up ahead
+/// ([`NodeMap::look_ahead`]).
 #[derive(Debug, Clone)]
 pub(crate) struct NodeMap<P> {
     unset: P,
@@ -58,10 +57,8 @@ pub(crate) struct NodeMap<P> {
     inner: HashMap<NodeId, P, KeyHashing>,
     /// Block code (see [`slab_of`]) to slab index.
     bricks: SlabIndex,
-    /// A block's payloads (`unset`: none) and how many are set.
-    slabs: Vec<([P; BRICK_VOXELS], u8)>,
-    /// Slabs no brick uses.
-    free: Vec<u32>,
+    /// The blocks' payloads, only those set, packed ([`crate::packed_slabs`]).
+    slabs: PackedSlabs<P>,
     /// Entries in all.
     len: usize,
     /// The slab looked up last at each slabbed depth (12 to 16), as block code and slab
@@ -79,7 +76,15 @@ pub(crate) struct NodeMap<P> {
     staged_at: usize,
     /// The last depth-15 block code staged.
     staged_15: u64,
+    /// Slabs whose header is being loaded (the look-ahead's second stage), oldest at
+    /// `loaded_at`: [`LOADED`] stages later their entries are asked for (the third).
+    loaded: [u32; LOADED],
+    /// The oldest entry of `loaded`.
+    loaded_at: usize,
 }
+
+/// How many look-aheads pass between loading a slab's header and asking for its entries.
+const LOADED: usize = 4;
 
 /// How many look-aheads pass between loading a block's index slot and reading it.
 const STAGE: usize = 8;
@@ -98,13 +103,11 @@ fn hint_of(code: u64) -> usize {
 /// A block code no slab has (codes have 45 bits).
 const NO_SLAB: u64 = u64::MAX;
 
-/// Per child index (`child_id`'s bits: x, y, z), the child's place in its slab relative to
-/// child 0's.
-const CHILD_SLOT: [usize; 8] = [0, 1, 4, 5, 16, 17, 20, 21];
-
 /// The code of the slab of node `id` (depth 12 to 16) and its place there: the node's
 /// coordinates at its depth (`key >> (16 - depth)`) without their two low bits, packed with the
-/// depth, and those low bits.
+/// depth, and those low bits interleaved (x, y, z, then the second bits), so that the eight
+/// children of a node, `child_id`'s order, fill one group of eight slots
+/// ([`crate::packed_slabs`]).
 #[inline]
 fn slab_of(id: NodeId) -> (u64, usize) {
     let (depth, k) = id;
@@ -114,22 +117,14 @@ fn slab_of(id: NodeId) -> (u64, usize) {
         | u64::from(c[1] >> 2) << 14
         | u64::from(c[2] >> 2) << 28
         | u64::from(up) << 42;
-    let slot = usize::from(c[0] & 3) | usize::from(c[1] & 3) << 2 | usize::from(c[2] & 3) << 4;
+    let bit = |a: usize, b: u32| usize::from(c[a] >> b & 1);
+    let slot = bit(0, 0)
+        | bit(1, 0) << 1
+        | bit(2, 0) << 2
+        | bit(0, 1) << 3
+        | bit(1, 1) << 4
+        | bit(2, 1) << 5;
     (code, slot)
-}
-
-/// Start loading the cache lines of slab `slab` (a hint; no effect on results).
-#[inline(always)]
-fn prefetch_slab<P>(slab: &([P; BRICK_VOXELS], u8)) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        for i in (0..BRICK_VOXELS).step_by(64 / std::mem::size_of::<P>().max(1)) {
-            safe_arch::prefetch_t0(&slab.0[i]);
-        }
-        safe_arch::prefetch_t0(&slab.1);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = slab;
 }
 
 impl<P: Copy + PartialEq> NodeMap<P> {
@@ -139,14 +134,15 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             unset,
             inner: HashMap::default(),
             bricks: SlabIndex::new(),
-            slabs: Vec::new(),
-            free: Vec::new(),
+            slabs: PackedSlabs::new(unset),
             len: 0,
             recent: [(NO_SLAB, 0); SLABBED],
             hints: [(NO_SLAB, 0); HINTS],
             staged: [NO_SLAB; STAGE],
             staged_at: 0,
             staged_15: NO_SLAB,
+            loaded: [NO_SLAB_IDX; LOADED],
+            loaded_at: 0,
         }
     }
 
@@ -160,25 +156,34 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         self.len == 0
     }
 
+    /// Bytes held: the hash map of the shallow nodes' entries (its slots and control bytes),
+    /// the slab index and the packed slabs.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        self.inner.capacity() * (std::mem::size_of::<(NodeId, P)>() + 1)
+            + self.bricks.heap_bytes()
+            + self.slabs.heap_bytes()
+    }
+
     /// No entries.
     pub(crate) fn clear(&mut self) {
         self.inner.clear();
         self.bricks.clear();
         self.slabs.clear();
-        self.free.clear();
         self.len = 0;
         self.recent = [(NO_SLAB, 0); SLABBED];
         self.hints = [(NO_SLAB, 0); HINTS];
         self.staged = [NO_SLAB; STAGE];
         self.staged_15 = NO_SLAB;
+        self.loaded = [NO_SLAB_IDX; LOADED];
     }
 
     /// Prepare, ahead of their use, the slabs of the voxels and depth-15 nodes around `key`:
     /// a batched walk calls this for each brick some bricks before it reaches it, in order,
     /// so that the cache misses of the slabs' look-ups overlap the walk instead of stalling
-    /// it. In two stages: now the index slot of each block is asked for; about [`STAGE`]
-    /// blocks later it is read (a hint for [`NodeMap::find_slab`]) and the slab itself is
-    /// asked for. A depth-15 block serves eight bricks in a row, so it is staged once.
+    /// it. In three stages: now the index slot of each block is asked for; about [`STAGE`]
+    /// blocks later it is read (a hint for [`NodeMap::find_slab`]) and the slab's header is
+    /// asked for; [`LOADED`] blocks later still, the header is read and the slab's entries
+    /// are asked for. A depth-15 block serves eight bricks in a row, so it is staged once.
     #[inline]
     pub(crate) fn look_ahead(&mut self, key: Key) {
         let (code16, _) = slab_of(node_id(key, TREE_DEPTH));
@@ -201,9 +206,10 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         }
         let s = self.bricks.get(older).unwrap_or(NO_SLAB_IDX);
         self.hints[hint_of(older)] = (older, s);
-        if let Some(slab) = self.slabs.get(s as usize) {
-            prefetch_slab(slab);
-        }
+        self.slabs.prefetch_slab(s);
+        let loaded = std::mem::replace(&mut self.loaded[self.loaded_at], s);
+        self.loaded_at = (self.loaded_at + 1) % LOADED;
+        self.slabs.prefetch_entries(loaded);
     }
 
     /// The slab of block `code` at depth `depth` (12 to 16), if it has one; remembered for
@@ -234,14 +240,14 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         self.bricks.get(code)
     }
 
-    /// The slab of block `code` at depth `depth`, made when it has none.
+    /// The slab of block `code` at depth `depth`, made (with room for `first` entries) when it
+    /// has none.
     #[inline]
-    fn slab_for(&mut self, code: u64, depth: u8) -> u32 {
+    fn slab_for(&mut self, code: u64, depth: u8, first: usize) -> u32 {
         if let Some(s) = self.find_slab(code, depth) {
             return s;
         }
-        let fresh = ([self.unset; BRICK_VOXELS], 0);
-        let s = place(&mut self.slabs, &mut self.free, fresh);
+        let s = self.slabs.make(first);
         self.bricks.insert(code, s);
         self.recent[usize::from(depth - SLAB_MIN_DEPTH)] = (code, s);
         self.correct_hint(code, s);
@@ -260,9 +266,9 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     /// Slab `s` of block `code` lost an entry: freed when it was the last.
     #[inline]
     fn release_if_empty(&mut self, code: u64, s: u32) {
-        if self.slabs[s as usize].1 == 0 {
+        if self.slabs.count(s) == 0 {
             self.bricks.remove(code);
-            self.free.push(s);
+            self.slabs.release(s);
             for r in &mut self.recent {
                 if r.0 == code {
                     *r = (NO_SLAB, 0);
@@ -282,10 +288,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         }
         let (code, slot) = slab_of(first);
         match self.peek_slab(code, first.0) {
-            Some(s) => {
-                let vals = &self.slabs[s as usize].0;
-                std::array::from_fn(|i| vals[slot + CHILD_SLOT[i]])
-            }
+            Some(s) => self.slabs.group(s, slot >> 3),
             None => [self.unset; 8],
         }
     }
@@ -311,19 +314,8 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             return;
         }
         let (code, slot) = slab_of(first);
-        let s = self.slab_for(code, first.0);
-        let (vals, count) = &mut self.slabs[s as usize];
-        for (i, off) in CHILD_SLOT.into_iter().enumerate() {
-            if which >> i & 1 == 0 {
-                continue;
-            }
-            let v = &mut vals[slot + off];
-            if *v == self.unset {
-                *count += 1;
-                self.len += 1;
-            }
-            *v = p;
-        }
+        let s = self.slab_for(code, first.0, which.count_ones() as usize);
+        self.len += self.slabs.set(s, slot >> 3, which, p);
     }
 
     /// Remove the entries of the eight children of `id`, returning their payloads.
@@ -337,18 +329,8 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         let Some(s) = self.find_slab(code, first.0) else {
             return [self.unset; 8];
         };
-        let unset = self.unset;
-        let (vals, count) = &mut self.slabs[s as usize];
-        let mut out = [unset; 8];
-        for (o, off) in out.iter_mut().zip(CHILD_SLOT) {
-            let v = &mut vals[slot + off];
-            if *v != unset {
-                *o = *v;
-                *v = unset;
-                *count -= 1;
-                self.len -= 1;
-            }
-        }
+        let out = self.slabs.group(s, slot >> 3);
+        self.len -= self.slabs.remove(s, slot >> 3, 0xff);
         self.release_if_empty(code, s);
         out
     }
@@ -361,7 +343,7 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         }
         let (code, slot) = slab_of(id);
         match self.peek_slab(code, id.0) {
-            Some(s) => self.slabs[s as usize].0[slot],
+            Some(s) => self.slabs.get(s, slot),
             None => self.unset,
         }
     }
@@ -380,13 +362,8 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             return;
         }
         let (code, slot) = slab_of(id);
-        let s = self.slab_for(code, id.0);
-        let (vals, count) = &mut self.slabs[s as usize];
-        if vals[slot] == self.unset {
-            *count += 1;
-            self.len += 1;
-        }
-        vals[slot] = p;
+        let s = self.slab_for(code, id.0, 1);
+        self.len += self.slabs.set(s, slot >> 3, 1 << (slot & 7), p);
     }
 
     /// Remove the entry of `id`, returning its payload (`None`: it had none).
@@ -399,14 +376,11 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         }
         let (code, slot) = slab_of(id);
         let s = self.find_slab(code, id.0)?;
-        let (vals, count) = &mut self.slabs[s as usize];
-        let p = vals[slot];
+        let p = self.slabs.get(s, slot);
         if p == self.unset {
             return None;
         }
-        vals[slot] = self.unset;
-        *count -= 1;
-        self.len -= 1;
+        self.len -= self.slabs.remove(s, slot >> 3, 1 << (slot & 7));
         self.release_if_empty(code, s);
         Some(p)
     }
@@ -418,14 +392,12 @@ impl<P: Copy + PartialEq> NodeMap<P> {
             let up = (code >> 42) as u8;
             let lo = |shift: u32| ((code >> shift) as u16 & 0x3fff) << 2;
             let base = [lo(0), lo(14), lo(28)];
-            let vals = &self.slabs[s as usize].0;
-            (0..BRICK_VOXELS)
-                .filter(move |&i| vals[i] != self.unset)
-                .map(move |i| {
-                    let c = [i & 3, i >> 2 & 3, i >> 4 & 3];
-                    let k = Key(std::array::from_fn(|a| (base[a] | c[a] as u16) << up));
-                    (TREE_DEPTH - up, k)
-                })
+            self.slabs.entries(s).map(move |(i, _)| {
+                // slot bits: x, y, z low bits, then x, y, z second bits
+                let c: [usize; 3] = std::array::from_fn(|a| (i >> a & 1) | (i >> (a + 3) & 1) << 1);
+                let k = Key(std::array::from_fn(|a| (base[a] | c[a] as u16) << up));
+                (TREE_DEPTH - up, k)
+            })
         });
         self.inner.keys().copied().chain(slabbed)
     }
@@ -524,8 +496,7 @@ mod tests {
             ids.sort();
             want.sort();
             prop_assert_eq!(ids, want);
-            prop_assert!(m.bricks.len() <= m.slabs.len());
-            prop_assert_eq!(m.slabs.len() - m.free.len(), m.bricks.len());
+            prop_assert_eq!(m.slabs.live(), m.bricks.len());
         }
     }
 }

@@ -56,6 +56,11 @@ impl<P: NodePayload> PayloadTree<P> {
         }
     }
 
+    /// Bytes held by the node storage and the payload side table.
+    pub(crate) fn memory_usage(&self) -> usize {
+        self.tree.memory_usage() + self.payloads.heap_bytes()
+    }
+
     /// Remove every node and payload.
     pub(crate) fn clear(&mut self) {
         self.tree.clear();

@@ -37,6 +37,11 @@ impl SlabIndex {
         self.len
     }
 
+    /// Bytes of the slots.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        self.slots.capacity() * std::mem::size_of::<(u64, u32)>()
+    }
+
     /// Nothing held (keeps the slots' memory).
     pub(crate) fn clear(&mut self) {
         self.slots.fill((EMPTY, 0));

@@ -180,6 +180,13 @@ impl StampedOcTree {
         self.base.tree.is_empty()
     }
 
+    /// Bytes held by the node storage ([`OcTree::memory_usage`]) and the stamps' side table:
+    /// what the tree costs in memory, where `occupancy().memory_usage()` leaves the stamps
+    /// out.
+    pub fn memory_usage(&self) -> usize {
+        self.base.memory_usage()
+    }
+
     /// Remove every node.
     pub fn clear(&mut self) {
         self.base.clear();

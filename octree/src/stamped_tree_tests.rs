@@ -30,6 +30,21 @@ fn a_voxel_and_its_ancestors_take_the_update_time() {
 }
 
 #[test]
+fn memory_usage_counts_the_stamps() {
+    let mut t = StampedOcTree::new(0.1).unwrap();
+    // voxels spread over many 4x4x4 blocks and a few dense ones: every node of the tree is
+    // stamped (time 7), and each stamp takes at least its four bytes
+    for i in 0..2000u16 {
+        let k = Key::new(30000 + i * 3, 32768 + (i % 7), 32768 + i % 5);
+        t.update_node_at(k, Update::Hit, InnerNodes::Refresh, 7);
+    }
+    let stamped = t.base.payloads.len();
+    assert_eq!(stamped, t.size());
+    let occupancy = t.occupancy().memory_usage();
+    assert!(t.memory_usage() >= occupancy + 4 * stamped);
+}
+
+#[test]
 fn a_lazy_update_stamps_only_the_voxel() {
     let mut t = StampedOcTree::new(0.1).unwrap();
     let k = Key::new(32768, 32768, 32768);
