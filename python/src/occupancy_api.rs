@@ -22,6 +22,8 @@ pub(crate) trait TreeSettings {
     fn reset_change_detection(&mut self);
     /// OctoMap's `setResolution`.
     fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError>;
+    /// Bytes the tree holds: its nodes and, for the payload trees, the payloads' side table.
+    fn memory_usage(&self) -> usize;
 }
 
 impl TreeSettings for OcTree {
@@ -39,6 +41,9 @@ impl TreeSettings for OcTree {
     }
     fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
         OcTree::set_resolution(self, resolution)
+    }
+    fn memory_usage(&self) -> usize {
+        OcTree::memory_usage(self)
     }
 }
 
@@ -61,6 +66,9 @@ macro_rules! payload_settings {
             }
             fn set_resolution(&mut self, resolution: f64) -> Result<(), OctreeError> {
                 $t::set_resolution(self, resolution)
+            }
+            fn memory_usage(&self) -> usize {
+                $t::memory_usage(self)
             }
         }
     )*};
@@ -294,10 +302,13 @@ macro_rules! occupancy_api {
                 self.occ().volume()
             }
 
-            /// Bytes this tree's storage holds (octoquant's, not OctoMap's formula).
+            /// Bytes this tree's storage holds, colours and time stamps included (octoquant's,
+            /// not OctoMap's formula).
             #[pyo3(name = "memoryUsage")]
             fn memory_usage(&self) -> usize {
-                self.occ().memory_usage()
+                $crate::occupancy_api::TreeSettings::memory_usage(
+                    $crate::occupancy_api::OccupancyHost::tree(self),
+                )
             }
 
             /// Bytes per node in OctoMap (16 on 64-bit machines), for formulas written against it.

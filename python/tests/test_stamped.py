@@ -204,7 +204,7 @@ def test_degrade_outdated_nodes_matches_naive_expectation(tum):
 def test_written_tree_reads_back(tum, tmp_path):
     """write() to a file and to bytes, read back through ``OcTreeStamped.read``, the
     constructor and bytes: the same .ot bytes, nodes and log-odds, every stamp 0 (the format
-    holds none, as in OctoMap)."""
+    holds none, as in OctoMap), and less memory (no stamps to hold)."""
     _, frames, stamps = tum
     tree = stamped_map(frames[:4], stamps[:4]).tree
     data = tree.write()
@@ -225,6 +225,9 @@ def test_written_tree_reads_back(tum, tmp_path):
         assert [g[:3] for g in got] == [w[:3] for w in leaves(tree)]
         assert {g[3] for g in got} == {0}
         assert all(n.getTimestamp() == 0 for n in back.begin_tree())
+        # memoryUsage counts the stamps: four bytes at least for each stamped node, which
+        # the tree read back (the same nodes, no stamps) does not hold
+        assert tree.memoryUsage() >= back.memoryUsage() + 4 * tree.size()
 
 
 def test_node_stamps_follow_octomap_rules(tum):
