@@ -624,6 +624,21 @@ fn stamped_cli_map_with_frame_times_matches_octomap() {
     assert!(saved == ours, "{}", first_diff(&saved, &ours));
     // the stamps matter: without degrading the map differs
     assert!(map(&[&tum[..], &["--stamped"]].concat(), "plain.ot") != cli);
+    // the summary's bytes per node count the stamps: four bytes at least for each node (every
+    // node of the tree is stamped) beyond the nodes' own storage
+    let o = Command::new(env!("CARGO_BIN_EXE_octoquant"))
+        .current_dir(&dir)
+        .arg("map")
+        .args([&tum[..], &degrade].concat())
+        .args(["--json", "-o", "json.ot"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(summary["nodes"].as_u64(), Some(tree.size() as u64));
+    let held = summary["bytes_per_node"].as_f64().unwrap() * tree.size() as f64;
+    let least = tree.occupancy().memory_usage() + 4 * tree.size();
+    assert!(held >= least as f64, "{held} bytes, at least {least}");
     let out = Command::new(env!("CARGO_BIN_EXE_octoquant"))
         .current_dir(&dir)
         .args(["map", assoc.to_str().unwrap(), "--stamped", "-o", "s.bt"])

@@ -405,11 +405,13 @@ impl<P: Copy + PartialEq> PackedSlabs<P> {
         let _ = s;
     }
 
-    /// Bytes held: slabs, entries (free segments included) and free lists.
+    /// Bytes held: slabs, entries (free segments included) and free lists. The vectors'
+    /// room beyond their length is left out: it is address space never written (a large
+    /// vector grows by remapping its pages), not memory in use.
     pub(crate) fn heap_bytes(&self) -> usize {
-        self.slabs.capacity() * std::mem::size_of::<Slab>()
+        self.slabs.len() * std::mem::size_of::<Slab>()
             + self.free_ids.capacity() * 4
-            + self.pool.capacity() * std::mem::size_of::<P>()
+            + self.pool.len() * std::mem::size_of::<P>()
             + self
                 .free_segs
                 .iter()

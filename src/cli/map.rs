@@ -591,12 +591,14 @@ fn run_stamped(a: &Args) -> Result<()> {
     octoquant::output::write_atomic(&plan.output, |w| {
         octoquant::octree::io::write_stamped_ot(&tree, w)
     })?;
+    let bytes_per_node = per_node(tree.memory_usage(), tree.size());
     let extra = serde_json::json!({
         "last_update": tree.last_update_time(),
         "degrade_older_than": a.degrade_older_than,
+        "bytes_per_node": bytes_per_node,
     });
     let line = format!(
-        "{} nodes, last update at {} s",
+        "{} nodes, {bytes_per_node:.2} bytes/node with the stamps, last update at {} s",
         tree.size(),
         tree.last_update_time()
     );
@@ -639,18 +641,30 @@ fn run_color(a: &Args) -> Result<()> {
     let tree = mapper.into_tree();
     save_color_tree_file(&tree, &plan.output)?;
     let merge = ColorMerge::from(a.color_merge).name();
+    let bytes_per_node = per_node(tree.memory_usage(), tree.size());
     let extra = serde_json::json!({
         "colored_nodes": tree.num_colored_nodes(),
         "color_merge": merge,
+        "bytes_per_node": bytes_per_node,
     });
     let line = format!(
-        "{} nodes, {} with a colour ({merge} merge)",
+        "{} nodes, {} with a colour ({merge} merge), {bytes_per_node:.2} bytes/node with the \
+         colours",
         tree.size(),
         tree.num_colored_nodes()
     );
     let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
     let tree_figures = (tree.resolution(), tree.size());
     typed_summary(a, &stats, load_s, tree_figures, extra, &line, &plan.output)
+}
+
+/// Bytes per node of a tree holding `bytes` for `nodes` nodes (0 for an empty tree).
+fn per_node(bytes: usize, nodes: usize) -> f64 {
+    if nodes == 0 {
+        0.0
+    } else {
+        bytes as f64 / nodes as f64
+    }
 }
 
 /// The points a run dropped, by reason, as the summaries' JSON `dropped` object.
@@ -838,11 +852,7 @@ fn run_on_threads(a: &Args) -> Result<()> {
     // out, as `bench` and `info` do by shrinking first; not shrinking here keeps the copy
     // that shrinking makes (the tree twice, briefly) out of the run's peak memory
     let full_nodes = tree.size();
-    let bytes_per_node = if full_nodes > 0 {
-        tree.memory_breakdown().in_use() as f64 / full_nodes as f64
-    } else {
-        0.0
-    };
+    let bytes_per_node = per_node(tree.memory_breakdown().in_use(), full_nodes);
     if let Some(ot) = &plan.ot {
         write_tree_file(&mut tree, ot)?;
     }
