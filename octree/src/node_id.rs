@@ -307,6 +307,10 @@ impl<P: Copy + PartialEq> NodeMap<P> {
     #[inline]
     pub(crate) fn set_children_where(&mut self, id: NodeId, which: u8, p: P) {
         let first = child_id(id, 0);
+        if which == 0 {
+            // nothing to set (and no slab to make)
+            return;
+        }
         if first.0 < SLAB_MIN_DEPTH || p == self.unset {
             for i in (0..8).filter(|i| which >> i & 1 == 1) {
                 self.insert(child_id(id, i), p);
@@ -497,6 +501,10 @@ mod tests {
             want.sort();
             prop_assert_eq!(ids, want);
             prop_assert_eq!(m.slabs.live(), m.bricks.len());
+            // no slab is kept without entries
+            for (_, s) in m.bricks.iter() {
+                prop_assert!(m.slabs.count(s) > 0);
+            }
         }
     }
 }
