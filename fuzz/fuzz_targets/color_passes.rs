@@ -6,12 +6,14 @@
 //! value with one voxel an update short of it and every voxel its own colour (so that one
 //! update makes the node prunable and the next expands it again), colours, prunes and
 //! passes of keys in any order, repeats included, with hits, misses or any log-odds, eager or
-//! lazy. No call may panic, and after every pass the coloured `.ot` bytes must be equal.
+//! lazy. No call may panic, after every pass the coloured `.ot` bytes must be equal, and after
+//! every operation both trees' side tables must keep their bookkeeping (`check_color_table`).
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use octoquant_fuzz::ops::{FuzzKey, FuzzUpdate};
 use octoquant_octree::io::write_color_ot;
+use octoquant_octree::validate::check_color_table;
 use octoquant_octree::{Color, ColorOcTree, InnerNodes, Key};
 
 /// The side of the block of near keys: it straddles the root's octants.
@@ -140,6 +142,11 @@ fuzz_target!(|ops: Vec<Op>| {
         } else {
             apply(&mut batched, op);
             apply(&mut single, op);
+        }
+        for t in [&batched, &single] {
+            if let Err(e) = check_color_table(t) {
+                panic!("after {op:?}: colour table: {e}");
+            }
         }
     }
 });

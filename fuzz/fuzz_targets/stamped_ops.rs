@@ -6,13 +6,14 @@
 //! to both. After every step the two must hold the same nodes with the same log-odds bits and
 //! stamps, the occupancy tree must be well formed (never strictly: nodes with different
 //! stamps are not pruned), and a Hit or Miss that reached a voxel not already at the clamp it
-//! pushes towards must have stamped it with the clock's time.
+//! pushes towards must have stamped it with the clock's time. Both trees' side tables must
+//! keep their bookkeeping (`check_stamp_table`).
 #![no_main]
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use octoquant_fuzz::ops::{FuzzKey, FuzzUpdate};
 use octoquant_octree::io::{read_stamped_ot, write_stamped_ot};
-use octoquant_octree::validate::check_well_formed;
+use octoquant_octree::validate::{check_stamp_table, check_well_formed};
 use octoquant_octree::{InnerNodes, Key, StampedOcTree, Update, TREE_DEPTH};
 
 /// The side of the block of near keys: siblings meet, collapse and share ancestors.
@@ -205,6 +206,13 @@ fuzz_target!(|input: Input| {
         assert_eq!(batched.last_update_time(), single.last_update_time());
         if let Err(e) = check_well_formed(single.occupancy(), InnerNodes::Defer) {
             panic!("after {op:?}: {e}");
+        }
+        // the side table's bookkeeping, which both trees share the code of (a slip there that
+        // both make alike would pass the comparison above)
+        for t in [&batched, &single] {
+            if let Err(e) = check_stamp_table(t) {
+                panic!("after {op:?}: stamp table: {e}");
+            }
         }
     }
 });

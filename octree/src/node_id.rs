@@ -156,6 +156,28 @@ impl<P: Copy + PartialEq> NodeMap<P> {
         self.len == 0
     }
 
+    /// Check the map's bookkeeping, returning a description of the first violation: every
+    /// slab of the index passes [`PackedSlabs::check`] and holds an entry, no two blocks share
+    /// a slab, and the entry count is the hash map's plus the slabs'.
+    pub(crate) fn check(&self) -> Result<(), String> {
+        let mut total = self.inner.len();
+        let mut seen = std::collections::HashSet::new();
+        for (code, s) in self.bricks.iter() {
+            let n = self.slabs.check(s)?;
+            if n == 0 {
+                return Err(format!("block {code:#x}: its slab {s} holds no entry"));
+            }
+            if !seen.insert(s) {
+                return Err(format!("block {code:#x}: slab {s} is another block's too"));
+            }
+            total += n;
+        }
+        if total != self.len {
+            return Err(format!("{total} entries held, {} counted", self.len));
+        }
+        Ok(())
+    }
+
     /// Bytes held: the hash map of the shallow nodes' entries (its slots and control bytes),
     /// the slab index and the packed slabs.
     pub(crate) fn heap_bytes(&self) -> usize {
@@ -501,6 +523,7 @@ mod tests {
             want.sort();
             prop_assert_eq!(ids, want);
             prop_assert_eq!(m.slabs.live(), m.bricks.len());
+            prop_assert_eq!(m.check(), Ok(()));
             // no slab is kept without entries
             for (_, s) in m.bricks.iter() {
                 prop_assert!(m.slabs.count(s) > 0);

@@ -405,6 +405,36 @@ impl<P: Copy + PartialEq> PackedSlabs<P> {
         let _ = s;
     }
 
+    /// Check slab `s`'s bookkeeping, returning a description of the first violation: every
+    /// group starts after the entries of the groups below it, the entries fit the segment,
+    /// and the segment lies in the pool. Returns the slab's entry count.
+    pub(crate) fn check(&self, s: u32) -> Result<usize, String> {
+        let slab = *self
+            .slabs
+            .get(s as usize)
+            .ok_or_else(|| format!("slab {s} does not exist"))?;
+        let mut below = 0;
+        for g in 0..8 {
+            if slab.base(g) != below {
+                return Err(format!(
+                    "slab {s}: group {g} starts at {} after {below} entries below it",
+                    slab.base(g)
+                ));
+            }
+            below += pop8(slab.group(g));
+        }
+        if slab.class() >= CLASSES || below > capacity(slab.class()) {
+            return Err(format!(
+                "slab {s}: {below} entries in a segment of class {}",
+                slab.class()
+            ));
+        }
+        if slab.at() + capacity(slab.class()) > self.pool.len() {
+            return Err(format!("slab {s}: its segment ends beyond the pool"));
+        }
+        Ok(below)
+    }
+
     /// Bytes held: slabs, entries (free segments included) and free lists. The vectors'
     /// room beyond their length is left out: it is address space never written (a large
     /// vector grows by remapping its pages), not memory in use.

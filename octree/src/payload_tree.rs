@@ -56,6 +56,11 @@ impl<P: NodePayload> PayloadTree<P> {
         }
     }
 
+    /// Check the payload side table's bookkeeping ([`NodeMap::check`]).
+    pub(crate) fn check_payloads(&self) -> Result<(), String> {
+        self.payloads.check()
+    }
+
     /// Bytes held by the node storage and the payload side table.
     pub(crate) fn memory_usage(&self) -> usize {
         self.tree.memory_usage() + self.payloads.heap_bytes()

@@ -153,7 +153,6 @@ impl SlabIndex {
     }
 
     /// The `(code, slab)` entries, in no particular order.
-    #[cfg(test)]
     pub(crate) fn iter(&self) -> impl Iterator<Item = (u64, u32)> + '_ {
         self.slots.iter().copied().filter(|&(c, _)| c != EMPTY)
     }

@@ -2,6 +2,20 @@
 
 use crate::store::{present, NodeRef, NO_BLOCK};
 use crate::tree::{InnerNodes, OcTree};
+use crate::{ColorOcTree, StampedOcTree};
+
+/// Check the bookkeeping of a stamped tree's side table, returning a description of the first
+/// violation: each block's slab records where each group of eight entries starts consistently
+/// with the entries it holds, fits its segment and holds an entry, and the entry count adds
+/// up. Structural only: which stamps are right is for the differential tests.
+pub fn check_stamp_table(tree: &StampedOcTree) -> Result<(), String> {
+    tree.base.check_payloads()
+}
+
+/// [`check_stamp_table`] for a colour tree's side table.
+pub fn check_color_table(tree: &ColorOcTree) -> Result<(), String> {
+    tree.base.check_payloads()
+}
 
 /// Check the tree's invariants, returning a description of the first violation:
 /// the node count matches `size()`, every child block holds at least one child, no value is
