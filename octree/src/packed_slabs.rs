@@ -435,9 +435,10 @@ impl<P: Copy + PartialEq> PackedSlabs<P> {
         Ok(below)
     }
 
-    /// Bytes held: slabs, entries (free segments included) and free lists. The vectors'
-    /// room beyond their length is left out: it is address space never written (a large
-    /// vector grows by remapping its pages), not memory in use.
+    /// Bytes held: slabs, entries (free segments included) and free lists. The slabs and
+    /// entries count by length: a large vector's room beyond it is address space never
+    /// written (it grows by remapping its pages), not memory in use; the small free lists
+    /// count by capacity.
     pub(crate) fn heap_bytes(&self) -> usize {
         self.slabs.len() * std::mem::size_of::<Slab>()
             + self.free_ids.capacity() * 4

@@ -1,6 +1,6 @@
 //! `octoquant info FILE [--json]`.
 
-use super::{json_path, print_json};
+use super::{json_path, per_node, print_json};
 use anyhow::Result;
 use octoquant::treefile::{read_any_tree_file, AnyTree};
 use std::path::PathBuf;
@@ -27,17 +27,9 @@ pub fn run(a: &Args) -> Result<()> {
     let c = tree.counts();
     let bounds = tree.metric_bounds();
     let mem = tree.memory_usage();
-    let bpn = if c.nodes > 0 {
-        mem as f64 / c.nodes as f64
-    } else {
-        0.0
-    };
+    let bpn = per_node(mem, c.nodes);
     let octomap_mem = tree.octomap_memory_usage();
-    let octomap_bpn = if c.nodes > 0 {
-        octomap_mem as f64 / c.nodes as f64
-    } else {
-        0.0
-    };
+    let octomap_bpn = per_node(octomap_mem, c.nodes);
     if a.json {
         let b = bounds.map(|(lo, hi)| {
             serde_json::json!({

@@ -2,6 +2,7 @@
 
 use super::args::{InputArgs, ReadArgs, SensorArgs, TreeArgs};
 use super::fresh_dir::{create_fresh_dir, DEMO_DIR};
+use super::per_node;
 use super::progress::Progress;
 use super::vocab::{ModeArg, RayArg};
 use anyhow::{bail, Context, Result};
@@ -656,15 +657,6 @@ fn run_color(a: &Args) -> Result<()> {
     let load_s = load_ns.load(Ordering::Relaxed) as f64 * 1e-9;
     let tree_figures = (tree.resolution(), tree.size());
     typed_summary(a, &stats, load_s, tree_figures, extra, &line, &plan.output)
-}
-
-/// Bytes per node of a tree holding `bytes` for `nodes` nodes (0 for an empty tree).
-fn per_node(bytes: usize, nodes: usize) -> f64 {
-    if nodes == 0 {
-        0.0
-    } else {
-        bytes as f64 / nodes as f64
-    }
 }
 
 /// The points a run dropped, by reason, as the summaries' JSON `dropped` object.

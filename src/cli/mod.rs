@@ -145,6 +145,16 @@ pub fn main() -> std::process::ExitCode {
 /// A file name as a JSON string: names that are not UTF-8 are printed lossily (each invalid
 /// sequence as U+FFFD), the same as in the text output; `serde_json` escapes quotes,
 /// backslashes and control characters, so the JSON stays valid for any name.
+/// Bytes per node of a tree holding `bytes` for `nodes` nodes (0 for an empty tree): the
+/// summaries' `bytes/node` (`map`, `info`).
+fn per_node(bytes: usize, nodes: usize) -> f64 {
+    if nodes == 0 {
+        0.0
+    } else {
+        bytes as f64 / nodes as f64
+    }
+}
+
 fn json_path(path: &std::path::Path) -> serde_json::Value {
     serde_json::Value::String(path.to_string_lossy().into_owned())
 }
