@@ -1,100 +1,45 @@
-//! A set of voxel keys stored as 4x4x4 bricks: one `u64` bit mask per brick, in an
-//! open-addressing table keyed by the brick's Morton code.
+//! A set of voxel keys stored as 4x4x4 bricks: one `u64` bit mask per brick.
 //!
 //! A key's Morton code splits into the brick (`code >> 6`) and the bit inside it
 //! (`code & 63`, itself the Morton order of the 64 voxels), so a ray, which walks through
 //! neighbouring voxels, mostly sets bits of the brick it touched last. Listing the bricks
 //! sorted and then their bits in order yields the keys in Morton order, the tree's own
 //! depth-first order, without sorting every key.
+//!
+//! A set starts as a hash table of bricks small enough for the second-level cache
+//! ([`hashed`]: depth images, whose frames touch a few thousand bricks millions of times)
+//! and moves to pages of 4x4x4 bricks once it holds more than 16 384 bricks ([`paged`]:
+//! LiDAR frames, hundreds of thousands of bricks, where a table of bricks costs a cache miss
+//! per brick and a sort of all of them). Measured on one thread (history, session 41): pages
+//! take two fifths off the casting of norlab's LiDAR frames at 0.1 m, and were a tenth slower
+//! than the small table on TUM's depth images.
 
+mod hashed;
+mod paged;
+
+use hashed::BrickHash;
 use octoquant_octree::{Brick, Key};
+use paged::BrickPages;
 
-/// The code of an empty slot (no brick has it: codes have 42 bits).
-const EMPTY: u64 = u64::MAX;
-/// An empty slot.
-const VACANT: Brick = Brick {
-    code: EMPTY,
-    voxels: 0,
-};
-
-/// The key set. `clear` keeps the allocation for the next frame.
-///
-/// Each slot holds a [`Brick`] (code and voxels side by side), so a probe touches one cache
-/// line. A small
-/// table is kept at most a quarter full (see [`fill_limit`]), so that a brick already in it
-/// almost always sits in one of its first two slots, which are looked at without a branch
-/// ([`near_slot`]): on dense depth images the lookups repeat the same few thousand bricks
-/// millions of times, and a mispredicted probe loop cost more there than the larger table.
-#[derive(Debug, Clone)]
+/// The key set. `clear` keeps the allocations for the next frame.
+#[derive(Debug, Clone, Default)]
 pub(crate) struct BrickSet {
-    slots: Vec<Brick>,
-    len: usize,
-    /// Slot of the brick touched last (a cache for ray walks).
-    last: usize,
-}
-
-impl Default for BrickSet {
-    fn default() -> Self {
-        BrickSet {
-            slots: vec![VACANT; 1024],
-            len: 0,
-            last: 0,
-        }
-    }
-}
-
-/// The inverse of the largest share of a table of `slots` that may be filled before it
-/// grows: a quarter while the table fits in L2 (the dense depth images, whose lookups repeat
-/// the same bricks), half beyond (LiDAR frames, where a sparser table costs more in cache
-/// misses than it saves in probes).
-#[inline(always)]
-fn fill_limit(slots: usize) -> usize {
-    if slots < SPARSE_UP_TO {
-        4
-    } else {
-        2
-    }
-}
-
-/// Tables with fewer slots than this (1 MiB) are kept at most a quarter full.
-const SPARSE_UP_TO: usize = 1 << 16;
-
-/// How many bricks ahead of its insert a brick's home slot is prefetched in a large table:
-/// enough for the miss to be served meanwhile (8: no gain, 32: best, 64: a little less on
-/// norlab at 0.2 m).
-const PREFETCH_AHEAD: usize = 32;
-
-/// The slot of `brick` when it sits in one of its first two slots (`h`, the brick's hash, or
-/// the next), found without a branch: which of the two is data, not a guess.
-#[inline(always)]
-fn near_slot(slots: &[Brick], brick: u64, h: usize) -> Option<usize> {
-    let mask = slots.len() - 1;
-    let j = (h + (slots[h].code != brick) as usize) & mask;
-    (slots[j].code == brick).then_some(j)
-}
-
-/// Ask for the cache line of `slot` ahead of its use.
-#[inline(always)]
-fn prefetch(slot: &Brick) {
-    #[cfg(target_arch = "x86_64")]
-    safe_arch::prefetch_t0(slot);
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = slot;
-}
-
-#[inline(always)]
-fn hash(brick: u64, mask: usize) -> usize {
-    (brick.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 20) as usize & mask
+    /// The bricks while few (empty once `paged`).
+    hash: BrickHash,
+    /// The bricks once many.
+    pages: BrickPages,
+    /// Which of the two holds the set.
+    paged: bool,
 }
 
 impl BrickSet {
-    /// Remove every key, keeping the table's size.
+    /// Remove every key, keeping the tables' sizes; the set starts small again.
     pub fn clear(&mut self) {
-        if self.len > 0 {
-            self.slots.fill(VACANT);
+        self.hash.clear();
+        if self.paged {
+            self.pages.clear();
         }
-        self.len = 0;
-        self.last = 0;
+        self.paged = false;
     }
 
     /// Add the key with Morton code `code`.
@@ -106,118 +51,92 @@ impl BrickSet {
     /// Add the voxels of `brick`.
     #[inline(always)]
     pub fn insert_brick(&mut self, brick: Brick) {
-        if self.slots[self.last].code == brick.code {
-            self.slots[self.last].voxels |= brick.voxels;
-            return;
+        if self.paged {
+            self.pages.insert_brick(brick);
+        } else {
+            self.hash.insert_brick(brick);
+            if self.hash.full() {
+                self.move_to_pages();
+            }
         }
-        self.insert_brick_hashed(brick);
     }
 
     /// [`BrickSet::insert_brick`] without the check of the brick touched last, for callers
     /// whose bricks rarely repeat one after another.
     #[inline(always)]
     pub fn insert_brick_hashed(&mut self, brick: Brick) {
-        let mask = self.slots.len() - 1;
-        let mut i = hash(brick.code, mask);
-        if let Some(j) = near_slot(&self.slots, brick.code, i) {
-            self.slots[j].voxels |= brick.voxels;
-            self.last = j;
-            return;
-        }
-        loop {
-            let slot = &mut self.slots[i];
-            if slot.code == brick.code {
-                slot.voxels |= brick.voxels;
-                self.last = i;
-                return;
+        if self.paged {
+            self.pages.insert_brick(brick);
+        } else {
+            self.hash.insert_brick_hashed(brick);
+            if self.hash.full() {
+                self.move_to_pages();
             }
-            if slot.code == EMPTY {
-                *slot = brick;
-                self.len += 1;
-                self.last = i;
-                if self.len * fill_limit(self.slots.len()) > self.slots.len() {
-                    self.grow();
-                }
-                return;
-            }
-            i = (i + 1) & mask;
         }
+    }
+
+    /// Move the bricks of the full hash table into pages.
+    #[cold]
+    #[inline(never)]
+    fn move_to_pages(&mut self) {
+        for b in self.hash.bricks() {
+            self.pages.insert_brick(b);
+        }
+        self.hash.clear();
+        self.paged = true;
+    }
+
+    /// `true` once the set moved to pages.
+    #[cfg(test)]
+    fn is_paged(&self) -> bool {
+        self.paged
     }
 
     /// The bit mask of a brick (0 when absent).
     #[cfg(test)]
     pub fn get(&self, brick: u64) -> u64 {
-        let mask = self.slots.len() - 1;
-        let mut i = hash(brick, mask);
-        loop {
-            let Brick { code, voxels } = self.slots[i];
-            if code == brick {
-                return voxels;
-            }
-            if code == EMPTY {
-                return 0;
-            }
-            i = (i + 1) & mask;
+        if self.paged {
+            self.pages.get(brick)
+        } else {
+            self.hash.get(brick)
         }
     }
 
-    fn grow(&mut self) {
-        let n = self.slots.len() * 2;
-        let old = std::mem::replace(&mut self.slots, vec![VACANT; n]);
-        let mask = n - 1;
-        for b in old {
-            if b.code != EMPTY {
-                let mut i = hash(b.code, mask);
-                while self.slots[i].code != EMPTY {
-                    i = (i + 1) & mask;
-                }
-                self.slots[i] = b;
-            }
-        }
-        self.last = 0;
-    }
-
-    /// Bytes of the table's allocation.
+    /// Bytes of the set's allocations.
     pub fn heap_bytes(&self) -> usize {
-        self.slots.capacity() * std::mem::size_of::<Brick>()
+        self.hash.heap_bytes() + self.pages.heap_bytes()
     }
 
-    /// Sort the non-empty bricks by code into the front of the table itself and return how
-    /// many there are ([`BrickSet::sorted_front`] lists them): no copy of the set
-    /// is made. The set is then a sorted list, not a hash table: nothing may be
-    /// inserted or looked up before [`BrickSet::clear`], which empties the whole table.
+    /// Sort the bricks by code and return how many there are ([`BrickSet::sorted_front`]
+    /// lists them). The set is then a sorted list, not a hash table: nothing may be inserted
+    /// or looked up before [`BrickSet::clear`], which empties it.
     pub fn sort_in_place(&mut self) -> usize {
-        let mut n = 0;
-        for i in 0..self.slots.len() {
-            let b = self.slots[i];
-            if b.code != EMPTY {
-                self.slots[i] = VACANT;
-                self.slots[n] = b;
-                n += 1;
-            }
+        if self.paged {
+            self.pages.sort_in_place()
+        } else {
+            self.hash.sort_in_place()
         }
-        // the table is at most half full, so its back half is free for the sort's passes
-        let (front, back) = self.slots.split_at_mut(n);
-        crate::brick_sort::sort_by_code(front, back);
-        // `len` stays as it was, so that `clear` resets the whole table
-        self.last = 0;
-        n
     }
 
-    /// The first `n` slots: after [`BrickSet::sort_in_place`] returned `n`, the bricks in code
-    /// order.
+    /// After [`BrickSet::sort_in_place`] returned `n`: the `n` bricks in code order.
     pub fn sorted_front(&self, n: usize) -> &[Brick] {
-        &self.slots[..n]
+        if self.paged {
+            self.pages.sorted_front(n)
+        } else {
+            self.hash.sorted_front(n)
+        }
     }
 
-    /// The non-empty bricks, sorted by code (that is, in Morton order), leaving the set as it
-    /// is.
+    /// The bricks, sorted by code (that is, in Morton order), leaving the set as it is.
     #[cfg(test)]
     pub fn sorted(&self, out: &mut Vec<Brick>) {
-        out.clear();
-        out.reserve(self.len);
-        out.extend(self.slots.iter().filter(|b| b.code != EMPTY).copied());
-        out.sort_unstable_by_key(|b| b.code);
+        if self.paged {
+            self.pages.sorted(out);
+        } else {
+            out.clear();
+            out.extend(self.hash.bricks());
+            out.sort_unstable_by_key(|b| b.code);
+        }
     }
 }
 
@@ -251,44 +170,21 @@ impl BrickSink for BrickSet {
         self.insert_brick_hashed(brick)
     }
 
-    /// In a table beyond the second-level cache (LiDAR frames) each insert would wait for its
-    /// cache miss: there the home slot of the brick [`PREFETCH_AHEAD`] places on is asked for
-    /// while a brick goes in, so that the misses overlap (about a fifth off the casting time of
-    /// norlab at 0.2 m). In a smaller table, bricks already in the set, found in one of their
-    /// first two slots, are added in a tight loop; anything else (a new brick, a longer
-    /// probe, growth) goes through [`BrickSet::insert_brick_hashed`] and the loop resumes.
+    /// While small, the hash table's tight loop for bricks already in it; once full, the rest
+    /// of the batch and every later one go into pages.
     #[inline]
     fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
         let n = bricks.len().min(bits.len());
-        if self.slots.len() >= SPARSE_UP_TO {
-            // the home slot of the brick PREFETCH_AHEAD places on is asked for while this
-            // one goes in
-            for &b in bricks[..n].iter().take(PREFETCH_AHEAD) {
-                prefetch(&self.slots[hash(b, self.slots.len() - 1)]);
-            }
-            for (i, (&code, &voxels)) in bricks[..n].iter().zip(&bits[..n]).enumerate() {
-                if let Some(&b) = bricks[..n].get(i + PREFETCH_AHEAD) {
-                    prefetch(&self.slots[hash(b, self.slots.len() - 1)]);
-                }
-                self.insert_brick_hashed(Brick { code, voxels });
-            }
-            return;
-        }
         let mut i = 0;
-        while i < n {
-            let slots = self.slots.as_mut_slice();
-            let mask = slots.len() - 1;
-            while let (Some(&b), Some(&m)) = (bricks.get(i), bits.get(i)) {
-                let Some(j) = near_slot(slots, b, hash(b, mask)) else {
-                    break;
-                };
-                slots[j].voxels |= m;
-                i += 1;
+        if !self.paged {
+            i = self.hash.put_until_full(&bricks[..n], &bits[..n]);
+            if i == n {
+                return;
             }
-            if let (Some(&code), Some(&voxels)) = (bricks.get(i), bits.get(i)) {
-                self.insert_brick_hashed(Brick { code, voxels });
-                i += 1;
-            }
+            self.move_to_pages();
+        }
+        for (&code, &voxels) in bricks[i..n].iter().zip(&bits[i..n]) {
+            self.pages.insert_brick(Brick { code, voxels });
         }
     }
 }
@@ -334,16 +230,17 @@ mod tests {
         let mut set = BrickSet::default();
         let mut naive = BTreeSet::new();
         let mut s = 0x1234_5678u64;
-        for round in 0..3 {
+        // small, then paged, then small again after a paged round (clean pages, small table)
+        for (round, count) in [3_000, 20_000, 60_000, 3_000].into_iter().enumerate() {
             set.clear();
             naive.clear();
-            for _ in 0..20_000 {
+            for _ in 0..count {
                 s ^= s << 13;
                 s ^= s >> 7;
                 s ^= s << 17;
                 let k = Key::new(
                     32768 + (s % 97) as u16,
-                    (s >> 20) as u16 % (50 + round * 1000),
+                    (s >> 20) as u16 % (50 + round as u16 * 1000),
                     (s >> 40) as u16,
                 );
                 set.insert(k.morton());
@@ -358,6 +255,12 @@ mod tests {
             }
             let want: Vec<Key> = naive.iter().map(|c| Key::from_morton(*c)).collect();
             assert_eq!(keys, want);
+            let distinct: BTreeSet<u64> = naive.iter().map(|c| c >> 6).collect();
+            assert_eq!(
+                set.is_paged(),
+                distinct.len() > hashed::MAX_SLOTS / 4,
+                "round {round}"
+            );
             // sorted in the table itself: the same bricks; and a cleared set is empty again
             let copy = {
                 let mut v = Vec::new();
@@ -373,6 +276,9 @@ mod tests {
             for b in &copy {
                 set.insert_brick(*b);
             }
+            let mut again = Vec::new();
+            set.sorted(&mut again);
+            assert!(again == copy);
         }
         assert_eq!(set.get(u64::MAX >> 6), 0);
     }
@@ -413,6 +319,6 @@ mod tests {
             .collect();
         assert_eq!(a, naive);
         // grown past the size from which batches prefetch ahead
-        assert!(batched.slots.len() > SPARSE_UP_TO, "the set grew");
+        assert!(batched.is_paged(), "the set moved to pages");
     }
 }
