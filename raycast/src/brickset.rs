@@ -118,6 +118,20 @@ impl BrickSet {
         }
     }
 
+    /// Replace `out` with the bricks in code order ([`BrickSet::sort_in_place`] and a copy of
+    /// [`BrickSet::sorted_front`], without the copy for a paged set). Instead of
+    /// [`BrickSet::sort_in_place`], not after it; nothing may be inserted or listed again
+    /// before [`BrickSet::clear`].
+    pub fn sorted_into(&mut self, out: &mut Vec<Brick>) {
+        if self.paged {
+            self.pages.list_into(out);
+        } else {
+            let n = self.hash.sort_in_place();
+            out.clear();
+            out.extend_from_slice(self.hash.sorted_front(n));
+        }
+    }
+
     /// After [`BrickSet::sort_in_place`] returned `n`: the `n` bricks in code order.
     pub fn sorted_front(&self, n: usize) -> &[Brick] {
         if self.paged {
@@ -183,9 +197,7 @@ impl BrickSink for BrickSet {
             }
             self.move_to_pages();
         }
-        for (&code, &voxels) in bricks[i..n].iter().zip(&bits[i..n]) {
-            self.pages.insert_brick(Brick { code, voxels });
-        }
+        self.pages.put_all(&bricks[i..n], &bits[i..n]);
     }
 }
 

@@ -412,10 +412,7 @@ fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
         (&mut out.work.free_set, &mut out.bricks),
         (&mut out.work.occ_set, &mut out.occ_bricks),
     ] {
-        // sorted in the table, which the next frame clears anyway
-        let n = set.sort_in_place();
-        bricks.clear();
-        bricks.extend_from_slice(set.sorted_front(n));
+        set.sorted_into(bricks);
     }
     emit(out, stats);
 }

@@ -38,6 +38,9 @@ pub(super) struct BrickPages {
     codes: Vec<u64>,
     /// The bricks in code order, once listed by [`BrickPages::sort_in_place`].
     sorted: Vec<Brick>,
+    /// The pages in code order (code, index) and the sort's other buffer, kept for reuse.
+    order: Vec<Brick>,
+    scratch: Vec<Brick>,
     /// `true` once listed: the pages in use are clean again.
     listed: bool,
 }
@@ -49,6 +52,8 @@ impl Default for BrickPages {
             pages: Vec::new(),
             codes: Vec::new(),
             sorted: Vec::new(),
+            order: Vec::new(),
+            scratch: Vec::new(),
             listed: false,
         }
     }
@@ -65,6 +70,15 @@ fn near_page(table: &[u64], page: u64) -> Option<usize> {
     let j = (h + (table[h] >> INDEX_BITS != page) as usize) & mask;
     let e = table[j];
     (e >> INDEX_BITS == page).then_some((e & INDEX_MASK) as usize)
+}
+
+/// Ask for the cache line of `slot` ahead of its use.
+#[inline(always)]
+fn prefetch(slot: &u64) {
+    #[cfg(target_arch = "x86_64")]
+    safe_arch::prefetch_t0(slot);
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = slot;
 }
 
 #[inline(always)]
@@ -96,6 +110,30 @@ impl BrickPages {
             None => self.page_of(page),
         };
         self.pages[p].0[(brick.code & 63) as usize] |= brick.voxels;
+    }
+
+    /// Add the bricks of codes `bricks` and voxels `bits`, in chunks: each chunk's pages are
+    /// looked up (the page table is in the second-level cache) and the brick's line asked for
+    /// first, then the masks are set, so that the chunk's misses on the pages overlap.
+    #[inline]
+    pub fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
+        const CHUNK: usize = 64;
+        let mut at = [0usize; CHUNK];
+        for (codes, masks) in bricks.chunks(CHUNK).zip(bits.chunks(CHUNK)) {
+            for (a, &code) in at.iter_mut().zip(codes) {
+                let page = code >> 6;
+                let p = match near_page(&self.table, page) {
+                    Some(p) => p,
+                    None => self.page_of(page),
+                };
+                let j = (code & 63) as usize;
+                prefetch(&self.pages[p].0[j]);
+                *a = p << 6 | j;
+            }
+            for (&a, &m) in at.iter().zip(masks) {
+                self.pages[a >> 6].0[a & 63] |= m;
+            }
+        }
     }
 
     /// The index of page `page`, added (clean) if absent.
@@ -166,30 +204,38 @@ impl BrickPages {
         self.table.capacity() * std::mem::size_of::<u64>()
             + self.pages.capacity() * std::mem::size_of::<Page>()
             + self.codes.capacity() * std::mem::size_of::<u64>()
-            + self.sorted.capacity() * std::mem::size_of::<Brick>()
+            + (self.sorted.capacity() + self.order.capacity() + self.scratch.capacity())
+                * std::mem::size_of::<Brick>()
     }
 
     /// List the bricks sorted by code and return how many there are
     /// ([`BrickPages::sorted_front`] lists them). The set is then a sorted list: nothing may be
     /// inserted before [`BrickPages::clear`], which empties it.
     pub fn sort_in_place(&mut self) -> usize {
-        if self.listed {
-            return self.sorted.len();
+        if !self.listed {
+            let mut sorted = std::mem::take(&mut self.sorted);
+            self.list_into(&mut sorted);
+            self.sorted = sorted;
         }
+        self.sorted.len()
+    }
+
+    /// Replace `out` with the bricks sorted by code, cleaning the pages as they are read: once
+    /// between two [`BrickPages::clear`]s, and nothing may be inserted after it.
+    pub fn list_into(&mut self, out: &mut Vec<Brick>) {
+        debug_assert!(!self.listed, "a paged brick set is listed once");
+        out.clear();
         // the pages in code order: their codes, with their indices as the payload
-        let mut order: Vec<Brick> = self
-            .codes
-            .iter()
-            .enumerate()
-            .map(|(p, &code)| Brick {
+        self.order.clear();
+        self.order
+            .extend(self.codes.iter().enumerate().map(|(p, &code)| Brick {
                 code,
                 voxels: p as u64,
-            })
-            .collect();
-        let mut scratch = vec![Brick { code: 0, voxels: 0 }; order.len()];
-        crate::brick_sort::sort_by_code(&mut order, &mut scratch);
-        self.sorted.clear();
-        for o in &order {
+            }));
+        self.scratch
+            .resize(self.order.len(), Brick { code: 0, voxels: 0 });
+        crate::brick_sort::sort_by_code(&mut self.order, &mut self.scratch);
+        for o in &self.order {
             let page = &mut self.pages[o.voxels as usize];
             let mut present = 0u64;
             for (j, &m) in page.0.iter().enumerate() {
@@ -198,7 +244,7 @@ impl BrickPages {
             while present != 0 {
                 let j = present.trailing_zeros() as usize;
                 present &= present - 1;
-                self.sorted.push(Brick {
+                out.push(Brick {
                     code: o.code << 6 | j as u64,
                     voxels: page.0[j],
                 });
@@ -206,7 +252,6 @@ impl BrickPages {
             *page = CLEAN;
         }
         self.listed = true;
-        self.sorted.len()
     }
 
     /// The first `n` bricks in code order: after [`BrickPages::sort_in_place`] returned `n`,
