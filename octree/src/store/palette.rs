@@ -25,6 +25,25 @@ pub(crate) const PALETTE_LIMIT: usize = 0xfff0;
 /// An empty slot of the palette's hash table.
 const EMPTY_SLOT: u16 = 0;
 
+/// A block's eight indices as two words of four 16-bit lanes, slot `k` in lane `k % 4` of
+/// word `k / 4`.
+#[inline(always)]
+pub(super) fn index_words(idx: &[u16; 8]) -> [u64; 2] {
+    let word = |k: usize| {
+        u64::from(idx[4 * k])
+            | (u64::from(idx[4 * k + 1]) << 16)
+            | (u64::from(idx[4 * k + 2]) << 32)
+            | (u64::from(idx[4 * k + 3]) << 48)
+    };
+    [word(0), word(1)]
+}
+
+/// The indices of [`index_words`]'s words.
+#[inline(always)]
+pub(super) fn words_index(w: [u64; 2]) -> [u16; 8] {
+    std::array::from_fn(|k| (w[k / 4] >> (16 * (k % 4))) as u16)
+}
+
 /// `old + delta` clamped to `[cmin, cmax]`, as `updateNodeLogOdds` computes it.
 #[inline(always)]
 pub(crate) fn clamp_sum(old: f32, delta: f32, cmin: f32, cmax: f32) -> f32 {
@@ -151,13 +170,14 @@ impl Palette {
     /// `..=o`) serves all eight look-ups.
     #[inline(always)]
     pub(super) fn uniform_or_max(&self, idx: &[u16; 8]) -> (bool, f32) {
-        let word = |k: usize| {
-            u64::from(idx[4 * k])
-                | (u64::from(idx[4 * k + 1]) << 16)
-                | (u64::from(idx[4 * k + 2]) << 32)
-                | (u64::from(idx[4 * k + 3]) << 48)
-        };
-        let (lo, hi) = (word(0), word(1));
+        let [lo, hi] = index_words(idx);
+        self.uniform_or_max_words(lo, hi)
+    }
+
+    /// [`Palette::uniform_or_max`] of the block whose indices are the 16-bit lanes of `lo`
+    /// (slots 0 to 3) and `hi` (slots 4 to 7), as [`index_words`] gives them.
+    #[inline(always)]
+    pub(super) fn uniform_or_max_words(&self, lo: u64, hi: u64) -> (bool, f32) {
         let o = lo | hi;
         let o = o | (o >> 32);
         let o = ((o | (o >> 16)) & 0xffff) as usize;

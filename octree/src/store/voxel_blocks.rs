@@ -11,7 +11,9 @@
 
 use super::arena::{Arena, NO_BLOCK};
 use super::inner_block::InnerBlock;
-use super::palette::{Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX};
+use super::palette::{
+    index_words, words_index, Adder, Palette, ABSENT_IDX, EXIT, UNKNOWN, ZERO_IDX,
+};
 use super::slot::{max_present, present, ABSENT};
 
 /// Eight depth-16 children as palette indices ([`ABSENT_IDX`] for a missing child).
@@ -647,6 +649,10 @@ impl VoxelBlocks {
 }
 
 /// [`VoxelBlocks::update_group`] on the narrow block `blk` (the palette holds no `-0.0`).
+///
+/// The indices are changed as two words in registers ([`index_words`]) and written back with
+/// one store each: changed one 16-bit slot at a time in memory, the block's write-back and
+/// the max that reads it waited for those narrow stores (a store-forwarding stall).
 #[inline(always)]
 fn group_step(
     blk: &mut NarrowBlock,
@@ -654,18 +660,19 @@ fn group_step(
     bits: u8,
     memo: &[u16],
 ) -> Option<GroupUpdate> {
-    let mut idx = blk.idx;
+    let mut w = index_words(&blk.idx);
     let mut created = 0;
     let mut applied = false;
     let mut rest = u32::from(bits);
     while rest != 0 {
         let s = rest.trailing_zeros() as usize;
         rest &= rest - 1;
-        let i = idx[s & 7];
+        let (k, shift) = ((s >> 2) & 1, 16 * (s & 3));
+        let i = (w[k] >> shift) as u16;
         let n = memo.get(i as usize).copied().unwrap_or(UNKNOWN);
         // one test for both special entries, UNKNOWN (0) and EXIT (0xffff)
         if n.wrapping_sub(1) < EXIT - 1 {
-            idx[s & 7] = n;
+            w[k] = (w[k] & !(0xffff << shift)) | (u64::from(n) << shift);
             created += usize::from(i == ABSENT_IDX);
             applied = true;
         } else if n == UNKNOWN {
@@ -680,8 +687,8 @@ fn group_step(
             max: 0.0,
         });
     }
-    blk.idx = idx;
-    let (uniform, max) = palette.uniform_or_max(&idx);
+    blk.idx = words_index(w);
+    let (uniform, max) = palette.uniform_or_max_words(w[0], w[1]);
     Some(GroupUpdate {
         created,
         applied,

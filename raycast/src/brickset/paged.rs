@@ -281,3 +281,85 @@ impl BrickPages {
         out.sort_unstable_by_key(|b| b.code);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::collections::BTreeMap;
+
+    /// The definition: a brick set is the union of the masks given per code, listed by code,
+    /// bricks without voxels left out.
+    fn naive(entries: &[(u64, u64)]) -> Vec<Brick> {
+        let mut m = BTreeMap::new();
+        for &(code, voxels) in entries {
+            *m.entry(code).or_insert(0u64) |= voxels;
+        }
+        m.into_iter()
+            .filter(|&(_, v)| v != 0)
+            .map(|(code, voxels)| Brick { code, voxels })
+            .collect()
+    }
+
+    /// Codes clustered around a base (many bricks per page) or spread over all 42 bits (one
+    /// per page), with any masks, zero among them.
+    fn entries() -> impl Strategy<Value = Vec<(u64, u64)>> {
+        (0u64..(1 << 42), 0u32..=42).prop_flat_map(|(base, spread)| {
+            let m = if spread == 42 {
+                u64::MAX
+            } else {
+                (1u64 << spread) - 1
+            };
+            proptest::collection::vec(
+                (
+                    any::<u64>(),
+                    prop_oneof![Just(0u64), any::<u64>(), (0u32..64).prop_map(|b| 1u64 << b)],
+                ),
+                0..3000,
+            )
+            .prop_map(move |v| {
+                v.into_iter()
+                    .map(|(o, bits)| ((base ^ (o & m)) & ((1 << 42) - 1), bits))
+                    .collect()
+            })
+        })
+    }
+
+    proptest! {
+        /// Inserted one by one or in batches of any length, two frames in a row on one set
+        /// (the second on the pages the first cleaned): the naive set's bricks, in code order.
+        #[test]
+        fn lists_the_union_in_code_order(
+            frames in proptest::collection::vec((entries(), 1usize..200, any::<bool>()), 1..3),
+        ) {
+            let mut set = BrickPages::default();
+            for (entries, chunk, batched) in frames {
+                set.clear();
+                if batched {
+                    let (codes, bits): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
+                    for (c, b) in codes.chunks(chunk).zip(bits.chunks(chunk)) {
+                        set.put_all(c, b);
+                    }
+                } else {
+                    for &(code, voxels) in &entries {
+                        set.insert_brick(Brick { code, voxels });
+                    }
+                }
+                let want = naive(&entries);
+                for b in &want {
+                    prop_assert_eq!(set.get(b.code), b.voxels);
+                }
+                let mut out = vec![Brick { code: 1, voxels: 1 }];
+                if batched {
+                    set.list_into(&mut out);
+                } else {
+                    let n = set.sort_in_place();
+                    out = set.sorted_front(n).to_vec();
+                }
+                prop_assert!(out == want);
+                // listing cleaned every page in use
+                prop_assert!(set.pages.iter().all(|p| p.0.iter().all(|&m| m == 0)));
+            }
+        }
+    }
+}
