@@ -551,3 +551,63 @@ proptest! {
         prop_assert_eq!(oc, occ);
     }
 }
+
+/// A scan large enough for the brick sets' pages (more than 16 384 free bricks, as a LiDAR
+/// frame): the sets equal the naive ones, on one thread and split across four, with DDA rays
+/// and with Bresenham lines; and a small scan after it in the same update (the pages cleaned,
+/// the small table again) too.
+#[test]
+fn paged_brick_sets_equal_the_naive_sets() {
+    let c = conv(0.05);
+    let origin = Point3::new(0.01f32, -0.02, 0.03);
+    // rays to a sphere of radius 12-30 m: about 400 voxels each, few shared
+    let mut s = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let big: Vec<Point3<f32>> = (0..3000)
+        .map(|_| {
+            let (u, v, r) = (
+                next() * 2.0 - 1.0,
+                next() * std::f64::consts::TAU,
+                12.0 + 18.0 * next(),
+            );
+            let w = (1.0 - u * u).sqrt();
+            Point3::new(
+                (r * w * v.cos()) as f32,
+                (r * w * v.sin()) as f32,
+                (r * u) as f32,
+            )
+        })
+        .collect();
+    let small = &big[..20];
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap();
+    let mut out = ScanUpdate::new();
+    for (pts, paged) in [(&big[..], true), (small, false), (&big[..], true)] {
+        let (free, occ) = naive_update(&c, pts, &origin, -1.0);
+        for threads in [1, 4] {
+            if threads == 1 {
+                out.set_serial(true);
+                compute_update_f32(&c, pts, &origin, None, &mut out);
+            } else {
+                out.set_serial(false);
+                pool.install(|| compute_update_f32(&c, pts, &origin, None, &mut out));
+            }
+            assert_eq!(out.free_bricks().len() > 16_384, paged, "{threads} threads");
+            assert!(sorted_by_morton(out.free()));
+            assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
+            assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
+        }
+        let (bfree, bocc) = naive_bresenham_update(&c, pts, &origin, None);
+        out.set_serial(true);
+        compute_update_with_f32(&c, pts, &origin, None, RayModel::Bresenham, &mut out);
+        assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), bfree);
+        assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), bocc);
+    }
+}
