@@ -555,59 +555,77 @@ proptest! {
 /// A scan large enough for the brick sets' pages (more than 16 384 free bricks, as a LiDAR
 /// frame): the sets equal the naive ones, on one thread and split across four, with DDA rays
 /// and with Bresenham lines; and a small scan after it in the same update (the pages cleaned,
-/// the small table again) too.
+/// the small table again) too. Once near the map's centre and once from its far corner,
+/// whose voxels (keys 65535) fill the last page of all.
 #[test]
 fn paged_brick_sets_equal_the_naive_sets() {
     let c = conv(0.05);
-    let origin = Point3::new(0.01f32, -0.02, 0.03);
-    // rays to a sphere of radius 12-30 m: about 400 voxels each, few shared
-    let mut s = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let big: Vec<Point3<f32>> = (0..3000)
-        .map(|_| {
-            let (u, v, r) = (
-                next() * 2.0 - 1.0,
-                next() * std::f64::consts::TAU,
-                12.0 + 18.0 * next(),
-            );
-            let w = (1.0 - u * u).sqrt();
-            Point3::new(
-                (r * w * v.cos()) as f32,
-                (r * w * v.sin()) as f32,
-                (r * u) as f32,
-            )
-        })
-        .collect();
-    let small = &big[..20];
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(4)
-        .build()
-        .unwrap();
-    let mut out = ScanUpdate::new();
-    for (pts, paged) in [(&big[..], true), (small, false), (&big[..], true)] {
-        let (free, occ) = naive_update(&c, pts, &origin, -1.0);
-        for threads in [1, 4] {
-            if threads == 1 {
-                out.set_serial(true);
-                compute_update_f32(&c, pts, &origin, None, &mut out);
-            } else {
-                out.set_serial(false);
-                pool.install(|| compute_update_f32(&c, pts, &origin, None, &mut out));
+    // the centre of the voxel of key 65535 on every axis
+    let corner = c.key_to_point_f32(&Key::new(65535, 65535, 65535));
+    for (origin, toward_centre) in [(Point3::new(0.01f32, -0.02, 0.03), false), (corner, true)] {
+        // rays to a sphere of radius 12-30 m (from the corner, its octant towards the
+        // centre): about 400 voxels each, few shared
+        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let big: Vec<Point3<f32>> = (0..3000)
+            .map(|_| {
+                let (u, v, r) = (
+                    next() * 2.0 - 1.0,
+                    next() * std::f64::consts::TAU,
+                    12.0 + 18.0 * next(),
+                );
+                let w = (1.0 - u * u).sqrt();
+                let d = [r * w * v.cos(), r * w * v.sin(), r * u];
+                let d = if toward_centre {
+                    d.map(|x| -x.abs())
+                } else {
+                    d
+                };
+                Point3::new(
+                    origin.x + d[0] as f32,
+                    origin.y + d[1] as f32,
+                    origin.z + d[2] as f32,
+                )
+            })
+            .collect();
+        let small = &big[..20];
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let mut out = ScanUpdate::new();
+        for (pts, paged) in [(&big[..], true), (small, false), (&big[..], true)] {
+            let (free, occ) = naive_update(&c, pts, &origin, -1.0);
+            for threads in [1, 4] {
+                if threads == 1 {
+                    out.set_serial(true);
+                    compute_update_f32(&c, pts, &origin, None, &mut out);
+                } else {
+                    out.set_serial(false);
+                    pool.install(|| compute_update_f32(&c, pts, &origin, None, &mut out));
+                }
+                assert_eq!(out.free_bricks().len() > 16_384, paged, "{threads} threads");
+                assert!(sorted_by_morton(out.free()));
+                assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
+                assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
             }
-            assert_eq!(out.free_bricks().len() > 16_384, paged, "{threads} threads");
-            assert!(sorted_by_morton(out.free()));
-            assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
-            assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
+            if toward_centre {
+                // the origin's voxel is the far corner's: the last page is among the sets
+                assert_eq!(
+                    out.free_bricks().last().map(|b| b.code),
+                    Some((1 << 42) - 1)
+                );
+            }
+            let (bfree, bocc) = naive_bresenham_update(&c, pts, &origin, None);
+            out.set_serial(true);
+            compute_update_with_f32(&c, pts, &origin, None, RayModel::Bresenham, &mut out);
+            assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), bfree);
+            assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), bocc);
         }
-        let (bfree, bocc) = naive_bresenham_update(&c, pts, &origin, None);
-        out.set_serial(true);
-        compute_update_with_f32(&c, pts, &origin, None, RayModel::Bresenham, &mut out);
-        assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), bfree);
-        assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), bocc);
     }
 }

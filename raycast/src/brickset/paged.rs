@@ -11,12 +11,26 @@
 
 use octoquant_octree::Brick;
 
-/// The table entry of an empty slot (no page has it: a page code has 36 bits, and the page
-/// index below it never reaches `2^28 - 1`).
-const EMPTY: u64 = u64::MAX;
-/// Bits of a table entry below the page's code: the page's index in the pool.
-const INDEX_BITS: u32 = 28;
+/// The table entry of an empty slot. An entry is `(page code + 1) << INDEX_BITS | index`: a
+/// page code has 36 bits (the last page, of the map's far corner, is `2^36 - 1`), so its tag
+/// `code + 1` fits the 37 bits above the index and is never 0.
+const EMPTY: u64 = 0;
+/// Bits of a table entry below the page's tag: the page's index in the pool (2^27 pages of
+/// 512 bytes would be 64 GiB).
+const INDEX_BITS: u32 = 27;
 const INDEX_MASK: u64 = (1 << INDEX_BITS) - 1;
+
+/// The table entry of page `page` at index `p`.
+#[inline(always)]
+fn entry(page: u64, p: usize) -> u64 {
+    (page + 1) << INDEX_BITS | p as u64
+}
+
+/// Whether table entry `e` is page `page`'s (never an empty slot's).
+#[inline(always)]
+fn holds(e: u64, page: u64) -> bool {
+    e >> INDEX_BITS == page + 1
+}
 
 /// The masks of the 64 bricks of one page (4x4x4 bricks), by their Morton order in the page;
 /// 0 for a brick not in the set. Eight bricks (a 2x2x2 group) share a cache line.
@@ -29,10 +43,10 @@ const CLEAN: Page = Page([0; 64]);
 /// The paged set. `clear` keeps the allocations for the next frame.
 #[derive(Debug, Clone)]
 pub(super) struct BrickPages {
-    /// Open addressing, at most half full: `page code << INDEX_BITS | index`, or [`EMPTY`].
+    /// Open addressing, at most half full: [`entry`]s, or [`EMPTY`].
     table: Vec<u64>,
-    /// The pages in use are `pages[..used]`; the others are clean (all zero), as are the
-    /// ones in use once listed.
+    /// The pages in use are `pages[..codes.len()]`; the others are clean (all zero), as are
+    /// the ones in use once listed.
     pages: Vec<Page>,
     /// The code of each page in use, by index.
     codes: Vec<u64>,
@@ -67,9 +81,9 @@ impl Default for BrickPages {
 fn near_page(table: &[u64], page: u64) -> Option<usize> {
     let mask = table.len() - 1;
     let h = hash(page, mask);
-    let j = (h + (table[h] >> INDEX_BITS != page) as usize) & mask;
+    let j = (h + !holds(table[h], page) as usize) & mask;
     let e = table[j];
-    (e >> INDEX_BITS == page).then_some((e & INDEX_MASK) as usize)
+    holds(e, page).then_some((e & INDEX_MASK) as usize)
 }
 
 /// Ask for the cache line of `slot` ahead of its use.
@@ -118,8 +132,9 @@ impl BrickPages {
     #[inline]
     pub fn put_all(&mut self, bricks: &[u64], bits: &[u64]) {
         const CHUNK: usize = 64;
+        let n = bricks.len().min(bits.len());
         let mut at = [0usize; CHUNK];
-        for (codes, masks) in bricks.chunks(CHUNK).zip(bits.chunks(CHUNK)) {
+        for (codes, masks) in bricks[..n].chunks(CHUNK).zip(bits[..n].chunks(CHUNK)) {
             for (a, &code) in at.iter_mut().zip(codes) {
                 let page = code >> 6;
                 let p = match near_page(&self.table, page) {
@@ -146,7 +161,7 @@ impl BrickPages {
             if e == EMPTY {
                 return self.add_page(page, i);
             }
-            if e >> INDEX_BITS == page {
+            if holds(e, page) {
                 return (e & INDEX_MASK) as usize;
             }
             i = (i + 1) & mask;
@@ -161,7 +176,7 @@ impl BrickPages {
         if self.pages.len() < self.codes.len() {
             self.pages.push(CLEAN);
         }
-        self.table[i] = page << INDEX_BITS | p as u64;
+        self.table[i] = entry(page, p);
         if self.codes.len() * 2 > self.table.len() {
             self.grow();
         }
@@ -177,7 +192,7 @@ impl BrickPages {
             while self.table[i] != EMPTY {
                 i = (i + 1) & mask;
             }
-            self.table[i] = page << INDEX_BITS | p as u64;
+            self.table[i] = entry(page, p);
         }
     }
 
@@ -192,7 +207,7 @@ impl BrickPages {
             if e == EMPTY || self.listed {
                 return 0;
             }
-            if e >> INDEX_BITS == page {
+            if holds(e, page) {
                 return self.pages[(e & INDEX_MASK) as usize].0[(brick & 63) as usize];
             }
             i = (i + 1) & mask;
@@ -323,6 +338,39 @@ mod tests {
                     .collect()
             })
         })
+    }
+
+    /// The map's far corner (keys 65535 on every axis: brick code `2^42 - 1`, the last page)
+    /// and its origin corner, inserted alone and in a batch, in a table with empty slots.
+    #[test]
+    fn the_last_page_and_the_first() {
+        let last = (1u64 << 42) - 1;
+        let entries = [
+            (last, 1u64 << 63),
+            (last - 1, 3),
+            (0, 1),
+            (64, 1 << 5),
+            (last, 1),
+        ];
+        for batched in [false, true] {
+            let mut set = BrickPages::default();
+            if batched {
+                let (codes, bits): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
+                set.put_all(&codes, &bits);
+            } else {
+                for &(code, voxels) in &entries {
+                    set.insert_brick(Brick { code, voxels });
+                }
+            }
+            let mut out = Vec::new();
+            set.list_into(&mut out);
+            assert!(out == naive(&entries));
+            // a page looked up before any is added finds none (the empty slots name no page)
+            set.clear();
+            assert_eq!(set.get(last), 0);
+            set.insert_brick(Brick { code: 5, voxels: 2 });
+            assert_eq!((set.get(last), set.get(5)), (0, 2));
+        }
     }
 
     proptest! {
