@@ -3,8 +3,9 @@
 //!
 //! A scan's update is two disjoint key sets: the voxels the rays cross (free) and the endpoint
 //! voxels (occupied). OctoMap collects them in `std::unordered_set`s; here both go into
-//! [`BrickSet`]s, one 64-bit mask per 4x4x4 brick of voxels, hashed by the brick's Morton
-//! code. The bricks are then sorted and the occupied bits masked out of the free ones; the
+//! [`BrickSet`]s, one 64-bit mask per 4x4x4 brick of voxels, found by the brick's Morton
+//! code (in a small hash table, or in pages of bricks for large frames). The bricks are then
+//! listed in code order and the occupied bits masked out of the free ones; the
 //! tree takes the sorted bricks as they are ([`octoquant_octree::OcTree::update_bricks`]), in
 //! Morton order, which is its own depth-first order, so applying them touches the tree in one
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
