@@ -51,27 +51,31 @@ impl BrickSet {
     /// Add the voxels of `brick`.
     #[inline(always)]
     pub fn insert_brick(&mut self, brick: Brick) {
-        if self.paged {
-            self.pages.insert_brick(brick);
-        } else {
-            self.hash.insert_brick(brick);
-            if self.hash.full() {
-                self.move_to_pages();
-            }
-        }
+        self.add::<true>(brick);
     }
 
     /// [`BrickSet::insert_brick`] without the check of the brick touched last, for callers
     /// whose bricks rarely repeat one after another.
     #[inline(always)]
     pub fn insert_brick_hashed(&mut self, brick: Brick) {
+        self.add::<false>(brick);
+    }
+
+    /// Add `brick` to the pages, or to the small hash (looking at the brick touched last
+    /// first when `LAST`), moving the set to pages once the hash is full.
+    #[inline(always)]
+    fn add<const LAST: bool>(&mut self, brick: Brick) {
         if self.paged {
             self.pages.insert_brick(brick);
+            return;
+        }
+        if LAST {
+            self.hash.insert_brick(brick);
         } else {
             self.hash.insert_brick_hashed(brick);
-            if self.hash.full() {
-                self.move_to_pages();
-            }
+        }
+        if self.hash.full() {
+            self.move_to_pages();
         }
     }
 
