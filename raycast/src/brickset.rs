@@ -136,6 +136,23 @@ impl BrickSet {
         }
     }
 
+    /// [`BrickSet::sorted_into`] keeping only the bricks `keep` keeps (it may change them):
+    /// the free set, listed with the occupied voxels taken out ([`Subtract`]) in the same
+    /// pass.
+    pub fn sorted_into_kept(&mut self, out: &mut Vec<Brick>, keep: impl FnMut(&mut Brick) -> bool) {
+        if self.paged {
+            self.pages.list_into_kept(out, keep);
+        } else {
+            let n = self.hash.sort_in_place();
+            out.clear();
+            let mut keep = keep;
+            out.extend(self.hash.sorted_front(n).iter().filter_map(|&b| {
+                let mut b = b;
+                keep(&mut b).then_some(b)
+            }));
+        }
+    }
+
     /// After [`BrickSet::sort_in_place`] returned `n`: the `n` bricks in code order.
     pub fn sorted_front(&self, n: usize) -> &[Brick] {
         if self.paged {
@@ -202,6 +219,44 @@ impl BrickSink for BrickSet {
             self.move_to_pages();
         }
         self.pages.put_all(&bricks[i..n], &bits[i..n]);
+    }
+}
+
+/// Takes the voxels of a sorted brick list out of bricks met in ascending code order, and
+/// counts the voxels left: occupied voxels win over free ones in a frame's update, so the
+/// free bricks are listed through [`Subtract::keep`] with the occupied bricks as `minus`.
+pub(crate) struct Subtract<'a> {
+    /// The bricks to take out whose codes are not below the last brick met.
+    minus: &'a [Brick],
+    /// Voxels in the bricks kept so far.
+    pub voxels: usize,
+}
+
+impl<'a> Subtract<'a> {
+    /// Take out the voxels of `minus`, sorted by code, each brick once.
+    pub fn new(minus: &'a [Brick]) -> Self {
+        Subtract { minus, voxels: 0 }
+    }
+
+    /// Take `minus`'s voxels out of `b` (whose code is not below any met before); whether
+    /// any are left.
+    #[inline(always)]
+    pub fn keep(&mut self, b: &mut Brick) -> bool {
+        while let Some((first, rest)) = self.minus.split_first() {
+            if first.code > b.code {
+                break;
+            }
+            if first.code == b.code {
+                b.voxels &= !first.voxels;
+            }
+            if first.code < b.code {
+                self.minus = rest;
+            } else {
+                break;
+            }
+        }
+        self.voxels += b.voxels.count_ones() as usize;
+        b.voxels != 0
     }
 }
 
@@ -336,5 +391,80 @@ mod tests {
         assert_eq!(a, naive);
         // grown past the size from which batches prefetch ahead
         assert!(batched.is_paged(), "the set moved to pages");
+    }
+
+    /// Bricks of `n` random voxels in a box `spread` bricks wide on each axis around the
+    /// map's centre (a narrow box repeats bricks; a wide one makes more than a small set
+    /// holds).
+    fn voxels(seed: u64, n: usize, spread: u16) -> Vec<u64> {
+        let mut s = seed | 1;
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let axis = |v: u64| 32768 - 2 * spread + (v % (4 * u64::from(spread))) as u16;
+                Key::new(axis(s), axis(s >> 21), axis(s >> 42)).morton()
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+        /// The free set listed with the occupied voxels taken out ([`Subtract`], as a frame's
+        /// update lists it), from a small set or from pages, and the same subtraction over a
+        /// listed vector (the split frames' merged sets): the naive difference of two maps,
+        /// in code order, without bricks left empty, and its voxel count.
+        #[test]
+        fn lists_the_free_bricks_without_the_occupied_voxels(
+            seed in proptest::prelude::any::<u64>(),
+            free_n in 0usize..60_000,
+            occ_n in 0usize..3_000,
+            spread in 1u16..400,
+        ) {
+            let free = voxels(seed, free_n, spread);
+            let occ = voxels(seed ^ 0x5555, occ_n, spread);
+            let mut naive_free = std::collections::BTreeMap::new();
+            for c in &free {
+                *naive_free.entry(c >> 6).or_insert(0u64) |= 1 << (c & 63);
+            }
+            let mut naive_occ = std::collections::BTreeMap::new();
+            for c in &occ {
+                *naive_occ.entry(c >> 6).or_insert(0u64) |= 1 << (c & 63);
+            }
+            let want: Vec<Brick> = naive_free
+                .iter()
+                .map(|(&code, &m)| Brick {
+                    code,
+                    voxels: m & !naive_occ.get(&code).copied().unwrap_or(0),
+                })
+                .filter(|b| b.voxels != 0)
+                .collect();
+            let want_voxels: usize = want.iter().map(|b| b.voxels.count_ones() as usize).sum();
+            let occ_bricks: Vec<Brick> = naive_occ
+                .iter()
+                .map(|(&code, &voxels)| Brick { code, voxels })
+                .collect();
+
+            let mut set = BrickSet::default();
+            for &c in &free {
+                set.insert(c);
+            }
+            proptest::prop_assert_eq!(set.is_paged(), naive_free.len() > hashed::MAX_SLOTS / 4);
+            let mut listed = vec![Brick { code: 7, voxels: 7 }];
+            let mut sub = Subtract::new(&occ_bricks);
+            set.sorted_into_kept(&mut listed, |b| sub.keep(b));
+            proptest::prop_assert!(listed == want);
+            proptest::prop_assert_eq!(sub.voxels, want_voxels);
+
+            let mut all: Vec<Brick> = naive_free
+                .iter()
+                .map(|(&code, &voxels)| Brick { code, voxels })
+                .collect();
+            let mut sub = Subtract::new(&occ_bricks);
+            all.retain_mut(|b| sub.keep(b));
+            proptest::prop_assert!(all == want);
+            proptest::prop_assert_eq!(sub.voxels, want_voxels);
+        }
     }
 }

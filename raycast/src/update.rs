@@ -10,7 +10,7 @@
 //! Morton order, which is its own depth-first order, so applying them touches the tree in one
 //! cache-friendly sweep. Keys are listed one by one only when asked for.
 
-use crate::brickset::{push_brick_keys, BrickSet};
+use crate::brickset::{push_brick_keys, BrickSet, Subtract};
 use crate::dda::{
     coded, is_finite, key_of, norm_f32, sub_f32, walk_ray_codes_f32, RaySetup, RayWalk,
 };
@@ -407,35 +407,31 @@ fn walk_lines(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.lines.clear();
 }
 
-/// List both sets in Morton order, masking occupied voxels out of the free ones.
+/// List both sets in Morton order, the occupied first, then the free ones with the occupied
+/// voxels taken out as they are listed (occupied wins), and count both.
 fn finish(out: &mut ScanUpdate, stats: &mut ScanStats) {
-    for (set, bricks) in [
-        (&mut out.work.free_set, &mut out.bricks),
-        (&mut out.work.occ_set, &mut out.occ_bricks),
-    ] {
-        set.sorted_into(bricks);
-    }
-    emit(out, stats);
+    out.work.occ_set.sorted_into(&mut out.occ_bricks);
+    let mut free = Subtract::new(&out.occ_bricks);
+    out.work
+        .free_set
+        .sorted_into_kept(&mut out.bricks, |b| free.keep(b));
+    stats.free = free.voxels;
+    stats.occupied = voxel_count(&out.occ_bricks);
 }
 
 /// Mask the occupied voxels out of the sorted free bricks `out.bricks` (occupied wins),
-/// walking both sorted lists side by side and dropping bricks left empty, and count both
-/// sets.
+/// dropping bricks left empty, and count both sets: [`finish`] for the sets merged from the
+/// threads of a split frame.
 fn emit(out: &mut ScanUpdate, stats: &mut ScanStats) {
-    let occ = &out.occ_bricks;
-    let mut j = 0;
-    out.bricks.retain_mut(|b| {
-        while j < occ.len() && occ[j].code < b.code {
-            j += 1;
-        }
-        if j < occ.len() && occ[j].code == b.code {
-            b.voxels &= !occ[j].voxels;
-        }
-        b.voxels != 0
-    });
-    let count = |bricks: &[Brick]| bricks.iter().map(|b| b.voxels.count_ones() as usize).sum();
-    stats.free = count(&out.bricks);
-    stats.occupied = count(&out.occ_bricks);
+    let mut free = Subtract::new(&out.occ_bricks);
+    out.bricks.retain_mut(|b| free.keep(b));
+    stats.free = free.voxels;
+    stats.occupied = voxel_count(&out.occ_bricks);
+}
+
+/// Voxels in `bricks`.
+fn voxel_count(bricks: &[Brick]) -> usize {
+    bricks.iter().map(|b| b.voxels.count_ones() as usize).sum()
 }
 
 /// The keys of sorted bricks, in Morton order.

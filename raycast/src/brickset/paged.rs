@@ -238,6 +238,16 @@ impl BrickPages {
     /// Replace `out` with the bricks sorted by code, cleaning the pages as they are read: once
     /// between two [`BrickPages::clear`]s, and nothing may be inserted after it.
     pub fn list_into(&mut self, out: &mut Vec<Brick>) {
+        self.list_into_kept(out, |_| true);
+    }
+
+    /// [`BrickPages::list_into`] keeping only the bricks `keep` keeps (it may change them).
+    #[inline]
+    pub fn list_into_kept(
+        &mut self,
+        out: &mut Vec<Brick>,
+        mut keep: impl FnMut(&mut Brick) -> bool,
+    ) {
         debug_assert!(!self.listed, "a paged brick set is listed once");
         out.clear();
         // the pages in code order: their codes, with their indices as the payload
@@ -250,7 +260,18 @@ impl BrickPages {
         self.scratch
             .resize(self.order.len(), Brick { code: 0, voxels: 0 });
         crate::brick_sort::sort_by_code(&mut self.order, &mut self.scratch);
-        for o in &self.order {
+        // pages are read in code order, not where they lie: each page's eight lines are asked
+        // for four pages ahead (norlab at 0.1 m, 39 000 pages, 20 MB: casting 7 % faster; two
+        // or eight pages ahead gave about the same)
+        const AHEAD: usize = 4;
+        for (i, o) in self.order.iter().enumerate() {
+            if let Some(next) = self.order.get(i + AHEAD) {
+                if let Some(p) = self.pages.get(next.voxels as usize) {
+                    for line in p.0.chunks(8) {
+                        prefetch(&line[0]);
+                    }
+                }
+            }
             let page = &mut self.pages[o.voxels as usize];
             let mut present = 0u64;
             for (j, &m) in page.0.iter().enumerate() {
@@ -259,10 +280,13 @@ impl BrickPages {
             while present != 0 {
                 let j = present.trailing_zeros() as usize;
                 present &= present - 1;
-                out.push(Brick {
+                let mut b = Brick {
                     code: o.code << 6 | j as u64,
                     voxels: page.0[j],
-                });
+                };
+                if keep(&mut b) {
+                    out.push(b);
+                }
             }
             *page = CLEAN;
         }
