@@ -167,8 +167,11 @@ pub fn quantize_endpoints(
         }
     } else {
         // sparse fallback: sort the (z, y, x)-ordered codes so the order matches the grid's
+        // (a radix sort: the codes share their high bits; a comparison sort of a LiDAR
+        // frame's 41 000 codes took 2 % of its insertion)
         codes.retain(|&c| c != NO_KEY);
-        codes.par_sort_unstable();
+        let mut scratch = vec![0u64; codes.len()];
+        octoquant_radix::sort_by_key(&mut codes, &mut scratch, |&c| c);
         codes.dedup();
         out.extend(codes.into_iter().map(|c| centre(zyx_key(c))));
     }

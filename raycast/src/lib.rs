@@ -93,7 +93,6 @@
 #![deny(unsafe_code)]
 
 mod bresenham;
-mod brick_sort;
 mod brickset;
 mod cast;
 #[cfg(target_arch = "x86_64")]

@@ -194,7 +194,7 @@ impl BrickHash {
         }
         // the table is at most half full, so its back half is free for the sort's passes
         let (front, back) = self.slots.split_at_mut(n);
-        crate::brick_sort::sort_by_code(front, back);
+        octoquant_radix::sort_by_key(front, back, |b| b.code);
         // `len` stays as it was, so that `clear` resets the whole table
         self.last = 0;
         n
