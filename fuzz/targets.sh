@@ -13,7 +13,7 @@ FUZZ_BIN_DIR="$FUZZ_DIR/target/$FUZZ_TRIPLE/release"
 # The parsers most likely to break first: the campaign order.
 FUZZ_TARGETS=(bt ot pcd ply mcap source mcap_cloud mcap_tf lzf tum_png vtk graph text frames
   carmen tum_assoc octree_ops checkpoint color_ot count_frames binvox tile_lists tile_index rows
-  distance_map stamped_ops frame_pairs color_scans color_point_clouds color_passes)
+  distance_map stamped_ops frame_pairs color_scans color_point_clouds color_passes scan_sets)
 
 # The dictionary of a target (empty: none).
 fuzz_dict() {
@@ -25,7 +25,7 @@ fuzz_dict() {
     tum_assoc) echo tum ;;
     source) echo compression ;;
     tile_lists | tile_index) echo tiles ;;
-    octree_ops | distance_map | stamped_ops | frame_pairs | color_scans | color_point_clouds | color_passes | rows) echo "" ;;
+    octree_ops | distance_map | stamped_ops | frame_pairs | color_scans | color_point_clouds | color_passes | rows | scan_sets) echo "" ;;
     *) echo "$1" ;;
   esac
 }

@@ -38,7 +38,11 @@ pub(crate) struct BrickSet {
 /// A set that ends a frame in at least this many pages starts the next one in pages; below
 /// it, small again. A frame of that many pages holds at least as many bricks, a quarter of
 /// the most the small table holds; a depth image's few thousand bricks stay below it.
+#[cfg(not(fuzzing))]
 const STAY_PAGED: usize = 4096;
+/// In the fuzzing build, few pages: the fuzz targets' second scans start in pages.
+#[cfg(fuzzing)]
+const STAY_PAGED: usize = 16;
 
 impl BrickSet {
     /// Remove every key, keeping the tables' sizes. The set starts the next frame small,

@@ -245,9 +245,17 @@ struct RayScratch {
 const RAY_BATCH: usize = 64;
 
 /// Frames with at least this many points are split across the rayon threads.
+#[cfg(not(fuzzing))]
 const PARALLEL_MIN_POINTS: usize = 4096;
 /// Points per block handed to the threads in turn.
+#[cfg(not(fuzzing))]
 const PARALLEL_BLOCK: usize = 256;
+/// In the fuzzing build, the split from a few points on, in blocks of a few: the fuzz
+/// targets' scans of a few dozen points take it.
+#[cfg(fuzzing)]
+const PARALLEL_MIN_POINTS: usize = 16;
+#[cfg(fuzzing)]
+const PARALLEL_BLOCK: usize = 4;
 
 /// The key's Morton code ([`Key::morton`]): sorting by it visits voxels in the tree's own
 /// depth-first child order.

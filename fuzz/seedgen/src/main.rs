@@ -40,6 +40,7 @@ fn main() {
     distance_map(&mut seeds);
     stamped_ops(&mut seeds);
     frame_pairs(&mut seeds);
+    scan_sets(&mut seeds);
     color_point_clouds(&mut seeds);
     color_passes(&mut seeds);
     binvox(&mut seeds);
@@ -1062,6 +1063,15 @@ fn frame_pairs(s: &mut Seeds) {
         s,
         "frame_pairs",
         0x9e37_79b9_7f4a_7c15,
+        &[64, 256, 1024, 4096],
+    );
+}
+
+fn scan_sets(s: &mut Seeds) {
+    random_seeds(
+        s,
+        "scan_sets",
+        0x2f6b_8a1c_5d3e_9047,
         &[64, 256, 1024, 4096],
     );
 }

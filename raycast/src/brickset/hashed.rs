@@ -17,7 +17,12 @@ const VACANT: Brick = Brick {
 
 /// The most slots the table grows to (1 MiB); past a quarter of them the set is full and
 /// moves to pages (see [`super::BrickSet`]).
+#[cfg(not(fuzzing))]
 pub(super) const MAX_SLOTS: usize = 1 << 16;
+/// In the fuzzing build, the table's first size: the fuzz targets' few dozen rays reach the
+/// pages.
+#[cfg(fuzzing)]
+pub(super) const MAX_SLOTS: usize = 1 << 10;
 
 /// The table: at most a quarter full, so that a brick already in it almost always sits in one
 /// of its first two slots.
