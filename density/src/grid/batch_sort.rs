@@ -3,7 +3,7 @@
 //! A counting sort. One pass gives each point a batch-local cell id through a hash table keyed
 //! by the cell index packed into a `u64` (`key_table.rs`, `packing.rs`), relative to the first
 //! finite point's cell (integer order = lexicographic order); the distinct cells' keys are
-//! repacked relative to their own box and alone sorted (`radix_sort.rs`); a last pass moves
+//! repacked relative to their own box and alone sorted (`octoquant-radix`); a last pass moves
 //! each point into its cell's run. A batch reaching beyond the first pass's window is measured
 //! first (its finite points' bounding box bounds its cells), and one whose box does not pack
 //! into 63 bits is sorted by comparison.
@@ -11,7 +11,6 @@
 use super::arena::narrow_point;
 use super::key_table::KeyTable;
 use super::packing::Packing;
-use super::radix_sort::radix_sort_bits;
 use super::store::{to_u32, DensityGrid};
 use crate::spec::{all_finite, floor_trunc, CellIndex, MAX_CELL_INDEX};
 
@@ -388,7 +387,9 @@ fn sort_keys(keys: &[u64]) -> Vec<u32> {
             .enumerate()
             .map(|(id, &k)| (k << id_bits) | id as u64)
             .collect();
-        radix_sort_bits(&mut words, &mut Vec::new(), id_bits, id_bits + key_bits);
+        // by the key bits alone (the keys are distinct, so the ids never decide)
+        let mut scratch = vec![0u64; words.len()];
+        octoquant_radix::sort_by_key(&mut words, &mut scratch, |&w| w >> id_bits);
         let id_mask = if id_bits == 0 {
             0
         } else {

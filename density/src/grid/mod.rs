@@ -10,7 +10,7 @@
 //! * `insert.rs` and `remove.rs`: the input stage one point at a time.
 //! * `batch.rs`: the input stage for whole batches ([`DensityGrid::extend`]) and the one-pass
 //!   build of an empty store; `batch_sort.rs` sorts a batch by cell, with the cell keys of
-//!   `packing.rs`, the id table of `key_table.rs` and the sort of `radix_sort.rs`.
+//!   `packing.rs`, the id table of `key_table.rs` and the radix sort of `octoquant-radix`.
 //! * `order.rs`: the ordered index and the distance order (a compact `Vec` form after a
 //!   build, B-trees once changed); `distance_sort.rs` sorts the distance order of a build.
 //! * `lookup.rs`: the hash index from cell index to slot.
@@ -28,7 +28,6 @@ mod key_table;
 mod lookup;
 mod order;
 mod packing;
-mod radix_sort;
 mod remove;
 mod representative;
 mod store;
