@@ -140,29 +140,28 @@ impl BrickSet {
     /// [`BrickSet::sort_in_place`], not after it; nothing may be inserted or listed again
     /// before [`BrickSet::clear`].
     pub fn sorted_into(&mut self, out: &mut Vec<Brick>) {
-        if self.paged {
-            self.pages.list_into(out);
-        } else {
-            let n = self.hash.sort_in_place();
-            out.clear();
-            out.extend_from_slice(self.hash.sorted_front(n));
-        }
+        self.sorted_into_kept(out, |_| true);
     }
 
     /// [`BrickSet::sorted_into`] keeping only the bricks `keep` keeps (it may change them):
     /// the free set, listed with the occupied voxels taken out ([`Subtract`]) in the same
     /// pass.
-    pub fn sorted_into_kept(&mut self, out: &mut Vec<Brick>, keep: impl FnMut(&mut Brick) -> bool) {
+    pub fn sorted_into_kept(
+        &mut self,
+        out: &mut Vec<Brick>,
+        mut keep: impl FnMut(&mut Brick) -> bool,
+    ) {
         if self.paged {
             self.pages.list_into_kept(out, keep);
         } else {
             let n = self.hash.sort_in_place();
             out.clear();
-            let mut keep = keep;
-            out.extend(self.hash.sorted_front(n).iter().filter_map(|&b| {
-                let mut b = b;
-                keep(&mut b).then_some(b)
-            }));
+            out.extend(
+                self.hash
+                    .sorted_front(n)
+                    .iter()
+                    .filter_map(|&(mut b)| keep(&mut b).then_some(b)),
+            );
         }
     }
 
@@ -256,17 +255,13 @@ impl<'a> Subtract<'a> {
     #[inline(always)]
     pub fn keep(&mut self, b: &mut Brick) -> bool {
         while let Some((first, rest)) = self.minus.split_first() {
-            if first.code > b.code {
+            if first.code >= b.code {
+                if first.code == b.code {
+                    b.voxels &= !first.voxels;
+                }
                 break;
             }
-            if first.code == b.code {
-                b.voxels &= !first.voxels;
-            }
-            if first.code < b.code {
-                self.minus = rest;
-            } else {
-                break;
-            }
+            self.minus = rest;
         }
         self.voxels += b.voxels.count_ones() as usize;
         b.voxels != 0

@@ -101,12 +101,12 @@ fn hash(page: u64, mask: usize) -> usize {
 }
 
 impl BrickPages {
-    /// Remove every key, keeping the tables' sizes.
     /// Pages in use (each holds at least one brick).
     pub fn pages_in_use(&self) -> usize {
         self.codes.len()
     }
 
+    /// Remove every key, keeping the tables' sizes.
     pub fn clear(&mut self) {
         let used = self.codes.len();
         if used > 0 {
