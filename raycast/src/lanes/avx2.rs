@@ -7,7 +7,7 @@
 //! and their lowest bit); the end tests; and the brick bookkeeping. Each lane's open brick and
 //! the voxels met in it stay in registers; the bricks the lanes leave at a step are moved to
 //! the front of a register by a permutation looked up by the set of lanes, appended with one
-//! store, and handed on in runs.
+//! store, and handed on to the brick set in batches.
 //!
 //! A lane whose walk ends starts the next ray in the same step, its origin voxel standing in
 //! for the step's voxel (a walk's first voxel is free too); when the rays run out, the lane
@@ -18,7 +18,6 @@
 //! into [`walk_quads_avx2`] after the run-time check for AVX2.
 
 use super::refill::{first_stop, restart, LaneInit, VOXEL_CODE};
-use super::runs::hand_on_runs;
 use crate::brickset::BrickSink;
 use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
@@ -293,11 +292,7 @@ where
         );
         brick = b;
         if finished || left >= LEFT {
-            hand_on_runs(
-                &mut scratch.bricks[..left],
-                &mut scratch.bits[..left],
-                flush,
-            );
+            flush.put_all(&scratch.bricks[..left], &scratch.bits[..left]);
             left = 0;
         }
         if finished {

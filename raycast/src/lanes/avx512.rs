@@ -13,17 +13,15 @@
 
 use super::brick_walk::lane_start;
 use super::refill::{first_stop, LaneInit, VOXEL_CODE};
-use super::runs::merge_runs_from;
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx512;
 use crate::dda::{RaySetup, AXIS_MASK};
 use core::arch::x86_64::{
-    __m512d, __m512i, __mmask8, _mm512_add_epi64, _mm512_add_pd, _mm512_alignr_epi64,
-    _mm512_and_si512, _mm512_andnot_si512, _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask,
-    _mm512_cmplt_epu64_mask, _mm512_cmpneq_epu64_mask, _mm512_mask_add_epi64,
-    _mm512_mask_expand_epi64, _mm512_mask_expand_pd, _mm512_mask_mov_epi64, _mm512_mask_mov_pd,
-    _mm512_mask_or_epi64, _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64, _mm512_min_pd,
-    _mm512_or_si512, _mm512_permutexvar_epi64, _mm512_reduce_min_epu64, _mm512_set1_epi64,
+    __m512d, __m512i, _mm512_add_epi64, _mm512_add_pd, _mm512_and_si512, _mm512_andnot_si512,
+    _mm512_cmp_pd_mask, _mm512_cmpeq_epu64_mask, _mm512_cmplt_epu64_mask, _mm512_cmpneq_epu64_mask,
+    _mm512_mask_add_epi64, _mm512_mask_expand_epi64, _mm512_mask_expand_pd, _mm512_mask_mov_epi64,
+    _mm512_mask_mov_pd, _mm512_mask_or_epi64, _mm512_maskz_compress_epi64, _mm512_maskz_mov_epi64,
+    _mm512_min_pd, _mm512_or_si512, _mm512_reduce_min_epu64, _mm512_set1_epi64,
     _mm512_setzero_si512, _mm512_sllv_epi64, _mm512_srli_epi64, _mm512_sub_epi64, _mm512_xor_si512,
     _CMP_GT_OQ, _CMP_LT_OQ,
 };
@@ -139,82 +137,11 @@ impl<'a> Bricks8<'a> {
     }
 }
 
-/// Hand the first `n` bricks left in `s` to `flush`, each run of one brick merged first
-/// ([`merge_runs`]).
-#[target_feature(enable = "avx512f,popcnt")]
-fn hand_on<F: BrickSink>(s: &mut LeftBricks, n: usize, flush: &mut F) {
+/// Hand the first `n` bricks left in `s` to `flush`.
+#[inline]
+fn hand_on<F: BrickSink>(s: &LeftBricks, n: usize, flush: &mut F) {
     let n = n.min(LEFT + 8);
-    let k = merge_runs(&mut s.bricks[..n], &mut s.bits[..n]);
-    flush.put_all(&s.bricks[..k], &s.bits[..k]);
-}
-
-/// [`crate::lanes::runs::merge_runs`] eight entries at a time: a segmented OR scan over each
-/// register of entries (three shifted ORs, each under the mask of lanes whose run reaches that
-/// far back) and one compressed store of the runs that end in it. The run still open at a
-/// register's last lane is carried into the next; the last few entries go through the scalar
-/// merge.
-#[target_feature(enable = "avx512f,popcnt")]
-fn merge_runs(bricks: &mut [u64], bits: &mut [u64]) -> usize {
-    let n = bricks.len().min(bits.len());
-    if n == 0 {
-        return 0;
-    }
-    let first = bricks[0];
-    // the open run: a register whose last lane is its brick, and its bits in every lane (kept
-    // in registers, so a register's scan does not wait for the previous one's)
-    let mut prev = _mm512_set1_epi64(first as i64);
-    let mut open = _mm512_setzero_si512();
-    let last = _mm512_set1_epi64(7);
-    let zero = _mm512_setzero_si512();
-    let mut k = 0;
-    let mut i = 0;
-    while i + 8 <= n {
-        let b: __m512i = bytemuck::cast(<U8>::try_from(&bricks[i..i + 8]).unwrap_or_default());
-        let mut m: __m512i = bytemuck::cast(<U8>::try_from(&bits[i..i + 8]).unwrap_or_default());
-        // lane j continues the run of lane j - 1 (lane 0: the open run)
-        let same = _mm512_cmpeq_epu64_mask(b, _mm512_alignr_epi64::<7>(b, prev));
-        // the open run ends before this register when lane 0 starts a new one; it is
-        // written at `k` either way (below every entry not yet read) and kept only then
-        let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
-        bricks[k] = pb[7];
-        bits[k] = om[0];
-        k += (same & 1 == 0) as usize;
-        // OR within runs: lane j takes lane j - d where its run reaches d lanes back
-        let c1 = same & 0xfe;
-        m = _mm512_mask_or_epi64(m, c1, m, _mm512_alignr_epi64::<7>(m, zero));
-        let c2 = c1 & (c1 << 1);
-        m = _mm512_mask_or_epi64(m, c2, m, _mm512_alignr_epi64::<6>(m, zero));
-        let c4 = c2 & (c2 << 2);
-        m = _mm512_mask_or_epi64(m, c4, m, _mm512_alignr_epi64::<4>(m, zero));
-        // the leading lanes that continue the open run take its bits
-        let joined = ((1u32 << (!same).trailing_zeros()) - 1) as __mmask8;
-        m = _mm512_mask_or_epi64(m, joined, m, open);
-        // lanes 0..7 whose next lane starts a new run end theirs here
-        let ends = !(same >> 1) & 0x7f;
-        let eb: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, b));
-        let em: U8 = bytemuck::cast(_mm512_maskz_compress_epi64(ends, m));
-        // k + 8 <= i + 8: the store covers only this register's entries, already read
-        bricks[k..k + 8].copy_from_slice(&eb);
-        bits[k..k + 8].copy_from_slice(&em);
-        k += ends.count_ones() as usize;
-        open = _mm512_permutexvar_epi64(last, m);
-        prev = b;
-        i += 8;
-    }
-    let (pb, om): (U8, U8) = (bytemuck::cast(prev), bytemuck::cast(open));
-    let (cb, cm) = (pb[7], om[0]);
-    merge_runs_from(bricks, bits, i, k, cb, cm)
-}
-
-/// [`merge_runs`] where the CPU has the eight-lane walks, for tests against the scalar merge.
-#[cfg(test)]
-pub(crate) fn merge_runs_wide(bricks: &mut [u64], bits: &mut [u64]) -> Option<usize> {
-    if !has_avx512() {
-        return None;
-    }
-    // SAFETY: `merge_runs` needs AVX-512 Foundation and `popcnt`, found just above.
-    #[allow(unsafe_code)]
-    Some(unsafe { merge_runs(bricks, bits) })
+    flush.put_all(&s.bricks[..n], &s.bits[..n]);
 }
 
 /// Walk `rays` eight at a time when this CPU has AVX-512 and return the number of degenerate
@@ -418,32 +345,5 @@ where
             }
         }
         lanes.push(codes, flush);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::lanes::runs::merge_runs as scalar_merge;
-    use proptest::prelude::*;
-
-    proptest! {
-        /// The eight-lane merge gives the scalar merge's entries, in order.
-        #[test]
-        fn wide_merge_matches_the_scalar_merge(
-            entries in prop::collection::vec((0u64..3, any::<u64>()), 0..80),
-        ) {
-            let (mut b1, mut m1): (Vec<u64>, Vec<u64>) = entries.iter().copied().unzip();
-            let (mut b2, mut m2) = (b1.clone(), m1.clone());
-            let k1 = scalar_merge(&mut b1, &mut m1);
-            match merge_runs_wide(&mut b2, &mut m2) {
-                Some(k2) => {
-                    prop_assert_eq!(k2, k1);
-                    prop_assert_eq!(&b2[..k2], &b1[..k1]);
-                    prop_assert_eq!(&m2[..k2], &m1[..k1]);
-                }
-                None => prop_assert!(!crate::cpu::has_avx512()),
-            }
-        }
     }
 }

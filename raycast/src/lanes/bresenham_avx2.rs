@@ -18,13 +18,12 @@
 //! voxel, which the line excludes); when the lines run out, the lane idles on a voxel already
 //! recorded. Each lane's open brick and its voxels stay in registers; the bricks the lanes
 //! leave go to the front of a register by the permutation table of [`crate::lanes::avx2`],
-//! are appended with one store and handed on in runs ([`crate::lanes::runs`]).
+//! are appended with one store and handed on to the brick set in batches.
 //!
 //! The module's one `unsafe` is the call into [`walk_lines_avx2`] after the run-time check for
 //! AVX2.
 
 use super::avx2::COMPRESS;
-use super::runs::hand_on_runs;
 use crate::brickset::BrickSink;
 use crate::cpu::has_avx2;
 use crate::dda::{mirror_mask, AXIS_MASK};
@@ -244,11 +243,10 @@ impl<'a> Bricks4<'a> {
     }
 }
 
-/// Hand the first `n` bricks left (`bricks[i]`, voxels `bits[i]`) to `flush`, each run of one
-/// brick merged first.
-fn hand_on<F: BrickSink>(bricks: &mut [u64], bits: &mut [u64], n: usize, flush: &mut F) {
+/// Hand the first `n` bricks left (`bricks[i]`, voxels `bits[i]`) to `flush`.
+fn hand_on<F: BrickSink>(bricks: &[u64], bits: &[u64], n: usize, flush: &mut F) {
     let n = n.min(bricks.len()).min(bits.len());
-    hand_on_runs(&mut bricks[..n], &mut bits[..n], flush);
+    flush.put_all(&bricks[..n], &bits[..n]);
 }
 
 /// [`walk_lines`] once AVX2 is known to be there.

@@ -23,15 +23,16 @@
 //! - `replay`: sixteen depth-image rays moved to the end of their heads at once
 //!   ([`replay_rays`], for [`crate::pixel_grid`]), eight lanes at a time in `replay_avx512`,
 //!   four in `replay_avx2`; `replay_batch` holds the batch's size and arrays they share.
-//! - `refill` and `runs`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes
-//!   on rays, and merging the runs of one brick among the bricks the lanes leave.
+//! - `refill`: what the AVX2 and AVX-512 lanes share: starting and restarting lanes on rays.
+//!
+//! The bricks the lanes leave go to the brick set as they come, repeats and all: merging
+//! each run of one brick first (as the lanes did up to session 42) cost more than the set's
+//! batch insert spends on the repeats (history, session 43).
 
 mod brick_walk;
 mod dispatch;
 #[cfg(target_arch = "x86_64")]
 mod refill;
-#[cfg(target_arch = "x86_64")]
-mod runs;
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 mod sse2;
 
