@@ -120,9 +120,51 @@ impl Pending {
             well_conditioned: out.well_conditioned[i],
         }
     }
+
+    /// The end keys of the pending rays, by column.
+    #[inline]
+    pub(crate) fn key_ends(&self) -> &[Key; PENDING] {
+        &self.key_end
+    }
+
+    /// The end keys' Morton codes, by column.
+    #[inline]
+    pub(crate) fn code_ends(&self) -> &[u64; PENDING] {
+        &self.code_end
+    }
 }
 
 impl Setups {
+    /// Whether pending ray `i` is well-conditioned ([`RaySetup::well_conditioned`]).
+    #[inline]
+    pub(crate) fn is_well_conditioned(&self, i: usize) -> bool {
+        self.well_conditioned[i]
+    }
+
+    /// The step direction on axis `a` (−1, 0 or 1), by column.
+    #[inline]
+    pub(crate) fn steps(&self, a: usize) -> &[i32; PENDING] {
+        &self.step[a]
+    }
+
+    /// `tMax` on axis `a`, by column.
+    #[inline]
+    pub(crate) fn t_maxes(&self, a: usize) -> &[f64; PENDING] {
+        &self.t_max[a]
+    }
+
+    /// `tDelta` on axis `a`, by column.
+    #[inline]
+    pub(crate) fn t_deltas(&self, a: usize) -> &[f64; PENDING] {
+        &self.t_delta[a]
+    }
+
+    /// The rays' `f32` lengths, by column.
+    #[inline]
+    pub(crate) fn lengths(&self) -> &[f32; PENDING] {
+        &self.length
+    }
+
     /// Whether pending ray `i` skips its head, and up to when.
     #[inline]
     pub(crate) fn head(&self, i: usize) -> Option<f64> {

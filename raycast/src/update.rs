@@ -369,26 +369,52 @@ fn flush_pending(
     stats: &mut ScanStats,
 ) {
     set_up(&ray.pending, shared, &mut ray.setups);
+    // the well-conditioned rays walked whole, queued for the lanes from the columns at once
+    let mut whole = 0u32;
     for i in 0..ray.pending.len() {
-        let r = ray.pending.ray(&ray.setups, i, origin_key);
         if let Some(t) = ray.setups.head(i) {
             stats.rays += 1;
             stats.heads_skipped += 1;
+            let r = ray.pending.ray(&ray.setups, i, origin_key);
             ray.tails.push((r, t));
             if ray.tails.len() >= RAY_BATCH {
                 walk_tails(set, ray);
             }
-        } else if r.well_conditioned {
+        } else if ray.setups.is_well_conditioned(i) {
             // well-conditioned walks cannot degenerate: counted as computed now
             stats.rays += 1;
-            ray.batch.push(r);
-            if ray.batch.len() >= RAY_BATCH {
-                walk_batch(set, ray);
-            }
+            whole |= 1 << i;
         } else if walk_buffered(conv, origin, &ray.pending.end(i), set, ray) {
             stats.rays += 1;
         } else {
             stats.failed_rays += 1;
+        }
+    }
+    if whole != 0 {
+        // queued from the columns when they are the first ones (a LiDAR frame's rays, all
+        // walked whole)
+        let count = whole.trailing_ones() as usize;
+        let queued = whole.count_ones() as usize == count
+            && crate::lanes::queue_setups(
+                &mut ray.lanes,
+                &ray.pending,
+                &ray.setups,
+                origin_key,
+                count,
+            );
+        if !queued {
+            // the lanes' arrays are filled from set-ups one ray at a time
+            let mut bits = whole;
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                ray.batch.push(ray.pending.ray(&ray.setups, i, origin_key));
+                if ray.batch.len() >= RAY_BATCH {
+                    walk_batch(set, ray);
+                }
+            }
+        } else if crate::lanes::queued(&ray.lanes) >= RAY_BATCH {
+            walk_queue(set, ray);
         }
     }
     ray.pending.clear();
@@ -399,6 +425,12 @@ fn flush_pending(
 fn walk_batch(set: &mut BrickSet, scratch: &mut RayScratch) {
     scratch.degenerate += crate::lanes::walk_all(&scratch.batch, &mut scratch.lanes, set);
     scratch.batch.clear();
+}
+
+/// Walk the rays queued straight from their set-ups ([`crate::lanes::queue_setups`]) into
+/// `set`, counting in `scratch.degenerate` the walks that degenerated (none can).
+fn walk_queue(set: &mut BrickSet, scratch: &mut RayScratch) {
+    scratch.degenerate += crate::lanes::walk_queued(&mut scratch.lanes, set);
 }
 
 /// Move the queued skipping rays to their states at the end of their heads and walk them.
@@ -591,6 +623,9 @@ fn add_points(
     }
     if !ray.batch.is_empty() {
         walk_batch(free_set, ray);
+    }
+    if crate::lanes::queued(&ray.lanes) > 0 {
+        walk_queue(free_set, ray);
     }
     if !ray.lines.is_empty() {
         walk_lines(free_set, ray);

@@ -15,6 +15,59 @@ pub(crate) struct LaneScratch {
     quad: super::avx2::QuadScratch,
     #[cfg(target_arch = "x86_64")]
     oct: super::avx512::OctScratch,
+    /// Walks queued from set-up columns ([`queue_setups`]).
+    #[cfg(target_arch = "x86_64")]
+    queued: super::avx512::QueuedWalks,
+}
+
+/// Queue the walks of the first `count` pending rays (all well-conditioned) from `origin`
+/// (key and code) straight from their set-ups, for
+/// [`walk_queued`]: where the CPU has AVX-512 (eight lanes), whose arrays are filled from the
+/// columns without a [`RaySetup`] per ray. `false` (nothing queued) elsewhere, or when walks
+/// from another origin are queued: the caller then walks [`crate::setups::Pending::ray`]s.
+pub(crate) fn queue_setups(
+    scratch: &mut LaneScratch,
+    p: &crate::setups::Pending,
+    s: &crate::setups::Setups,
+    origin: (Key, u64),
+    count: usize,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        scratch.queued.queue(p, s, origin, count)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (scratch, p, s, origin, count);
+        false
+    }
+}
+
+/// Walks queued by [`queue_setups`] and not yet walked.
+pub(crate) fn queued(scratch: &LaneScratch) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    {
+        scratch.queued.len()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = scratch;
+        0
+    }
+}
+
+/// Walk the walks queued by [`queue_setups`] into `flush` and empty the queue; returns how
+/// many degenerated (none can: they are well-conditioned).
+pub(crate) fn walk_queued<F: BrickSink>(scratch: &mut LaneScratch, flush: &mut F) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    {
+        scratch.queued.walk(&mut scratch.oct, flush)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (scratch, flush);
+        0
+    }
 }
 
 /// Walk every ray of `rays` (all well-conditioned) and hand each brick the walks enter to
@@ -428,6 +481,64 @@ mod tests {
             let want = want(&conv, &o, &ends);
             for got in all_paths(&setups) {
                 prop_assert_eq!(&got, &want);
+            }
+        }
+
+        /// Walks queued straight from set-up columns ([`queue_setups`], several columns'
+        /// worth before one [`walk_queued`] or a walk after each) visit the reference
+        /// voxels; a queue takes no rays of another origin; CPUs without the eight lanes
+        /// queue nothing.
+        #[test]
+        fn queued_walks_visit_the_reference_voxels(
+            o in prop::array::uniform3(-3.0f32..3.0),
+            ends in prop::collection::vec(prop::array::uniform3(-6.0f32..6.0), 0..100),
+            res in prop::sample::select(vec![0.05, 0.1, 0.2]),
+            walk_each_chunk in any::<bool>(),
+        ) {
+            use crate::setups::{set_up, Pending, Setups, Shared, PENDING};
+            let conv = KeyConverter::new(res).unwrap();
+            let o = Point3::from(o);
+            let okey = key_of(&conv, &o).unwrap();
+            let origin = (okey, okey.morton());
+            // the ends whose rays are walked whole, as the scan queues them
+            let ends: Vec<Point3<f32>> = ends
+                .into_iter()
+                .map(Point3::from)
+                .filter(|e| setup_from(&conv, &o, Some(okey), e).is_ok_and(|r| r.well_conditioned))
+                .collect();
+            let want = want(&conv, &o, &ends);
+            let shared = Shared::new(&conv, &o, okey, None);
+            let (mut scratch, mut got) = (LaneScratch::default(), BTreeSet::new());
+            let (mut pending, mut out) = (Pending::default(), Setups::default());
+            let mut degenerate = 0;
+            let mut queued_any = false;
+            for chunk in ends.chunks(PENDING) {
+                pending.clear();
+                for e in chunk {
+                    let k = key_of(&conv, e).unwrap();
+                    pending.push(e, (k, k.morton()));
+                }
+                set_up(&pending, &shared, &mut out);
+                let took = queue_setups(&mut scratch, &pending, &out, origin, chunk.len());
+                prop_assert_eq!(took, crate::cpu::has_avx512());
+                queued_any |= took;
+                if walk_each_chunk {
+                    degenerate += walk_queued(&mut scratch, &mut |b| add(&mut got, b));
+                    prop_assert_eq!(queued(&scratch), 0);
+                }
+            }
+            if queued_any && !walk_each_chunk && !ends.is_empty() {
+                // another origin's rays wait until the queue is walked
+                let other = Key::new(okey[0] ^ 1, okey[1], okey[2]);
+                prop_assert!(!queue_setups(&mut scratch, &pending, &out, (other, other.morton()), 1));
+            }
+            degenerate += walk_queued(&mut scratch, &mut |b| add(&mut got, b));
+            prop_assert_eq!(queued(&scratch), 0);
+            prop_assert_eq!(degenerate, 0);
+            if crate::cpu::has_avx512() {
+                prop_assert_eq!(&got, &want);
+            } else {
+                prop_assert!(got.is_empty());
             }
         }
     }

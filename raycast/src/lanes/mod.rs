@@ -53,8 +53,10 @@ mod replay_batch;
 
 #[cfg(test)]
 pub(crate) use brick_walk::BrickWalk;
+pub(crate) use dispatch::{
+    queue_setups, queued, walk_all, walk_lines, walk_queued, LaneScratch, LineScratch,
+};
 #[cfg(test)]
 pub(crate) use dispatch::{test_paths, LinePath};
-pub(crate) use dispatch::{walk_all, walk_lines, LaneScratch, LineScratch};
 
 pub(crate) use replay::{replay_rays, ReplayPath, REPLAY_RAYS};
