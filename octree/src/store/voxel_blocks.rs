@@ -374,7 +374,7 @@ impl VoxelBlocks {
                     // every selected voxel takes the transition of a new voxel (never OctoMap's
                     // early exit), the others stay absent: the block's max is that voxel's
                     // value, and the block is uniform when all eight are selected
-                    self.narrow.blocks[lb as usize].idx = selected_to([ABSENT_IDX; 8], bits, n0);
+                    self.narrow.blocks[lb as usize].idx = selected_to(ABSENT_IDX, bits, n0);
                     out.added += bits.count_ones() as usize;
                     out.applied = true;
                     out.rest &= !(0xff << (8 * j));
@@ -416,7 +416,7 @@ impl VoxelBlocks {
                     // `v` is not at that clamp), the others keep `v`: two values, so the max
                     // is the larger, and the block is uniform when all eight are selected or
                     // the transition keeps the index
-                    self.narrow.blocks[lb as usize].idx = selected_to([i; 8], bits, n);
+                    self.narrow.blocks[lb as usize].idx = selected_to(i, bits, n);
                     out.applied = true;
                     out.rest &= !(0xff << (8 * j));
                     if !lazy {
@@ -708,13 +708,39 @@ fn uniform_vals(vals: &[f32; 8]) -> Option<f32> {
 #[path = "voxel_blocks_tests.rs"]
 mod tests;
 
-/// `idx` with the slots selected by `bits` (bit `k`: slot `k`) set to `to`.
+/// Eight slots all holding `from`, except those selected by `bits` (bit `k`: slot `k`), which
+/// hold `to`.
+///
+/// Built as two words in registers ([`words_index`]): written slot by slot into a copy on the
+/// stack, the block's store waited for the narrow stores to reach the copy (a
+/// store-forwarding stall, 7 % of the tree walk's samples on norlab's LiDAR frames at 0.2 m).
 #[inline(always)]
-fn selected_to(mut idx: [u16; 8], bits: u8, to: u16) -> [u16; 8] {
-    let mut sel = u32::from(bits);
-    while sel != 0 {
-        idx[sel.trailing_zeros() as usize & 7] = to;
-        sel &= sel - 1;
-    }
-    idx
+fn selected_to(from: u16, bits: u8, to: u16) -> [u16; 8] {
+    let (from, to) = (u64::from(from) * LANES_OF_16, u64::from(to) * LANES_OF_16);
+    let word = |sel: u8| {
+        let m = SLOT_MASKS[usize::from(sel & 15)];
+        (from & !m) | (to & m)
+    };
+    words_index([word(bits), word(bits >> 4)])
 }
+
+/// One in each 16-bit slot of a word.
+const LANES_OF_16: u64 = 0x0001_0001_0001_0001;
+
+/// Per four-bit selection (bit `k`: slot `k` of a word), the mask of the selected 16-bit
+/// slots.
+const SLOT_MASKS: [u64; 16] = {
+    let mut t = [0u64; 16];
+    let mut sel = 0;
+    while sel < 16 {
+        let mut k = 0;
+        while k < 4 {
+            if sel >> k & 1 == 1 {
+                t[sel] |= 0xffff << (16 * k);
+            }
+            k += 1;
+        }
+        sel += 1;
+    }
+    t
+};

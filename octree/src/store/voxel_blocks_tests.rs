@@ -170,3 +170,20 @@ proptest! {
         }
     }
 }
+
+/// `selected_to` gives, for every selection of slots, `to` in the selected slots and `from`
+/// in the others, slot by slot as a naive loop writes them.
+#[test]
+fn selected_slots_take_the_new_index() {
+    for (from, to) in [(ABSENT_IDX, 0u16), (3, 0xfffe), (0x1234, 0x8001), (7, 7)] {
+        for bits in 0..=u8::MAX {
+            let mut want = [from; 8];
+            for (k, slot) in want.iter_mut().enumerate() {
+                if bits >> k & 1 == 1 {
+                    *slot = to;
+                }
+            }
+            assert_eq!(selected_to(from, bits, to), want, "bits {bits:#010b}");
+        }
+    }
+}
