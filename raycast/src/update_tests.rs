@@ -463,8 +463,8 @@ fn bresenham_scans_take_the_widest_lanes() {
     let (free, occ) = naive_bresenham_update(&c, &pts, &origin, None);
     assert_eq!(out.free().iter().copied().collect::<HashSet<_>>(), free);
     assert_eq!(out.occupied().iter().copied().collect::<HashSet<_>>(), occ);
-    // 500 lines: batches of 64
-    assert_eq!(paths.iter().sum::<usize>(), 8);
+    // 500 lines: batches of RAY_BATCH (256: two)
+    assert_eq!(paths.iter().sum::<usize>(), 500usize.div_ceil(RAY_BATCH));
     #[cfg(target_arch = "x86_64")]
     {
         let want = if crate::cpu::has_avx512() {
@@ -474,7 +474,7 @@ fn bresenham_scans_take_the_widest_lanes() {
         } else {
             LinePath::Scalar
         };
-        assert_eq!(paths[want as usize], 8);
+        assert_eq!(paths[want as usize], 500usize.div_ceil(RAY_BATCH));
     }
 }
 
