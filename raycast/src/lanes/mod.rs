@@ -12,12 +12,14 @@
 //! set does not depend on it.
 //!
 //! - `dispatch`: [`walk_all`] and [`walk_lines`], and their per-thread [`LaneScratch`] and
-//!   [`LineScratch`]: the choice of path.
+//!   [`LineScratch`]: the choice of path; [`queue_setups`] and [`walk_queued`], exact walks
+//!   queued straight from set-up columns where the CPU has the eight lanes.
 //! - `brick_walk`: one walk at a time (the scalar path, and the state of each SSE2 lane).
 //! - `sse2`: two walks at once with SSE2, through `safe_arch` (no unsafe code).
 //! - `avx2`: four DDA walks at once with AVX2.
-//! - `avx512`: eight DDA walks at once with AVX-512, and the eight lanes' bricks
-//!   ([`OctScratch`](avx512::OctScratch)).
+//! - `avx512`: eight DDA walks at once with AVX-512, the eight lanes' bricks
+//!   ([`OctScratch`](avx512::OctScratch)) and the walks queued from set-up columns
+//!   ([`QueuedWalks`](avx512::QueuedWalks)).
 //! - `bresenham_avx2`: four Bresenham lines at once with AVX2.
 //! - `bresenham_avx512`: eight Bresenham lines at once with AVX-512.
 //! - `replay`: sixteen depth-image rays moved to the end of their heads at once
