@@ -123,12 +123,14 @@ impl Pending {
 
     /// The end keys of the pending rays, by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn key_ends(&self) -> &[Key; PENDING] {
         &self.key_end
     }
 
     /// The end keys' Morton codes, by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn code_ends(&self) -> &[u64; PENDING] {
         &self.code_end
     }
@@ -143,24 +145,28 @@ impl Setups {
 
     /// The step direction on axis `a` (−1, 0 or 1), by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn steps(&self, a: usize) -> &[i32; PENDING] {
         &self.step[a]
     }
 
     /// `tMax` on axis `a`, by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn t_maxes(&self, a: usize) -> &[f64; PENDING] {
         &self.t_max[a]
     }
 
     /// `tDelta` on axis `a`, by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn t_deltas(&self, a: usize) -> &[f64; PENDING] {
         &self.t_delta[a]
     }
 
     /// The rays' `f32` lengths, by column.
     #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn lengths(&self) -> &[f32; PENDING] {
         &self.length
     }
