@@ -304,6 +304,64 @@ pub(crate) fn step_budget(from: Key, to: Key) -> u32 {
     manhattan + STEP_MARGIN
 }
 
+/// Whether a walk's set-up tells the step it stops at: the walk from `t_max` by `t_delta`
+/// (OctoMap's chain, one `f64` addition per crossing) whose end key lies `keys[a]` keys from
+/// its origin key along axis `a`, and which stops once its key reaches the end key or its
+/// smallest `tMax` passes `length`. It does when each axis has exactly `keys[a]` crossings at
+/// or before `length`, and each of the nearest crossings on either side of `length` lies
+/// farther from it than the roundings of the chain and of this check could move it; the walk
+/// then stops at the Manhattan distance `keys[0] + keys[1] + keys[2]`, exactly. `false` for
+/// end points within rounding of a voxel face, lengths that are not finite and positive, and
+/// `NaN`s.
+///
+/// Why: each step takes the smallest `tMax`, so the walk takes its axes' crossings in time
+/// order; while a crossing at or before `length` is untaken the smallest `tMax` is at most
+/// `length` and the walk goes on, unless its key reaches the end key, which takes the
+/// Manhattan distance in steps at least. After as many steps as there are crossings at or
+/// before `length` (here the Manhattan distance) every one is taken and the smallest `tMax`
+/// lies beyond, so the walk stops there. Crossing `j` of an axis is `t_max + j·t_delta`
+/// summed by `j` roundings, each at most half an ulp of a value below `length + t_delta`;
+/// the tolerance is `(j + 4)` times that size times `f64::EPSILON`, several times the bound.
+/// Branch-free and without division, so that the set-ups' loop vectorises.
+#[inline(always)]
+pub(crate) fn stop_is_told(
+    t_max: [f64; 3],
+    t_delta: [f64; 3],
+    length: f64,
+    keys: [u32; 3],
+) -> bool {
+    let mut told = length.is_finite() & (length > 0.0);
+    for a in 0..3 {
+        let (t, d) = (t_max[a], t_delta[a]);
+        // crossings 0 ..= j at or before the length, crossing j + 1 beyond it; an axis the
+        // end key does not move along needs its first crossing beyond (axes that never move
+        // have `f64::MAX` there)
+        let j = f64::from(keys[a]) - 1.0;
+        let tol = (j + 4.0) * (t.abs() + length + d) * f64::EPSILON;
+        let below = length - (t + j * d);
+        let above = (t + (j + 1.0) * d) - length;
+        let crosses = (below > tol) & (above > tol);
+        let moves = keys[a] > 0;
+        told &= !t.is_nan() & (d > 0.0) & ((moves & crosses) | (!moves & (t > length)));
+    }
+    told
+}
+
+/// The first step at which a walk from the origin key to the end key, `keys[a]` apart on axis
+/// `a`, may stop: the Manhattan distance when [`stop_is_told`], else four steps before it (no
+/// walk stops earlier: `lanes::refill::first_stop`). Until then a SIMD lane needs no end
+/// checks for it; with most LiDAR walks told, a lane is checked only on the step it stops at,
+/// not on the four before, which most steps of short rays fell in.
+#[inline(always)]
+pub(crate) fn first_watch(t_max: [f64; 3], t_delta: [f64; 3], length: f64, keys: [u32; 3]) -> u64 {
+    let manhattan = u64::from(keys[0]) + u64::from(keys[1]) + u64::from(keys[2]);
+    if stop_is_told(t_max, t_delta, length, keys) {
+        manhattan
+    } else {
+        manhattan.saturating_sub(4)
+    }
+}
+
 /// Visit the keys of the voxels the segment `origin -> end` crosses, exactly as OctoMap's
 /// `computeRayKeys` lists them: the origin voxel first, the end voxel excluded.
 ///

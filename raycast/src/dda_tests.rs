@@ -410,3 +410,166 @@ proptest! {
         prop_assert!(check_try_walk(&conv, Point3::from(o), Point3::from(e)).is_ok());
     }
 }
+
+/// Whether the set-up of `o -> e` tells its stop ([`stop_is_told`]), checked against the
+/// reference walk: a told walk ends complete after exactly its Manhattan key distance in keys
+/// (the origin's included, the end's not), and no complete walk ends before [`first_watch`].
+/// `None` for rays without a set-up.
+fn check_told(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result<Option<bool>, String> {
+    let Ok(r) = setup_from(conv, &o, key_of(conv, &o), &e) else {
+        return Ok(None);
+    };
+    let keys = [0, 1, 2].map(|a| u32::from(r.key_origin[a].abs_diff(r.key_end[a])));
+    let manhattan: u64 = keys.iter().map(|&k| u64::from(k)).sum();
+    let told = stop_is_told(r.t_max, r.t_delta, r.length, keys);
+    let mut visited = 0u64;
+    let walk = walk_ray_codes_f32(conv, &o, &e, |_| visited += 1);
+    if told && (walk != RayWalk::Complete || visited != manhattan) {
+        return Err(format!(
+            "{o:?} -> {e:?}: told to stop at {manhattan}, walked {visited} ({walk:?})"
+        ));
+    }
+    let watch = first_watch(r.t_max, r.t_delta, r.length, keys);
+    if walk == RayWalk::Complete && visited < watch {
+        return Err(format!(
+            "{o:?} -> {e:?}: stopped at {visited} before {watch}"
+        ));
+    }
+    Ok(Some(told))
+}
+
+/// `e` with coordinate `axis` moved onto the nearest voxel face and then `ulps` floats on.
+fn on_face(conv: &KeyConverter, mut e: [f32; 3], axis: usize, ulps: i32) -> [f32; 3] {
+    let res = conv.resolution();
+    let face = ((e[axis] as f64 / res).round() * res) as f32;
+    let bits = face.to_bits() as i64 + i64::from(ulps) * if face < 0.0 { -1 } else { 1 };
+    e[axis] = f32::from_bits(bits.clamp(0, u32::MAX as i64) as u32);
+    e
+}
+
+#[test]
+fn told_stops_hold_and_most_lidar_rays_are_told() {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut r = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
+    };
+    for res in [0.02, 0.1, 0.2] {
+        let conv = KeyConverter::new(res).unwrap();
+        let (mut told, mut rays, mut faces_told, mut faces) = (0, 0, 0, 0);
+        for i in 0..20_000 {
+            let o = [r() * 2.0, r() * 2.0, r()];
+            let scale = [1.0, 10.0, 60.0][i % 3];
+            let e = [
+                o[0] + r() * scale,
+                o[1] + r() * scale,
+                o[2] + r() * scale / 4.0,
+            ];
+            if let Some(t) = check_told(&conv, Point3::from(o), Point3::from(e)).unwrap() {
+                rays += 1;
+                told += t as usize;
+            }
+            // ends on a voxel face, or a few floats off it: some told, some not
+            let f = on_face(&conv, e, i % 3, (i % 7) as i32 - 3);
+            if let Some(t) = check_told(&conv, Point3::from(o), Point3::from(f)).unwrap() {
+                faces += 1;
+                faces_told += t as usize;
+            }
+            // axis-aligned and diagonal rays
+            let a = [o[0] + r() * scale, o[1], o[2]];
+            check_told(&conv, Point3::from(o), Point3::from(a)).unwrap();
+            let d = r() * scale;
+            check_told(
+                &conv,
+                Point3::from(o),
+                Point3::from([o[0] + d, o[1] + d, o[2] + d]),
+            )
+            .unwrap();
+        }
+        // the shortcut must hold for nearly every ray of a scan, or it buys nothing
+        assert!(told * 100 > rays * 99, "{told} of {rays} told at {res}");
+        assert!(faces_told < faces, "every end on a face told at {res}");
+    }
+}
+
+proptest! {
+    #[test]
+    fn told_stops_hold_for_any_ray(
+        o in prop::array::uniform3(-5.0f32..5.0),
+        e in prop::array::uniform3(-50.0f32..50.0),
+        face in prop::option::of((0usize..3, -4i32..=4)),
+        res in prop::sample::select(vec![0.02, 0.1, 0.5]),
+    ) {
+        let conv = KeyConverter::new(res).unwrap();
+        let e = match face {
+            Some((axis, ulps)) => on_face(&conv, e, axis, ulps),
+            None => e,
+        };
+        let checked = check_told(&conv, Point3::from(o), Point3::from(e));
+        prop_assert!(checked.is_ok(), "{:?}", checked);
+    }
+
+    #[test]
+    fn told_stops_hold_on_any_floats(
+        o in any::<[f32; 3]>(),
+        e in any::<[f32; 3]>(),
+        res in prop::sample::select(vec![0.02, 0.1, 0.5]),
+    ) {
+        let conv = KeyConverter::new(res).unwrap();
+        let checked = check_told(&conv, Point3::from(o), Point3::from(e));
+        prop_assert!(checked.is_ok(), "{:?}", checked);
+    }
+}
+
+/// Where the chain of additions and the product disagree about a crossing (`t + j·d` rounded
+/// once against `j` additions), a length between the two must not be told: the walk counts
+/// the chain's crossings. Found by search, so that the tolerance is what decides.
+#[test]
+fn told_stops_count_the_chain_not_the_product() {
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut r = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut found = 0;
+    for _ in 0..20_000 {
+        let (t0, d) = (r() * 0.3, 0.02 + r() * 0.5);
+        let mut chain = t0;
+        for j in 1..200u32 {
+            chain += d;
+            let product = t0 + f64::from(j) * d;
+            if chain == product {
+                continue;
+            }
+            let length = (chain + product) / 2.0;
+            if length == chain || length == product {
+                continue;
+            }
+            found += 1;
+            // the chain's crossings at or before the length, one axis moving
+            let (mut c, mut n) = (t0, 0u32);
+            while c <= length && n < 1_000 {
+                n += 1;
+                c += d;
+            }
+            for keys in [j, j + 1] {
+                let told = stop_is_told(
+                    [t0, f64::MAX, f64::MAX],
+                    [d, f64::MAX, f64::MAX],
+                    length,
+                    [keys, 0, 0],
+                );
+                assert!(
+                    !told || keys == n,
+                    "told {keys} crossings, the chain has {n}"
+                );
+            }
+            break;
+        }
+    }
+    assert!(found > 100, "only {found} disagreements found");
+}

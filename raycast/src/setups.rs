@@ -9,7 +9,7 @@
 //! same bits; the depth-image checks of [`crate::pixel_grid`] (the direction check and the
 //! head's time) are done in the same loop.
 
-use crate::dda::{step_budget, RaySetup};
+use crate::dda::{first_watch, step_budget, RaySetup};
 use crate::pixel_grid::{fits_dir, SkipPlan};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
@@ -50,6 +50,9 @@ pub(crate) struct Setups {
     head: [f64; PENDING],
     /// The ray points along its pixel ([`fits_dir`]).
     fits: [bool; PENDING],
+    /// The first step at which the ray's walk from its origin voxel may stop
+    /// ([`first_watch`]).
+    watch: [u64; PENDING],
 }
 
 impl Pending {
@@ -171,6 +174,13 @@ impl Setups {
         &self.length
     }
 
+    /// The first step at which each ray's walk from its origin voxel may stop, by column.
+    #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(crate) fn watches(&self) -> &[u64; PENDING] {
+        &self.watch
+    }
+
     /// Whether pending ray `i` skips its head, and up to when.
     #[inline]
     pub(crate) fn head(&self, i: usize) -> Option<f64> {
@@ -196,6 +206,13 @@ impl Setups {
 pub(crate) struct Shared {
     origin: [f32; 3],
     origin_f64: [f64; 3],
+    /// The origin's key.
+    origin_key: Key,
+    /// Whether the set-ups tell the steps the walks stop at ([`first_watch`]): for LiDAR
+    /// scans, whose rays are queued for the AVX-512 lanes from these columns; not for depth
+    /// images (a skip plan), whose rays mostly take another path and would pay for nothing.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    tell_stops: bool,
     /// The origin voxel's corner on each axis in the positive and in the negative direction,
     /// as OctoMap computes it (the half-voxel narrowed to `f32`).
     border: [[f64; 2]; 3],
@@ -225,6 +242,8 @@ impl Shared {
         Shared {
             origin: [origin.x, origin.y, origin.z],
             origin_f64: [origin.x as f64, origin.y as f64, origin.z as f64],
+            origin_key,
+            tell_stops: plan.is_none(),
             border: [0, 1, 2].map(|a| [corner(a, 1.0), corner(a, -1.0)]),
             res,
             axes,
@@ -257,31 +276,39 @@ pub(crate) fn set_up(p: &Pending, s: &Shared, out: &mut Setups) {
         };
         return;
     }
-    set_up_lanes(p, s, out);
+    set_up_lanes::<false>(p, s, out);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 fn set_up_avx512(p: &Pending, s: &Shared, out: &mut Setups) {
-    set_up_lanes(p, s, out);
+    if s.tell_stops {
+        set_up_lanes::<true>(p, s, out);
+    } else {
+        set_up_lanes::<false>(p, s, out);
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn set_up_avx2(p: &Pending, s: &Shared, out: &mut Setups) {
-    set_up_lanes(p, s, out);
+    set_up_lanes::<false>(p, s, out);
 }
 
 /// [`set_up`] for every column (the unused ones too: the loop has a fixed length and no
-/// branches, so it vectorises).
+/// branches, so it vectorises). With `TELL`, [`Setups::watches`] tells the steps the walks
+/// stop at where it can ([`first_watch`]); without, it holds four steps before the Manhattan
+/// distance for every ray (`lanes::refill::first_stop`'s rule).
 #[inline(always)]
-fn set_up_lanes(p: &Pending, s: &Shared, out: &mut Setups) {
+fn set_up_lanes<const TELL: bool>(p: &Pending, s: &Shared, out: &mut Setups) {
     for i in 0..PENDING {
         // `sub_f32`, `norm_f32` and `setup_with_keys`, operation for operation
         let d = [0, 1, 2].map(|a| p.end[a][i] - s.origin[a]);
         let sq: f32 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let length = (sq as f64).sqrt() as f32;
         let dir = d.map(|v| v / length);
+        let mut t_maxes = [0.0; 3];
+        let mut t_deltas = [0.0; 3];
         let finite = dir[0].is_finite() & dir[1].is_finite() & dir[2].is_finite();
         let well = length.is_finite() & (length > 0.0) & finite;
         for (a, &da) in dir.iter().enumerate() {
@@ -291,9 +318,22 @@ fn set_up_lanes(p: &Pending, s: &Shared, out: &mut Setups) {
             let t_delta = s.res / da.abs() as f64;
             let moving = pos | neg;
             out.step[a][i] = pos as i32 - neg as i32;
-            out.t_max[a][i] = if moving { t_max } else { f64::MAX };
-            out.t_delta[a][i] = if moving { t_delta } else { f64::MAX };
+            t_maxes[a] = if moving { t_max } else { f64::MAX };
+            t_deltas[a] = if moving { t_delta } else { f64::MAX };
+            out.t_max[a][i] = t_maxes[a];
+            out.t_delta[a][i] = t_deltas[a];
         }
+        let (ko, ke) = (s.origin_key.0, p.key_end[i].0);
+        let keys = [
+            u32::from(ko[0].abs_diff(ke[0])),
+            u32::from(ko[1].abs_diff(ke[1])),
+            u32::from(ko[2].abs_diff(ke[2])),
+        ];
+        out.watch[i] = if TELL {
+            first_watch(t_maxes, t_deltas, length as f64, keys)
+        } else {
+            (u64::from(keys[0]) + u64::from(keys[1]) + u64::from(keys[2])).saturating_sub(4)
+        };
         out.length[i] = length;
         out.well_conditioned[i] = well;
         // what `SkipPlan::cap` leaves to the ray: its own length, the shortest head, and the

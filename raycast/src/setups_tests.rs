@@ -3,14 +3,17 @@ use crate::dda::{key_of, setup_with_keys};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
 
-/// The paths of [`set_up`]: the plain one, the one it chooses (AVX-512 or AVX2 where the CPU
-/// has them) and the AVX2 build where the CPU has AVX2.
-fn both_paths(p: &Pending, s: &Shared) -> Vec<Setups> {
-    let mut plain = Setups::default();
-    set_up_lanes(p, s, &mut plain);
+/// The paths of [`set_up`]: the plain one, telling stops or not, the one it chooses (AVX-512
+/// or AVX2 where the CPU has them) and the AVX2 build where the CPU has AVX2; each with
+/// whether it told the stops ([`first_watch`]).
+fn both_paths(p: &Pending, s: &Shared) -> Vec<(Setups, bool)> {
+    let (mut plain, mut telling) = (Setups::default(), Setups::default());
+    set_up_lanes::<false>(p, s, &mut plain);
+    set_up_lanes::<true>(p, s, &mut telling);
     let mut chosen = Setups::default();
     set_up(p, s, &mut chosen);
-    let mut paths = vec![plain, chosen];
+    let chosen_tells = cfg!(target_arch = "x86_64") && crate::cpu::has_avx512() && s.tell_stops;
+    let mut paths = vec![(plain, false), (telling, true), (chosen, chosen_tells)];
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::has_avx2() {
         let mut avx2 = Setups::default();
@@ -19,7 +22,7 @@ fn both_paths(p: &Pending, s: &Shared) -> Vec<Setups> {
         unsafe {
             set_up_avx2(p, s, &mut avx2)
         };
-        paths.push(avx2);
+        paths.push((avx2, false));
     }
     paths
 }
@@ -61,7 +64,7 @@ proptest! {
             p.push(&e, (ek, ek.morton()));
             wanted.push(setup_with_keys(&conv, &o, Some(ocoded), &e, Some((ek, ek.morton()))).unwrap());
         }
-        for out in both_paths(&p, &shared) {
+        for (out, tells) in both_paths(&p, &shared) {
             for (i, w) in wanted.iter().enumerate() {
                 let got = p.ray(&out, i, ocoded);
                 prop_assert_eq!(got.key_end, w.key_end);
@@ -74,6 +77,15 @@ proptest! {
                 prop_assert_eq!(got.well_conditioned, w.well_conditioned);
                 // no plan: nothing skips
                 prop_assert_eq!(out.head(i), None);
+                // the first step to watch: told, or four before the Manhattan distance
+                let keys = [0, 1, 2].map(|a| u32::from(okey[a].abs_diff(w.key_end[a])));
+                let manhattan: u64 = keys.iter().map(|&k| u64::from(k)).sum();
+                let watch = if tells {
+                    crate::dda::first_watch(w.t_max, w.t_delta, w.length, keys)
+                } else {
+                    manhattan.saturating_sub(4)
+                };
+                prop_assert_eq!(out.watches()[i], watch);
             }
         }
     }
@@ -127,7 +139,7 @@ proptest! {
             let sample = if r.well_conditioned && fits { r.length } else { 0.0 };
             wanted.push((skips.then_some(t), sample));
         }
-        for out in both_paths(&p, &shared) {
+        for (out, _) in both_paths(&p, &shared) {
             for (i, (head, sample)) in wanted.iter().enumerate() {
                 prop_assert_eq!(out.head(i).map(f64::to_bits), head.map(f64::to_bits));
                 prop_assert_eq!(out.walked_length(i).to_bits(), sample.to_bits());

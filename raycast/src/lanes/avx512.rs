@@ -177,6 +177,10 @@ pub(crate) struct LaneInits {
     end: Vec<u64>,
     flip: Vec<u64>,
     budget: Vec<u64>,
+    /// The first step at which each walk may stop: [`first_stop`] of its budget, or for
+    /// walks queued from set-up columns the step their set-up tells
+    /// ([`crate::dda::first_watch`]).
+    watch: Vec<u64>,
 }
 
 /// An idle lane's budget: far beyond any step count, so it never runs out, and small enough
@@ -205,6 +209,9 @@ impl LaneInits {
         // a ray's budget (a `u32`) is far below an idle lane's
         self.budget
             .extend(rays.iter().map(|r| u64::from(r.budget).min(IDLE_BUDGET)));
+        let first = self.watch.len();
+        self.watch
+            .extend(self.budget[first..].iter().map(|&b| first_stop(b)));
         self.close(idle_code);
     }
 
@@ -218,11 +225,12 @@ impl LaneInits {
             end,
             flip,
             budget,
+            watch,
         } = self;
         for v in t.iter_mut().chain(d.iter_mut()).chain([len]) {
             v.clear();
         }
-        for v in [m, end, flip, budget] {
+        for v in [m, end, flip, budget, watch] {
             v.clear();
         }
     }
@@ -257,6 +265,7 @@ impl LaneInits {
             keys.iter()
                 .map(|&k| u64::from(step_budget(origin.0, k)).min(IDLE_BUDGET)),
         );
+        self.watch.extend_from_slice(&s.watches()[..count]);
     }
 
     /// End the arrays with eight idle lanes writing `idle_code`.
@@ -271,6 +280,7 @@ impl LaneInits {
         self.end.extend([idle.end; 8]);
         self.flip.extend([idle.flip; 8]);
         self.budget.extend([IDLE_BUDGET; 8]);
+        self.watch.extend([IDLE_BUDGET; 8]);
     }
 }
 
@@ -380,7 +390,9 @@ where
     let mut pos = n.min(8);
     // the steps taken so far
     let mut now = 0u64;
-    let mut near = first_stop(_mm512_reduce_min_epu64(due));
+    // the first step at which each lane's walk may stop, and the earliest of them
+    let mut watch = li(&q.watch, 0);
+    let mut near = _mm512_reduce_min_epu64(watch);
     let ones_i = _mm512_set1_epi64(-1);
     let zero_i = _mm512_setzero_si512();
     let axis = AXIS_MASK.map(|m| _mm512_set1_epi64(m as i64));
@@ -415,7 +427,7 @@ where
         // lane holds a NaN); it is cut off (degenerate) when its budget runs out
         let mut codes = _mm512_xor_si512(m, flip);
         if now < near {
-            // no walk can stop yet (see `first_stop`)
+            // no walk can stop yet (see `LaneInits::watch`)
             lanes.push(codes, flush);
             continue;
         }
@@ -451,9 +463,11 @@ where
             flip = _mm512_mask_expand_epi64(flip, k, li(&q.flip, pos));
             let budget = _mm512_mask_expand_epi64(zero_i, k, li(&q.budget, pos));
             due = _mm512_mask_add_epi64(due, k, budget, now_v);
+            let next_watch = _mm512_mask_expand_epi64(zero_i, k, li(&q.watch, pos));
+            watch = _mm512_mask_add_epi64(watch, k, next_watch, now_v);
             pos = (pos + k.count_ones() as usize).min(n);
             active = _mm512_cmplt_epu64_mask(due, far);
-            near = first_stop(_mm512_reduce_min_epu64(due));
+            near = _mm512_reduce_min_epu64(watch);
             // a restarted lane's voxel is its new walk's origin
             codes = _mm512_mask_mov_epi64(codes, k, _mm512_xor_si512(m, flip));
             if active == 0 {
