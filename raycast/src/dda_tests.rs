@@ -12,6 +12,18 @@ fn keys(c: &KeyConverter, o: [f32; 3], e: [f32; 3]) -> (bool, Vec<Key>) {
     (ok, ray.into_vec())
 }
 
+/// A xorshift generator of uniform `f64`s in [0, 1) from `seed`: many rays per test, without
+/// proptest's shrinking.
+fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 fn k(x: u16, y: u16, z: u16) -> Key {
     Key::new(x, y, z)
 }
@@ -241,13 +253,8 @@ proptest! {
 
 #[test]
 fn code_walk_visits_the_same_voxels_as_the_key_walk() {
-    let mut s = 0x9e37_79b9_7f4a_7c15u64;
-    let mut r = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-    };
+    let mut u = uniform(0x9e37_79b9_7f4a_7c15u64);
+    let mut r = || (u() * 2.0 - 1.0) as f32;
     for res in [0.05, 0.1, 0.37] {
         let conv = KeyConverter::new(res).unwrap();
         for i in 0..20_000 {
@@ -366,13 +373,8 @@ fn check_try_walk(conv: &KeyConverter, o: Point3<f32>, e: Point3<f32>) -> Result
 
 #[test]
 fn unbuffered_walk_matches_on_regular_and_extreme_rays() {
-    let mut s = 0x2545_f491_4f6c_dd1du64;
-    let mut r = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-    };
+    let mut u = uniform(0x2545_f491_4f6c_dd1du64);
+    let mut r = || (u() * 2.0 - 1.0) as f32;
     for res in [0.01, 0.1, 1.0] {
         let conv = KeyConverter::new(res).unwrap();
         let edge = (32767.0 * res) as f32;
@@ -449,13 +451,8 @@ fn on_face(conv: &KeyConverter, mut e: [f32; 3], axis: usize, ulps: i32) -> [f32
 
 #[test]
 fn told_stops_hold_and_most_lidar_rays_are_told() {
-    let mut s = 0x9e37_79b9_7f4a_7c15u64;
-    let mut r = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) as f32
-    };
+    let mut u = uniform(0x9e37_79b9_7f4a_7c15u64);
+    let mut r = || (u() * 2.0 - 1.0) as f32;
     for res in [0.02, 0.1, 0.2] {
         let conv = KeyConverter::new(res).unwrap();
         let (mut told, mut rays, mut faces_told, mut faces) = (0, 0, 0, 0);
@@ -528,13 +525,7 @@ proptest! {
 /// the chain's crossings. Found by search, so that the tolerance is what decides.
 #[test]
 fn told_stops_count_the_chain_not_the_product() {
-    let mut s = 0x2545_f491_4f6c_dd1du64;
-    let mut r = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut r = uniform(0x2545_f491_4f6c_dd1du64);
     let mut found = 0;
     for _ in 0..20_000 {
         let (t0, d) = (r() * 0.3, 0.02 + r() * 0.5);
