@@ -209,9 +209,8 @@ impl LaneInits {
         // a ray's budget (a `u32`) is far below an idle lane's
         self.budget
             .extend(rays.iter().map(|r| u64::from(r.budget).min(IDLE_BUDGET)));
-        let first = self.watch.len();
         self.watch
-            .extend(self.budget[first..].iter().map(|&b| first_stop(b)));
+            .extend(self.budget.iter().map(|&b| first_stop(b)));
         self.close(idle_code);
     }
 
