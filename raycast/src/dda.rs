@@ -348,18 +348,34 @@ pub(crate) fn stop_is_told(
 }
 
 /// The first step at which a walk from the origin key to the end key, `keys[a]` apart on axis
-/// `a`, may stop: the Manhattan distance when [`stop_is_told`], else four steps before it (no
-/// walk stops earlier: `lanes::refill::first_stop`). Until then a SIMD lane needs no end
-/// checks for it; with most LiDAR walks told, a lane is checked only on the step it stops at,
-/// not on the four before, which most steps of short rays fell in.
+/// `a`, may stop: the Manhattan distance when [`stop_is_told`], else [`untold_watch`]. Until
+/// then a SIMD lane needs no end checks for it; with most LiDAR walks told, a lane is checked
+/// only on the step it stops at, not on the four before, which most steps of short rays fell
+/// in.
 #[inline(always)]
 pub(crate) fn first_watch(t_max: [f64; 3], t_delta: [f64; 3], length: f64, keys: [u32; 3]) -> u64 {
     let manhattan = u64::from(keys[0]) + u64::from(keys[1]) + u64::from(keys[2]);
     if stop_is_told(t_max, t_delta, length, keys) {
         manhattan
     } else {
-        manhattan.saturating_sub(4)
+        untold_watch(manhattan)
     }
+}
+
+/// The first step at which any walk whose end key is `manhattan` keys (Manhattan distance)
+/// from its origin key may stop, told nothing else: four steps before that distance.
+///
+/// A walk's key moves by one on one axis per step, so it reaches its end voxel no earlier than
+/// the Manhattan distance. Its smallest `tMax` (where it leaves the current voxel) passes the
+/// length only when the end point is within float error of that voxel; four steps or more
+/// before that distance the voxel is at least two voxels from the end voxel on some axis, so
+/// the ray still has a voxel's width of length ahead (the `f32` direction and length err by
+/// at most 2 % of a voxel, at the map's edge). A ray along the diagonal through voxel corners
+/// does stop three steps early; one step of margin is kept. Tested in `dda_tests` (every
+/// walk) and `lanes` (the diagonals).
+#[inline(always)]
+pub(crate) fn untold_watch(manhattan: u64) -> u64 {
+    manhattan.saturating_sub(4)
 }
 
 /// Visit the keys of the voxels the segment `origin -> end` crosses, exactly as OctoMap's

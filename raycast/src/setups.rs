@@ -9,7 +9,7 @@
 //! same bits; the depth-image checks of [`crate::pixel_grid`] (the direction check and the
 //! head's time) are done in the same loop.
 
-use crate::dda::{first_watch, step_budget, RaySetup};
+use crate::dda::{first_watch, step_budget, untold_watch, RaySetup};
 use crate::pixel_grid::{fits_dir, SkipPlan};
 use nalgebra::Point3;
 use octoquant_octree::{Key, KeyConverter};
@@ -298,7 +298,7 @@ fn set_up_avx2(p: &Pending, s: &Shared, out: &mut Setups) {
 /// [`set_up`] for every column (the unused ones too: the loop has a fixed length and no
 /// branches, so it vectorises). With `TELL`, [`Setups::watches`] tells the steps the walks
 /// stop at where it can ([`first_watch`]); without, it holds four steps before the Manhattan
-/// distance for every ray (`lanes::refill::first_stop`'s rule).
+/// distance for every ray ([`untold_watch`]).
 #[inline(always)]
 fn set_up_lanes<const TELL: bool>(p: &Pending, s: &Shared, out: &mut Setups) {
     for i in 0..PENDING {
@@ -332,7 +332,7 @@ fn set_up_lanes<const TELL: bool>(p: &Pending, s: &Shared, out: &mut Setups) {
         out.watch[i] = if TELL {
             first_watch(t_maxes, t_deltas, length as f64, keys)
         } else {
-            (u64::from(keys[0]) + u64::from(keys[1]) + u64::from(keys[2])).saturating_sub(4)
+            untold_watch(u64::from(keys[0]) + u64::from(keys[1]) + u64::from(keys[2]))
         };
         out.length[i] = length;
         out.well_conditioned[i] = well;

@@ -66,18 +66,10 @@ impl LaneInit {
 }
 
 /// The first step at which a walk can stop, given the first step `due` at which one runs out
-/// of budget (the Manhattan key distance plus [`crate::dda::STEP_MARGIN`] after its start).
-///
-/// A walk's key moves by one on one axis per step, so it reaches its end voxel no earlier than
-/// the Manhattan distance. Its smallest `tMax` (where it leaves the current voxel) passes the
-/// length only when the end point is within float error of that voxel; four steps or more
-/// before that distance the voxel is at least two voxels from the end voxel on some axis, so
-/// the ray still has a voxel's width of length ahead (the `f32` direction and length err by
-/// at most 2 % of a voxel, at the map's edge). A ray along the diagonal through voxel corners
-/// does stop three steps early. Until the returned step no lane needs its end checks; one
-/// step of margin is kept. Tested in `dda_tests` (every walk) and `lanes` (the diagonals).
+/// of budget (the Manhattan key distance plus [`crate::dda::STEP_MARGIN`] after its start):
+/// [`crate::dda::untold_watch`]'s rule.
 pub(crate) fn first_stop(due: u64) -> u64 {
-    due.saturating_sub(crate::dda::STEP_MARGIN as u64 + 4)
+    crate::dda::untold_watch(due.saturating_sub(u64::from(crate::dda::STEP_MARGIN)))
 }
 
 /// Restart the lanes whose walks stopped at this step (bit `l` of `stopped` for lane `l`) on
